@@ -1,0 +1,21 @@
+"""The one place numba options live.
+
+Every kernel is compiled with ``cache=True`` so the JIT cost (tens of seconds here) is
+paid once per machine; set ``NUMBA_CACHE_DIR`` where the package directory is read-only.
+``fastmath`` stays off: results must be bit-reproducible across serial, process and Dask
+runs, and IEEE semantics are needed for the NaN checks in the time loop.
+"""
+
+from __future__ import annotations
+
+import numba
+
+JIT_OPTIONS = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy"}
+
+
+def njit(func=None, **overrides):
+    """``numba.njit`` with the project's options."""
+    options = {**JIT_OPTIONS, **overrides}
+    if func is None:
+        return lambda f: numba.njit(**options)(f)
+    return numba.njit(**options)(func)

@@ -1,0 +1,119 @@
+"""Output variables, declared once: name -> (dims, units, long_name, extra attrs).
+
+Single runs carry the time histories on dims (time, point | wheel | vehicle) and the
+envelopes without ``time``.  Studies add the leading dims ``speed``, ``train`` and
+``irregularity`` to every variable (see ``vsi_numba.study``).
+
+Signs: deck displacement/acceleration and vehicle accelerations are positive DOWN;
+contact forces are positive in compression.
+"""
+
+from __future__ import annotations
+
+DOWN = {"positive": "down"}
+
+#: Time histories (optional in sweeps).
+HISTORIES = {
+    "deck_displacement": (("time", "point"), "m", "vertical deck displacement", DOWN),
+    "deck_acceleration": (
+        ("time", "point"), "m s-2",
+        "vertical deck acceleration, modes up to the EN 1990 A2.4.4.2.1 cut-off", DOWN,
+    ),
+    "contact_force": (
+        ("time", "wheel"), "N", "wheel-rail vertical contact force per axle",
+        {"positive": "compression"},
+    ),
+    "in_contact": (
+        ("time", "wheel"), "1", "wheel in contact with the rail",
+        {"flag_values": [0, 1], "flag_meanings": "separated in_contact"},
+    ),
+    "carbody_acceleration": (
+        ("time", "vehicle"), "m s-2", "vertical car-body acceleration at the centre of gravity",
+        DOWN,
+    ),
+}
+
+#: Envelopes (always present).
+ENVELOPES = {
+    "max_deck_displacement": (
+        ("point",), "m", "maximum absolute vertical deck displacement",
+        {"cell_methods": "time: maximum"},
+    ),
+    "max_deck_acceleration": (
+        ("point",), "m s-2",
+        "maximum absolute vertical deck acceleration, modes up to the EN 1990 A2 cut-off",
+        {"cell_methods": "time: maximum"},
+    ),
+    "min_contact_force": (
+        ("wheel",), "N", "minimum wheel-rail contact force", {"cell_methods": "time: minimum"},
+    ),
+    "max_contact_force": (
+        ("wheel",), "N", "maximum wheel-rail contact force", {"cell_methods": "time: maximum"},
+    ),
+    "max_wheel_unloading": (
+        ("wheel",), "1", "maximum wheel unloading ratio (Q0 - Q) / Q0",
+        {"cell_methods": "time: maximum"},
+    ),
+    "max_carbody_acceleration": (
+        ("vehicle",), "m s-2", "maximum absolute vertical car-body acceleration",
+        {"cell_methods": "time: maximum"},
+    ),
+    "contact_loss_duration": (
+        ("wheel",), "s", "total time the wheel is separated from the rail",
+        {"cell_methods": "time: sum"},
+    ),
+    "time_of_max_deck_displacement": (
+        ("point",), "s", "time of the maximum absolute deck displacement", {},
+    ),
+    "time_of_max_deck_acceleration": (
+        ("point",), "s", "time of the maximum absolute deck acceleration", {},
+    ),
+    "position_of_min_contact_force": (
+        ("wheel",), "m", "wheel position along the track at the minimum contact force", {},
+    ),
+    "time_of_max_carbody_acceleration": (
+        ("vehicle",), "s", "time of the maximum absolute car-body acceleration", {},
+    ),
+}
+
+#: Per-case diagnostics.
+DIAGNOSTICS = {
+    "status": (
+        (), "1", "analysis status",
+        {
+            "flag_values": [0, 1, 2, 3, 4],
+            "flag_meanings": (
+                "ok contact_not_converged singular_contact_system non_finite_state "
+                "singular_impact_system"
+            ),
+        },
+    ),
+    "max_iterations": ((), "1", "largest number of contact iterations in one step", {}),
+}
+
+COORDS = {
+    "time": ("s", "time since the first axle left its start position", {"axis": "T"}),
+    "point": ("m", "output point: distance from the left end of the bridge", {}),
+    "wheel": ("1", "wheel (axle) index, 0 = leading", {}),
+    "vehicle": ("1", "vehicle index, 0 = leading", {}),
+    "speed": ("m s-1", "train speed", {}),
+    "speed_kmh": ("km h-1", "train speed", {}),
+    "train": ("1", "train name", {}),
+    "irregularity": ("1", "track irregularity realisation (seed, -1 = deterministic)", {}),
+    "wheel_position": ("m", "axle position behind the first axle", {}),
+    "static_wheel_load": ("N", "static wheel (axle) load on level rigid track", {}),
+    "frequency": ("Hz", "natural frequency", {}),
+    "mode": ("1", "mode number", {}),
+}
+
+
+def attrs_for(name: str) -> dict:
+    """CF attributes (units, long_name, ...) for a declared variable or coordinate."""
+    for table in (HISTORIES, ENVELOPES, DIAGNOSTICS):
+        if name in table:
+            _, units, long_name, extra = table[name]
+            return {"units": units, "long_name": long_name, **extra}
+    if name in COORDS:
+        units, long_name, extra = COORDS[name]
+        return {"units": units, "long_name": long_name, **extra}
+    raise KeyError(name)

@@ -1,0 +1,378 @@
+"""Vehicles as linear multibody subsystems, and trains as vehicles at offsets.
+
+Conventions (see the design note, section 2)
+--------------------------------------------
+* Vertical displacements are positive **down**; gravity acts in the positive direction.
+* Positions along a vehicle are measured **backwards** from its leading (first) axle:
+  ``p = 0`` at the first axle, ``p > 0`` behind it.  A train places each vehicle's first
+  axle at ``offset`` metres behind the train's first axle.
+* Pitch rotations are positive **nose down**: a point at position ``p`` on a body whose
+  centre of gravity is at ``p_cg`` moves down by ``z + (p_cg - p) * theta``.
+* Vehicle DOFs are measured from the configuration with unstretched springs and every
+  wheel on the undeformed, level rail; the static state is found by the solver.
+
+A vehicle is the tuple (M, C, K, wheel DOFs, wheel positions, gravity loads).  The only
+exception is the moving force, which has no DOFs and is carried as a point load.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+GRAVITY = 9.81  # m s-2, as in the published train data (TTB-2D ``Calc.Cte.grav``)
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    """A linear vehicle subsystem.
+
+    Parameters
+    ----------
+    name : str
+        Label used in outputs.
+    M, C, K : ndarray, shape (n, n)
+        Mass (kg, kg m^2), damping (N s/m) and stiffness (N/m) matrices, symmetric.
+    wheel_dofs : ndarray of int, shape (n_w,)
+        Index of each contact (wheel) DOF.  Wheel DOFs are vertical translations.
+    wheel_positions : ndarray, shape (n_w,)
+        Position of each wheel behind the vehicle's first axle (m), ascending.
+    gravity : ndarray, shape (n,)
+        Static load vector (N), positive down (the weight of each translational DOF).
+    body_dof : int
+        DOF whose acceleration is reported as the car-body acceleration (-1: none).
+    load_positions, loads : ndarray
+        Point loads with no dynamics (moving forces), position behind the first axle (m)
+        and magnitude (N, positive down).
+    dof_names : tuple of str
+        One label per DOF.
+    """
+
+    name: str
+    M: np.ndarray
+    C: np.ndarray
+    K: np.ndarray
+    wheel_dofs: np.ndarray
+    wheel_positions: np.ndarray
+    gravity: np.ndarray
+    body_dof: int = -1
+    load_positions: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    loads: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    dof_names: tuple[str, ...] = ()
+    status: str = ""
+
+    def __post_init__(self):
+        n = np.asarray(self.M).shape[0] if np.asarray(self.M).size else 0
+        for name in ("M", "C", "K"):
+            a = np.asarray(getattr(self, name), dtype=float).reshape(n, n)
+            if not np.allclose(a, a.T, rtol=1e-12, atol=1e-9 * (np.abs(a).max() + 1.0)):
+                raise ValueError(f"vehicle {self.name!r}: {name} is not symmetric")
+            if not np.all(np.isfinite(a)):
+                raise ValueError(f"vehicle {self.name!r}: {name} has non-finite entries")
+            object.__setattr__(self, name, a)
+        object.__setattr__(self, "wheel_dofs", np.asarray(self.wheel_dofs, dtype=np.int64))
+        object.__setattr__(
+            self, "wheel_positions", np.asarray(self.wheel_positions, dtype=float)
+        )
+        object.__setattr__(self, "gravity", np.asarray(self.gravity, dtype=float).reshape(n))
+        object.__setattr__(self, "load_positions", np.asarray(self.load_positions, float))
+        object.__setattr__(self, "loads", np.asarray(self.loads, float))
+        if self.wheel_dofs.shape != self.wheel_positions.shape:
+            raise ValueError(f"vehicle {self.name!r}: one position per wheel DOF is needed")
+        if np.any((self.wheel_dofs < 0) | (self.wheel_dofs >= n)):
+            raise ValueError(f"vehicle {self.name!r}: wheel DOF index out of range")
+        if len(set(self.wheel_dofs.tolist())) != self.wheel_dofs.size:
+            raise ValueError(f"vehicle {self.name!r}: a DOF is used by two wheels")
+        if np.any(np.diag(self.M) < 0):
+            raise ValueError(f"vehicle {self.name!r}: negative mass on the diagonal of M")
+        if not self.dof_names:
+            object.__setattr__(self, "dof_names", tuple(f"dof{i}" for i in range(n)))
+
+    @property
+    def n_dof(self) -> int:
+        return self.M.shape[0]
+
+    @property
+    def n_wheels(self) -> int:
+        return self.wheel_dofs.size
+
+    @property
+    def axle_positions(self) -> np.ndarray:
+        """Every axle (wheel or point load), position behind the first axle (m), sorted."""
+        return np.sort(np.concatenate([self.wheel_positions, self.load_positions]))
+
+    @property
+    def total_weight(self) -> float:
+        """Total static vertical load (N) the vehicle puts on the track."""
+        return float(self.gravity.sum() + self.loads.sum())
+
+    def natural_frequencies(self, fixed_wheels: bool = True) -> np.ndarray:
+        """Undamped natural frequencies (Hz), wheels fixed (rigid track) or free."""
+        import scipy.linalg
+
+        keep = np.ones(self.n_dof, dtype=bool)
+        if fixed_wheels:
+            keep[self.wheel_dofs] = False
+        m = self.M[np.ix_(keep, keep)]
+        k = self.K[np.ix_(keep, keep)]
+        if m.size == 0:
+            return np.zeros(0)
+        lam = scipy.linalg.eigh(k, m, eigvals_only=True)
+        return np.sqrt(np.clip(lam, 0.0, None)) / (2.0 * np.pi)
+
+
+# ----------------------------------------------------------------------------- builders
+
+
+class MultibodyBuilder:
+    """Assemble a planar multibody vehicle from rigid bodies and spring-dashpots.
+
+    Bodies have a bounce DOF and, optionally, a pitch DOF.  A spring-dashpot joins a
+    point of one body to a point of another (positions behind the first axle, m).
+    Wheelsets are 1-DOF bodies marked as wheels.
+    """
+
+    def __init__(self, name: str):
+        self.name = name
+        self._masses: list[float] = []
+        self._names: list[str] = []
+        self._bodies: dict[str, tuple[int, int, float]] = {}  # name -> (z, theta|-1, p_cg)
+        self._translational: list[int] = []
+        self._springs: list[tuple[tuple[str, str, float], float, float]] = []
+        self._wheels: list[tuple[int, float]] = []
+
+    def _new_dof(self, label: str, mass: float) -> int:
+        self._masses.append(float(mass))
+        self._names.append(label)
+        return len(self._masses) - 1
+
+    def add_body(self, name: str, mass: float, position: float, pitch_inertia=None) -> str:
+        """Add a rigid body with its centre of gravity at ``position`` (m behind axle 1)."""
+        if name in self._bodies:
+            raise ValueError(f"body {name!r} defined twice")
+        z = self._new_dof(f"{name}_bounce", mass)
+        self._translational.append(z)
+        th = -1
+        if pitch_inertia is not None:
+            th = self._new_dof(f"{name}_pitch", pitch_inertia)
+        self._bodies[name] = (z, th, float(position))
+        return name
+
+    def add_wheel(self, name: str, mass: float, position: float) -> str:
+        """Add a wheelset (1 DOF, in contact with the rail) at ``position``."""
+        self.add_body(name, mass, position)
+        self._wheels.append((self._bodies[name][0], float(position)))
+        return name
+
+    def _point(self, body: str, position: float, n: int) -> np.ndarray:
+        e = np.zeros(n)
+        z, th, pcg = self._bodies[body]
+        e[z] = 1.0
+        if th >= 0:
+            e[th] = pcg - position
+        elif abs(position - pcg) > 1e-9:
+            raise ValueError(f"body {body!r} has no pitch DOF: attach at its centre")
+        return e
+
+    def connect(self, upper: str, lower: str, position: float, stiffness: float, damping: float):
+        """Join ``upper`` and ``lower`` by a vertical spring-dashpot at ``position``."""
+        for body in (upper, lower):
+            if body not in self._bodies:
+                raise ValueError(f"connect: unknown body {body!r}")
+        self._springs.append(((upper, lower, float(position)), float(stiffness), float(damping)))
+
+    def build(self, body: str | None = None, status: str = "") -> Vehicle:
+        n = len(self._masses)
+        M = np.diag(self._masses)
+        K = np.zeros((n, n))
+        C = np.zeros((n, n))
+        for (upper, lower, pos), k, c in self._springs:
+            e = self._point(upper, pos, n) - self._point(lower, pos, n)
+            K += k * np.outer(e, e)
+            C += c * np.outer(e, e)
+        g = np.zeros(n)
+        g[self._translational] = GRAVITY * M[self._translational, self._translational]
+        order = sorted(self._wheels, key=lambda w: w[1])
+        return Vehicle(
+            name=self.name,
+            M=M,
+            C=C,
+            K=K,
+            wheel_dofs=np.array([w[0] for w in order], dtype=np.int64),
+            wheel_positions=np.array([w[1] for w in order]),
+            gravity=g,
+            body_dof=self._bodies[body][0] if body is not None else -1,
+            dof_names=tuple(self._names),
+            status=status,
+        )
+
+
+def moving_force(load: float, name: str = "force") -> Vehicle:
+    """A constant vertical force ``load`` (N, positive down): no dynamics, no contact."""
+    return Vehicle(
+        name=name,
+        M=np.zeros((0, 0)),
+        C=np.zeros((0, 0)),
+        K=np.zeros((0, 0)),
+        wheel_dofs=np.zeros(0, dtype=np.int64),
+        wheel_positions=np.zeros(0),
+        gravity=np.zeros(0),
+        load_positions=np.zeros(1),
+        loads=np.array([float(load)]),
+    )
+
+
+def point_loads(positions, loads, name: str = "loads", status: str = "") -> Vehicle:
+    """Several moving forces travelling together (an axle-load train, e.g. HSLM-A)."""
+    positions = np.asarray(positions, float)
+    loads = np.broadcast_to(np.asarray(loads, float), positions.shape).copy()
+    return Vehicle(
+        name=name,
+        M=np.zeros((0, 0)),
+        C=np.zeros((0, 0)),
+        K=np.zeros((0, 0)),
+        wheel_dofs=np.zeros(0, dtype=np.int64),
+        wheel_positions=np.zeros(0),
+        gravity=np.zeros(0),
+        load_positions=positions - positions.min(),
+        loads=loads,
+        status=status,
+    )
+
+
+def sprung_mass(
+    mass: float,
+    stiffness: float,
+    damping: float = 0.0,
+    wheel_mass: float = 0.0,
+    name: str = "sprung_mass",
+) -> Vehicle:
+    """Sprung mass on a spring-dashpot over a wheel (quarter car).
+
+    ``wheel_mass = 0`` gives the classical moving sprung mass whose massless contact
+    point follows the rail.  DOFs: 0 = sprung mass (the "body"), 1 = wheel.
+    """
+    b = MultibodyBuilder(name)
+    b.add_body("body", mass, 0.0)
+    b.add_wheel("wheel", wheel_mass, 0.0)
+    b.connect("body", "wheel", 0.0, stiffness, damping)
+    return b.build(body="body")
+
+
+def railway_car(
+    body_mass: float,
+    body_pitch_inertia: float,
+    bogie_mass: float,
+    bogie_pitch_inertia: float,
+    wheelset_mass: float,
+    bogie_spacing: float,
+    wheelbase: float,
+    primary_stiffness: float,
+    primary_damping: float,
+    secondary_stiffness: float,
+    secondary_damping: float,
+    body_cg_to_front_bogie: float | None = None,
+    name: str = "car",
+    status: str = "",
+) -> Vehicle:
+    """The 10-DOF planar railway car (whole-vehicle values).
+
+    DOFs: body bounce, body pitch, front bogie bounce, pitch, rear bogie bounce, pitch,
+    four wheelset bounces.  Primary stiffness/damping per wheelset, secondary per bogie.
+    ``bogie_spacing`` is the distance between bogie centres, ``wheelbase`` the axle
+    distance within a bogie; the body's centre of gravity is ``body_cg_to_front_bogie``
+    behind the front bogie centre (default: midway).
+    """
+    if body_cg_to_front_bogie is None:
+        body_cg_to_front_bogie = 0.5 * bogie_spacing
+    half = 0.5 * wheelbase
+    pb1 = half
+    pb2 = half + bogie_spacing
+    b = MultibodyBuilder(name)
+    b.add_body("body", body_mass, pb1 + body_cg_to_front_bogie, body_pitch_inertia)
+    for tag, pb in (("bogie1", pb1), ("bogie2", pb2)):
+        b.add_body(tag, bogie_mass, pb, bogie_pitch_inertia)
+    wheels = [
+        ("wheelset1", "bogie1", pb1 - half),
+        ("wheelset2", "bogie1", pb1 + half),
+        ("wheelset3", "bogie2", pb2 - half),
+        ("wheelset4", "bogie2", pb2 + half),
+    ]
+    for tag, _, pos in wheels:
+        b.add_wheel(tag, wheelset_mass, pos)
+    for tag, pb in (("bogie1", pb1), ("bogie2", pb2)):
+        b.connect("body", tag, pb, secondary_stiffness, secondary_damping)
+    for tag, bogie, pos in wheels:
+        b.connect(bogie, tag, pos, primary_stiffness, primary_damping)
+    return b.build(body="body", status=status)
+
+
+def user_vehicle(
+    M, C, K, wheel_dofs, wheel_positions, gravity=None, body_dof: int = -1, name="user"
+) -> Vehicle:
+    """A vehicle from its own matrices.  ``gravity`` defaults to g times the diagonal of M
+    on every DOF that is a wheel or has no rotational meaning (give it explicitly when
+    some DOFs are rotations)."""
+    M = np.atleast_2d(np.asarray(M, float))
+    if gravity is None:
+        gravity = GRAVITY * np.diag(M)
+    return Vehicle(
+        name=name,
+        M=M,
+        C=np.atleast_2d(np.asarray(C, float)),
+        K=np.atleast_2d(np.asarray(K, float)),
+        wheel_dofs=np.asarray(wheel_dofs, dtype=np.int64),
+        wheel_positions=np.asarray(wheel_positions, float),
+        gravity=np.asarray(gravity, float),
+        body_dof=body_dof,
+    )
+
+
+@dataclass(frozen=True)
+class Train:
+    """Vehicles in order, each with its first axle ``offset`` metres behind the train's.
+
+    ``status`` carries the data status of a library train (cross-checked, transcribed,
+    suspect, reconstruction, standard) so it can be shown next to every result.
+    """
+
+    name: str
+    vehicles: tuple[Vehicle, ...]
+    offsets: tuple[float, ...]
+    status: str = ""
+    regular_length: float = 0.0  # m, regular coach length D (resonance speeds), 0 if none
+
+    def __post_init__(self):
+        object.__setattr__(self, "vehicles", tuple(self.vehicles))
+        object.__setattr__(self, "offsets", tuple(float(o) for o in self.offsets))
+        if len(self.vehicles) != len(self.offsets):
+            raise ValueError(f"train {self.name!r}: one offset per vehicle is needed")
+        if not self.vehicles:
+            raise ValueError(f"train {self.name!r} has no vehicles")
+
+    @property
+    def n_wheels(self) -> int:
+        return sum(v.n_wheels for v in self.vehicles)
+
+    @property
+    def n_loads(self) -> int:
+        return sum(v.loads.size for v in self.vehicles)
+
+    @property
+    def axle_positions(self) -> np.ndarray:
+        """All axles (wheels then point loads, in vehicle order), behind the first axle."""
+        w = [o + v.wheel_positions for v, o in zip(self.vehicles, self.offsets, strict=True)]
+        p = [o + v.load_positions for v, o in zip(self.vehicles, self.offsets, strict=True)]
+        return np.concatenate(w + p)
+
+    @property
+    def length(self) -> float:
+        """First to last axle (m)."""
+        a = self.axle_positions
+        return float(a.max() - a.min()) if a.size else 0.0
+
+    @property
+    def total_mass(self) -> float:
+        """Vehicle mass (kg) of the dynamic vehicles, or weight/g for point loads."""
+        return sum(v.total_weight for v in self.vehicles) / GRAVITY

@@ -1,0 +1,70 @@
+"""The ``vsi`` command line: parse -> config -> run -> write.  No numerics here."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+app = typer.Typer(
+    add_completion=False,
+    no_args_is_help=True,
+    help="vsi_numba: vehicle-structure interaction for railway bridges (direct method).",
+)
+
+
+@app.command()
+def run(
+    config: Path = typer.Argument(..., help="TOML configuration file"),
+    output: Path | None = typer.Option(None, "-o", "--output", help="netCDF output file"),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress output"),
+):
+    """Run the speeds of one configuration (first train, first realisation) to netCDF."""
+    from vsi_numba.solver.run import run_command
+
+    raise typer.Exit(run_command(config, output, quiet))
+
+
+@app.command()
+def sweep(
+    config: Path = typer.Argument(..., help="TOML configuration file"),
+    output: Path | None = typer.Option(None, "-o", "--output", help="netCDF output file"),
+    workers: int | None = typer.Option(
+        None, "--workers", "-w", help="start a Dask LocalCluster (127.0.0.1) with N workers"
+    ),
+    scheduler: str | None = typer.Option(
+        None, "--scheduler", help="address of an existing Dask scheduler, tcp://HOST:PORT"
+    ),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress bar"),
+):
+    """Sweep speeds x trains x irregularity realisations; resumable."""
+    from vsi_numba.study.runner import sweep_command
+
+    raise typer.Exit(sweep_command(config, output, workers, scheduler, quiet))
+
+
+@app.command()
+def trains(name: str | None = typer.Argument(None, help="train name: print its axle table")):
+    """List the train library, or print one train's axles."""
+    from vsi_numba.model.library import trains_command
+
+    raise typer.Exit(trains_command(name))
+
+
+@app.command()
+def report(
+    results: Path = typer.Argument(..., help="netCDF results of `vsi run` or `vsi sweep`"),
+    outdir: Path | None = typer.Option(None, "-o", "--output", help="report directory"),
+):
+    """Write the EN 1990 A2 checks, figures and a Markdown report for a results file."""
+    from vsi_numba.analysis.report import report_command
+
+    raise typer.Exit(report_command(results, outdir))
+
+
+def main():  # pragma: no cover - console entry
+    app()
+
+
+if __name__ == "__main__":  # pragma: no cover
+    app()

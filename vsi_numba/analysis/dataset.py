@@ -1,0 +1,202 @@
+"""Bring a results Dataset (single run or study) to the full study layout.
+
+A study file has every case variable on the leading dims ``(speed, train, irregularity)``;
+a single ``vsi run`` file may lack ``train`` and ``irregularity`` (one train, one
+realisation) or even ``speed`` (one speed, as a scalar coordinate).  :func:`prepare` adds
+the missing dims (length 1) to exactly the variables that carry them in a study, so every
+analysis function can assume one layout.  It also NaN-masks cases whose ``status`` is not 0
+and adds ``speed_kmh`` when it is missing.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+#: Leading dims of every per-case variable, in this order.
+CASE_DIMS = ("speed", "train", "irregularity")
+
+#: Variables that depend on the train only.
+TRAIN_VARIABLES = frozenset(
+    {"static_wheel_load", "max_static_deck_displacement", "train_regular_length", "train_status"}
+)
+
+#: Dims of variables that belong to the bridge alone (no case dims).
+BRIDGE_DIMS = frozenset({"mode"})
+
+#: Irregularity id of the deterministic (smooth or single-defect) track.
+DETERMINISTIC = -1
+
+#: Default values for dims a single-run file may lack.
+_DEFAULTS = {"train": "train", "irregularity": DETERMINISTIC}
+
+
+class ResultsError(ValueError):
+    """A results Dataset that lacks what an analysis needs (the message says what)."""
+
+
+def require(ds: xr.Dataset, names, what: str) -> None:
+    """Raise :class:`ResultsError` naming every variable of ``names`` missing from ``ds``."""
+    missing = [n for n in names if n not in ds.variables]
+    if missing:
+        raise ResultsError(
+            f"{what} needs the variable(s) {', '.join(missing)}, which the results lack"
+        )
+
+
+def is_prepared(ds: xr.Dataset) -> bool:
+    """True when ``ds`` came out of :func:`prepare`."""
+    return bool(ds.attrs.get("_vsi_prepared", 0))
+
+
+def prepare(ds: xr.Dataset) -> xr.Dataset:
+    """Return ``ds`` in the full study layout (idempotent).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Results of ``vsi run`` or ``vsi sweep`` (see ``vsi_numba.io.schema``).
+
+    Returns
+    -------
+    xarray.Dataset
+        Every per-case variable on ``(speed, train, irregularity, ...)``, train variables
+        on ``(train, ...)``, ``speed`` sorted ascending, ``speed_kmh`` present, ``status``
+        present (0 when the file has none) and per-case outputs set to NaN where
+        ``status != 0``.
+
+    Raises
+    ------
+    ResultsError
+        If there is no ``speed`` coordinate.
+    """
+    if is_prepared(ds):
+        return ds
+    if "speed" not in ds.variables:
+        raise ResultsError("the results have no `speed` coordinate (m s-1)")
+
+    # Values of the dims to add, from scalar coordinates or defaults.
+    added = {}
+    for dim in CASE_DIMS:
+        if dim in ds.dims:
+            continue
+        if dim in ds.variables:
+            value = ds[dim].values
+            if value.ndim != 0:
+                raise ResultsError(f"`{dim}` is a variable on {ds[dim].dims}, not a dimension")
+            added[dim] = [value.item()]
+        elif dim in _DEFAULTS:
+            added[dim] = [_DEFAULTS[dim]]
+        else:  # pragma: no cover - speed is checked above
+            raise ResultsError(f"the results have no `{dim}` dimension")
+    drop = [d for d in added if d in ds.variables]
+    if "speed" in added and "speed_kmh" in ds.variables and ds["speed_kmh"].ndim == 0:
+        drop.append("speed_kmh")
+    ds = ds.drop_vars(drop)
+
+    out = xr.Dataset(attrs=dict(ds.attrs))
+    for name, da in ds.data_vars.items():
+        if name in TRAIN_VARIABLES:
+            wanted = ("train",)
+        elif set(da.dims) <= BRIDGE_DIMS:
+            wanted = ()
+        else:
+            wanted = CASE_DIMS
+        new = {d: added[d] for d in wanted if d not in da.dims and d in added}
+        if new:
+            da = da.expand_dims(new)
+        lead = [d for d in wanted if d in da.dims]
+        da = da.transpose(*lead, ...)
+        out[name] = da
+    for name, coord in ds.coords.items():
+        if name not in out.coords and (name in out.dims or set(coord.dims) <= set(out.dims)):
+            out = out.assign_coords({name: coord})
+    for dim, value in added.items():
+        if dim not in out.coords:
+            out = out.assign_coords({dim: value})
+    for dim, attrs in (("train", {"long_name": "train name"}),
+                       ("irregularity", {"long_name": "track irregularity realisation"})):
+        if dim not in out.dims:  # no variable carried the dim: keep it on the coords anyway
+            out = out.expand_dims({dim: added.get(dim, [_DEFAULTS[dim]])})
+            out[dim].attrs.update(attrs)
+
+    out = out.sortby("speed")
+    if "speed_kmh" not in out.coords:
+        out = out.assign_coords(speed_kmh=("speed", out["speed"].values * 3.6))
+        out["speed_kmh"].attrs.update(units="km h-1", long_name="train speed")
+    if "status" not in out.data_vars:
+        shape = tuple(out.sizes[d] for d in CASE_DIMS)
+        out["status"] = (CASE_DIMS, np.zeros(shape, dtype=np.int32))
+        out["status"].attrs.update(
+            long_name="analysis status", flag_values=[0], flag_meanings="ok"
+        )
+    ok = out["status"] == 0
+    for name, da in out.data_vars.items():
+        if name == "status" or not set(CASE_DIMS) <= set(da.dims):
+            continue
+        if np.issubdtype(da.dtype, np.number) and not bool(ok.all()):
+            out[name] = da.where(ok)
+            out[name].attrs.update(da.attrs)
+    out.attrs["_vsi_prepared"] = 1
+    return out
+
+
+def status_meanings(ds: xr.Dataset) -> dict[int, str]:
+    """Map status code -> meaning from the ``flag_values``/``flag_meanings`` attrs."""
+    attrs = ds["status"].attrs if "status" in ds else {}
+    values = np.atleast_1d(attrs.get("flag_values", [0]))
+    meanings = str(attrs.get("flag_meanings", "ok")).split()
+    table = {int(v): m for v, m in zip(values, meanings, strict=False)}
+    table.setdefault(0, "ok")
+    return table
+
+
+def track_type(ds: xr.Dataset) -> str:
+    """The ``track_type`` global attribute, ``"ballasted"`` when missing."""
+    return str(ds.attrs.get("track_type", "ballasted")).strip().lower() or "ballasted"
+
+
+def bridge_frequencies(ds: xr.Dataset) -> np.ndarray:
+    """Natural frequencies (Hz), finite and positive, ascending; empty if unknown."""
+    if "frequency" not in ds.variables:
+        return np.zeros(0)
+    f = np.asarray(ds["frequency"].values, float).ravel()
+    return np.sort(f[np.isfinite(f) & (f > 0)])
+
+
+# --- NaN-aware reductions without RuntimeWarnings (pytest runs with -W error) -------------
+
+
+def nanmax(da: xr.DataArray, dim: str | list[str]) -> xr.DataArray:
+    """Maximum over ``dim`` ignoring NaN; NaN where everything is NaN or ``dim`` is empty."""
+    return _nanext(da, dim, "max")
+
+
+def nanmin(da: xr.DataArray, dim: str | list[str]) -> xr.DataArray:
+    """Minimum over ``dim`` ignoring NaN; NaN where everything is NaN or ``dim`` is empty."""
+    return _nanext(da, dim, "min")
+
+
+def _nanext(da, dim, how):
+    dims = [dim] if isinstance(dim, str) else list(dim)
+    da = da.astype(float)
+    if any(da.sizes[d] == 0 for d in dims):
+        return da.sum(dims) * np.nan
+    fill = -np.inf if how == "max" else np.inf
+    out = getattr(da.fillna(fill), how)(dims)
+    return out.where(out != fill)
+
+
+def nanargmax_case(da: xr.DataArray) -> dict | None:
+    """Coordinates of the largest finite value of ``da`` (any dims), or None if all NaN."""
+    values = np.asarray(da.values, float)
+    if values.size == 0 or not np.isfinite(values).any():
+        return None
+    flat = np.where(np.isfinite(values), values, -np.inf).argmax()
+    index = np.unravel_index(flat, values.shape)
+    return {d: da[d].values[i].item() for d, i in zip(da.dims, index, strict=True)}
+
+
+def nanargmin_case(da: xr.DataArray) -> dict | None:
+    """Coordinates of the smallest finite value of ``da`` (any dims), or None if all NaN."""
+    return nanargmax_case(-da)

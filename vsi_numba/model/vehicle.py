@@ -66,7 +66,7 @@ class Vehicle:
         n = np.asarray(self.M).shape[0] if np.asarray(self.M).size else 0
         for name in ("M", "C", "K"):
             a = np.asarray(getattr(self, name), dtype=float).reshape(n, n)
-            if not np.allclose(a, a.T, rtol=1e-12, atol=1e-9 * (np.abs(a).max() + 1.0)):
+            if not np.allclose(a, a.T, rtol=1e-12, atol=1e-9 * (np.abs(a).max(initial=0.0) + 1.0)):
                 raise ValueError(f"vehicle {self.name!r}: {name} is not symmetric")
             if not np.all(np.isfinite(a)):
                 raise ValueError(f"vehicle {self.name!r}: {name} has non-finite entries")

@@ -1,0 +1,702 @@
+"""numba kernels of the direct method: contact search, moving-load assembly, Schur solve,
+impact projection and the HHT-alpha time loop.
+
+Every jitted function of the time-loop call graph lives in this one module: numba's
+cache is keyed on the defining file only, so a callee in another module could be loaded
+stale (stack notes, section 2.4).
+
+Legend (Neves et al., Eng. Struct. 69 (2014), Eqs. (3)-(12))
+-------------------------------------------------------------
+q, u        modal coordinates of the bridge (n_m) and vehicle DOFs (n_v), positive down
+phi_j(x)    mass-normalised mode shapes along the track
+r(x)        irregularity, positive = rail lower; the rail top is at sum_j phi_j q_j + r
+B_i         constraint row of wheel i: B_i u = u_wheel - sum_j phi_j(x_i) q_j
+gap_i       r(x_i) - B_i u  (>= 0; 0 in contact)
+X_i         contact force of wheel i (>= 0, compression), generalised force -B_i^T X_i
+K^          effective stiffness a0 M + (1 + alpha)(a1 C + K): diagonal for the modes,
+            a dense block per vehicle, inverted once per analysis
+S           Schur complement B K^-1 B^T on the contact forces
+
+Status codes returned by the kernels (translated to messages by the solver wrapper)
+0 ok, 1 contact iterations not converged, 2 singular contact (Schur) system,
+3 non-finite state, 4 singular impact system.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from vsi_numba._jit import njit
+
+OK, NOT_CONVERGED, SINGULAR_SCHUR, NON_FINITE, SINGULAR_IMPACT = 0, 1, 2, 3, 4
+
+
+class BridgeArrays(NamedTuple):
+    """Bridge data for the kernels (see ``vsi_numba.model.bridge.ModalBridge``)."""
+
+    kind: int  # 0 rigid, 1 sine, 2 hermite
+    length: float  # m
+    omega: np.ndarray  # (n_m,) rad/s
+    zeta: np.ndarray  # (n_m,)
+    sine_amp: np.ndarray  # (n_m,) sqrt(2/(m L))
+    sine_k: np.ndarray  # (n_m,) j pi / L, 1/m
+    nodes: np.ndarray  # (n_nodes,) m
+    values: np.ndarray  # (n_nodes, n_m)
+    slopes: np.ndarray  # (n_nodes, n_m)
+
+
+class VehicleArrays(NamedTuple):
+    """All vehicles of a train, block-diagonal, padded to ``nb`` DOFs per block."""
+
+    start: np.ndarray  # (n_veh + 1,) first global DOF of each vehicle
+    M: np.ndarray  # (n_veh, nb, nb)
+    C: np.ndarray  # (n_veh, nb, nb)
+    K: np.ndarray  # (n_veh, nb, nb)
+    Khat_inv: np.ndarray  # (n_levels, n_veh, nb, nb) inverse effective stiffness per dt/2^k
+    M_inv: np.ndarray  # (n_veh, nb, nb) inverse mass on DOFs with mass, zero elsewhere
+    gravity: np.ndarray  # (n_v,) N
+    wheel_dof: np.ndarray  # (n_w,) global DOF
+    wheel_veh: np.ndarray  # (n_w,) vehicle index
+    wheel_x0: np.ndarray  # (n_w,) wheel abscissa at t = 0, m
+    wheel_massless: np.ndarray  # (n_w,) 1 if the wheel DOF has no mass
+    body_dof: np.ndarray  # (n_veh,) global DOF of the car body (-1: none)
+    load_x0: np.ndarray  # (n_l,) point-load abscissa at t = 0, m
+    load_p: np.ndarray  # (n_l,) N
+
+
+class ProfileArrays(NamedTuple):
+    """Irregularity as a uniform-grid cubic spline."""
+
+    x0: float
+    dx: float
+    coef: np.ndarray  # (n_int, 4) ascending powers
+
+
+class Params(NamedTuple):
+    dt: float
+    alpha: float
+    speed: float  # m/s
+    n_steps: int
+    max_iter: int
+    tol_gap: float  # m
+    tol_force: float  # N
+    max_sub: int  # step halvings allowed on contact failure
+
+
+class Work(NamedTuple):
+    """Workspaces allocated once per run."""
+
+    phi: np.ndarray  # (n_w, n_m) mode values at the wheels
+    dphi: np.ndarray  # (n_w, n_m)
+    d2phi: np.ndarray  # (n_w, n_m)
+    onb: np.ndarray  # (n_w,) int: wheel on the bridge
+    rr: np.ndarray  # (n_w, 3) r, r', r'' at the wheels
+    S: np.ndarray  # (n_w, n_w)
+    L: np.ndarray  # (n_w, n_w) Cholesky factor of the active block
+    idx: np.ndarray  # (n_w,) active indices
+    rhs: np.ndarray  # (n_w,)
+    sol: np.ndarray  # (n_w,)
+    gstar: np.ndarray  # (n_w,)
+    X: np.ndarray  # (n_w,)
+    active: np.ndarray  # (n_w,) int
+    was_active: np.ndarray  # (n_w,) int
+    yq: np.ndarray  # (n_m,)
+    yv: np.ndarray  # (n_v,)
+    rq: np.ndarray  # (n_m,)
+    rv: np.ndarray  # (n_v,)
+    fq: np.ndarray  # (n_m,) external modal load at t_{n+1}
+    phil: np.ndarray  # (n_m,) scratch row
+    hq: np.ndarray  # (n_m,)
+    hv: np.ndarray  # (n_v,)
+    ones: np.ndarray  # (n_m,) unit modal masses
+    khat: np.ndarray  # (n_m,) modal effective stiffness
+    xout: np.ndarray  # (n_w,) contact forces of the step (impact forces at landings)
+    vq: np.ndarray  # (n_m,) scratch: modal velocities before an impact
+    vv: np.ndarray  # (n_v,) scratch: vehicle velocities before an impact
+    av: np.ndarray  # (n_v,) scratch: vehicle accelerations before an impact
+    act0: np.ndarray  # (n_w,) int: contact set at t_n, kept for step retries
+
+
+class State(NamedTuple):
+    """Dynamic state (arrays updated in place)."""
+
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    u: np.ndarray
+    ud: np.ndarray
+    udd: np.ndarray
+    fq_tot: np.ndarray  # (n_m,) total modal force at t_n (loads + contact)
+    fv_tot: np.ndarray  # (n_v,) total vehicle force at t_n (gravity + contact)
+    X: np.ndarray  # (n_w,) contact forces at t_n (consistent with the state)
+
+
+class Output(NamedTuple):
+    q: np.ndarray  # (n_steps + 1, n_m)
+    qdd: np.ndarray  # (n_steps + 1, n_m)
+    X: np.ndarray  # (n_steps + 1, n_w)
+    contact: np.ndarray  # (n_steps + 1, n_w) int8
+    body_acc: np.ndarray  # (n_steps + 1, n_veh)
+    iters: np.ndarray  # (n_steps + 1,) int16
+
+
+# ------------------------------------------------------------------- evaluation kernels
+
+
+@njit
+def eval_modes(br, x, out, dout, d2out):
+    """Mode shapes and their first two x-derivatives at ``x`` (zero off the bridge).
+
+    Returns 1 if ``x`` is on the bridge (0 <= x <= length), else 0.
+    """
+    n_m = br.omega.shape[0]
+    if br.kind == 0 or x < 0.0 or x > br.length or n_m == 0:
+        for j in range(n_m):
+            out[j] = 0.0
+            dout[j] = 0.0
+            d2out[j] = 0.0
+        return 0
+    if br.kind == 1:
+        for j in range(n_m):
+            k = br.sine_k[j]
+            a = br.sine_amp[j]
+            s = np.sin(k * x)
+            c = np.cos(k * x)
+            out[j] = a * s
+            dout[j] = a * k * c
+            d2out[j] = -a * k * k * s
+        return 1
+    nodes = br.nodes
+    e = np.searchsorted(nodes, x, side="right") - 1
+    if e < 0:
+        e = 0
+    if e > nodes.shape[0] - 2:
+        e = nodes.shape[0] - 2
+    h = nodes[e + 1] - nodes[e]
+    s = (x - nodes[e]) / h
+    s2 = s * s
+    s3 = s2 * s
+    n1 = 1.0 - 3.0 * s2 + 2.0 * s3
+    n2 = h * (s - 2.0 * s2 + s3)
+    n3 = 3.0 * s2 - 2.0 * s3
+    n4 = h * (s3 - s2)
+    d1 = (-6.0 * s + 6.0 * s2) / h
+    d2 = 1.0 - 4.0 * s + 3.0 * s2
+    d3 = -d1
+    d4 = -2.0 * s + 3.0 * s2
+    e1 = (-6.0 + 12.0 * s) / (h * h)
+    e2 = (-4.0 + 6.0 * s) / h
+    e3 = -e1
+    e4 = (-2.0 + 6.0 * s) / h
+    for j in range(n_m):
+        w1 = br.values[e, j]
+        t1 = br.slopes[e, j]
+        w2 = br.values[e + 1, j]
+        t2 = br.slopes[e + 1, j]
+        out[j] = n1 * w1 + n2 * t1 + n3 * w2 + n4 * t2
+        dout[j] = d1 * w1 + d2 * t1 + d3 * w2 + d4 * t2
+        d2out[j] = e1 * w1 + e2 * t1 + e3 * w2 + e4 * t2
+    return 1
+
+
+@njit
+def eval_profile(pr, x, out):
+    """Irregularity r, r', r'' at ``x`` into ``out[0:3]`` (zero outside the profile)."""
+    n = pr.coef.shape[0]
+    out[0] = 0.0
+    out[1] = 0.0
+    out[2] = 0.0
+    if n == 0:
+        return
+    t = (x - pr.x0) / pr.dx
+    if t < 0.0 or t > n:
+        return
+    k = int(np.floor(t))
+    if k > n - 1:
+        k = n - 1
+    s = x - (pr.x0 + k * pr.dx)
+    c0 = pr.coef[k, 0]
+    c1 = pr.coef[k, 1]
+    c2 = pr.coef[k, 2]
+    c3 = pr.coef[k, 3]
+    out[0] = c0 + s * (c1 + s * (c2 + s * c3))
+    out[1] = c1 + s * (2.0 * c2 + 3.0 * s * c3)
+    out[2] = 2.0 * c2 + 6.0 * s * c3
+
+
+@njit
+def contact_search(br, veh, pr, t, speed, wk):
+    """Position every wheel at time ``t``: on/off the bridge, mode values, irregularity."""
+    n_w = veh.wheel_dof.shape[0]
+    for i in range(n_w):
+        x = veh.wheel_x0[i] + speed * t
+        wk.onb[i] = eval_modes(br, x, wk.phi[i], wk.dphi[i], wk.d2phi[i])
+        eval_profile(pr, x, wk.rr[i])
+
+
+@njit
+def assemble_loads(br, veh, t, speed, fq, scratch, scratch2, scratch3):
+    """Modal load vector of the point loads (moving forces) at time ``t``."""
+    n_m = fq.shape[0]
+    for j in range(n_m):
+        fq[j] = 0.0
+    for k in range(veh.load_x0.shape[0]):
+        x = veh.load_x0[k] + speed * t
+        if eval_modes(br, x, scratch, scratch2, scratch3):
+            p = veh.load_p[k]
+            for j in range(n_m):
+                fq[j] += p * scratch[j]
+
+
+@njit
+def block_matvec(veh, A, x, y, accumulate, scale):
+    """y (+)= scale * blockdiag(A) x over the vehicle DOFs."""
+    n_veh = veh.start.shape[0] - 1
+    for b in range(n_veh):
+        s = veh.start[b]
+        n = veh.start[b + 1] - s
+        for r in range(n):
+            acc = 0.0
+            for c in range(n):
+                acc += A[b, r, c] * x[s + c]
+            if accumulate:
+                y[s + r] += scale * acc
+            else:
+                y[s + r] = scale * acc
+
+
+# ------------------------------------------------------------------------ Schur solve
+
+
+@njit
+def cholesky_solve(A, idx, m, Lw, b, x):
+    """Solve A[idx, idx] x = b for the ``m`` indices in ``idx`` by Cholesky.
+
+    ``b`` and ``x`` are indexed 0..m-1.  Returns 0, or 1 if the block is not positive
+    definite.
+    """
+    for i in range(m):
+        ii = idx[i]
+        for j in range(i + 1):
+            jj = idx[j]
+            s = A[ii, jj]
+            for k in range(j):
+                s -= Lw[i, k] * Lw[j, k]
+            if i == j:
+                if s <= 0.0:
+                    return 1
+                Lw[i, i] = np.sqrt(s)
+            else:
+                Lw[i, j] = s / Lw[j, j]
+    for i in range(m):
+        s = b[i]
+        for k in range(i):
+            s -= Lw[i, k] * x[k]
+        x[i] = s / Lw[i, i]
+    for i in range(m - 1, -1, -1):
+        s = x[i]
+        for k in range(i + 1, m):
+            s -= Lw[k, i] * x[k]
+        x[i] = s / Lw[i, i]
+    return 0
+
+
+@njit
+def build_schur(veh, wk, khat_q, A):
+    """S_ik = B_i K^-1 B_k^T for all wheel pairs (or B_i M^-1 B_k^T with ``A = M_inv``
+    and unit modal masses in ``khat_q``).
+
+    The bridge part couples every pair of wheels on the bridge through the modes; the
+    vehicle part couples the wheels of one vehicle.
+    """
+    n_w = veh.wheel_dof.shape[0]
+    n_m = khat_q.shape[0]
+    for i in range(n_w):
+        for k in range(i + 1):
+            s = 0.0
+            if wk.onb[i] == 1 and wk.onb[k] == 1:
+                for j in range(n_m):
+                    s += wk.phi[i, j] * wk.phi[k, j] / khat_q[j]
+            if veh.wheel_veh[i] == veh.wheel_veh[k]:
+                b = veh.wheel_veh[i]
+                st = veh.start[b]
+                s += A[b, veh.wheel_dof[i] - st, veh.wheel_dof[k] - st]
+            wk.S[i, k] = s
+            wk.S[k, i] = s
+
+
+@njit
+def solve_active_set(veh, wk, scale, max_iter, tol_gap, tol_force):
+    """Unilateral contact by the active-set method on S X = -gap* / scale.
+
+    On entry ``wk.active`` holds the initial guess and ``wk.gstar`` the gaps of the
+    predictor (all X = 0).  A wheel in tension is released, a free wheel that
+    penetrates is attached, until both sets are stable (Neves et al. 2014, Sec. 3).
+    Returns (status, iterations); ``wk.X`` holds the contact forces.
+    """
+    n_w = veh.wheel_dof.shape[0]
+    for it in range(1, max_iter + 1):
+        m = 0
+        for i in range(n_w):
+            wk.X[i] = 0.0
+            if wk.active[i] == 1:
+                wk.idx[m] = i
+                wk.rhs[m] = -wk.gstar[i] / scale
+                m += 1
+        if m > 0:
+            if cholesky_solve(wk.S, wk.idx, m, wk.L, wk.rhs, wk.sol) != 0:
+                return SINGULAR_SCHUR, it
+            for a in range(m):
+                wk.X[wk.idx[a]] = wk.sol[a]
+        changed = False
+        for i in range(n_w):
+            if wk.active[i] == 1:
+                if wk.X[i] < -tol_force:
+                    wk.active[i] = 0
+                    changed = True
+            else:
+                g = wk.gstar[i]
+                for a in range(m):
+                    g += scale * wk.S[i, wk.idx[a]] * wk.sol[a]
+                if g < -tol_gap:
+                    wk.active[i] = 1
+                    changed = True
+        if not changed:
+            for i in range(n_w):
+                if wk.X[i] < 0.0:
+                    wk.X[i] = 0.0
+            return OK, it
+    return NOT_CONVERGED, max_iter
+
+
+# ---------------------------------------------------------------------------- impacts
+
+
+@njit
+def project_velocities(br, veh, wk, st, speed):
+    """Plastic impact: make the velocities of every active wheel compatible with the rail.
+
+    Solves G M^-1 G^T L = rdot_rel - G udot and updates udot += M^-1 G^T L (design note
+    1.4), with rdot_rel = v (r' + sum_j phi_j' q_j) the convective rail velocity.  Massless
+    wheels take no impulse: their velocity is set to the rail's afterwards.
+    """
+    n_w = veh.wheel_dof.shape[0]
+    n_m = st.q.shape[0]
+    build_schur(veh, wk, wk.ones, veh.M_inv)
+    m = 0
+    for i in range(n_w):
+        if wk.active[i] == 1 and veh.wheel_massless[i] == 0:
+            g = st.ud[veh.wheel_dof[i]]
+            rd = speed * wk.rr[i, 1]
+            for j in range(n_m):
+                g -= wk.phi[i, j] * st.qd[j]
+                rd += speed * wk.dphi[i, j] * st.q[j]
+            wk.idx[m] = i
+            wk.rhs[m] = rd - g
+            m += 1
+    if m > 0:
+        if cholesky_solve(wk.S, wk.idx, m, wk.L, wk.rhs, wk.sol) != 0:
+            return SINGULAR_IMPACT
+        for a in range(m):
+            i = wk.idx[a]
+            lam = wk.sol[a]
+            b = veh.wheel_veh[i]
+            s0 = veh.start[b]
+            n = veh.start[b + 1] - s0
+            c = veh.wheel_dof[i] - s0
+            for r in range(n):
+                st.ud[s0 + r] += veh.M_inv[b, r, c] * lam
+            for j in range(n_m):
+                st.qd[j] -= wk.phi[i, j] * lam
+    for i in range(n_w):
+        if wk.active[i] == 1 and veh.wheel_massless[i] == 1:
+            rd = speed * wk.rr[i, 1]
+            for j in range(n_m):
+                rd += speed * wk.dphi[i, j] * st.q[j] + wk.phi[i, j] * st.qd[j]
+            st.ud[veh.wheel_dof[i]] = rd
+    return OK
+
+
+@njit
+def consistent_accelerations(br, veh, wk, st, speed, scale):
+    """Accelerations and contact forces consistent with equilibrium and the constraints.
+
+    Solves M a = h - scale B^T X with G a = c, where ``wk.hq``/``wk.hv`` hold h (the
+    HHT-weighted residual without contact forces) and
+    c_i = v^2 (r'' + sum phi'' q) + 2 v sum phi' qdot is the rail acceleration that is
+    not carried by qddot.  Massless active wheels carry X_i = h_i / scale.
+    """
+    n_w = veh.wheel_dof.shape[0]
+    n_m = st.q.shape[0]
+    for i in range(n_w):
+        wk.X[i] = 0.0
+        if wk.active[i] == 1 and veh.wheel_massless[i] == 1:
+            xi = wk.hv[veh.wheel_dof[i]] / scale
+            wk.X[i] = xi
+            for j in range(n_m):
+                wk.hq[j] += scale * wk.phi[i, j] * xi
+            wk.hv[veh.wheel_dof[i]] = 0.0
+    # unconstrained accelerations a0 = M^-1 h
+    for j in range(n_m):
+        st.qdd[j] = wk.hq[j]
+    block_matvec(veh, veh.M_inv, wk.hv, st.udd, False, 1.0)
+    build_schur(veh, wk, wk.ones, veh.M_inv)
+    m = 0
+    for i in range(n_w):
+        if wk.active[i] == 1 and veh.wheel_massless[i] == 0:
+            ga = st.udd[veh.wheel_dof[i]]
+            c = speed * speed * wk.rr[i, 2]
+            for j in range(n_m):
+                ga -= wk.phi[i, j] * st.qdd[j]
+                c += speed * speed * wk.d2phi[i, j] * st.q[j] + 2.0 * speed * wk.dphi[i, j] * st.qd[j]
+            wk.idx[m] = i
+            wk.rhs[m] = (ga - c) / scale
+            m += 1
+    if m > 0:
+        if cholesky_solve(wk.S, wk.idx, m, wk.L, wk.rhs, wk.sol) != 0:
+            return SINGULAR_IMPACT
+        for a in range(m):
+            i = wk.idx[a]
+            xi = wk.sol[a]
+            wk.X[i] = xi
+            b = veh.wheel_veh[i]
+            s0 = veh.start[b]
+            n = veh.start[b + 1] - s0
+            c0 = veh.wheel_dof[i] - s0
+            for r in range(n):
+                st.udd[s0 + r] -= scale * veh.M_inv[b, r, c0] * xi
+            for j in range(n_m):
+                st.qdd[j] += scale * wk.phi[i, j] * xi
+    for i in range(n_w):
+        if wk.active[i] == 1 and veh.wheel_massless[i] == 1:
+            a = speed * speed * wk.rr[i, 2]
+            for j in range(n_m):
+                a += (speed * speed * wk.d2phi[i, j] * st.q[j]
+                      + 2.0 * speed * wk.dphi[i, j] * st.qd[j] + wk.phi[i, j] * st.qdd[j])
+            st.udd[veh.wheel_dof[i]] = a
+    return OK
+
+
+# --------------------------------------------------------------------------- time loop
+
+
+@njit
+def update_force_totals(br, veh, wk, st):
+    """Total modal and vehicle forces at the new time (external loads + contact)."""
+    n_m = st.q.shape[0]
+    for j in range(n_m):
+        st.fq_tot[j] = wk.fq[j]
+    for k in range(st.u.shape[0]):
+        st.fv_tot[k] = veh.gravity[k]
+    for i in range(veh.wheel_dof.shape[0]):
+        xi = wk.X[i]
+        st.X[i] = xi
+        if xi != 0.0:
+            st.fv_tot[veh.wheel_dof[i]] -= xi
+            for j in range(n_m):
+                st.fq_tot[j] += wk.phi[i, j] * xi
+
+
+@njit
+def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
+    """Advance the state by one HHT-alpha step of size ``dt`` to time ``t1``.
+
+    ``wk.was_active`` holds the contact set at the start of the step; on return
+    ``wk.active`` holds the new one and ``wk.xout`` the step's contact forces.
+    Returns (status, iterations); the state is garbage when status != 0.
+    """
+    alpha = prm.alpha
+    beta = 0.25 * (1.0 - alpha) ** 2
+    gamma = 0.5 - alpha
+    a0 = 1.0 / (beta * dt * dt)
+    a1 = gamma / (beta * dt)
+    a2 = 1.0 / (beta * dt)
+    a3 = 0.5 / beta - 1.0
+    cv = (1.0 + alpha) * (1.0 - gamma / beta) - alpha
+    ca = (1.0 + alpha) * dt * (1.0 - 0.5 * gamma / beta)
+    scale = 1.0 + alpha
+    n_m = st.q.shape[0]
+    n_v = st.u.shape[0]
+    n_w = veh.wheel_dof.shape[0]
+    speed = prm.speed
+    khat_v = veh.Khat_inv[level]
+
+    contact_search(br, veh, pr, t1, speed, wk)
+    assemble_loads(br, veh, t1, speed, wk.fq, wk.phil, wk.hq, wk.rq)
+
+    # predictor y = K^-1 R0: the increment with all contact forces at t_{n+1} zero
+    for j in range(n_m):
+        cq = 2.0 * br.zeta[j] * br.omega[j]
+        wk.khat[j] = a0 + scale * (a1 * cq + br.omega[j] ** 2)
+        r = (scale * wk.fq[j] - alpha * st.fq_tot[j] + a2 * st.qd[j] + a3 * st.qdd[j]
+             - cq * (cv * st.qd[j] + ca * st.qdd[j]) - br.omega[j] ** 2 * st.q[j])
+        wk.yq[j] = r / wk.khat[j]
+    for k in range(n_v):
+        wk.rv[k] = scale * veh.gravity[k] - alpha * st.fv_tot[k]
+        wk.hv[k] = a2 * st.ud[k] + a3 * st.udd[k]
+        wk.vv[k] = cv * st.ud[k] + ca * st.udd[k]
+    block_matvec(veh, veh.M, wk.hv, wk.rv, True, 1.0)
+    block_matvec(veh, veh.C, wk.vv, wk.rv, True, -1.0)
+    block_matvec(veh, veh.K, st.u, wk.rv, True, -1.0)
+    block_matvec(veh, khat_v, wk.rv, wk.yv, False, 1.0)
+
+    # predictor gaps, Schur matrix, active set
+    for i in range(n_w):
+        d = veh.wheel_dof[i]
+        g = wk.rr[i, 0] - (st.u[d] + wk.yv[d])
+        for j in range(n_m):
+            g += wk.phi[i, j] * (st.q[j] + wk.yq[j])
+        wk.gstar[i] = g
+        wk.active[i] = wk.was_active[i]
+    build_schur(veh, wk, wk.khat, khat_v)
+    status, iters = solve_active_set(veh, wk, scale, prm.max_iter, prm.tol_gap, prm.tol_force)
+    if status != OK:
+        return status, iters
+
+    # corrector: Delta u = y - (1 + alpha) K^-1 B^T X
+    for k in range(n_v):
+        wk.rv[k] = 0.0
+    for i in range(n_w):
+        xi = wk.X[i]
+        wk.xout[i] = xi
+        wk.rv[veh.wheel_dof[i]] = xi
+        if xi != 0.0:
+            for j in range(n_m):
+                wk.yq[j] += scale * wk.phi[i, j] * xi / wk.khat[j]
+    block_matvec(veh, khat_v, wk.rv, wk.yv, True, -scale)
+
+    # Newmark updates
+    for j in range(n_m):
+        dq = wk.yq[j]
+        acc = a0 * dq - a2 * st.qd[j] - a3 * st.qdd[j]
+        st.qd[j] = st.qd[j] + dt * ((1.0 - gamma) * st.qdd[j] + gamma * acc)
+        st.qdd[j] = acc
+        st.q[j] += dq
+    for k in range(n_v):
+        du = wk.yv[k]
+        acc = a0 * du - a2 * st.ud[k] - a3 * st.udd[k]
+        st.ud[k] = st.ud[k] + dt * ((1.0 - gamma) * st.udd[k] + gamma * acc)
+        st.udd[k] = acc
+        st.u[k] += du
+
+    landing = False
+    for i in range(n_w):
+        if wk.active[i] == 1 and wk.was_active[i] == 0:
+            landing = True
+    if landing:
+        # A landing is a plastic impact (design note 1.4): make the velocities
+        # compatible with the rail, then the accelerations consistent with the
+        # HHT equilibrium  M a1 + (1+alpha) B^T X1 = h.  h of the completed step is
+        # h_step = M a1 + (1+alpha) B^T X_step; the velocity jump dv changes it by
+        # -(1+alpha) C dv.
+        for j in range(n_m):
+            wk.vq[j] = st.qd[j]
+            wk.hq[j] = st.qdd[j]
+        for k in range(n_v):
+            wk.vv[k] = st.ud[k]
+            wk.av[k] = st.udd[k]
+        block_matvec(veh, veh.M, st.udd, wk.hv, False, 1.0)
+        for i in range(n_w):
+            xi = wk.X[i]
+            wk.hv[veh.wheel_dof[i]] += scale * xi
+            for j in range(n_m):
+                wk.hq[j] -= scale * wk.phi[i, j] * xi
+        s = project_velocities(br, veh, wk, st, speed)
+        if s != OK:
+            return s, iters
+        for j in range(n_m):
+            cq = 2.0 * br.zeta[j] * br.omega[j]
+            wk.hq[j] -= scale * cq * (st.qd[j] - wk.vq[j])
+        for k in range(n_v):
+            wk.vv[k] = st.ud[k] - wk.vv[k]
+        block_matvec(veh, veh.C, wk.vv, wk.hv, True, -scale)
+        s = consistent_accelerations(br, veh, wk, st, speed, scale)
+        if s != OK:
+            return s, iters
+        for i in range(n_w):
+            if wk.active[i] == 0 and veh.wheel_massless[i] == 1:
+                d = veh.wheel_dof[i]
+                st.udd[d] = wk.av[d]
+    update_force_totals(br, veh, wk, st)
+    return OK, iters
+
+
+@njit
+def copy_state(src, dst):
+    dst.q[:] = src.q
+    dst.qd[:] = src.qd
+    dst.qdd[:] = src.qdd
+    dst.u[:] = src.u
+    dst.ud[:] = src.ud
+    dst.udd[:] = src.udd
+    dst.fq_tot[:] = src.fq_tot
+    dst.fv_tot[:] = src.fv_tot
+    dst.X[:] = src.X
+
+
+@njit
+def state_is_finite(st):
+    s = 0.0
+    for j in range(st.q.shape[0]):
+        s += st.q[j] + st.qd[j] + st.qdd[j]
+    for k in range(st.u.shape[0]):
+        s += st.u[k] + st.ud[k] + st.udd[k]
+    return np.isfinite(s)
+
+
+@njit
+def record(veh, st, wk, out, n, iters):
+    for j in range(st.q.shape[0]):
+        out.q[n, j] = st.q[j]
+        out.qdd[n, j] = st.qdd[j]
+    for i in range(veh.wheel_dof.shape[0]):
+        out.X[n, i] = wk.xout[i]
+        out.contact[n, i] = wk.active[i]
+    for b in range(veh.body_dof.shape[0]):
+        d = veh.body_dof[b]
+        out.body_acc[n, b] = st.udd[d] if d >= 0 else 0.0
+    out.iters[n] = iters
+
+
+@njit
+def time_loop(br, veh, pr, prm, st, bk, wk, out):
+    """Integrate ``prm.n_steps`` steps from the state ``st`` (recorded as step 0).
+
+    A step whose contact problem fails is retried as 2, 4, ... substeps (up to
+    ``prm.max_sub`` halvings).  Returns (status, step index reached).
+    """
+    n_w = veh.wheel_dof.shape[0]
+    for i in range(n_w):
+        wk.xout[i] = st.X[i]
+    record(veh, st, wk, out, 0, 0)
+    dt = prm.dt
+    for n in range(prm.n_steps):
+        copy_state(st, bk)
+        for i in range(n_w):
+            wk.was_active[i] = wk.active[i]
+            wk.act0[i] = wk.active[i]  # the set at t_n, for retries
+        status, iters = hht_step(br, veh, pr, prm, st, wk, (n + 1) * dt, dt, 0)
+        level = 0
+        while status != OK and level < prm.max_sub:
+            level += 1
+            copy_state(bk, st)
+            for i in range(n_w):
+                wk.active[i] = wk.act0[i]
+            sub = 1 << level
+            h = dt / sub
+            iters = 0
+            for k in range(sub):
+                for i in range(n_w):
+                    wk.was_active[i] = wk.active[i]
+                status, it = hht_step(br, veh, pr, prm, st, wk, n * dt + (k + 1) * h, h, level)
+                iters += it
+                if status != OK:
+                    break
+        if status != OK:
+            return status, n + 1
+        if not state_is_finite(st):
+            return NON_FINITE, n + 1
+        record(veh, st, wk, out, n + 1, iters)
+    return OK, prm.n_steps

@@ -1,0 +1,147 @@
+"""``vsi run``: every speed of one configuration (its first train and first track
+realisation), one netCDF file.  The full sweep over trains and realisations, with
+parallel workers and resume, is ``vsi sweep`` (``vsi_numba.study``)."""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from vsi_numba.io.schema import attrs_for
+
+
+def _source() -> str:
+    import numba
+
+    from vsi_numba import __version__
+
+    return f"vsi_numba {__version__} (numba {numba.__version__}, HHT-alpha direct method)"
+
+
+def run_config(cfg, progress=None) -> xr.Dataset:
+    """Run every speed of ``cfg`` for its first train and first irregularity realisation."""
+    from vsi_numba.solver.simulate import simulate
+
+    bridge = cfg.build_bridge()
+    train = cfg.trains()[0]
+    settings = cfg.solver_settings()
+    x_start = -settings.approach - train.length - 1.0
+    x_stop = bridge.length + 1.0
+    realisation, profile = cfg.irregularities(x_start, x_stop)[0]
+    runs = []
+    speeds = np.asarray(cfg.speeds_kmh, float)
+    for k, v_kmh in enumerate(speeds):
+        ds = simulate(bridge, train, v_kmh / 3.6, profile=profile, settings=settings,
+                      output_points=cfg.output_points, save_histories=cfg.save_time_histories)
+        runs.append(ds)
+        if progress is not None:
+            progress(k + 1, speeds.size, ds)
+    status = [int(d.attrs["status"]) for d in runs]
+    messages = [str(d.attrs["message"]) for d in runs]
+    for d in runs:
+        d.attrs = {}
+    out = xr.concat(runs, dim="speed", join="outer", data_vars="all", coords="minimal",
+                    compat="override", combine_attrs="drop")
+    for name in ("vehicle_name", "wheel_position", "static_wheel_load"):
+        if name in out and "speed" in out[name].dims:
+            out[name] = out[name].isel(speed=0, drop=True)
+    out = out.assign_coords(
+        speed=("speed", speeds / 3.6, attrs_for("speed")),
+        speed_kmh=("speed", speeds, attrs_for("speed_kmh")),
+    )
+    out["status"] = ("speed", np.asarray(status, np.int32), attrs_for("status"))
+    out["message"] = ("speed", np.asarray(messages, dtype=str),
+                      {"long_name": "analysis status message", "units": "1"})
+    out["frequency"] = ("mode", bridge.frequencies, attrs_for("frequency"))
+    out = out.assign_coords(mode=("mode", np.arange(1, bridge.n_modes + 1), attrs_for("mode")))
+    now = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
+    out.attrs = {
+        "title": cfg.title,
+        "Conventions": "CF-1.12",
+        "source": _source(),
+        "history": f"{now} vsi run {' '.join(sys.argv[1:]) if sys.argv else ''}".strip(),
+        "config_json": cfg.to_json(),
+        "config_sha256": cfg.sha256,
+        "train": train.name,
+        "train_status": train.status or "user",
+        "irregularity": int(realisation),
+        "profile": profile.label,
+        "bridge_description": bridge.description,
+        "bridge_length": float(bridge.length),
+        "dt": float(settings.dt),
+        "hht_alpha": float(settings.hht_alpha),
+        "failed_cases": int(sum(s != 0 for s in status)),
+    }
+    return out
+
+
+def write_netcdf(ds: xr.Dataset, path: Path) -> Path:
+    """Write ``ds`` atomically (temporary file in the same directory, then rename)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    encoding = {}
+    for name, var in ds.data_vars.items():
+        if var.dtype.kind == "f":
+            enc = {"_FillValue": np.nan}
+            if "time" in var.dims:
+                enc.update(zlib=True, complevel=4, shuffle=True, dtype="float32")
+            encoding[name] = enc
+        elif var.dtype.kind in "iu":
+            encoding[name] = {"_FillValue": None}
+            if "time" in var.dims:
+                encoding[name].update(zlib=True, complevel=4)
+    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        ds.to_netcdf(tmp, encoding=encoding, format="NETCDF4")
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path
+
+
+def run_command(config: Path, output: Path | None, quiet: bool) -> int:
+    """Entry of ``vsi run``; returns the process exit code."""
+    from rich.console import Console
+
+    from vsi_numba.config import ConfigError, load_config
+
+    err = Console(stderr=True)
+    try:
+        cfg = load_config(config)
+    except ConfigError as exc:
+        err.print(f"[bold red]error[/]: {config}: invalid configuration", highlight=False)
+        err.print(str(exc), highlight=False, markup=False)
+        return 2
+    for w in cfg.warnings:
+        err.print(f"[yellow]warning[/]: {w}", highlight=False)
+    out_path = Path(output) if output is not None else Path(cfg.output_path)
+    show = not quiet and sys.stderr.isatty()
+
+    def progress(done, total, ds):
+        if not quiet:
+            v = ds.attrs["speed_kmh"]
+            flag = "ok" if ds.attrs["status"] == 0 else f"FAILED: {ds.attrs['message']}"
+            err.print(f"[{done}/{total}] {v:7.1f} km/h  {flag}", highlight=False)
+
+    try:
+        ds = run_config(cfg, progress if (show or not quiet) else None)
+    except (ValueError, OSError) as exc:
+        err.print(f"[bold red]error[/]: {exc}", highlight=False, markup=False)
+        return 2
+    try:
+        write_netcdf(ds, out_path)
+    except OSError as exc:
+        err.print(f"[bold red]error[/]: cannot write {out_path}: {exc}", highlight=False)
+        return 2
+    if not quiet:
+        err.print(f"wrote {out_path}", highlight=False)
+    return 1 if ds.attrs["failed_cases"] else 0

@@ -1,0 +1,1493 @@
+"""TOML configuration: parse, validate (every error at once), build the model objects.
+
+The keys are the contract of the design note, section 4: same names, same meaning, SI
+units unless the key says otherwise (``speeds_kmh``).  A config is data only: nothing in
+it is evaluated or imported.
+
+Validation runs before any computation and collects *all* problems of a file in one
+:class:`ConfigError`.  Each message is one line naming the key path, the bad value and
+what was expected, e.g.::
+
+    bridge.spans[1] = -3.0: expected a span length > 0 m
+    bridge.spna = [25.0]: unknown key; did you mean 'spans'?
+
+Physically suspicious but legal input (time step too coarse for the retained modes,
+modes missing below the EN 1990 A2 cut-off, ...) is reported in :attr:`Config.warnings`.
+
+Example
+-------
+>>> cfg = load_config("configs/quickstart.toml")            # doctest: +SKIP
+>>> bridge, trains = cfg.build_bridge(), cfg.trains()        # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import difflib
+import hashlib
+import json
+import math
+import re
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vsi_numba.model import bridge as _bridge
+from vsi_numba.model import irregularity as _irr
+from vsi_numba.model import vehicle as _veh
+from vsi_numba.solver.settings import SolverSettings
+
+__all__ = ["Config", "ConfigError", "load_config"]
+
+BRIDGE_KINDS = ("simply_supported", "continuous", "rigid", "modes_file")
+VEHICLE_KINDS = ("force", "sprung_mass", "car", "user")
+IRREGULARITY_KINDS = ("none", "cosine", "step", "psd", "file")
+DEFECT_KINDS = ("cosine", "step")
+TRAIN_MODELS = ("interaction", "moving_force")
+CONTACT_MODELS = ("rigid",)
+RESERVED_CONTACT_MODELS = ("hertz",)
+
+DT_RESOLUTION = 0.1  # dt * f above this: fewer than 10 steps per period (warning)
+STEPS_PER_WAVELENGTH = 10  # fewer time steps per shortest irregularity wavelength: warning
+MAX_SPEEDS = 10_000  # cap on the number of speeds of one study
+MAX_MODES = 1000  # cap on bridge.n_modes
+MAX_ELEMENTS = 1000  # cap on spans * elements_per_span (the eigenproblem runs at load time)
+MAX_USER_DOFS = 200  # cap on the size of a user vehicle
+MAX_VEHICLES = 500  # cap on explicit vehicles
+
+
+class ConfigError(ValueError):
+    """Invalid configuration: every problem found, one line each.
+
+    Parameters
+    ----------
+    errors : list of str
+        One message per problem, each naming the key path, the bad value and what was
+        expected.
+    source : str, optional
+        The file (or "<mapping>") the errors come from.
+
+    Attributes
+    ----------
+    errors : list of str
+    source : str or None
+    """
+
+    def __init__(self, errors, source: str | None = None):
+        self.errors = [str(e) for e in errors] or ["invalid configuration"]
+        self.source = source
+        n = len(self.errors)
+        where = f" in {source}" if source else ""
+        head = f"{n} error{'s' if n != 1 else ''}{where}:"
+        super().__init__("\n".join([head, *(f"  {e}" for e in self.errors)]))
+
+
+# ------------------------------------------------------------------------------ helpers
+
+
+class _Sentinel:
+    def __init__(self, name):
+        self.name = name
+
+    def __repr__(self):
+        return f"<{self.name}>"
+
+
+_MISSING = _Sentinel("missing")  # key absent (as default: the key is required)
+_BAD = _Sentinel("bad")  # value present but invalid (already reported)
+
+_BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
+
+
+def _key(key) -> str:
+    s = str(key)
+    return s if _BARE_KEY.match(s) else json.dumps(s)
+
+
+def _join(path: str, key) -> str:
+    return f"{path}.{_key(key)}" if path else _key(key)
+
+
+def _show(value, limit: int = 70) -> str:
+    """One-line TOML-like rendering of a value, truncated to ``limit`` characters."""
+    s = _render(value, depth=0)
+    return s if len(s) <= limit else s[: limit - 3] + "..."
+
+
+def _render(value, depth: int) -> str:
+    if depth > 3:
+        return "..."
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False)
+    if isinstance(value, float):
+        return repr(value)
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, Mapping):
+        items = list(value.items())
+        body = ", ".join(f"{_key(k)} = {_render(v, depth + 1)}" for k, v in items[:8])
+        return "{" + body + (", ..." if len(items) > 8 else "") + "}"
+    if isinstance(value, list | tuple):
+        body = ", ".join(_render(v, depth + 1) for v in value[:12])
+        return "[" + body + (", ..." if len(value) > 12 else "") + "]"
+    return json.dumps(str(value), ensure_ascii=False)
+
+
+def _did_you_mean(word: str, choices) -> str | None:
+    choices = [str(c) for c in choices]
+    low = {c.lower(): c for c in choices}
+    if str(word).lower() in low:
+        return low[str(word).lower()]
+    close = difflib.get_close_matches(str(word).lower(), list(low), n=1, cutoff=0.6)
+    return low[close[0]] if close else None
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
+
+
+def _as_list(v):
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    if isinstance(v, tuple):
+        return list(v)
+    return v
+
+
+@dataclass(frozen=True)
+class _Num:
+    """A numeric key: expectation text, limits, default (``_MISSING`` = required)."""
+
+    expected: str
+    gt: float | None = None
+    ge: float | None = None
+    lt: float | None = None
+    le: float | None = None
+    default: Any = _MISSING
+    integer: bool = False
+
+
+class _Checker:
+    """Collects errors and warnings while walking the config."""
+
+    def __init__(self):
+        self.errors: list[str] = []
+        self.warnings: list[str] = []
+
+    # -- reporting
+    def error(self, path: str, value, expected: str) -> _Sentinel:
+        if value is _MISSING:
+            self.errors.append(f"{path}: missing required key; expected {expected}")
+        else:
+            self.errors.append(f"{path} = {_show(value)}: expected {expected}")
+        return _BAD
+
+    def warn(self, message: str) -> None:
+        self.warnings.append(message)
+
+    # -- tables
+    def table(self, data, path: str, allowed, *, elsewhere=None, ignored=None, what=""):
+        """Check that ``data`` is a table and report unknown keys (with did-you-mean).
+
+        ``elsewhere`` maps keys valid for another kind to a hint; ``ignored`` maps keys
+        that are legal but unused here to a reason (warning, not error).
+        """
+        if not isinstance(data, Mapping):
+            return self.error(path, data, f"a table{what}")
+        for key, value in data.items():
+            if not isinstance(key, str):
+                self.error(_join(path, key), value, "string keys only")
+                continue
+            if key in allowed:
+                continue
+            kp = _join(path, key)
+            if ignored and key in ignored:
+                self.warn(f"{kp} is ignored: {ignored[key]}")
+                continue
+            if elsewhere and key in elsewhere:
+                self.error(kp, value, elsewhere[key])
+                continue
+            guess = _did_you_mean(key, allowed)
+            hint = (
+                f"did you mean '{guess}'?"
+                if guess
+                else "one of " + ", ".join(f"'{a}'" for a in sorted(allowed))
+            )
+            self.errors.append(f"{kp} = {_show(value)}: unknown key; expected {hint}")
+        return data
+
+    # -- scalars
+    def number(self, value, path: str, spec: _Num):
+        """Validate one number against ``spec``; return float/int or ``_BAD``."""
+        if spec.integer:
+            ok = isinstance(value, int) and not isinstance(value, bool)
+        else:
+            ok = _is_number(value) and math.isfinite(float(value))
+        if ok:
+            x = int(value) if spec.integer else float(value)
+            ok = (
+                (spec.gt is None or x > spec.gt)
+                and (spec.ge is None or x >= spec.ge)
+                and (spec.lt is None or x < spec.lt)
+                and (spec.le is None or x <= spec.le)
+            )
+        if not ok:
+            return self.error(path, value, spec.expected)
+        return x
+
+    def get_number(self, tbl, path: str, key: str, spec: _Num):
+        """Read ``tbl[key]`` as a number; default, ``None`` (optional) or ``_BAD``."""
+        p = _join(path, key)
+        if key not in tbl:
+            if spec.default is _MISSING:
+                return self.error(p, _MISSING, spec.expected)
+            return spec.default
+        return self.number(tbl[key], p, spec)
+
+    def numbers(self, tbl, path, specs: dict[str, _Num]) -> dict:
+        """Read several numeric keys; the result maps key -> value (or ``_BAD``)."""
+        return {k: self.get_number(tbl, path, k, s) for k, s in specs.items()}
+
+    def number_list(self, value, path: str, item: _Num, *, expected: str,
+                    scalar_ok: bool = False, min_len: int = 1, max_len: int | None = None):
+        """Read a list of numbers (or a single number when ``scalar_ok``)."""
+        value = _as_list(value)
+        if scalar_ok and _is_number(value):
+            return self.number(value, path, item)
+        if not isinstance(value, list):
+            return self.error(path, value, expected)
+        if len(value) < min_len or (max_len is not None and len(value) > max_len):
+            return self.error(path, value, expected)
+        out = [self.number(v, f"{path}[{i}]", item) for i, v in enumerate(value)]
+        return _BAD if any(o is _BAD for o in out) else out
+
+    def string(self, tbl, path: str, key: str, expected: str, default=_MISSING, nonempty=True):
+        p = _join(path, key)
+        if key not in tbl:
+            return self.error(p, _MISSING, expected) if default is _MISSING else default
+        v = tbl[key]
+        if not isinstance(v, str) or (nonempty and not v.strip()):
+            return self.error(p, v, expected)
+        return v
+
+    def choice(self, tbl, path: str, key: str, choices, default=_MISSING, note: str = ""):
+        p = _join(path, key)
+        listing = ", ".join(f"'{c}'" for c in choices)
+        if key not in tbl:
+            if default is _MISSING:
+                return self.error(p, _MISSING, f"one of {listing}{note}")
+            return default
+        v = tbl[key]
+        if isinstance(v, str) and v in choices:
+            return v
+        hint = ""
+        if isinstance(v, str):
+            guess = _did_you_mean(v, choices)
+            if guess:
+                hint = f" (did you mean '{guess}'?)"
+        return self.error(p, v, f"one of {listing}{note}{hint}")
+
+    def boolean(self, tbl, path: str, key: str, default):
+        if key not in tbl:
+            return default
+        v = tbl[key]
+        if not isinstance(v, bool):
+            return self.error(_join(path, key), v, "true or false")
+        return v
+
+    def file(self, tbl, path: str, key: str, base_dir: Path, what: str, default=_MISSING):
+        """Read the path of an existing file (relative to ``base_dir``): (given, resolved)."""
+        p = _join(path, key)
+        if key not in tbl:
+            if default is _MISSING:
+                self.error(p, _MISSING, f"the path of {what}")
+                return _BAD, _BAD
+            return default, default
+        v = tbl[key]
+        if not isinstance(v, str) or not v.strip() or "\x00" in v:
+            self.error(p, v, f"the path of {what} (a string)")
+            return _BAD, _BAD
+        full = (base_dir / Path(v).expanduser()).resolve()
+        try:
+            exists = full.is_file()
+        except OSError:
+            exists = False
+        if not exists:
+            self.error(p, v, f"an existing file with {what} (looked for {full})")
+            return _BAD, _BAD
+        return v, full
+
+
+def _ok(*values) -> bool:
+    return not any(v is _BAD for v in values)
+
+
+def _drop_none(d: dict) -> dict:
+    return {k: v for k, v in d.items() if v is not None}
+
+
+# ---------------------------------------------------------------------------- sections
+
+
+@dataclass
+class _BridgeSpec:
+    kind: str
+    resolved: dict
+    length: float | None = None
+    model: _bridge.ModalBridge | None = None
+    all_frequencies: np.ndarray | None = None  # the spectrum up to the EN 1990 cut-off
+    output_points: np.ndarray | None = None
+
+
+_POS = _Num("a value > 0", gt=0)
+
+
+def _per_span(chk, tbl, path, key, expected, n_spans):
+    """EI / mass_per_length: a number > 0 or one per span."""
+    p = _join(path, key)
+    if key not in tbl:
+        return chk.error(p, _MISSING, f"{expected} (a number, or one per span)")
+    item = _Num(expected, gt=0)
+    v = chk.number_list(
+        tbl[key], p, item, scalar_ok=True,
+        expected=f"{expected} (a number, or a list with one value per span)",
+    )
+    if isinstance(v, list) and n_spans is not None and len(v) != n_spans:
+        return chk.error(
+            p, tbl[key],
+            f"one value per span ({n_spans} span{'s' if n_spans != 1 else ''}) or a single number",
+        )
+    return v
+
+
+def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeSpec | _Sentinel:
+    path = "bridge"
+    allowed_all = {
+        "kind", "spans", "EI", "mass_per_length", "damping_ratio", "n_modes",
+        "max_frequency", "elements_per_span", "output_points", "file",
+    }
+    if not isinstance(d, Mapping):
+        return chk.error(path, d, "a table [bridge] with kind, spans, EI, mass_per_length")
+    kind = chk.choice(d, path, "kind", BRIDGE_KINDS)
+    used = {
+        "simply_supported": allowed_all - {"elements_per_span", "file"},
+        "continuous": allowed_all - {"file"},
+        "rigid": {"kind", "spans", "output_points"},
+        "modes_file": {"kind", "file", "damping_ratio", "n_modes", "max_frequency",
+                       "output_points", "spans"},
+    }
+    if kind is _BAD:
+        chk.table(d, path, allowed_all)
+        return _BAD
+    ignored = {k: f"not used by bridge.kind = '{kind}'" for k in allowed_all - used[kind]}
+    chk.table(d, path, used[kind], ignored=ignored)
+
+    # spans
+    spans = _BAD
+    one_span = kind in ("simply_supported", "rigid")
+    span_expect = (
+        "a span length > 0 m (one value)" if one_span
+        else "a list of span lengths > 0 m (one per span)"
+    )
+    if "spans" in d:
+        spans = chk.number_list(
+            d["spans"], "bridge.spans", _Num("a span length > 0 m", gt=0),
+            expected=span_expect, scalar_ok=True, min_len=1, max_len=200,
+        )
+        if _is_number(spans):
+            spans = [spans]
+        if isinstance(spans, list) and one_span and len(spans) != 1:
+            more = " (use kind = 'continuous' for several spans)" if kind != "rigid" else ""
+            spans = chk.error("bridge.spans", d["spans"], f"one span length for kind = "
+                              f"'{kind}'{more}")
+    elif kind != "modes_file":
+        chk.error("bridge.spans", _MISSING, span_expect)
+    elif "output_points" not in d:
+        chk.error("bridge.output_points", _MISSING,
+                  "positions on the deck (m) when kind = 'modes_file' has no spans")
+    n_spans = len(spans) if isinstance(spans, list) else None
+    length = float(sum(spans)) if isinstance(spans, list) else None
+
+    res: dict[str, Any] = {"kind": kind}
+    if isinstance(spans, list):
+        res["spans"] = spans
+    flexible = kind in ("simply_supported", "continuous")
+    ei = mass = damping = n_modes = fmax = _BAD
+    eps = None
+    file_given = None
+    if flexible:
+        ei = _per_span(chk, d, path, "EI", "a bending stiffness EI > 0 N m^2", n_spans)
+        mass = _per_span(chk, d, path, "mass_per_length", "a mass per length > 0 kg/m", n_spans)
+        res.update(EI=ei, mass_per_length=mass)
+    if kind != "rigid":
+        damping = 0.0
+        if "damping_ratio" in d:
+            damping = chk.number_list(
+                d["damping_ratio"], "bridge.damping_ratio",
+                _Num("a damping ratio 0 <= zeta < 1", ge=0, lt=1), scalar_ok=True,
+                expected="a damping ratio 0 <= zeta < 1, or a list with one per mode",
+            )
+        n_spec = _Num(f"an integer number of modes 1 <= n_modes <= {MAX_MODES}", ge=1,
+                      le=MAX_MODES, integer=True, default=None)
+        n_modes = chk.get_number(d, path, "n_modes", n_spec)
+        fmax = chk.get_number(d, path, "max_frequency",
+                              _Num("a frequency > 0 Hz", gt=0, default=None))
+        if n_modes is None and fmax is None:
+            n_modes = 10
+        res.update(damping_ratio=damping, n_modes=n_modes, max_frequency=fmax)
+    if kind == "continuous":
+        eps = chk.get_number(d, path, "elements_per_span", _Num(
+            "an integer number of elements 1 <= elements_per_span <= 400", ge=1, le=400,
+            integer=True, default=40))
+        if _ok(eps) and n_spans is not None and n_spans * eps > MAX_ELEMENTS:
+            eps = chk.error("bridge.elements_per_span", eps,
+                            f"at most {MAX_ELEMENTS} elements in all ({n_spans} spans x "
+                            f"{eps} = {n_spans * eps})")
+        res["elements_per_span"] = eps
+    if kind == "modes_file":
+        file_given, _full = chk.file(d, path, "file", base_dir,
+                                     "the deck modes (x, frequencies, mode shapes)")
+        res["file"] = file_given
+
+    # output points
+    points = _BAD
+    if "output_points" in d:
+        points = chk.number_list(d["output_points"], "bridge.output_points",
+                                 _Num("a position x (m)"), scalar_ok=True,
+                                 expected="a list of positions on the deck (m)")
+        if _is_number(points):
+            points = [points]
+        if isinstance(points, list) and length is not None:
+            for i, x in enumerate(points):
+                if not -1e-9 <= x <= length + 1e-9:
+                    chk.error(f"bridge.output_points[{i}]", x,
+                              f"a position on the bridge, 0 <= x <= {length:g} m")
+                    points = _BAD
+    elif isinstance(spans, list):
+        edges = np.concatenate([[0.0], np.cumsum(spans)])
+        points = (0.5 * (edges[:-1] + edges[1:])).tolist()
+    if isinstance(points, list):
+        res["output_points"] = points
+
+    spec = _BridgeSpec(kind=kind, resolved=_drop_none(res), length=length)
+    if not _ok(spans, points) or (flexible and not _ok(ei, mass, damping, n_modes, fmax, eps)):
+        return _BAD
+    spec.output_points = np.asarray(points, float)
+    if kind == "modes_file":
+        return spec if _ok(file_given) else _BAD
+    if kind == "rigid":
+        spec.model = _bridge.rigid(length)
+        return spec
+    model = _flexible_bridge(chk, spec, spans, ei, mass, n_modes, fmax, eps, solver_cutoff)
+    if model is _BAD:
+        return _BAD
+    n = model.n_modes
+    if isinstance(damping, list) and len(damping) < n:
+        return chk.error("bridge.damping_ratio", damping,
+                         f"a single ratio or at least one per retained mode ({n} modes)")
+    zeta = np.asarray(damping[:n] if isinstance(damping, list) else [damping] * n, float)
+    spec.model = _bridge.ModalBridge(
+        kind=model.kind, length=model.length, frequencies=model.frequencies, damping=zeta,
+        nodes=model.nodes, values=model.values, slopes=model.slopes,
+        supports=model.supports, description=model.description,
+    )
+    return spec
+
+
+def _flexible_bridge(chk, spec, spans, ei, mass, n_modes, fmax, eps, solver_cutoff):
+    """Build the modes now (cheap; the checks and warnings need the frequencies)."""
+    length = spec.length
+    try:
+        with np.errstate(all="ignore"):
+            if spec.kind == "simply_supported":
+                ei1 = ei[0] if isinstance(ei, list) else ei
+                m1 = mass[0] if isinstance(mass, list) else mass
+                f1 = (np.pi / length) ** 2 * math.sqrt(ei1 / m1) / (2 * np.pi)
+                cut = max(30.0, 9.0 * f1) if solver_cutoff is None else solver_cutoff
+                jmax = min(int(math.floor(math.sqrt(cut / f1) + 1e-9)) + 1, 2 * MAX_MODES)
+                allf = f1 * np.arange(1, jmax + 1) ** 2
+            else:
+                allf = _continuous_spectrum(spans, ei, mass, eps)
+            if not (allf.size and np.all(np.isfinite(allf)) and allf[0] > 0):
+                return chk.error("bridge.EI", ei, "a value that, with mass_per_length and "
+                                 "spans, gives finite natural frequencies > 0 Hz")
+            spec.all_frequencies = allf
+            if fmax is not None and fmax < allf[0]:
+                return chk.error("bridge.max_frequency", fmax,
+                                 f"a frequency >= the first mode ({allf[0]:.4g} Hz), else no "
+                                 "mode is retained")
+            if spec.kind == "simply_supported":
+                return _bridge.simply_supported(length, ei1, m1, n_modes, fmax, 0.0)
+            return _bridge.continuous(spans, ei, mass, n_modes, fmax, 0.0, eps)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        return chk.error("bridge.spans", spans, f"a buildable bridge ({exc})")
+
+
+def _continuous_spectrum(spans, ei, mass, eps) -> np.ndarray:
+    """All natural frequencies (Hz) of the continuous-deck FE model."""
+    import scipy.linalg
+
+    _nodes, K, M, fixed, _s = _bridge.beam_matrices(spans, ei, mass, eps)
+    free = np.setdiff1d(np.arange(K.shape[0]), fixed)
+    lam = scipy.linalg.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)], eigvals_only=True)
+    return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
+
+
+# -------------------------------------------------------------------------------- train
+
+_VEHICLE_FIELDS: dict[str, dict[str, _Num]] = {
+    "force": {"load": _Num("a force > 0 N (positive down)", gt=0)},
+    "sprung_mass": {
+        "mass": _Num("a mass > 0 kg", gt=0),
+        "stiffness": _Num("a stiffness > 0 N/m", gt=0),
+        "damping": _Num("a damping >= 0 N s/m", ge=0, default=0.0),
+        "wheel_mass": _Num("a mass >= 0 kg (0 = massless contact point)", ge=0, default=0.0),
+    },
+    "car": {
+        "body_mass": _Num("a mass > 0 kg", gt=0),
+        "body_pitch_inertia": _Num("a pitch inertia > 0 kg m^2", gt=0),
+        "bogie_mass": _Num("a mass > 0 kg", gt=0),
+        "bogie_pitch_inertia": _Num("a pitch inertia > 0 kg m^2", gt=0),
+        "wheelset_mass": _Num("a mass > 0 kg", gt=0),
+        "bogie_spacing": _Num("a distance between bogie centres > 0 m", gt=0),
+        "wheelbase": _Num("an axle distance within a bogie > 0 m", gt=0),
+        "primary_stiffness": _Num("a stiffness > 0 N/m (per wheelset)", gt=0),
+        "primary_damping": _Num("a damping >= 0 N s/m (per wheelset)", ge=0),
+        "secondary_stiffness": _Num("a stiffness > 0 N/m (per bogie)", gt=0),
+        "secondary_damping": _Num("a damping >= 0 N s/m (per bogie)", ge=0),
+        "body_cg_to_front_bogie": _Num(
+            "a distance >= 0 m behind the front bogie centre", ge=0, default=None),
+    },
+    "user": {},
+}
+_USER_KEYS = ("M", "C", "K", "wheel_dofs", "wheel_positions", "gravity", "body_dof")
+_COMMON_VEHICLE_KEYS = ("kind", "offset", "name")
+
+
+def _vehicle_keys(kind):
+    extra = _USER_KEYS if kind == "user" else tuple(_VEHICLE_FIELDS[kind])
+    return set(_COMMON_VEHICLE_KEYS) | set(extra)
+
+
+def _matrix(chk, value, path, n=None):
+    """Read a square matrix (nested lists of finite numbers): ndarray or ``_BAD``."""
+    value = _as_list(value)
+    expected = "a square matrix (list of rows of numbers)" + (f", {n} x {n}" if n else "")
+    if not isinstance(value, list) or not value or len(value) > MAX_USER_DOFS:
+        return chk.error(path, value, expected)
+    rows = [_as_list(r) for r in value]
+    size = len(rows)
+    if not all(isinstance(r, list) and len(r) == size for r in rows) or (n and size != n):
+        return chk.error(path, value, expected)
+    bad = False
+    for i, row in enumerate(rows):
+        for j, x in enumerate(row):
+            if not (_is_number(x) and math.isfinite(float(x))):
+                chk.error(f"{path}[{i}][{j}]", x, "a finite number")
+                bad = True
+    if bad:
+        return _BAD
+    a = np.asarray(rows, float)
+    scale = np.abs(a).max() + 1.0
+    if not np.allclose(a, a.T, rtol=1e-12, atol=1e-9 * scale):
+        i, j = np.unravel_index(np.argmax(np.abs(a - a.T)), a.shape)
+        return chk.error(f"{path}[{i}][{j}]", float(a[i, j]),
+                         f"a symmetric matrix ({path}[{j}][{i}] = {a[j, i]!r})")
+    return a
+
+
+def _user_vehicle(chk, v, path, name):
+    m = _matrix(chk, v["M"], f"{path}.M") if "M" in v else chk.error(
+        f"{path}.M", _MISSING, "the mass matrix (list of rows, kg and kg m^2)")
+    n = m.shape[0] if isinstance(m, np.ndarray) else None
+    mats = {"M": m}
+    for key, what in (("C", "damping matrix (N s/m)"), ("K", "stiffness matrix (N/m)")):
+        if key not in v:
+            mats[key] = chk.error(f"{path}.{key}", _MISSING, f"the {what}, same size as M")
+        else:
+            mats[key] = _matrix(chk, v[key], f"{path}.{key}", n)
+    if isinstance(m, np.ndarray) and np.any(np.diag(m) < 0):
+        i = int(np.argmin(np.diag(m)))
+        mats["M"] = chk.error(f"{path}.M[{i}][{i}]", float(m[i, i]), "a mass >= 0 (diagonal)")
+    hi = (n - 1) if n else MAX_USER_DOFS
+    dofs = _BAD
+    if "wheel_dofs" not in v:
+        chk.error(f"{path}.wheel_dofs", _MISSING, "a list of wheel DOF indices")
+    else:
+        dofs = chk.number_list(v["wheel_dofs"], f"{path}.wheel_dofs",
+                               _Num(f"a DOF index 0 <= i <= {hi}", ge=0, le=hi, integer=True),
+                               expected="a non-empty list of wheel DOF indices")
+        if isinstance(dofs, list) and len(set(dofs)) != len(dofs):
+            dofs = chk.error(f"{path}.wheel_dofs", v["wheel_dofs"], "distinct DOF indices")
+    pos = _BAD
+    if "wheel_positions" not in v:
+        chk.error(f"{path}.wheel_positions", _MISSING,
+                  "one position (m behind the vehicle's first axle) per wheel DOF")
+    else:
+        pos = chk.number_list(v["wheel_positions"], f"{path}.wheel_positions",
+                              _Num("a position >= 0 m behind the first axle", ge=0),
+                              expected="a list of wheel positions >= 0 m, one per wheel DOF")
+        if isinstance(pos, list) and isinstance(dofs, list) and len(pos) != len(dofs):
+            pos = chk.error(f"{path}.wheel_positions", v["wheel_positions"],
+                            f"one position per wheel DOF ({len(dofs)} wheel DOFs)")
+        elif isinstance(pos, list) and any(b <= a for a, b in zip(pos, pos[1:], strict=False)):
+            pos = chk.error(f"{path}.wheel_positions", v["wheel_positions"],
+                            "strictly increasing positions (wheels front to back)")
+    grav = None
+    if "gravity" in v:
+        grav = chk.number_list(v["gravity"], f"{path}.gravity", _Num("a load in N"),
+                               expected="a list of static loads (N, positive down), one per DOF",
+                               min_len=n or 1, max_len=n)
+    body = chk.get_number(v, path, "body_dof", _Num(
+        f"a DOF index -1 <= i <= {hi} (-1: none)", ge=-1, le=hi, integer=True, default=-1))
+    if not _ok(*mats.values(), dofs, pos, grav, body) or n is None:
+        return _BAD
+    try:
+        return _veh.user_vehicle(mats["M"], mats["C"], mats["K"], dofs, pos, grav, body, name)
+    except ValueError as exc:
+        return chk.error(path, dict(v), f"a valid vehicle ({exc})")
+
+
+def _vehicle(chk, v, path, index):
+    if not isinstance(v, Mapping):
+        return chk.error(path, v, "a table with kind = 'force' | 'sprung_mass' | 'car' | 'user'")
+    kind = chk.choice(v, path, "kind", VEHICLE_KINDS)
+    if kind is _BAD:
+        every = set(_COMMON_VEHICLE_KEYS).union(*(_vehicle_keys(k) for k in VEHICLE_KINDS))
+        chk.table(v, path, every)
+        return _BAD, _BAD, None
+    allowed = _vehicle_keys(kind)
+    elsewhere = {}
+    for other in VEHICLE_KINDS:
+        for k in _vehicle_keys(other) - allowed:
+            elsewhere.setdefault(k, f"no such key for kind = '{kind}' (it belongs to kind = "
+                                    f"'{other}')")
+    chk.table(v, path, allowed, elsewhere=elsewhere)
+    offset = chk.get_number(v, path, "offset", _Num(
+        "an offset >= 0 m behind the train's first axle", ge=0, default=0.0))
+    name = chk.string(v, path, "name", "a vehicle name (string)", default=f"{kind}{index}")
+    res = {"kind": kind, "offset": offset, "name": name}
+    if kind == "user":
+        veh = _user_vehicle(chk, v, path, name if _ok(name) else kind)
+        for k in _USER_KEYS:
+            if k in v:
+                res[k] = _as_list(v[k])
+        res.setdefault("body_dof", -1)
+        return veh, offset, res
+    vals = chk.numbers(v, path, _VEHICLE_FIELDS[kind])
+    res.update(_drop_none(vals))
+    if not _ok(*vals.values(), name):
+        return _BAD, offset, res
+    if kind == "force":
+        veh = _veh.point_loads([0.0], [vals["load"]], name=name)
+    elif kind == "sprung_mass":
+        veh = _veh.sprung_mass(vals["mass"], vals["stiffness"], vals["damping"],
+                               vals["wheel_mass"], name=name)
+    else:
+        veh = _car(chk, vals, path, name)
+    return veh, offset, res
+
+
+def _car(chk, vals, path, name):
+    if vals["bogie_spacing"] <= vals["wheelbase"]:
+        return chk.error(f"{path}.bogie_spacing", vals["bogie_spacing"],
+                         f"a distance between bogie centres > the wheelbase "
+                         f"({vals['wheelbase']:g} m), else the bogies' axles overlap")
+    cg = vals["body_cg_to_front_bogie"]
+    if cg is not None and cg > vals["bogie_spacing"]:
+        return chk.error(f"{path}.body_cg_to_front_bogie", cg,
+                         f"a distance between 0 and bogie_spacing = {vals['bogie_spacing']:g} m")
+    return _veh.railway_car(**{k: vals[k] for k in _VEHICLE_FIELDS["car"]}, name=name)
+
+
+@dataclass
+class _TrainSpec:
+    resolved: dict
+    trains: list = field(default_factory=list)
+    explicit: bool = False
+
+
+def _library():
+    try:
+        from vsi_numba.model import library
+    except ImportError:  # the library module ships separately
+        return None
+    return library
+
+
+def _preset_names(lib) -> list[str]:
+    try:
+        names = lib.list_presets()
+    except Exception:  # noqa: BLE001 - only used for did-you-mean hints
+        return []
+    if isinstance(names, Mapping):
+        return [str(k) for k in names]
+    out = []
+    for n in names:
+        out.append(str(n if isinstance(n, str) else getattr(n, "name", n)))
+    return out
+
+
+def _get_preset(chk, lib, name, path, model, user_trains):
+    """One preset (from the user train file first, then the library) or ``_BAD``."""
+    if name in user_trains:
+        return user_trains[name]
+    known = list(user_trains) + (_preset_names(lib) if lib is not None else [])
+    if lib is None:
+        return chk.error(path, name, "a train name from the library (vsi_numba.model.library "
+                                     "is not available in this installation)")
+    try:
+        if model is None:
+            try:
+                return lib.get_train(name, model="interaction")
+            except KeyError:
+                raise
+            except ValueError:
+                return lib.get_train(name, model="moving_force")
+        return lib.get_train(name, model=model)
+    except KeyError:
+        guess = _did_you_mean(name, known)
+        hint = f"; did you mean '{guess}'?" if guess else ""
+        return chk.error(path, name, f"a train name from the library (`vsi trains` lists "
+                                     f"them){hint}")
+    except ValueError as exc:
+        return chk.error(path, name, f"a train that can be built with train.model = "
+                                     f"'{model}' ({exc})")
+
+
+def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
+    path = "train"
+    allowed = {"preset", "model", "vehicles", "file"}
+    if chk.table(d, path, allowed, what=" [train] with preset, vehicles or file") is _BAD:
+        return _BAD
+    given = [k for k in ("preset", "vehicles", "file") if k in d]
+    if not given:
+        return chk.error(path, _MISSING if not d else dict(d),
+                         "train.preset (library names), [[train.vehicles]] or train.file")
+    if "vehicles" in d and len(given) > 1:
+        other = [k for k in given if k != "vehicles"][0]
+        return chk.error(f"train.{other}", d[other],
+                         "either [[train.vehicles]] or train.preset/train.file, not both")
+    model = chk.choice(d, path, "model", TRAIN_MODELS, default=None)
+    res: dict[str, Any] = {}
+    if model is not None and model is not _BAD:
+        res["model"] = model
+    if "vehicles" in d:
+        if "model" in d:
+            chk.warn("train.model is ignored: it applies to library presets, not to "
+                     "[[train.vehicles]]")
+            res.pop("model", None)
+        return _explicit_train(chk, d["vehicles"], title, res)
+
+    lib = _library()
+    user_trains: dict = {}
+    if "file" in d:
+        given_path, full = chk.file(d, path, "file", base_dir, "user trains (TOML)")
+        res["file"] = given_path
+        if _ok(full):
+            user_trains = _load_user_trains(chk, lib, full, given_path)
+    if "preset" in d:
+        raw = _as_list(d["preset"])
+        expected = "a train name, or a non-empty list of names (`vsi trains` lists them)"
+        if isinstance(raw, str):
+            names, paths = [raw], ["train.preset"]
+        elif isinstance(raw, list) and raw and all(isinstance(x, str) for x in raw):
+            names, paths = raw, [f"train.preset[{i}]" for i in range(len(raw))]
+            if len(set(names)) != len(names):
+                return chk.error("train.preset", raw, "distinct train names")
+        else:
+            return chk.error("train.preset", raw, expected)
+        res["preset"] = list(names)
+        if model is _BAD or user_trains is _BAD:
+            return _BAD
+        trains = [_get_preset(chk, lib, n, p, model, user_trains or {})
+                  for n, p in zip(names, paths, strict=True)]
+        if not _ok(*trains):
+            return _BAD
+        return _TrainSpec(resolved=res, trains=trains)
+    if user_trains is _BAD or not _ok(model):
+        return _BAD
+    if not user_trains:
+        return chk.error("train.file", d.get("file"), "a file defining at least one train")
+    return _TrainSpec(resolved=res, trains=list(user_trains.values()))
+
+
+def _load_user_trains(chk, lib, full: Path, given: str):
+    if lib is None or not hasattr(lib, "load_user_trains"):
+        return chk.error("train.file", given, "a user train file (the train library is not "
+                                              "available in this installation)")
+    try:
+        out = lib.load_user_trains(full)
+    except (ValueError, KeyError, TypeError, OSError, tomllib.TOMLDecodeError) as exc:
+        msg = " ".join(str(exc).split())
+        return chk.error("train.file", given, f"a valid user train file ({msg})")
+    if isinstance(out, Mapping):
+        return dict(out)
+    return {t.name: t for t in out}
+
+
+def _explicit_train(chk, vehicles, title, res) -> _TrainSpec | _Sentinel:
+    vehicles = _as_list(vehicles)
+    if not isinstance(vehicles, list) or not vehicles or len(vehicles) > MAX_VEHICLES:
+        return chk.error("train.vehicles", vehicles,
+                         f"an array of tables [[train.vehicles]] (1 to {MAX_VEHICLES})")
+    built = []
+    resolved = []
+    for i, v in enumerate(vehicles):
+        veh, offset, r = _vehicle(chk, v, f"train.vehicles[{i}]", i)
+        built.append((veh, offset))
+        if r is not None:
+            resolved.append(r)
+    res["vehicles"] = resolved
+    if not all(_ok(veh, off) for veh, off in built):
+        return _BAD
+    # vehicles are listed front to back and must not overlap
+    prev_end = None
+    for i, (veh, off) in enumerate(built):
+        axles = off + veh.axle_positions
+        start, end = float(axles.min()), float(axles.max())
+        if prev_end is not None and start <= prev_end:
+            lo = start - off
+            chk.error(f"train.vehicles[{i}].offset", off,
+                      f"an offset > {prev_end - lo:g} m: vehicles are listed front to back "
+                      f"and must not overlap (train.vehicles[{i - 1}] ends at {prev_end:g} m "
+                      f"behind the first axle)")
+            return _BAD
+        prev_end = end
+    name = title if title else "custom"
+    train = _veh.Train(name=name, vehicles=tuple(v for v, _ in built),
+                       offsets=tuple(o for _, o in built), status="user")
+    return _TrainSpec(resolved=res, trains=[train], explicit=True)
+
+
+# -------------------------------------------------------------------------- irregularity
+
+_DEFECT_FIELDS: dict[str, dict[str, _Num]] = {
+    "cosine": {
+        "depth": _Num("a depth != 0 m (> 0: dip, < 0: bump), |depth| < 1 m", gt=-1, lt=1),
+        "wavelength": _Num("a wavelength > 0 m", gt=0),
+        "position": _Num("a position x (m) where the defect starts"),
+    },
+    "step": {
+        "height": _Num("a level change != 0 m (> 0: the rail ends lower), |height| < 1 m",
+                       gt=-1, lt=1),
+        "length": _Num("a transition length > 0 m", gt=0),
+        "position": _Num("a position x (m) where the transition starts"),
+    },
+}
+_STEP_SHAPES = ("cosine", "quintic")
+_PSD_FIELDS = {
+    "wavelength_min": _Num("a wavelength > 0 m", gt=0),
+    "wavelength_max": _Num("a wavelength > 0 m", gt=0),
+    "dx": _Num("a sample spacing > 0 m", gt=0, default=None),
+}
+
+
+def _spectra():
+    return tuple(getattr(_irr, "SPECTRA", {}) or
+                 ("fra1", "fra2", "fra3", "fra4", "fra5", "fra6", "german_low", "german_high"))
+
+
+def _defect(chk, d, path, kind) -> dict | _Sentinel:
+    """Read the keys of an isolated defect (cosine, step) at ``path``."""
+    vals = chk.numbers(d, path, _DEFECT_FIELDS[kind])
+    amp = "depth" if kind == "cosine" else "height"
+    if _ok(vals[amp]) and vals[amp] == 0.0:
+        vals[amp] = chk.error(_join(path, amp), d[amp], _DEFECT_FIELDS[kind][amp].expected)
+    if kind == "step":
+        vals["shape"] = chk.choice(d, path, "shape", _STEP_SHAPES, default="cosine")
+    if not _ok(*vals.values()):
+        return _BAD
+    return {"kind": kind, **vals}
+
+
+_IRR_KEYS = {
+    "none": {"kind", "defects"},
+    "cosine": {"kind", "depth", "wavelength", "position", "defects"},
+    "step": {"kind", "height", "length", "position", "shape", "defects"},
+    "psd": {"kind", "spectrum", "wavelength_min", "wavelength_max", "seeds", "dx", "defects"},
+    "file": {"kind", "path", "x_column", "r_column", "r_unit", "dx", "defects"},
+}
+
+
+@dataclass
+class _IrregularitySpec:
+    resolved: dict
+    kind: str = "none"
+    file: Path | None = None
+    file_profile: Any = None
+
+
+def _irregularity_section(chk, d, base_dir: Path) -> _IrregularitySpec | _Sentinel:
+    path = "irregularity"
+    if d is _MISSING:
+        return _IrregularitySpec(resolved={"kind": "none"})
+    if not isinstance(d, Mapping):
+        return chk.error(path, d, "a table [irregularity] with kind = 'none' | 'cosine' | "
+                                  "'psd' | 'file'")
+    kind = chk.choice(d, path, "kind", IRREGULARITY_KINDS, default="none")
+    every = set().union(*_IRR_KEYS.values())
+    if kind is _BAD:
+        chk.table(d, path, every)
+        return _BAD
+    allowed = _IRR_KEYS[kind]
+    ignored = {k: f"not used by irregularity.kind = '{kind}'" for k in every - allowed}
+    chk.table(d, path, allowed, ignored=ignored)
+    res: dict[str, Any] = {"kind": kind}
+    ok = True
+    spec = _IrregularitySpec(resolved=res, kind=kind)
+    if kind in _DEFECT_FIELDS:
+        vals = _defect(chk, d, path, kind)
+        ok = _ok(vals)
+        if ok:
+            res.update(vals)
+    elif kind == "psd":
+        spectra = _spectra()
+        res["spectrum"] = chk.choice(d, path, "spectrum", spectra)
+        vals = chk.numbers(d, path, _PSD_FIELDS)
+        if _ok(vals["wavelength_min"], vals["wavelength_max"]) and not (
+            vals["wavelength_max"] > vals["wavelength_min"]
+        ):
+            vals["wavelength_max"] = chk.error(
+                "irregularity.wavelength_max", d["wavelength_max"],
+                f"a wavelength > wavelength_min = {vals['wavelength_min']:g} m")
+        if _ok(vals["wavelength_min"], vals["dx"]) and vals["dx"] is not None and (
+            vals["dx"] > vals["wavelength_min"] / 2
+        ):
+            vals["dx"] = chk.error("irregularity.dx", d["dx"],
+                                   f"a sample spacing <= wavelength_min / 2 = "
+                                   f"{vals['wavelength_min'] / 2:g} m (Nyquist)")
+        if "seeds" not in d:
+            seeds = chk.error("irregularity.seeds", _MISSING,
+                              "a list of integer seeds >= 0, one per realisation")
+        else:
+            seeds = chk.number_list(
+                d["seeds"], "irregularity.seeds",
+                _Num("an integer seed 0 <= seed < 2^63", ge=0, integer=True),
+                expected="a non-empty list of distinct integer seeds >= 0", max_len=10_000,
+                scalar_ok=True)
+            if _is_number(seeds):
+                seeds = [seeds]
+            if isinstance(seeds, list) and len(set(seeds)) != len(seeds):
+                seeds = chk.error("irregularity.seeds", d["seeds"], "distinct seeds")
+        res.update(_drop_none(vals), seeds=seeds)
+        ok = _ok(res["spectrum"], seeds, *vals.values())
+    elif kind == "file":
+        given, full = chk.file(d, path, "path", base_dir, "the profile (CSV, columns x and r)")
+        res["path"] = given
+        xcol = chk.string(d, path, "x_column", "a column name (string)", default="x")
+        rcol = chk.string(d, path, "r_column", "a column name (string)", default="r")
+        unit = chk.choice(d, path, "r_unit", ("m", "mm"), default="m")
+        dx = chk.get_number(d, path, "dx", _Num("a sample spacing > 0 m", gt=0, default=None))
+        res.update(_drop_none({"x_column": xcol, "r_column": rcol, "r_unit": unit, "dx": dx}))
+        ok = _ok(given, full, xcol, rcol, unit, dx)
+        if ok:
+            spec.file = full
+            try:
+                spec.file_profile = _irr.profile_from_file(full, xcol, rcol, unit, dx)
+            except (ValueError, OSError) as exc:
+                msg = " ".join(str(exc).split())
+                ok = _ok(chk.error("irregularity.path", given, f"a readable profile: {msg}"))
+    defects = []
+    if "defects" in d:
+        raw = _as_list(d["defects"])
+        if not isinstance(raw, list) or not raw or len(raw) > 1000:
+            ok = _ok(chk.error("irregularity.defects", raw,
+                               "an array of tables [[irregularity.defects]] with kind = "
+                               "'cosine' | 'step'"))
+        else:
+            for i, item in enumerate(raw):
+                p = f"irregularity.defects[{i}]"
+                if not isinstance(item, Mapping):
+                    ok = _ok(chk.error(p, item, "a table with kind = 'cosine' | 'step'"))
+                    continue
+                dk = chk.choice(item, p, "kind", DEFECT_KINDS)
+                if dk is _BAD:
+                    ok = False
+                    continue
+                chk.table(item, p, {"kind", *_DEFECT_FIELDS[dk],
+                                    *(("shape",) if dk == "step" else ())})
+                vals = _defect(chk, item, p, dk)
+                if _ok(vals):
+                    defects.append(vals)
+                else:
+                    ok = False
+        if ok:
+            res["defects"] = defects
+    return spec if ok else _BAD
+
+
+# --------------------------------------------------------------------------------- solver
+
+_SOLVER_FIELDS = {
+    "dt": _Num("a time step > 0 s", gt=0, default=SolverSettings.dt),
+    "hht_alpha": _Num("-1/3 <= hht_alpha <= 0", ge=-1.0 / 3.0 - 1e-12, le=0.0,
+                      default=SolverSettings.hht_alpha),
+    "approach": _Num("a length of approach track >= 0 m", ge=0,
+                     default=SolverSettings.approach),
+    "free_vibration": _Num("a duration >= 0 s", ge=0, default=SolverSettings.free_vibration),
+    "max_iterations": _Num("an integer 1 <= max_iterations <= 10000", ge=1, le=10_000,
+                           integer=True, default=SolverSettings.max_iterations),
+    "max_subdivisions": _Num("an integer 0 <= max_subdivisions <= 30", ge=0, le=30,
+                             integer=True, default=SolverSettings.max_subdivisions),
+    "acceleration_cutoff": _Num("a frequency > 0 Hz", gt=0, default=None),
+}
+
+
+def _solver_section(chk, d) -> dict | _Sentinel:
+    if d is _MISSING:
+        d = {}
+    if chk.table(d, "solver", set(_SOLVER_FIELDS), what=" [solver] (dt, hht_alpha, ...)") is _BAD:
+        return _BAD
+    vals = chk.numbers(d, "solver", _SOLVER_FIELDS)
+    if not _ok(*vals.values()):
+        return _BAD
+    vals["hht_alpha"] = max(vals["hht_alpha"], -1.0 / 3.0)
+    return vals
+
+
+def _contact_section(chk, d) -> dict | _Sentinel:
+    if d is _MISSING:
+        return {"model": "rigid"}
+    if chk.table(d, "contact", {"model"}, what=" [contact] with model = 'rigid'") is _BAD:
+        return _BAD
+    v = d.get("model", "rigid")
+    if v in RESERVED_CONTACT_MODELS:
+        return chk.error("contact.model", v, f"'rigid' ('{v}' contact is not available in "
+                                             "this version)")
+    model = chk.choice(d, "contact", "model", CONTACT_MODELS, default="rigid")
+    return _BAD if model is _BAD else {"model": model}
+
+
+# ---------------------------------------------------------------------------------- study
+
+_SPEED = _Num("a speed > 0 km/h (at most 1000)", gt=0, le=1000)
+
+
+def _speed_grid(start, stop, step) -> np.ndarray:
+    n = int(math.floor((stop - start) / step + 1e-9))
+    return np.round(start + step * np.arange(n + 1), 9)
+
+
+def _study_section(chk, d, default_output: str, base_dir: Path) -> dict | _Sentinel:
+    path = "study"
+    allowed = {"speeds_kmh", "output", "save_time_histories", "line_speed_kmh",
+               "history_speeds_kmh"}
+    if d is _MISSING:
+        return chk.error(path, _MISSING, "a table [study] with speeds_kmh (km/h) or "
+                                         "line_speed_kmh")
+    if chk.table(d, path, allowed, what=" [study] with speeds_kmh") is _BAD:
+        return _BAD
+    line = chk.get_number(d, path, "line_speed_kmh", _Num(
+        "a line speed > 0 km/h (at most 1000)", gt=0, le=1000, default=None))
+    speeds = _BAD
+    expected = ("a list of speeds > 0 km/h, or a table {start, stop, step} in km/h")
+    if "speeds_kmh" in d:
+        raw = _as_list(d["speeds_kmh"])
+        if isinstance(raw, Mapping):
+            g = chk.table(raw, "study.speeds_kmh", {"start", "stop", "step"})
+            if g is not _BAD:
+                vals = chk.numbers(raw, "study.speeds_kmh", {
+                    "start": _SPEED, "stop": _SPEED, "step": _Num("a step > 0 km/h", gt=0)})
+                if _ok(*vals.values()):
+                    if vals["stop"] < vals["start"]:
+                        chk.error("study.speeds_kmh.stop", vals["stop"],
+                                  f"a speed >= start = {vals['start']:g} km/h")
+                    elif (vals["stop"] - vals["start"]) / vals["step"] >= MAX_SPEEDS:
+                        chk.error("study.speeds_kmh.step", vals["step"],
+                                  f"a step giving at most {MAX_SPEEDS} speeds")
+                    else:
+                        speeds = _speed_grid(vals["start"], vals["stop"], vals["step"]).tolist()
+        else:
+            speeds = chk.number_list(raw, "study.speeds_kmh", _SPEED, expected=expected,
+                                     scalar_ok=True, max_len=MAX_SPEEDS)
+            if _is_number(speeds):
+                speeds = [speeds]
+            if isinstance(speeds, list) and len(set(speeds)) != len(speeds):
+                speeds = chk.error("study.speeds_kmh", raw, "distinct speeds")
+    elif line is None:
+        chk.error("study.speeds_kmh", _MISSING, expected + " (or give study.line_speed_kmh)")
+    elif line is not _BAD:
+        stop = 1.2 * line
+        start = 140.0 if stop >= 140.0 else 5.0
+        grid = _speed_grid(start, stop, 5.0)
+        if grid[-1] < stop - 1e-9:
+            grid = np.append(grid, round(stop, 9))
+        speeds = grid.tolist()
+    output = chk.string(d, path, "output", "a path to a netCDF file ending in .nc",
+                        default=default_output)
+    out_full = _BAD
+    if _ok(output):
+        if "\x00" in output or not output.endswith(".nc"):
+            output = chk.error("study.output", output, "a path to a netCDF file ending in .nc")
+        else:
+            out_full = (base_dir / Path(output).expanduser()).resolve()
+            if out_full.is_dir():
+                output = chk.error("study.output", output, f"a file path ({out_full} is a "
+                                                           "directory)")
+    save = chk.boolean(d, path, "save_time_histories", True)
+    hist = None
+    if "history_speeds_kmh" in d:
+        hist = chk.number_list(d["history_speeds_kmh"], "study.history_speeds_kmh", _SPEED,
+                               expected="a list of speeds (km/h) taken from study.speeds_kmh",
+                               scalar_ok=True, min_len=0)
+        if _is_number(hist):
+            hist = [hist]
+        if isinstance(hist, list) and isinstance(speeds, list):
+            for i, s in enumerate(hist):
+                if not any(abs(s - g) <= 1e-6 * max(1.0, g) for g in speeds):
+                    chk.error(f"study.history_speeds_kmh[{i}]", s,
+                              "one of the speeds of study.speeds_kmh")
+                    hist = _BAD
+                    break
+    if not _ok(line, speeds, output, save, hist, out_full):
+        return _BAD
+    return _drop_none({"speeds_kmh": speeds, "line_speed_kmh": line, "output": output,
+                       "save_time_histories": save, "history_speeds_kmh": hist,
+                       "_output_path": out_full})
+
+
+# --------------------------------------------------------------------------------- config
+
+
+class Config:
+    """A validated configuration (build it with :func:`load_config`).
+
+    Attributes
+    ----------
+    title : str
+        The run title (default: the file name stem).
+    path : pathlib.Path or None
+        The config file, or None for a mapping.
+    base_dir : pathlib.Path
+        Directory relative paths resolve against.
+    warnings : list of str
+        Physically suspicious but legal input.
+    """
+
+    def __init__(self, *, title, path, base_dir, resolved, bridge, train, irregularity,
+                 solver, study, warnings):
+        self.title: str = title
+        self.path: Path | None = path
+        self.base_dir: Path = base_dir
+        self.warnings: list[str] = list(warnings)
+        self._resolved = resolved
+        self._bridge = bridge
+        self._train = train
+        self._irr = irregularity
+        self._solver = solver
+        self._study = study
+
+    def __repr__(self) -> str:
+        """Title and hash."""
+        return f"Config(title={self.title!r}, sha256={self.sha256[:12]}...)"
+
+    # -- model
+    def build_bridge(self) -> _bridge.ModalBridge:
+        """Return the bridge model (:class:`~vsi_numba.model.bridge.ModalBridge`).
+
+        Raises
+        ------
+        ConfigError
+            For ``bridge.kind = 'modes_file'`` (not supported by this version).
+        """
+        if self._bridge.model is None:
+            raise ConfigError(
+                [f"bridge.kind = '{self._bridge.kind}' is not supported by this version "
+                 "(deck modes from a file come with a later release)"],
+                source=str(self.path) if self.path else "<mapping>",
+            )
+        return self._bridge.model
+
+    @property
+    def output_points(self) -> np.ndarray:
+        """Positions of the deck outputs (m from the left end), shape (n_points,)."""
+        return self._bridge.output_points.copy()
+
+    def trains(self) -> list[_veh.Train]:
+        """Return the trains: one per preset, or one built from explicit vehicles."""
+        return list(self._train.trains)
+
+    def irregularities(self, x_start: float, x_stop: float) -> list[tuple[int, Any]]:
+        """Track profiles over ``[x_start, x_stop]`` (m) as ``(realisation id, Profile)``.
+
+        The id is the seed for ``kind = 'psd'`` (one profile per seed) and -1 for the
+        deterministic kinds (none, cosine, step, file).  Isolated defects listed in
+        ``[[irregularity.defects]]`` are added to every profile.
+        """
+        r = self._resolved["irregularity"]
+        kind = r["kind"]
+
+        def defect(spec):
+            if spec["kind"] == "cosine":
+                return _irr.cosine_defect(spec["depth"], spec["wavelength"], spec["position"])
+            stop = max(x_stop, spec["position"] + spec["length"])
+            return _irr.step_defect(spec["height"], spec["length"], spec["position"], stop,
+                                    spec["shape"])
+
+        extra = [defect(s) for s in r.get("defects", [])]
+        if kind == "psd":
+            base = [
+                (int(seed), _irr.psd_profile(r["spectrum"], r["wavelength_min"],
+                                             r["wavelength_max"], int(seed), x_start, x_stop,
+                                             r.get("dx")))
+                for seed in r["seeds"]
+            ]
+        elif kind == "file":
+            base = [(-1, self._irr.file_profile)]
+        elif kind == "none":
+            base = [(-1, _irr.no_irregularity())]
+        else:
+            base = [(-1, defect(r))]
+        if not extra:
+            return base
+        return [(i, _irr.combine(p, *extra)) for i, p in base]
+
+    def solver_settings(self) -> SolverSettings:
+        """Return the :class:`~vsi_numba.solver.settings.SolverSettings` (SI units)."""
+        return SolverSettings(**self._solver)
+
+    # -- study
+    @property
+    def speeds_kmh(self) -> np.ndarray:
+        """Speeds of the study (km/h), shape (n_speeds,)."""
+        return np.asarray(self._study["speeds_kmh"], float)
+
+    @property
+    def output_path(self) -> Path:
+        """The netCDF output file (absolute; relative paths resolve against base_dir)."""
+        return self._study["_output_path"]
+
+    @property
+    def save_time_histories(self) -> bool:
+        """Whether time histories are written (envelopes always are)."""
+        return bool(self._study["save_time_histories"])
+
+    @property
+    def history_speeds_kmh(self) -> np.ndarray | None:
+        """Speeds (km/h) whose time histories are kept; None = every speed."""
+        h = self._study.get("history_speeds_kmh")
+        return None if h is None else np.asarray(h, float)
+
+    @property
+    def contact_model(self) -> str:
+        """Wheel-rail contact model ('rigid')."""
+        return self._resolved["contact"]["model"]
+
+    # -- provenance
+    def resolved(self) -> dict:
+        """Return the configuration with every default filled in (JSON-serialisable).
+
+        Paths stay as written (relative to :attr:`base_dir`), so
+        ``load_config(cfg.resolved(), base_dir=cfg.base_dir)`` gives the same config.
+        """
+        return json.loads(json.dumps(self._resolved))
+
+    def to_json(self) -> str:
+        """Return the resolved configuration as JSON with sorted keys (stable)."""
+        return json.dumps(self._resolved, sort_keys=True, separators=(",", ":"))
+
+    @property
+    def sha256(self) -> str:
+        """SHA-256 hex digest of :meth:`to_json`."""
+        return hashlib.sha256(self.to_json().encode("utf-8")).hexdigest()
+
+
+def _read_toml(path: Path) -> tuple[dict | None, list[str]]:
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        return None, [f"{path}: file not found; expected a TOML configuration file"]
+    except IsADirectoryError:
+        return None, [f"{path}: is a directory; expected a TOML configuration file"]
+    except OSError as exc:
+        return None, [f"{path}: cannot be read ({exc.strerror}); expected a TOML file"]
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        return None, [f"{path}: not a TOML file (byte {exc.start} is not UTF-8 text); expected "
+                      "a UTF-8 TOML configuration file"]
+    try:
+        return tomllib.loads(text), []
+    except tomllib.TOMLDecodeError as exc:
+        hint = "" if path.suffix.lower() == ".toml" else " (is this a TOML file?)"
+        msg = " ".join(str(exc).split())
+        return None, [f"{path}: TOML syntax error: {msg}; expected valid TOML{hint}"]
+
+
+def load_config(path_or_mapping, base_dir=None) -> Config:
+    """Read and validate a configuration.
+
+    Parameters
+    ----------
+    path_or_mapping : str, path-like or mapping
+        A TOML file, or the already-parsed mapping (same structure).
+    base_dir : str or path-like, optional
+        Directory that relative paths (profile file, train file, output) resolve
+        against; default: the config file's directory, or the working directory for a
+        mapping.
+
+    Returns
+    -------
+    Config
+
+    Raises
+    ------
+    ConfigError
+        Listing every problem found (key path, bad value, expectation), before any
+        computation.
+    """
+    path = None
+    if isinstance(path_or_mapping, Mapping):
+        data = path_or_mapping
+        source = "<mapping>"
+    elif isinstance(path_or_mapping, str | Path):
+        path = Path(path_or_mapping).expanduser()
+        source = str(path)
+        data, errors = _read_toml(path)
+        if errors:
+            raise ConfigError(errors, source=source)
+        path = path.resolve()
+    else:
+        raise ConfigError([f"config = {_show(path_or_mapping)}: expected a path to a TOML "
+                           "file or a mapping"])
+    if base_dir is None:
+        base = path.parent if path is not None else Path.cwd()
+    else:
+        base = Path(base_dir).expanduser().resolve()
+    return _validate(data, path, base, source)
+
+
+def _validate(data, path: Path | None, base: Path, source: str) -> Config:
+    chk = _Checker()
+    top = {"title", "bridge", "train", "irregularity", "solver", "contact", "study"}
+    chk.table(data, "", top)
+    default_title = path.stem if path is not None else "untitled"
+    title = chk.string(data, "", "title", "a title (string)", default=None, nonempty=False)
+    if "bridge" not in data:
+        chk.error("bridge", _MISSING, "a table [bridge] with kind, spans, EI, mass_per_length")
+    if "train" not in data:
+        chk.error("train", _MISSING, "a table [train] with preset, [[train.vehicles]] or file")
+
+    solver = _solver_section(chk, data.get("solver", _MISSING))
+    contact = _contact_section(chk, data.get("contact", _MISSING))
+    cutoff = solver["acceleration_cutoff"] if _ok(solver) else None
+    bridge = _bridge_section(chk, data["bridge"], base, cutoff) if "bridge" in data else _BAD
+    train = (
+        _train_section(chk, data["train"], base, title if _ok(title) else None)
+        if "train" in data else _BAD
+    )
+    irr = _irregularity_section(chk, data.get("irregularity", _MISSING), base)
+    stem = path.stem if path is not None else "run"
+    study = _study_section(chk, data.get("study", _MISSING), f"results/{stem}.nc", base)
+
+    if _ok(bridge, solver, irr) and irr.file_profile is not None and bridge.length is not None:
+        _check_file_coverage(chk, irr, -solver["approach"], bridge.length)
+    if chk.errors:
+        raise ConfigError(chk.errors, source=source)
+
+    _physics_warnings(chk, bridge, train, irr, solver, study)
+    resolved = {
+        "title": title if title is not None else default_title,
+        "bridge": bridge.resolved,
+        "train": train.resolved,
+        "irregularity": irr.resolved,
+        "solver": _drop_none(dict(solver)),
+        "contact": contact,
+        "study": {k: v for k, v in study.items() if not k.startswith("_")},
+    }
+    return Config(
+        title=resolved["title"], path=path, base_dir=base, resolved=resolved, bridge=bridge,
+        train=train, irregularity=irr, solver=solver, study=study, warnings=chk.warnings,
+    )
+
+
+def _check_file_coverage(chk, irr, x_start, x_stop):
+    prof = irr.file_profile
+    if prof.x0 > x_start + 1e-9 or prof.x_end < x_stop - 1e-9:
+        chk.error("irregularity.path", irr.resolved["path"],
+                  f"a profile covering the approach and the bridge, x = {x_start:g} .. "
+                  f"{x_stop:g} m (the file covers {prof.x0:g} .. {prof.x_end:g} m and the "
+                  "profile is zero outside)")
+
+
+def _physics_warnings(chk, bridge, train, irr, solver, study):
+    dt = solver["dt"]
+    vmax = max(study["speeds_kmh"]) / 3.6
+    model = bridge.model
+    if model is not None and model.n_modes:
+        fmax = float(model.frequencies[-1])
+        if dt * fmax > DT_RESOLUTION:
+            chk.warn(
+                f"solver.dt = {dt:g} s: dt x f = {dt * fmax:.3g} for the highest retained "
+                f"bridge mode ({fmax:.4g} Hz); above {DT_RESOLUTION} (fewer than "
+                f"{1 / DT_RESOLUTION:.0f} steps per period) that mode is under-resolved and "
+                f"damped numerically; use dt <= {DT_RESOLUTION / fmax:.3g} s or fewer modes"
+            )
+        allf = bridge.all_frequencies
+        if allf is not None and allf.size:
+            f1 = float(allf[0])
+            f3 = float(allf[2]) if allf.size >= 3 else 0.0
+            cut = solver["acceleration_cutoff"]
+            rule = "solver.acceleration_cutoff"
+            if cut is None:
+                cut = max(30.0, 1.5 * f1, f3)
+                rule = "the EN 1990 A2.4.4.2.1 cut-off max(30 Hz, 1.5 f1, f3)"
+            missing = int(np.count_nonzero(allf <= cut * (1 + 1e-9))) - model.n_modes
+            if missing > 0:
+                chk.warn(
+                    f"bridge.n_modes: the highest retained mode ({fmax:.4g} Hz) is below "
+                    f"{rule} = {cut:.4g} Hz; {missing} mode(s) up to the cut-off are left out "
+                    "of the deck accelerations (raise bridge.n_modes or bridge.max_frequency)"
+                )
+    for tr in train.trains:
+        fv = 0.0
+        for v in tr.vehicles:
+            if v.n_dof and v.n_dof > v.n_wheels:
+                try:
+                    f = v.natural_frequencies(fixed_wheels=True)
+                except (ValueError, np.linalg.LinAlgError):
+                    continue
+                if f.size:
+                    fv = max(fv, float(f.max()))
+        if dt * fv > DT_RESOLUTION:
+            chk.warn(
+                f"solver.dt = {dt:g} s: dt x f = {dt * fv:.3g} for the highest vehicle "
+                f"frequency of train '{tr.name}' ({fv:.4g} Hz, wheels held); above "
+                f"{DT_RESOLUTION} it is under-resolved; use dt <= {DT_RESOLUTION / fv:.3g} s"
+            )
+    r = irr.resolved
+    shortest = []
+    if r["kind"] == "psd":
+        shortest.append(("irregularity.wavelength_min", r["wavelength_min"]))
+    if r["kind"] == "cosine":
+        shortest.append(("irregularity.wavelength", r["wavelength"]))
+    for i, dfc in enumerate(r.get("defects", [])):
+        key = "wavelength" if dfc["kind"] == "cosine" else "length"
+        shortest.append((f"irregularity.defects[{i}].{key}", dfc[key]))
+    for key, lam in shortest:
+        steps = lam / (vmax * dt)
+        if steps < STEPS_PER_WAVELENGTH:
+            chk.warn(
+                f"{key} = {lam:g} m is crossed in {steps:.3g} time steps at "
+                f"{vmax * 3.6:g} km/h (dt = {dt:g} s); fewer than {STEPS_PER_WAVELENGTH} "
+                "steps per wavelength under-resolve the excitation (reduce solver.dt)"
+            )
+    if r["kind"] in ("cosine", "step"):
+        amp = abs(r.get("depth", r.get("height", 0.0)))
+        if amp > 0.05:
+            chk.warn(f"irregularity: |{'depth' if 'depth' in r else 'height'}| = {amp:g} m is "
+                     "more than 50 mm; irregularities are in metres (was mm intended?)")
+    if model is not None and train.trains:
+        length = max(t.length for t in train.trains)
+        vmin = min(study["speeds_kmh"]) / 3.6
+        steps = ((solver["approach"] + model.length + length) / vmin
+                 + solver["free_vibration"]) / dt
+        if steps > 2e7:
+            chk.warn(f"solver.dt = {dt:g} s: the slowest run needs about {steps:.3g} time "
+                     "steps; check the time step")

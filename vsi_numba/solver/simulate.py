@@ -90,6 +90,28 @@ def _effective_stiffness(M, C, K, dt, alpha):
     return M / (beta * dt * dt) + (1.0 + alpha) * (gamma / (beta * dt) * C + K)
 
 
+def _vehicle_inverses(v, settings, levels):
+    """K^-1 for dt/2^k (k < levels), M^-1 on the DOFs with mass, and that mask."""
+    n = v.n_dof
+    kh_inv = np.zeros((levels, n, n))
+    for lev in range(levels):
+        kh = _effective_stiffness(v.M, v.C, v.K, settings.dt / 2**lev, settings.hht_alpha)
+        if np.linalg.cond(kh) > 1e13:
+            raise ModelError(
+                f"vehicle {v.name!r}: singular effective stiffness (a DOF with neither "
+                "mass nor stiffness?)"
+            )
+        kh_inv[lev] = np.linalg.inv(kh)
+    massive = np.any(v.M != 0.0, axis=1)
+    m_inv = np.zeros((n, n))
+    if massive.any():
+        mm = v.M[np.ix_(massive, massive)]
+        if np.linalg.cond(mm) > 1e13:
+            raise ModelError(f"vehicle {v.name!r}: singular mass matrix")
+        m_inv[np.ix_(np.flatnonzero(massive), np.flatnonzero(massive))] = np.linalg.inv(mm)
+    return kh_inv, m_inv, massive
+
+
 def pack(
     bridge: ModalBridge,
     train: Train,
@@ -113,26 +135,18 @@ def pack(
     Kh = np.zeros((levels, n_veh, nb, nb))
     Mi = np.zeros_like(M)
     grav, wdof, wveh, wpos, wmassless, body = [], [], [], [], [], []
+    inverses: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
     for b, (_, v, off) in enumerate(dyn):
         n = v.n_dof
         start[b + 1] = start[b] + n
         M[b, :n, :n] = v.M
         C[b, :n, :n] = v.C
         K[b, :n, :n] = v.K
-        for lev in range(levels):
-            kh = _effective_stiffness(v.M, v.C, v.K, settings.dt / 2**lev, settings.hht_alpha)
-            if np.linalg.cond(kh) > 1e13:
-                raise ModelError(
-                    f"vehicle {v.name!r}: singular effective stiffness (a DOF with neither "
-                    "mass nor stiffness?)"
-                )
-            Kh[lev, b, :n, :n] = np.linalg.inv(kh)
-        massive = np.any(v.M != 0.0, axis=1)
-        if massive.any():
-            mm = v.M[np.ix_(massive, massive)]
-            if np.linalg.cond(mm) > 1e13:
-                raise ModelError(f"vehicle {v.name!r}: singular mass matrix")
-            Mi[b][np.ix_(np.flatnonzero(massive), np.flatnonzero(massive))] = np.linalg.inv(mm)
+        if id(v) not in inverses:  # a train repeats the same car: invert once
+            inverses[id(v)] = _vehicle_inverses(v, settings, levels)
+        kh_inv, m_inv, massive = inverses[id(v)]
+        Kh[:, b, :n, :n] = kh_inv
+        Mi[b, :n, :n] = m_inv
         for kdof, p in zip(v.wheel_dofs, v.wheel_positions, strict=True):
             wdof.append(start[b] + kdof)
             wveh.append(b)

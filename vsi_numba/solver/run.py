@@ -65,7 +65,7 @@ def run_config(cfg, progress=None) -> xr.Dataset:
         "title": cfg.title,
         "Conventions": "CF-1.12",
         "source": _source(),
-        "history": f"{now} vsi run {' '.join(sys.argv[1:]) if sys.argv else ''}".strip(),
+        "history": f"{now} vsi {' '.join(sys.argv[1:])}".strip(),
         "config_json": cfg.to_json(),
         "config_sha256": cfg.sha256,
         "train": train.name,

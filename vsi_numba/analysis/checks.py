@@ -387,7 +387,7 @@ def dynamic_amplification(
         stats = design_value(dyn, q=q, n_boot=0)
         dyn = stats["value"]
         basis = (stats.attrs["basis"] + "; includes the effect of the irregularities, so "
-                 "adding phi''/2 double counts them")
+                 "adding φ''/2 double counts them")
     stat = abs(ds["max_static_deck_displacement"])
     with np.errstate(divide="ignore", invalid="ignore"):
         phi = (abs(dyn) / stat.where(stat > 0) - 1.0)
@@ -423,7 +423,7 @@ def dynamic_amplification(
         "phi2_max": float(phi2.max()) if bool(phi2.notnull().any()) else np.nan,
         "design_factor_max": float(nanmax(out["design_factor"], ["speed", "train"])),
     }
-    return _summarise(out, "Dynamic increment phi'_dyn", "EN 1991-2 6.4.6.5 [R]", "1", None,
+    return _summarise(out, "Dynamic increment φ'dyn", "EN 1991-2 6.4.6.5 [R]", "1", None,
                       extra=extra)
 
 
@@ -488,7 +488,7 @@ def wheel_unloading(
         out["contact_loss_count"] = cnt.assign_attrs(
             units="1", long_name="contact-loss events, all wheels (worst realisation)")
         extra["max_contact_loss_count"] = float(nanmax(cnt, ["speed", "train"]))
-    out = _summarise(out, "Wheel unloading dQ/Q0", WHEEL_UNLOADING_CLAUSE, "1", limit,
+    out = _summarise(out, "Wheel unloading ΔQ/Q₀", WHEEL_UNLOADING_CLAUSE, "1", limit,
                      extra={**extra, "basis": out.attrs["basis"]})
     if out.attrs["governing_train"]:
         t, v = out.attrs["governing_train"], out.attrs["governing_speed"]
@@ -619,11 +619,11 @@ def summary_table(checks: dict) -> pd.DataFrame:
         if isinstance(check, str):
             continue
         rows.append({c: check.attrs.get(c, np.nan) for c in SUMMARY_COLUMNS})
-        if check.attrs.get("check", "").startswith("Dynamic increment"):
+        if "design_factor" in check:
             a = check.attrs
             gov = _governing(check["design_factor"])
             rows.append({
-                "check": "Design factor 1 + phi'_dyn + phi''/2",
+                "check": "Design factor 1 + φ'dyn + φ''/2",
                 "value": a["design_factor_max"], "units": "1", "limit": np.nan,
                 "margin": np.nan, "utilisation": np.nan,
                 "result": "info" if np.isfinite(a["design_factor_max"]) else _RESULT_NA,

@@ -1,0 +1,528 @@
+"""``vsi report``: checks, figures and a Markdown report of a results file.
+
+:func:`write_report` runs every check of :mod:`vsi_numba.analysis.checks` that the file
+allows, draws the figures of :mod:`vsi_numba.analysis.plots` and writes ``report.md``
+(plus ``summary.csv``) into one directory. :func:`report_command` is the CLI entry: it
+returns an exit code and prints a one-line reason instead of a traceback for missing,
+unreadable or incomplete files.
+"""
+
+from __future__ import annotations
+
+import sys
+from datetime import UTC, datetime
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from vsi_numba.analysis import checks as chk
+from vsi_numba.analysis import plots
+from vsi_numba.analysis.dataset import (
+    DETERMINISTIC,
+    ResultsError,
+    bridge_frequencies,
+    nanargmax_case,
+    prepare,
+    require,
+    status_meanings,
+    track_type,
+)
+from vsi_numba.analysis.statistics import wilks_sample_size
+
+#: Variables without which no report is written.
+REQUIRED_VARIABLES = ("max_deck_acceleration", "max_deck_displacement")
+
+#: Train data statuses that get a loud warning (see data/trains.toml status_values).
+WARN_STATUSES = {
+    "suspect": "transcribed values with a documented inconsistency",
+    "reconstruction": "values derived here to remove a documented inconsistency, "
+                      "not a published data set",
+    "missing": "no vehicle data: a placeholder",
+    "secondary": "only a third-party transcription of the source was available",
+}
+
+
+# --------------------------------------------------------------------------------------
+# Formatting
+# --------------------------------------------------------------------------------------
+
+
+def _fmt(value, units: str = "", digits: int = 3) -> str:
+    """Readable value with units for the Markdown tables (SI in, kN/mm for N/m)."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return str(value)
+    if not np.isfinite(v):
+        return "–"
+    if units == "N":
+        return f"{v / 1e3:.1f} kN"
+    if units == "m":
+        return f"{v * 1e3:.2f} mm"
+    if units == "m s-2":
+        return f"{v:.{digits}g} m/s²"
+    if units == "s":
+        return f"{v:.3g} s"
+    return f"{v:.{digits}g}"
+
+
+def _result(text: str) -> str:
+    return {"FAIL": "**FAIL**", "pass": "pass"}.get(text, text)
+
+
+def _table(header: list[str], rows: list[list[str]]) -> list[str]:
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    lines += ["| " + " | ".join(str(c).replace("|", "\\|") for c in r) + " |" for r in rows]
+    return lines
+
+
+def _version() -> str:
+    try:
+        return metadata.version("vsi_numba")
+    except metadata.PackageNotFoundError:  # pragma: no cover - running from a checkout
+        return "unknown"
+
+
+# --------------------------------------------------------------------------------------
+# Sections
+# --------------------------------------------------------------------------------------
+
+
+def _provenance(ds: xr.Dataset, source_path: Path | None) -> list[str]:
+    a = ds.attrs
+    history = str(a.get("history", "")).strip().splitlines()
+    rows = [
+        ["results file", f"`{source_path}`" if source_path else "(in memory)"],
+        ["source", a.get("source", "–")],
+        ["config SHA-256", f"`{a['config_sha256']}`" if a.get("config_sha256") else "–"],
+        ["conventions", a.get("Conventions", "–")],
+        ["history (last step)", history[-1] if history else "–"],
+        ["report", f"vsi_numba {_version()}, "
+                   f"{datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')}"],
+    ]
+    out = ["## Provenance", ""] + _table(["", ""], rows)
+    if not a.get("config_json"):
+        out += ["", "> The file carries no `config_json`: the run cannot be reproduced from it."]
+    return out + [""]
+
+
+def _flagged_trains(ds: xr.Dataset) -> list[str]:
+    """Trains whose data status is in :data:`WARN_STATUSES`."""
+    if "train_status" not in ds:
+        return []
+    return [str(t) for t, s in zip(ds["train"].values, ds["train_status"].values, strict=True)
+            if str(s) in WARN_STATUSES]
+
+
+def _bridge(ds: xr.Dataset) -> list[str]:
+    a = ds.attrs
+    f = bridge_frequencies(ds)
+    out = ["## Bridge", ""]
+    out.append(f"- Description: {a.get('bridge_description', '–')}")
+    if "bridge_length" in a:
+        out.append(f"- Length: {float(a['bridge_length']):g} m")
+    track = track_type(ds)
+    limit = chk.DECK_ACCELERATION_LIMITS.get(track)
+    out.append(f"- Track: {track}"
+               + (f" (deck acceleration limit {limit:g} m/s², {chk.DECK_ACCELERATION_CLAUSE})"
+                  if limit else " (unknown track type: no default acceleration limit)"))
+    if f.size:
+        shown = f[:10]
+        out.append("- Natural frequencies [Hz]: " + ", ".join(f"{x:.3f}" for x in shown)
+                   + (f" … ({f.size} modes)" if f.size > shown.size else ""))
+        cut = chk.frequency_cutoff(f)
+        out.append(f"- Frequency cut-off of the acceleration check, max(30 Hz, 1.5 f₁, f₃) "
+                   f"= max(30, {1.5 * f[0]:.2f}, "
+                   f"{f[2]:.2f}) = **{cut:.2f} Hz** ({chk.DECK_ACCELERATION_CLAUSE} [R])"
+                   if f.size >= 3 else
+                   f"- Frequency cut-off of the acceleration check: {cut:.2f} Hz "
+                   f"(fewer than 3 modes known: f₃ not included)")
+        if f[-1] < cut:
+            out.append(f"\n> **Note:** the highest mode in the model is {f[-1]:.2f} Hz, below "
+                       f"the cut-off {cut:.2f} Hz: modes between the two are missing and the "
+                       "deck accelerations may be underestimated. Keep more modes.")
+    else:
+        out.append("- Natural frequencies: not in the file (no `frequency` variable); the "
+                   "acceleration cut-off max(30 Hz, 1.5 f₁, f₃) cannot be stated.")
+    return out + [""]
+
+
+def _summary(results: dict, table: pd.DataFrame) -> list[str]:
+    out = ["## Summary of checks", ""]
+    rows = []
+    for _, r in table.iterrows():
+        units = r["units"]
+        util = r["utilisation"]
+        rows.append([
+            r["check"], _fmt(r["value"], units), _fmt(r["limit"], units),
+            _fmt(r["margin"], units), "–" if not np.isfinite(util) else f"{100 * util:.0f} %",
+            _result(r["result"]), r["governing_train"] or "–",
+            _fmt(r["governing_speed_kmh"]), r["clause"],
+        ])
+    out += _table(["Check", "Value", "Limit", "Margin (limit − value)", "Utilisation",
+                   "Result", "Governing train", "Speed [km/h]", "Clause"], rows)
+    out.append("")
+    acc = results.get("deck_acceleration")
+    if not isinstance(acc, str) and acc is not None:
+        a = acc.attrs
+        out.append(f"- Deck acceleration: max over the deck points; governing point "
+                   f"x = {a['governing_point']:g} m. Over realisations: {a['basis']}.")
+    dyn = results.get("dynamic_amplification")
+    if not isinstance(dyn, str) and dyn is not None:
+        a = dyn.attrs
+        out.append(f"- φ'dyn = max|y_dyn| / max|y_stat| − 1 of the deck maximum displacement, "
+                   f"static response of the same model; basis: {a['basis']}. "
+                   f"φ'' (EN 1991-2 Annex C [R]) with L_Φ = {a['length']:g} m, "
+                   f"n₀ = {a['n0']:.3g} Hz: max {_fmt(a['phi2_max'])}. "
+                   "The design factor 1 + φ'dyn + φ''/2 is information for the comparison "
+                   "with Φ × LM71 (EN 1991-2 6.4.6.5(3) [R]), not a pass/fail check.")
+    wu = results.get("wheel_unloading")
+    if not isinstance(wu, str) and wu is not None:
+        a = wu.attrs
+        txt = f"- Wheel unloading: governing axle {a['governing_wheel']}"
+        if "min_contact_force" in a:
+            txt += f"; smallest contact force {_fmt(a['min_contact_force'], 'N')}"
+        if "max_contact_loss_duration" in a:
+            d = a["max_contact_loss_duration"]
+            txt += ("; no loss of contact" if np.isfinite(d) and d == 0 else
+                    f"; longest loss of contact {_fmt(d, 's')}"
+                    + (f" ({a['max_contact_loss_count']:.0f} events in the worst case)"
+                       if "max_contact_loss_count" in a else ""))
+        out.append(txt + ".")
+    cf = results.get("comfort")
+    if not isinstance(cf, str) and cf is not None:
+        a = cf.attrs
+        out.append(f"- Comfort: required level **{a['required_level']}**; level reached in "
+                   f"the governing case: {a['level']}.")
+    out.append("- Limits and clauses tagged [R] are recalled from the standard, not re-read: "
+               "check them against the primary text before relying on them.")
+    missing = [f"- {name.replace('_', ' ')}: {why}" for name, why in results.items()
+               if isinstance(why, str)]
+    if missing:
+        out += ["", "Checks not made:", *missing]
+    return out + [""]
+
+
+def _trains(ds: xr.Dataset) -> list[str]:
+    out = ["## Trains", ""]
+    f = bridge_frequencies(ds)
+    lo, hi = float(ds["speed_kmh"].min()), float(ds["speed_kmh"].max())
+    rows, warnings = [], []
+    for train in ds["train"].values:
+        name = str(train)
+        status = (str(ds["train_status"].sel(train=train).values)
+                  if "train_status" in ds else "unknown")
+        D = (float(ds["train_regular_length"].sel(train=train))
+             if "train_regular_length" in ds else np.nan)
+        if "static_wheel_load" in ds:
+            q0 = ds["static_wheel_load"].sel(train=train).values
+            axles = str(int(np.isfinite(q0).sum()))
+            weight = _fmt(np.nansum(q0), "N") if np.isfinite(q0).any() else "–"
+        else:
+            axles, weight = "–", "–"
+        res = chk.resonance_speeds(f[0], D) if f.size else chk.resonance_speeds(np.nan, D)
+        vres = ", ".join(
+            (f"**{v:.0f}**" if lo <= v <= hi else f"{v:.0f}") for v in res["speed_kmh"]
+        ) or "–"
+        shown = f"**{status.upper()}**" if status in WARN_STATUSES else status
+        rows.append([name, shown, "–" if not np.isfinite(D) or D <= 0 else f"{D:g}",
+                     axles, weight, vres])
+        if status in WARN_STATUSES:
+            warnings.append(f"> ⚠ **WARNING — train {name} has data status "
+                            f"'{status.upper()}'** ({WARN_STATUSES[status]}). Its results "
+                            "are not fit for design decisions until the vehicle data are "
+                            "confirmed against the primary source.")
+    out += _table(["Train", "Data status", "D [m]", "Axles", "Σ static axle loads",
+                   "Resonance speeds f₁D/i, i = 1..4 [km/h] (bold: in the analysed range)"],
+                  rows)
+    if warnings:
+        out += [""] + [w + "\n" for w in warnings]
+    return out + [""]
+
+
+def _cases(ds: xr.Dataset) -> list[str]:
+    v = ds["speed_kmh"].values
+    irr = ds["irregularity"].values
+    out = ["## Analysed cases", ""]
+    steps = np.unique(np.round(np.diff(v), 6)) if v.size > 1 else np.zeros(0)
+    step = (f", step {steps[0]:g} km/h" if steps.size == 1 else
+            (", variable step" if steps.size else ""))
+    out.append(f"- Speeds: {v.size}, {v.min():.0f}–{v.max():.0f} km/h{step}")
+    out.append(f"- Trains: {ds.sizes['train']} ({', '.join(map(str, ds['train'].values))})")
+    seeds = irr[irr != DETERMINISTIC]
+    text = f"- Irregularity: {irr.size} realisation{'s' if irr.size != 1 else ''}"
+    if (irr == DETERMINISTIC).any():
+        text += " (deterministic track" + (f" and {seeds.size} random" if seeds.size else "") + ")"
+    else:
+        more = " …" if seeds.size > 10 else ""
+        text += f" (random, seeds {', '.join(map(str, seeds[:10]))}{more})"
+    out.append(text)
+    status = ds["status"].values
+    n_fail = int((status != 0).sum())
+    out.append(f"- Cases: {status.size}, failed: {n_fail}")
+    if n_fail:
+        meanings = status_meanings(ds)
+        rows = []
+        for code in np.unique(status[status != 0]):
+            where = np.argwhere(status == code)
+            first = where[0]
+            example = (f"{ds['train'].values[first[1]]}, "
+                       f"{ds['speed_kmh'].values[first[0]]:.0f} km/h, "
+                       f"irregularity {ds['irregularity'].values[first[2]]}")
+            rows.append([str(int(code)), meanings.get(int(code), "?"), str(len(where)), example])
+        out += ["", "> **Failed cases are left out of every check (NaN outputs).**", ""]
+        out += _table(["Status", "Meaning", "Cases", "First case"], rows)
+    return out + [""]
+
+
+def _statistics(results: dict, ds: xr.Dataset) -> list[str]:
+    out = ["## Statistics over irregularity realisations", ""]
+    n_real = int((ds["irregularity"].values != DETERMINISTIC).sum())
+    if n_real == 0:
+        return out + ["Deterministic track only (one realisation per case): no statistics.", ""]
+    rows = []
+    q = None
+    for name in ("deck_acceleration", "wheel_unloading", "comfort"):
+        c = results.get(name)
+        if c is None or isinstance(c, str) or not c.attrs.get("governing_train"):
+            continue
+        q = c.attrs["q"]
+        case = c.sel(train=c.attrs["governing_train"], speed=c.attrs["governing_speed"])
+        units = c.attrs["units"]
+        ci = (f"[{_fmt(case['ci_low'], units)}, {_fmt(case['ci_high'], units)}]"
+              if np.isfinite(float(case["ci_low"])) else "– (n < 2)")
+        p = float(case["exceedance_probability"]) if "exceedance_probability" in case else np.nan
+        pn = (float(case["exceedance_probability_normal"])
+              if "exceedance_probability_normal" in case else np.nan)
+        rows.append([c.attrs["check"],
+                     f"{c.attrs['governing_train']}, {c.attrs['governing_speed_kmh']:.0f} km/h",
+                     str(int(case["n"])), _fmt(case["mean"], units), _fmt(case["std"], units),
+                     _fmt(case["characteristic"], units), ci,
+                     "–" if not np.isfinite(p) else f"{p:.2f}",
+                     "–" if not np.isfinite(pn) else f"{pn:.2g}"])
+    if q is None:
+        return out + ["No check had realisations to summarise.", ""]
+    pct = f"{100 * q:g} %"
+    out += _table(["Quantity", "Governing case", "n", "Mean", "Std", f"{pct} fractile",
+                   f"95 % bootstrap CI of the {pct} fractile", "P(> limit), sample",
+                   "P(> limit), normal fit"], rows)
+    wilks = wilks_sample_size(q)
+    out += [
+        "",
+        f"The characteristic value is the empirical {pct} fractile over the realisations "
+        "(linear interpolation between order statistics); its confidence interval is a "
+        "percentile bootstrap (resampling the realisations with replacement). "
+        "P(> limit), sample is the fraction of realisations above the limit; the normal "
+        "fit extrapolates beyond 1/n and is indicative only.",
+    ]
+    if n_real < wilks:
+        out.append(
+            f"\n> **More realisations needed:** n = {n_real}. With n realisations the sample "
+            f"maximum bounds the {pct} fractile with 95 % confidence only for n ≥ {wilks} "
+            f"(Wilks: 1 − {q:g}ⁿ ≥ 0.95; here 1 − {q:g}^{n_real} = {1 - q ** n_real:.2f}). "
+            "For small n the bootstrap interval is too narrow."
+        )
+    return out + [""]
+
+
+# --------------------------------------------------------------------------------------
+# Figures
+# --------------------------------------------------------------------------------------
+
+
+def _history_case(ds: xr.Dataset, results: dict):
+    """(train, speed, irregularity, point, wheel, note) for the time-history figure."""
+    acc = results.get("deck_acceleration")
+    if "time" not in ds.dims or "deck_acceleration" not in ds or isinstance(acc, str):
+        return None
+    a = acc.attrs
+    if not a.get("governing_train"):
+        return None
+    train, speed, point = a["governing_train"], a["governing_speed"], a["governing_point"]
+    irr = a.get("governing_irregularity", DETERMINISTIC)
+    hist = ds["deck_acceleration"].sel(train=train, point=point)
+    stored = hist.notnull().any("time")  # (speed, irregularity)
+    note = ""
+    if not bool(stored.sel(speed=speed, irregularity=irr)):
+        peak = ds["max_deck_acceleration"].sel(train=train, point=point).where(stored)
+        alt = nanargmax_case(peak)
+        if alt is None:
+            return None
+        speed, irr = alt["speed"], alt["irregularity"]
+        note = (" No history was stored for the governing case; shown: the stored case of "
+                "the governing train with the largest peak.")
+    wheel = None
+    if "max_wheel_unloading" in ds and "contact_force" in ds:
+        w = nanargmax_case(ds["max_wheel_unloading"].sel(train=train, speed=speed,
+                                                         irregularity=irr))
+        wheel = None if w is None else int(w["wheel"])
+    return train, speed, irr, point, wheel, note
+
+
+def _figures(ds: xr.Dataset, results: dict, outdir: Path) -> list[tuple[str, str]]:
+    """Write the PNGs; return (file name, caption) pairs."""
+    made = []
+
+    def put(fig, name, caption):
+        plots.save(fig, outdir / name)
+        made.append((name, caption))
+
+    acc = results.get("deck_acceleration")
+    if not isinstance(acc, str):
+        put(plots.plot_deck_acceleration(ds, acc), "deck_acceleration.png",
+            "Peak vertical deck acceleration (max over the deck points) against speed, "
+            "with the EN 1990 A2.4.4.2.1 limit; ▼ resonance speeds f₁D/i; shaded: 95 % "
+            "bootstrap interval of the characteristic value where there are realisations.")
+    dyn = results.get("dynamic_amplification")
+    if not isinstance(dyn, str):
+        put(plots.plot_dynamic_amplification(ds, dyn), "dynamic_amplification.png",
+            "Dynamic increment φ'dyn of the deck maximum displacement against speed; "
+            "dotted: φ''/2 (EN 1991-2 Annex C [R]).")
+    wu = results.get("wheel_unloading")
+    if not isinstance(wu, str):
+        put(plots.plot_wheel_unloading(ds, wu), "wheel_unloading.png",
+            "Minimum wheel–rail contact force and wheel unloading ΔQ/Q₀ (max over axles) "
+            "against speed, with the 0.6 limit (EN 14363 practice [R]).")
+    cf = results.get("comfort")
+    if not isinstance(cf, str) and bool(cf["value"].notnull().any()):
+        put(plots.plot_comfort(ds, cf), "comfort.png",
+            "Vertical car-body acceleration (max over vehicles) against speed with the "
+            "levels of comfort of EN 1990 Table A2.9 [R].")
+    case = _history_case(ds, results)
+    if case is not None:
+        train, speed, irr, point, wheel, note = case
+        fig = plots.plot_time_history(ds, train, speed, irr, point, wheel,
+                                      limit=acc.attrs["limit"])
+        put(fig, "time_history.png",
+            f"Time histories of {train} at {float(ds['speed_kmh'].sel(speed=speed)):.0f} km/h "
+            f"(governing case of the deck acceleration) at x = {point:g} m"
+            + (f", contact force of axle {wheel} (largest unloading)" if wheel is not None
+               else "") + "." + note)
+    return made
+
+
+# --------------------------------------------------------------------------------------
+# Entry points
+# --------------------------------------------------------------------------------------
+
+
+def write_report(
+    ds: xr.Dataset, outdir: Path | str, *, q: float = chk.DEFAULT_Q,
+    comfort_level: str = "very good", n_boot: int = 2000, seed: int = 0,
+    source_path: Path | str | None = None,
+) -> Path:
+    """Write ``report.md``, ``summary.csv`` and the PNG figures into ``outdir``.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Results of ``vsi run`` / ``vsi sweep`` (or the same layout built in memory).
+    outdir : path
+        Directory, created if needed; existing report files are overwritten.
+    q : float
+        Characteristic fractile over irregularity realisations.
+    comfort_level : str
+        Required level of comfort (EN 1990 Table A2.9 [R]).
+    n_boot, seed : int
+        Bootstrap settings of the realisation statistics.
+    source_path : path, optional
+        The results file, named in the provenance.
+
+    Returns
+    -------
+    pathlib.Path
+        The Markdown report.
+
+    Raises
+    ------
+    ResultsError
+        If ``ds`` lacks :data:`REQUIRED_VARIABLES` or a ``speed`` coordinate.
+    """
+    ds = prepare(ds)
+    require(ds, REQUIRED_VARIABLES, "the report")
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    results = chk.run_checks(ds, q=q, comfort_level_required=comfort_level, n_boot=n_boot,
+                             seed=seed)
+    table = chk.summary_table(results)
+    table.to_csv(outdir / "summary.csv", index=False)
+    figures = _figures(ds, results, outdir)
+
+    title = ds.attrs.get("title") or "vsi_numba results"
+    lines = [f"# {title}", "",
+             "Railway vehicle–bridge interaction: dynamic checks of the results "
+             + (f"`{Path(source_path).name}`." if source_path else "in memory."), ""]
+    flagged = _flagged_trains(ds)
+    if flagged:
+        lines += [f"> ⚠ **WARNING: results for train(s) {', '.join(flagged)} rest on vehicle "
+                  "data of doubtful status — see [Trains](#trains).**", ""]
+    lines += _provenance(ds, Path(source_path) if source_path else None)
+    lines += _bridge(ds)
+    lines += _summary(results, table)
+    lines += _trains(ds)
+    lines += _cases(ds)
+    lines += _statistics(results, ds)
+    lines += ["## Figures", ""]
+    for i, (name, caption) in enumerate(figures, 1):
+        lines += [f"![Figure {i}]({name})", "", f"*Figure {i}: {caption}*", ""]
+    path = outdir / "report.md"
+    path.write_text("\n".join(lines), encoding="utf-8")
+    return path
+
+
+def _error(message: str) -> None:
+    sys.stderr.write(f"vsi report: {message}\n")
+
+
+def report_command(results: Path, outdir: Path | None = None) -> int:
+    """CLI entry of ``vsi report RESULTS.nc [-o DIR]``.
+
+    Parameters
+    ----------
+    results : Path
+        netCDF results file.
+    outdir : Path, optional
+        Report directory; default ``<results stem>_report`` beside the file.
+
+    Returns
+    -------
+    int
+        0 on success; 2 when the file is missing, unreadable or lacks the variables the
+        report needs; 1 when the report directory cannot be written. The reason goes to
+        stderr as one line (no traceback).
+    """
+    results = Path(results)
+    if not results.exists():
+        _error(f"results file '{results}' does not exist")
+        return 2
+    if not results.is_file():
+        _error(f"'{results}' is not a file")
+        return 2
+    try:
+        ds = xr.open_dataset(results)
+    except Exception as exc:  # noqa: BLE001 - any reader failure means "unreadable"
+        _error(f"cannot read '{results}' as a netCDF results file "
+               f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})")
+        return 2
+    with ds:
+        try:
+            prepared = prepare(ds)
+            require(prepared, REQUIRED_VARIABLES, "the report")
+        except ResultsError as exc:
+            _error(f"'{results}' is not a usable results file: {exc}")
+            return 2
+        if outdir is None:
+            outdir = results.with_name(f"{results.stem}_report")
+        try:
+            path = write_report(prepared, outdir, source_path=results)
+        except ResultsError as exc:
+            _error(f"'{results}': {exc}")
+            return 2
+        except OSError as exc:
+            _error(f"cannot write the report to '{outdir}': {exc}")
+            return 1
+    print(f"report written to {path}")
+    return 0

@@ -216,9 +216,9 @@ class _Checker:
             hint = (
                 f"did you mean '{guess}'?"
                 if guess
-                else "one of " + ", ".join(f"'{a}'" for a in sorted(allowed))
+                else "expected one of " + ", ".join(f"'{a}'" for a in sorted(allowed))
             )
-            self.errors.append(f"{kp} = {_show(value)}: unknown key; expected {hint}")
+            self.errors.append(f"{kp} = {_show(value)}: unknown key; {hint}")
         return data
 
     # -- scalars
@@ -512,7 +512,9 @@ def _flexible_bridge(chk, spec, spans, ei, mass, n_modes, fmax, eps, solver_cuto
                 jmax = min(int(math.floor(math.sqrt(cut / f1) + 1e-9)) + 1, 2 * MAX_MODES)
                 allf = f1 * np.arange(1, jmax + 1) ** 2
             else:
-                allf = _continuous_spectrum(spans, ei, mass, eps)
+                # every mode at once (one eigensolution); truncated below
+                full = _bridge.continuous(spans, ei, mass, None, np.inf, 0.0, eps)
+                allf = full.frequencies
             if not (allf.size and np.all(np.isfinite(allf)) and allf[0] > 0):
                 return chk.error("bridge.EI", ei, "a value that, with mass_per_length and "
                                  "spans, gives finite natural frequencies > 0 Hz")
@@ -523,19 +525,18 @@ def _flexible_bridge(chk, spec, spans, ei, mass, n_modes, fmax, eps, solver_cuto
                                  "mode is retained")
             if spec.kind == "simply_supported":
                 return _bridge.simply_supported(length, ei1, m1, n_modes, fmax, 0.0)
-            return _bridge.continuous(spans, ei, mass, n_modes, fmax, 0.0, eps)
+            keep = allf.size if n_modes is None else min(n_modes, allf.size)
+            if fmax is not None:
+                keep = min(keep, int(np.count_nonzero(allf <= fmax)))
+            return _bridge.ModalBridge(
+                kind=full.kind, length=full.length, frequencies=allf[:keep].copy(),
+                damping=np.zeros(keep), nodes=full.nodes,
+                values=np.ascontiguousarray(full.values[:, :keep]),
+                slopes=np.ascontiguousarray(full.slopes[:, :keep]), supports=full.supports,
+                description=full.description,
+            )
     except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
         return chk.error("bridge.spans", spans, f"a buildable bridge ({exc})")
-
-
-def _continuous_spectrum(spans, ei, mass, eps) -> np.ndarray:
-    """All natural frequencies (Hz) of the continuous-deck FE model."""
-    import scipy.linalg
-
-    _nodes, K, M, fixed, _s = _bridge.beam_matrices(spans, ei, mass, eps)
-    free = np.setdiff1d(np.arange(K.shape[0]), fixed)
-    lam = scipy.linalg.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)], eigvals_only=True)
-    return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
 
 
 # -------------------------------------------------------------------------------- train
@@ -733,31 +734,42 @@ def _preset_names(lib) -> list[str]:
     return out
 
 
-def _get_preset(chk, lib, name, path, model, user_trains):
-    """One preset (from the user train file first, then the library) or ``_BAD``."""
-    if name in user_trains:
-        return user_trains[name]
-    known = list(user_trains) + (_preset_names(lib) if lib is not None else [])
+def _get_preset(chk, lib, name, path, model):
+    """Build one library train (user files are registered in the library) or ``_BAD``.
+
+    Without ``train.model`` the interaction model is used where the library has vehicle
+    dynamics, the moving forces otherwise (HSLM load models).
+    """
     if lib is None:
         return chk.error(path, name, "a train name from the library (vsi_numba.model.library "
                                      "is not available in this installation)")
     try:
         if model is None:
             try:
-                return lib.get_train(name, model="interaction")
+                train = lib.get_train(name, model="interaction")
             except KeyError:
                 raise
             except ValueError:
-                return lib.get_train(name, model="moving_force")
-        return lib.get_train(name, model=model)
+                train = lib.get_train(name, model="moving_force")
+        else:
+            train = lib.get_train(name, model=model)
     except KeyError:
-        guess = _did_you_mean(name, known)
+        guess = _did_you_mean(name, _preset_names(lib))
         hint = f"; did you mean '{guess}'?" if guess else ""
         return chk.error(path, name, f"a train name from the library (`vsi trains` lists "
                                      f"them){hint}")
     except ValueError as exc:
         return chk.error(path, name, f"a train that can be built with train.model = "
-                                     f"'{model}' ({exc})")
+                                     f"'{model}' ({' '.join(str(exc).split())})")
+    status = getattr(lib, "status_warning", None)
+    if status is not None:
+        try:
+            text = status(name)
+        except (KeyError, ValueError):
+            text = ""
+        if text:
+            chk.warn(f"{path} = {_show(name)}: {text}")
+    return train
 
 
 def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
@@ -805,8 +817,7 @@ def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
         res["preset"] = list(names)
         if model is _BAD or user_trains is _BAD:
             return _BAD
-        trains = [_get_preset(chk, lib, n, p, model, user_trains or {})
-                  for n, p in zip(names, paths, strict=True)]
+        trains = [_get_preset(chk, lib, n, p, model) for n, p in zip(names, paths, strict=True)]
         if not _ok(*trains):
             return _BAD
         return _TrainSpec(resolved=res, trains=trains)
@@ -814,7 +825,8 @@ def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
         return _BAD
     if not user_trains:
         return chk.error("train.file", d.get("file"), "a file defining at least one train")
-    return _TrainSpec(resolved=res, trains=list(user_trains.values()))
+    trains = [_get_preset(chk, lib, n, "train.file", model) for n in user_trains]
+    return _TrainSpec(resolved=res, trains=trains) if _ok(*trains) else _BAD
 
 
 def _load_user_trains(chk, lib, full: Path, given: str):

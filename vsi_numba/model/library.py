@@ -312,7 +312,7 @@ def _parse_train(
 
 
 def _read_builtin() -> _Library:
-    text = resources.files("vsi_numba.data").joinpath("trains.toml").read_text("utf-8")
+    text = resources.files("vsi_numba").joinpath("data", "trains.toml").read_text("utf-8")
     data = tomllib.loads(text)
     w = _Where("vsi_numba/data/trains.toml")
     vehicles = {}
@@ -687,17 +687,26 @@ def status_warning(name: str) -> str:
     canon, kind, spec = _spec(name)
     if kind == "hslm" or spec.status not in _WARN_STATUSES:
         return ""
+    text = (f"train {canon!r} has data status {spec.status!r}: "
+            f"{STATUS_MEANING.get(spec.status, '')}.")
+    doubts = documented_doubts(canon)
+    if doubts:
+        text += " Documented doubts: " + "; ".join(doubts) + "."
+    return text + " See notes/trains.md; do not use it for validation."
+
+
+def documented_doubts(name: str) -> list[str]:
+    """Return the doubts recorded for a train and its uncertain vehicles (data file)."""
+    _, kind, spec = _spec(name)
+    if kind == "hslm":
+        return []
     doubts = list(spec.doubts)
     vs = _all_vehicles()
     for vid in dict.fromkeys(spec.vehicles):
         v = vs[vid]
         if v.status in _WARN_STATUSES:
             doubts += [f"{vid}: {t}" for t in v.doubts]
-    text = (f"train {canon!r} has data status {spec.status!r}: "
-            f"{STATUS_MEANING.get(spec.status, '')}.")
-    if doubts:
-        text += " Documented doubts: " + "; ".join(dict.fromkeys(doubts)) + "."
-    return text + " See notes/trains.md; do not use it for validation."
+    return list(dict.fromkeys(doubts))
 
 
 def _description(kind: str, spec) -> str:
@@ -871,20 +880,24 @@ def trains_command(name: str | None = None) -> int:
     out = Console()
     if name is None:
         df = library_table()
-        table = Table(title="vsi_numba train library (whole-axle static loads)")
-        # (no square brackets in headers: rich would read "[m]" as markup)
+        table = Table(title="vsi_numba train library", box=None, padding=(0, 1, 0, 0),
+                      header_style="bold underline", title_justify="left",
+                      caption="static whole-axle loads; D = regular coach length; HSLM-A: "
+                              "moving forces only, others: interaction or moving forces",
+                      caption_justify="left")
+        # (no square brackets in headers: rich would read "[m]" as markup); the whole
+        # table fits 80 columns, and names never wrap (users copy them)
         for col, just in (("name", "left"), ("status", "left"), ("axles", "right"),
-                          ("length (m)", "right"), ("mass (t)", "right"),
-                          ("max axle (kN)", "right"), ("D (m)", "right"),
-                          ("models", "left")):
-            table.add_column(col, justify=just)
+                          ("length\nm", "right"), ("mass\nt", "right"),
+                          ("max axle\nkN", "right"), ("D\nm", "right")):
+            table.add_column(col, justify=just, no_wrap=True)
         style = {"suspect": "red", "reconstruction": "yellow", "secondary": "yellow"}
         for r in df.itertuples(index=False):
             st = f"[{style[r.status]}]{r.status}[/]" if r.status in style else r.status
             table.add_row(
                 r.name, st, str(r.axles), f"{r.length_m:.3f}", f"{r.total_mass_t:.1f}",
-                f"{r.max_axle_load_kN:.1f}", f"{r.regular_length_m:g}" if r.regular_length_m
-                else "-", "forces only" if r.models == "moving_force" else "both",
+                f"{r.max_axle_load_kN:.1f}",
+                f"{r.regular_length_m:g}" if r.regular_length_m else "-",
             )
         out.print(table)
         flagged = [n for n, s in zip(df["name"], df["status"], strict=True)
@@ -896,7 +909,8 @@ def trains_command(name: str | None = None) -> int:
     try:
         canon, kind, spec = _spec(name)
     except UnknownTrainError as exc:
-        Console(stderr=True).print(f"error: {exc}", markup=False, highlight=False)
+        Console(stderr=True, soft_wrap=True).print(f"error: {exc}", markup=False,
+                                                   highlight=False)
         return 2
     df = axle_table(canon)
     t = get_train(canon, "moving_force")
@@ -904,12 +918,16 @@ def trains_command(name: str | None = None) -> int:
     out.print(f"status: {t.status} ({STATUS_MEANING.get(t.status, '')})", highlight=False)
     out.print(f"axles: {len(df)}, first to last axle {t.length:.3f} m, total "
               f"{t.total_mass / 1e3:.1f} t", highlight=False)
-    warn = status_warning(canon)
-    if warn:
-        out.print(f"[yellow]warning: {warn}[/]", highlight=False)
-    table = Table(title=f"{canon}: axles (static whole-axle loads)")
-    for col in ("axle", "position (m)", "static load (kN)", "vehicle"):
-        table.add_column(col, justify="left" if col == "vehicle" else "right")
+    if status_warning(canon):
+        out.print(f"[yellow]warning: data status {t.status!r}; do not use this train for "
+                  "validation. Documented doubts (notes/trains.md):[/]", highlight=False)
+        for d in documented_doubts(canon):
+            out.print(f"  - {d}", markup=False, highlight=False)
+    table = Table(title=f"{canon}: axles (static whole-axle loads)", box=None,
+                  padding=(0, 1, 0, 0), header_style="bold underline", title_justify="left")
+    for col in ("axle", "position\nm", "static load\nkN", "vehicle"):
+        table.add_column(col, justify="left" if col == "vehicle" else "right",
+                         no_wrap=col != "vehicle")
     for r in df.itertuples(index=False):
         table.add_row(str(r.axle), f"{r.position_m:.4f}", f"{r.static_load_kN:.2f}", r.vehicle)
     out.print(table)

@@ -61,6 +61,7 @@ class VehicleArrays(NamedTuple):
     wheel_veh: np.ndarray  # (n_w,) vehicle index
     wheel_x0: np.ndarray  # (n_w,) wheel abscissa at t = 0, m
     wheel_massless: np.ndarray  # (n_w,) 1 if the wheel DOF has no mass
+    wheel_compliance: np.ndarray  # (n_w,) m/N, linearised Hertz spring 1/k_H (model 2)
     body_dof: np.ndarray  # (n_veh,) global DOF of the car body (-1: none)
     load_x0: np.ndarray  # (n_l,) point-load abscissa at t = 0, m
     load_p: np.ndarray  # (n_l,) N
@@ -83,6 +84,8 @@ class Params(NamedTuple):
     tol_gap: float  # m
     tol_force: float  # N
     max_sub: int  # step halvings allowed on contact failure
+    contact_model: int  # 0 rigid, 1 Hertz, 2 linearised Hertz
+    hertz_g: float  # Hertz constant G, m N^-2/3: penetration = G X^(2/3)
 
 
 class Work(NamedTuple):
@@ -117,6 +120,7 @@ class Work(NamedTuple):
     vv: np.ndarray  # (n_v,) scratch: vehicle velocities before an impact
     av: np.ndarray  # (n_v,) scratch: vehicle accelerations before an impact
     act0: np.ndarray  # (n_w,) int: contact set at t_n, kept for step retries
+    J: np.ndarray  # (n_w, n_w) Newton matrix of the Hertz contact
 
 
 class State(NamedTuple):
@@ -371,6 +375,73 @@ def solve_active_set(veh, wk, scale, max_iter, tol_gap, tol_force):
     return NOT_CONVERGED, max_iter
 
 
+@njit
+def solve_hertz(veh, wk, scale, g_hertz, max_iter, tol_force):
+    """Hertzian contact: X_i = (delta_i / G)^(3/2) with the penetration
+    delta_i = -gap_i = -(g*_i + scale (S X)_i), X_i = 0 where the wheel is separated.
+
+    Newton on the active wheels with the tangent compliance d(delta)/dX on the diagonal
+    of S; the active set follows the sign of each wheel's gap with its own force
+    removed.  ``wk.X`` holds the starting guess (the forces at t_n) and the result.
+    Returns (status, iterations).
+    """
+    n_w = veh.wheel_dof.shape[0]
+    for it in range(1, max_iter + 1):
+        m = 0
+        changed = False
+        for i in range(n_w):
+            gf = wk.gstar[i]
+            for k in range(n_w):
+                if k != i:
+                    gf += scale * wk.S[i, k] * wk.X[k]
+            if gf < 0.0:
+                if wk.X[i] <= 0.0:
+                    # below both the rigid and the bare-Hertz single-wheel solutions
+                    x_rigid = -gf / (scale * wk.S[i, i])
+                    x_hertz = (-gf / g_hertz) ** 1.5
+                    wk.X[i] = 0.5 * min(x_rigid, x_hertz)
+                    changed = True
+                wk.idx[m] = i
+                m += 1
+                wk.active[i] = 1
+            else:
+                if wk.X[i] != 0.0:
+                    changed = True
+                wk.X[i] = 0.0
+                wk.active[i] = 0
+        if m == 0:
+            return OK, it
+        xmax = 0.0
+        for a in range(m):
+            i = wk.idx[a]
+            xi = wk.X[i]
+            if xi > xmax:
+                xmax = xi
+            r = (wk.gstar[i] + g_hertz * xi ** (2.0 / 3.0)) / scale
+            for b in range(m):
+                k = wk.idx[b]
+                r += wk.S[i, k] * wk.X[k]
+                wk.J[i, k] = wk.S[i, k]
+            wk.J[i, i] += (2.0 / 3.0) * g_hertz * xi ** (-1.0 / 3.0) / scale
+            wk.rhs[a] = -r
+        if cholesky_solve(wk.J, wk.idx, m, wk.L, wk.rhs, wk.sol) != 0:
+            return SINGULAR_SCHUR, it
+        dmax = 0.0
+        for a in range(m):
+            i = wk.idx[a]
+            d = wk.sol[a]
+            xn = wk.X[i] + d
+            if xn <= 0.0:
+                xn = 0.1 * wk.X[i]  # stay in the domain of X^(2/3)
+            dd = abs(xn - wk.X[i])
+            if dd > dmax:
+                dmax = dd
+            wk.X[i] = xn
+        if not changed and dmax <= tol_force + 1e-12 * xmax:
+            return OK, it
+    return NOT_CONVERGED, max_iter
+
+
 # ---------------------------------------------------------------------------- impacts
 
 
@@ -551,7 +622,16 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
         wk.gstar[i] = g
         wk.active[i] = wk.was_active[i]
     build_schur(veh, wk, wk.khat, khat_v)
-    status, iters = solve_active_set(veh, wk, scale, prm.max_iter, prm.tol_gap, prm.tol_force)
+    if prm.contact_model == 1:
+        for i in range(n_w):
+            wk.X[i] = st.X[i]
+        status, iters = solve_hertz(veh, wk, scale, prm.hertz_g, prm.max_iter, prm.tol_force)
+    else:
+        if prm.contact_model == 2:
+            for i in range(n_w):
+                wk.S[i, i] += veh.wheel_compliance[i] / scale
+        status, iters = solve_active_set(veh, wk, scale, prm.max_iter, prm.tol_gap,
+                                         prm.tol_force)
     if status != OK:
         return status, iters
 
@@ -583,8 +663,8 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
 
     landing = False
     for i in range(n_w):
-        if wk.active[i] == 1 and wk.was_active[i] == 0:
-            landing = True
+        if wk.active[i] == 1 and wk.was_active[i] == 0 and prm.contact_model == 0:
+            landing = True  # compliant (Hertz) contact lands without an impulse
     if landing:
         # A landing is a plastic impact (design note 1.4): make the velocities
         # compatible with the rail, then the accelerations consistent with the

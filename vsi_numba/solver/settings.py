@@ -4,6 +4,25 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+CONTACT_MODELS = {"rigid": 0, "hertz": 1, "hertz_linear": 2}
+
+
+def hertz_coefficient(wheel_radius: float, rail_radius: float | None = None,
+                      youngs_modulus: float = 2.1e11, poisson: float = 0.3) -> float:
+    """Hertz constant G (m N^-2/3) of a wheel on a rail, ``delta = G N^(2/3)``.
+
+    Uses the formula quoted by Zhai (Vehicle-Track Coupled Dynamics, 2009/2020, eq. 2.x:
+    ``G = 3.86 R^-0.115 x 1e-8`` m N^-2/3 for a conical/worn wheel tread of rolling radius
+    R in metres), which is the usual choice in vertical railway dynamics.  ``rail_radius``,
+    ``youngs_modulus`` and ``poisson`` are accepted for the classical two-cylinder
+    alternative: ``G = (9 (1 - nu^2)^2 / (4 E^2 R_e))^(1/3)`` with the effective radius
+    ``R_e = sqrt(R_wheel R_rail)``.
+    """
+    if rail_radius is None:
+        return 3.86e-8 * wheel_radius ** (-0.115)
+    r_e = (wheel_radius * rail_radius) ** 0.5
+    return (9.0 * (1.0 - poisson**2) ** 2 / (4.0 * youngs_modulus**2 * r_e)) ** (1.0 / 3.0)
+
 
 @dataclass(frozen=True)
 class SolverSettings:
@@ -28,6 +47,13 @@ class SolverSettings:
     acceleration_cutoff : float or None
         Highest frequency (Hz) of the modes that enter the deck-acceleration output
         (EN 1990 A2.4.4.2.1: max(30 Hz, 1.5 f1, f3)); None computes that value.
+    contact_model : {"rigid", "hertz", "hertz_linear"}
+        Wheel-rail contact: rigid node-to-segment constraint; Hertzian spring with
+        penetration ``delta = G N^(2/3)`` (unilateral, solved by Newton inside the
+        Schur system); or its linearisation at each wheel's static load,
+        ``k_H = 3 N0^(1/3) / (2 G)`` (valid while N stays near N0).
+    hertz_coefficient : float
+        Hertz constant G (m N^-2/3) of ``contact_model = "hertz"``.
     """
 
     dt: float = 1e-3
@@ -37,6 +63,8 @@ class SolverSettings:
     max_iterations: int = 50
     max_subdivisions: int = 4
     acceleration_cutoff: float | None = None
+    contact_model: str = "rigid"
+    hertz_coefficient: float = 0.0
 
     def __post_init__(self):
         if not self.dt > 0:
@@ -45,5 +73,15 @@ class SolverSettings:
             raise ValueError(f"solver.hht_alpha = {self.hht_alpha!r}: expected -1/3 <= alpha <= 0")
         if self.approach < 0:
             raise ValueError(f"solver.approach = {self.approach!r}: expected >= 0 m")
+        if self.contact_model not in ("rigid", "hertz", "hertz_linear"):
+            raise ValueError(
+                f"contact.model = {self.contact_model!r}: expected 'rigid', 'hertz' or "
+                "'hertz_linear'"
+            )
+        if self.contact_model != "rigid" and not self.hertz_coefficient > 0:
+            raise ValueError(
+                f"contact.hertz_coefficient = {self.hertz_coefficient!r}: expected G > 0 "
+                "(m N^-2/3)"
+            )
         if self.free_vibration < 0:
             raise ValueError(f"solver.free_vibration = {self.free_vibration!r}: expected >= 0 s")

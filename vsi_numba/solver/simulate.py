@@ -20,7 +20,7 @@ from vsi_numba.kernels import engine as ek
 from vsi_numba.model.bridge import ModalBridge
 from vsi_numba.model.irregularity import Profile, no_irregularity
 from vsi_numba.model.vehicle import Train
-from vsi_numba.solver.settings import SolverSettings
+from vsi_numba.solver.settings import CONTACT_MODELS, SolverSettings
 
 STATUS_MESSAGES = {
     ek.OK: "ok",
@@ -169,10 +169,19 @@ def pack(
         wheel_veh=np.asarray(wveh, dtype=np.int64),
         wheel_x0=np.ascontiguousarray(x_front - wpos),
         wheel_massless=np.asarray(wmassless, dtype=np.int64),
+        wheel_compliance=np.zeros(len(wdof)),
         body_dof=np.asarray(body, dtype=np.int64),
         load_x0=np.ascontiguousarray(x_front - lpos),
         load_p=np.asarray(lp, dtype=np.float64),
     )
+    if settings.contact_model == "hertz_linear" and len(wdof):
+        q0 = _static_loads(veh)
+        if np.any(q0 <= 0):
+            raise ModelError("linearised Hertz contact needs a positive static load on every "
+                             "wheel")
+        # k_H = dN/d(delta) at N0 = 3 N0^(1/3) / (2 G)
+        veh = veh._replace(wheel_compliance=2.0 * settings.hertz_coefficient
+                           / (3.0 * np.cbrt(q0)))
     all_pos = np.concatenate([wpos, lpos])
     last = all_pos.max() if all_pos.size else 0.0
     t_exit = (bridge.length + settings.approach + last) / speed
@@ -187,6 +196,8 @@ def pack(
         tol_gap=1e-12 * max(bridge.length, 1.0),
         tol_force=1e-9 * wheel_load,
         max_sub=int(settings.max_subdivisions),
+        contact_model=CONTACT_MODELS[settings.contact_model],
+        hertz_g=float(settings.hertz_coefficient),
     )
     pr = ek.ProfileArrays(
         x0=float(profile.x0), dx=float(profile.dx),
@@ -219,16 +230,19 @@ def _kkt(A, G, rhs_top, rhs_bottom):
     return sol[:n], sol[n:]
 
 
-def static_wheel_loads(packed: Packed) -> np.ndarray:
-    """Static contact forces (N) of every wheel on level rigid track."""
-    veh = packed.vehicles
+def _static_loads(veh: ek.VehicleArrays) -> np.ndarray:
     n_w = veh.wheel_dof.size
     if n_w == 0:
         return np.zeros(0)
-    G = np.zeros((n_w, packed.n_dof))
+    G = np.zeros((n_w, int(veh.start[-1])))
     G[np.arange(n_w), veh.wheel_dof] = 1.0
     _, X = _kkt(_dense(veh, veh.K), G, veh.gravity, np.zeros(n_w))
     return X
+
+
+def static_wheel_loads(packed: Packed) -> np.ndarray:
+    """Static contact forces (N) of every wheel on level rigid track."""
+    return _static_loads(packed.vehicles)
 
 
 def initial_state(packed: Packed, profile: Profile) -> ek.State:
@@ -246,7 +260,21 @@ def initial_state(packed: Packed, profile: Profile) -> ek.State:
     if np.any(x0 > 0.0):
         raise ModelError("every axle must start on the approach track (x <= 0)")
     r0, r1, r2 = profile(x0), profile(x0, 1), profile(x0, 2)
-    u, _ = _kkt(Kd, G, veh.gravity, r0) if n_v else (np.zeros(0), None)
+    u, X = _kkt(Kd, G, veh.gravity, r0) if n_v else (np.zeros(0), np.zeros(0))
+    prm = packed.params
+    if n_v and prm.contact_model != 0:
+        # compliant contact: the wheels sit delta(X) below the rail top; the static
+        # forces of an indeterminate vehicle depend on delta, so iterate
+        for _ in range(50):
+            if prm.contact_model == 1:
+                delta = prm.hertz_g * np.cbrt(np.clip(X, 0.0, None)) ** 2
+            else:
+                delta = veh.wheel_compliance * X
+            u, X_new = _kkt(Kd, G, veh.gravity, r0 + delta)
+            done = np.max(np.abs(X_new - X)) <= 1e-9 * max(np.max(np.abs(X)), 1.0)
+            X = X_new
+            if done:
+                break
     ud, _ = _kkt(Md, G, np.zeros(n_v), v * r1) if n_v else (np.zeros(0), None)
     if n_v:
         udd, X = _kkt(Md, G, veh.gravity - Cd @ ud - Kd @ u, v * v * r2)
@@ -273,7 +301,7 @@ def _workspace(n_m, n_v, n_w) -> ek.Work:
         active=np.ones(n_w, np.int64), was_active=np.ones(n_w, np.int64),
         yq=z(n_m), yv=z(n_v), rq=z(n_m), rv=z(n_v), fq=z(n_m), phil=z(n_m), hq=z(n_m),
         hv=z(n_v), ones=np.ones(n_m), khat=z(n_m), xout=z(n_w), vq=z(n_m), vv=z(n_v),
-        av=z(n_v), act0=z(n_w, np.int64),
+        av=z(n_v), act0=z(n_w, np.int64), J=z((n_w, n_w)),
     )
 
 

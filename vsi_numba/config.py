@@ -144,7 +144,11 @@ def _did_you_mean(word: str, choices) -> str | None:
     if str(word).lower() in low:
         return low[str(word).lower()]
     close = difflib.get_close_matches(str(word).lower(), list(low), n=1, cutoff=0.6)
-    return low[close[0]] if close else None
+    if close:
+        return low[close[0]]
+    w = str(word).lower()
+    part = [c for c in low if len(w) >= 3 and (w in c or c in w)]  # "mass" -> mass_per_length
+    return low[part[0]] if len(part) == 1 else None
 
 
 def _is_number(v) -> bool:
@@ -598,7 +602,7 @@ def _matrix(chk, value, path, n=None):
     if not np.allclose(a, a.T, rtol=1e-12, atol=1e-9 * scale):
         i, j = np.unravel_index(np.argmax(np.abs(a - a.T)), a.shape)
         return chk.error(f"{path}[{i}][{j}]", float(a[i, j]),
-                         f"a symmetric matrix ({path}[{j}][{i}] = {a[j, i]!r})")
+                         f"a symmetric matrix ({path}[{j}][{i}] = {float(a[j, i])!r})")
     return a
 
 

@@ -7,19 +7,28 @@ from dataclasses import dataclass
 CONTACT_MODELS = {"rigid": 0, "hertz": 1, "hertz_linear": 2}
 
 
-def hertz_coefficient(wheel_radius: float, rail_radius: float | None = None,
-                      youngs_modulus: float = 2.1e11, poisson: float = 0.3) -> float:
+def hertz_coefficient(wheel_radius: float, tread: str = "worn",
+                      rail_radius: float | None = None, youngs_modulus: float = 2.1e11,
+                      poisson: float = 0.3) -> float:
     """Hertz constant G (m N^-2/3) of a wheel on a rail, ``delta = G N^(2/3)``.
 
-    Uses the formula quoted by Zhai (Vehicle-Track Coupled Dynamics, 2009/2020, eq. 2.x:
-    ``G = 3.86 R^-0.115 x 1e-8`` m N^-2/3 for a conical/worn wheel tread of rolling radius
-    R in metres), which is the usual choice in vertical railway dynamics.  ``rail_radius``,
-    ``youngs_modulus`` and ``poisson`` are accepted for the classical two-cylinder
-    alternative: ``G = (9 (1 - nu^2)^2 / (4 E^2 R_e))^(1/3)`` with the effective radius
-    ``R_e = sqrt(R_wheel R_rail)``.
+    Without ``rail_radius``: the empirical fits quoted by Zhai (Vehicle-Track Coupled
+    Dynamics) for a wheel of rolling radius R (m) -- worn tread ``G = 3.86e-8 R^-0.115``,
+    conical tread ``G = 4.57e-8 R^-0.149``.  [R] recalled from Zhai's book, not re-read
+    against it: give ``contact.hertz_coefficient`` explicitly for design work.
+
+    With ``rail_radius``: two crossed cylinders of equal radius-of-curvature product,
+    ``G = (9 (1 - nu^2)^2 / (4 E^2 R_e))^(1/3)``, ``R_e = sqrt(R_wheel R_rail)`` (Johnson,
+    Contact Mechanics, 1985, circular-contact approximation of eq. 4.22).
     """
+    if wheel_radius <= 0:
+        raise ValueError(f"wheel_radius = {wheel_radius!r}: expected > 0 m")
     if rail_radius is None:
-        return 3.86e-8 * wheel_radius ** (-0.115)
+        if tread == "worn":
+            return 3.86e-8 * wheel_radius ** (-0.115)
+        if tread == "conical":
+            return 4.57e-8 * wheel_radius ** (-0.149)
+        raise ValueError(f"tread = {tread!r}: expected 'worn' or 'conical'")
     r_e = (wheel_radius * rail_radius) ** 0.5
     return (9.0 * (1.0 - poisson**2) ** 2 / (4.0 * youngs_modulus**2 * r_e)) ** (1.0 / 3.0)
 

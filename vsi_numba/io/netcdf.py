@@ -1,0 +1,169 @@
+"""netCDF writing and reading: CF encodings, atomic writes, provenance attributes.
+
+Layout rules (stack notes, section 4):
+
+* floats get ``_FillValue = NaN``; integers get no ``_FillValue`` (xarray cannot put NaN
+  in an integer variable); coordinates that index a dimension get none either;
+* time histories (any variable with a ``time`` dimension) are stored as float32,
+  ``zlib`` level 4 with ``shuffle``, one chunk per case and at most 4096 time steps;
+  envelopes and coordinates stay float64;
+* strings are netCDF-4 variable-length strings (the xarray default);
+* attributes are str or numbers only: bools, None and dicts are refused by netCDF4, so the
+  resolved configuration travels as one JSON string ``config_json``;
+* a file is never written in place: it goes to a temporary file in the same directory,
+  is flushed to disk, then renamed over the target (``os.replace`` is atomic on POSIX), so
+  a crash or Ctrl-C leaves either the old file or the new one, never half a file.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Hashable
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+CONVENTIONS = "CF-1.12"
+HISTORY_ENCODING = {"zlib": True, "complevel": 4, "shuffle": True, "dtype": "float32"}
+MAX_TIME_CHUNK = 4096
+#: Case dimensions of a study: one chunk per case along them.
+CASE_DIMS = ("speed", "train", "irregularity")
+
+
+def source_string() -> str:
+    """``source`` attribute: package and numba versions and the method."""
+    import numba
+
+    return f"vsi_numba {package_version()} (numba {numba.__version__}, HHT-alpha, modal bridge)"
+
+
+def package_version() -> str:
+    """Installed version of vsi_numba (``"unknown"`` when not installed)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("vsi_numba")
+    except PackageNotFoundError:  # pragma: no cover - running from a bare checkout
+        return "unknown"
+
+
+def history_line(command: str) -> str:
+    """One ``history`` line: ISO-8601 UTC time stamp and the command."""
+    stamp = datetime.now(UTC).replace(microsecond=0).isoformat().replace("+00:00", "Z")
+    return f"{stamp} {command}"
+
+
+def encoding_for(ds: xr.Dataset) -> dict[Hashable, dict]:
+    """netCDF encodings for every variable and coordinate of ``ds`` (see module notes)."""
+    enc: dict[Hashable, dict] = {}
+    for name, var in ds.variables.items():
+        kind = var.dtype.kind
+        if kind in "OUS":
+            enc[name] = {}
+        elif kind in "iub":
+            enc[name] = {"_FillValue": None}
+        elif kind == "f":
+            if name in ds.dims:  # dimension coordinate: never missing
+                enc[name] = {"_FillValue": None}
+            elif "time" in var.dims:
+                chunks = []
+                for dim, size in zip(var.dims, var.shape, strict=True):
+                    if dim in CASE_DIMS:
+                        chunks.append(1)
+                    elif dim == "time":
+                        chunks.append(max(1, min(size, MAX_TIME_CHUNK)))
+                    else:
+                        chunks.append(max(1, size))
+                enc[name] = {**HISTORY_ENCODING, "_FillValue": np.float32(np.nan)}
+                if 0 not in var.shape:
+                    enc[name]["chunksizes"] = tuple(chunks)
+            else:
+                enc[name] = {"dtype": "float64", "_FillValue": np.nan}
+    return enc
+
+
+def to_netcdf_bytes(ds: xr.Dataset) -> bytes:
+    """Encode ``ds`` as a netCDF-4 file in memory (used to ship results from workers)."""
+    ds = ds.drop_encoding()
+    return bytes(ds.to_netcdf(None, engine="netcdf4", format="NETCDF4", encoding=encoding_for(ds)))
+
+
+def _fsync_dir(directory: Path) -> None:
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:  # pragma: no cover - platforms without directory fds
+        return
+    try:
+        os.fsync(fd)
+    except OSError:  # pragma: no cover
+        pass
+    finally:
+        os.close(fd)
+
+
+def _temp_path(path: Path) -> Path:
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    return Path(tmp)
+
+
+def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically (temp file in the same directory + rename).
+
+    Raises ``OSError`` (e.g. ``PermissionError``, ``ENOSPC``); the temp file is removed and
+    an existing ``path`` is left untouched.
+    """
+    path = Path(path)
+    tmp = _temp_path(path)
+    try:
+        with open(tmp, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    _fsync_dir(path.parent)
+    return path
+
+
+def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> Path:
+    """Write ``ds`` to ``path`` with the CF encodings, atomically.
+
+    The old encodings of a dataset read from disk are dropped first (stack notes 4.4).
+    Errors of the netCDF library (e.g. a full disk, reported as ``RuntimeError`` by HDF5)
+    are re-raised as ``OSError`` naming the file; the target is left untouched.
+    """
+    path = Path(path)
+    ds = ds.drop_encoding()
+    tmp = _temp_path(path)
+    try:
+        try:
+            ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding_for(ds))
+        except RuntimeError as exc:  # HDF5/netCDF-C errors (disk full, quota, ...)
+            raise OSError(f"cannot write {path}: {exc}") from exc
+        with open(tmp, "rb+") as f:
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    _fsync_dir(path.parent)
+    return path
+
+
+def open_results(path: str | os.PathLike) -> xr.Dataset:
+    """Open the results of ``vsi run`` or ``vsi sweep`` (lazily, like ``xarray.open_dataset``).
+
+    ``time`` stays float seconds (its units are plain ``"s"``).  Use as a context manager
+    (``with open_results(p) as ds:``) or call ``.load()`` / ``.close()``; the resolved
+    configuration is in ``ds.attrs["config_json"]``.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no results file {path}")
+    return xr.open_dataset(path, engine="netcdf4", decode_timedelta=False)

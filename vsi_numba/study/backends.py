@@ -1,0 +1,212 @@
+"""Where the cases of a study run: in this process, in local worker processes, on Dask.
+
+Every backend calls the same picklable function ``fn(config_json, case)`` and yields
+``(case, result)`` pairs as cases finish (in completion order), ``result`` being the
+function's return value or the exception it raised.  The parent process alone writes the
+results, so workers need no shared file system (a remote Dask cluster works).
+
+* ``SerialBackend`` - in this process, in grid order.
+* ``ProcessBackend`` - ``concurrent.futures.ProcessPoolExecutor`` with the **spawn**
+  start method.  Numba's GNU OpenMP threading layer is not fork-safe (stack notes 2.5), and
+  spawn also behaves the same on Linux, macOS and Windows.  Workers run serial kernels: the
+  initializer sets ``NUMBA_NUM_THREADS=1`` (and the BLAS/OpenMP thread counts) so that
+  ``n`` workers use ``n`` cores.  Chosen as the default over a Dask ``LocalCluster``
+  because it starts faster (no scheduler, no nannies) and adds no network listener.
+* ``DaskBackend`` - a ``dask.distributed`` cluster: a ``LocalCluster`` bound to
+  127.0.0.1 (``--workers N``), or an existing scheduler (``--scheduler ADDR``).
+
+Numba's cache directory reaches local workers through the environment (``NUMBA_CACHE_DIR``
+is inherited by spawned processes and passed explicitly to Dask's nannies); the parent
+compiles or loads the kernels before any worker starts, so workers only load the cache.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Callable, Iterable, Iterator
+from typing import Any
+
+#: Environment of worker processes: serial kernels, one thread each.
+WORKER_ENV = {
+    "NUMBA_NUM_THREADS": "1",
+    "OMP_NUM_THREADS": "1",
+    "OPENBLAS_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+}
+
+
+def worker_env() -> dict[str, str]:
+    """Environment for local workers: :data:`WORKER_ENV` plus ``NUMBA_CACHE_DIR`` if set."""
+    env = dict(WORKER_ENV)
+    for name in ("NUMBA_CACHE_DIR", "NUMBA_OPT", "NUMBA_DISABLE_JIT"):
+        if name in os.environ:
+            env[name] = os.environ[name]
+    return env
+
+
+def available_cores() -> int:
+    """Cores this process may use (affinity-aware)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
+def _init_worker(env: dict[str, str]) -> None:
+    """Initializer of local worker processes: one thread for numba/BLAS/OpenMP."""
+    os.environ.update(env)
+    if "numba" in sys.modules:  # imported while unpickling; env var came too late
+        import numba
+
+        if numba.get_num_threads() > 1:
+            numba.set_num_threads(1)
+
+
+class SerialBackend:
+    """Run cases one after the other in this process."""
+
+    name = "serial"
+    n_workers = 1
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return None
+
+    def run(self, fn: Callable, config_json: str, cases: Iterable) -> Iterator[tuple[Any, Any]]:
+        """Yield ``(case, result or exception)`` in the given order."""
+        for case in cases:
+            try:
+                result = fn(config_json, case)
+            except Exception as exc:  # reported per case by the runner
+                result = exc
+            yield case, result
+
+
+class ProcessBackend:
+    """Local worker processes (``ProcessPoolExecutor``, spawn start method)."""
+
+    name = "processes"
+
+    def __init__(self, n_workers: int):
+        if n_workers < 1:
+            raise ValueError(f"workers = {n_workers!r}: expected >= 1")
+        self.n_workers = int(n_workers)
+        self._pool = None
+
+    def __enter__(self):
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        self._pool = ProcessPoolExecutor(
+            max_workers=self.n_workers,
+            mp_context=multiprocessing.get_context("spawn"),
+            initializer=_init_worker,
+            initargs=(worker_env(),),
+        )
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        pool, self._pool = self._pool, None
+        if pool is None:
+            return None
+        if exc_type is None:
+            pool.shutdown(wait=True)
+        else:  # interrupted or failed: drop queued cases and stop running ones now
+            pool.shutdown(wait=False, cancel_futures=True)
+            for proc in list(getattr(pool, "_processes", {}).values()):
+                if proc.is_alive():
+                    proc.terminate()
+        return None
+
+    def run(self, fn: Callable, config_json: str, cases: Iterable) -> Iterator[tuple[Any, Any]]:
+        """Submit every case; yield ``(case, result or exception)`` as they finish."""
+        from concurrent.futures import as_completed
+        from concurrent.futures.process import BrokenProcessPool
+
+        futures = {self._pool.submit(fn, config_json, case): case for case in cases}
+        for fut in as_completed(futures):
+            case = futures[fut]
+            try:
+                result = fut.result()
+            except BrokenProcessPool:
+                raise
+            except Exception as exc:
+                result = exc
+            yield case, result
+
+
+class DaskBackend:
+    """A Dask cluster: a loopback ``LocalCluster`` of ``n_workers``, or ``scheduler``."""
+
+    name = "dask"
+
+    def __init__(self, n_workers: int | None = None, scheduler: str | None = None,
+                 key_prefix: str = "vsi-case"):
+        if scheduler is None and (n_workers is None or n_workers < 1):
+            raise ValueError(f"workers = {n_workers!r}: expected >= 1")
+        self.scheduler = scheduler
+        self._n = n_workers
+        self.key_prefix = key_prefix
+        self._cluster = None
+        self._client = None
+        self._futures: list = []
+
+    @property
+    def n_workers(self) -> int:
+        """Workers of the cluster (as seen when it was connected)."""
+        if self._client is None:
+            return self._n or 0
+        return len(self._client.scheduler_info(n_workers=-1).get("workers", {}))
+
+    def __enter__(self):
+        from dask.distributed import Client, LocalCluster
+
+        if self.scheduler is not None:
+            self._client = Client(self.scheduler, timeout="30s")
+        else:
+            # stack notes: every listener on loopback, serial kernels, the numba cache dir
+            self._cluster = LocalCluster(
+                n_workers=self._n, threads_per_worker=1, processes=True,
+                host="127.0.0.1", dashboard_address="127.0.0.1:0", env=worker_env(),
+            )
+            self._client = Client(self._cluster)
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        client, cluster = self._client, self._cluster
+        self._client = self._cluster = None
+        try:
+            if client is not None:
+                if self._futures and exc_type is not None:
+                    client.cancel(self._futures)
+                self._futures = []
+                client.close()
+        finally:
+            if cluster is not None:
+                cluster.close()
+        return None
+
+    def run(self, fn: Callable, config_json: str, cases: Iterable) -> Iterator[tuple[Any, Any]]:
+        """Submit every case; yield ``(case, result or exception)`` as they finish."""
+        from dask.distributed import as_completed
+
+        cases = list(cases)
+        futures = [
+            self._client.submit(fn, config_json, case, key=f"{self.key_prefix}-{case.key}",
+                                pure=False, retries=0)
+            for case in cases
+        ]
+        self._futures = futures
+        by_key = {f.key: c for f, c in zip(futures, cases, strict=True)}
+        for fut in as_completed(futures):
+            case = by_key[fut.key]
+            try:
+                result = fut.result()
+            except Exception as exc:
+                result = exc
+            fut.release()
+            yield case, result
+        self._futures = []

@@ -1,0 +1,119 @@
+"""The case grid of a study: speeds x trains x irregularity realisations.
+
+Order is deterministic: speed (as listed in the configuration) outermost, then train, then
+irregularity realisation.  A case is identified by its three indices; its key
+(``s0003_t001_i002``) names its file in the case store.  The indices are only meaningful
+for one configuration, which is why a store is tied to the configuration's SHA-256.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+
+class Case(NamedTuple):
+    """One analysis of a study (picklable: it travels to worker processes).
+
+    Attributes
+    ----------
+    index : int
+        Position in the grid (deterministic order).
+    i_speed, i_train, i_irregularity : int
+        Indices along the study dimensions.
+    speed_kmh : float
+        Train speed (km/h).
+    train : str
+        Train name.
+    irregularity : int
+        Irregularity realisation id (the seed; -1 for a deterministic profile).
+    histories : bool
+        Whether time histories are kept for this case.
+    """
+
+    index: int
+    i_speed: int
+    i_train: int
+    i_irregularity: int
+    speed_kmh: float
+    train: str
+    irregularity: int
+    histories: bool
+
+    @property
+    def key(self) -> str:
+        """Name of the case in the store, e.g. ``s0003_t001_i002``."""
+        return f"s{self.i_speed:04d}_t{self.i_train:03d}_i{self.i_irregularity:03d}"
+
+    @property
+    def speed_m_s(self) -> float:
+        """Train speed (m/s)."""
+        return self.speed_kmh / 3.6
+
+
+@dataclass(frozen=True)
+class StudyGrid:
+    """Axes and cases of a study."""
+
+    speeds_kmh: np.ndarray
+    trains: tuple[str, ...]
+    irregularities: tuple[int, ...]
+    history_speeds: np.ndarray  # bool per speed
+    cases: tuple[Case, ...]
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """(n_speed, n_train, n_irregularity)."""
+        return (self.speeds_kmh.size, len(self.trains), len(self.irregularities))
+
+    @property
+    def has_histories(self) -> bool:
+        """True when some case keeps time histories."""
+        return bool(self.history_speeds.any())
+
+
+def history_mask(speeds_kmh, save: bool, history_speeds_kmh) -> np.ndarray:
+    """Which speeds keep time histories: none, all, or those listed (to 1e-9 km/h)."""
+    speeds = np.asarray(speeds_kmh, float)
+    if not save:
+        return np.zeros(speeds.size, bool)
+    if history_speeds_kmh is None:
+        return np.ones(speeds.size, bool)
+    wanted = np.atleast_1d(np.asarray(history_speeds_kmh, float))
+    return np.array([bool(np.any(np.abs(wanted - v) <= 1e-9 * max(1.0, abs(v)))) for v in speeds])
+
+
+def make_grid(speeds_kmh, trains, irregularity_ids, history_speeds) -> StudyGrid:
+    """Build the deterministic case grid (speed, then train, then realisation)."""
+    speeds = np.asarray(speeds_kmh, float)
+    trains = tuple(str(t) for t in trains)
+    irr = tuple(int(i) for i in irregularity_ids)
+    hist = np.asarray(history_speeds, bool)
+    if len(set(trains)) != len(trains):
+        raise ValueError(f"train names must be unique in a study, got {list(trains)}")
+    if len(set(irr)) != len(irr):
+        raise ValueError(f"irregularity ids must be unique in a study, got {list(irr)}")
+    cases = []
+    for i_s, v in enumerate(speeds):
+        for i_t, name in enumerate(trains):
+            for i_i, rid in enumerate(irr):
+                cases.append(
+                    Case(len(cases), i_s, i_t, i_i, float(v), name, rid, bool(hist[i_s]))
+                )
+    return StudyGrid(speeds, trains, irr, hist, tuple(cases))
+
+
+def profile_range(bridge_length, train_lengths, approach, free_vibration, max_speed_m_s):
+    """Track range (m) every wheel of every case of the study runs over.
+
+    One range for the whole study, so that a seed is the same realisation at every speed
+    and for every train: from the start of the last axle of the longest train
+    (``-(approach + length)``) to where the first axle is when the fastest run ends
+    (``L + length + v_max * free_vibration``), with 1 m of margin each side.
+    """
+    length = max(train_lengths) if len(train_lengths) else 0.0
+    x_start = -(approach + length) - 1.0
+    x_stop = bridge_length + length + max_speed_m_s * free_vibration + 1.0
+    return float(x_start), float(x_stop)

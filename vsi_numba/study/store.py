@@ -1,0 +1,286 @@
+"""The case store: one netCDF file per finished case, next to the study output.
+
+A study writing ``out.nc`` keeps its finished cases in ``out.nc.cases/``:
+
+``store.json``
+    manifest: store format, ``config_sha256`` and the resolved configuration of the study
+    that owns the store, package version, creation time.
+``case_s0003_t001_i002.nc``
+    one finished case (speed index 3, train index 1, irregularity index 2), written by
+    :func:`vsi_numba.io.netcdf.write_bytes_atomic`: a case file exists completely or not
+    at all, whatever happens to the process (Ctrl-C, SIGKILL, power loss after the fsync).
+``.lock``
+    ``flock``-ed while a run uses the store, so two runs cannot write one store.
+
+Resume is "skip every case whose file exists".  A store is only ever reused by a run whose
+configuration has the same SHA-256: anything else is refused with
+:class:`StoreMismatchError` (never silently mixed).  After the final file is written the
+store is removed (its content is all in the final file).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import json
+import os
+import re
+import shutil
+from datetime import UTC, datetime
+from pathlib import Path
+
+import xarray as xr
+
+from vsi_numba.io.netcdf import package_version, write_bytes_atomic
+
+STORE_FORMAT = 1
+MANIFEST = "store.json"
+LOCK = ".lock"
+_CASE_FILE = re.compile(r"^case_(s\d{4,}_t\d{3,}_i\d{3,})\.nc$")
+
+
+class StudyError(Exception):
+    """A study could not run or finish; ``exit_code`` is the CLI's exit status."""
+
+    exit_code = 1
+
+
+class StoreMismatchError(StudyError):
+    """The case store belongs to another configuration (or is not a case store)."""
+
+    exit_code = 2
+
+
+class OutputNotWritableError(StudyError):
+    """The output file or its case store cannot be written (permissions, read-only fs)."""
+
+    exit_code = 2
+
+
+class StoreWriteError(StudyError):
+    """Writing a finished case or the final file failed (e.g. disk full)."""
+
+    exit_code = 1
+
+
+def store_path(output: str | os.PathLike) -> Path:
+    """Case store directory of a study output: ``<output>.cases`` beside it."""
+    output = Path(output)
+    return output.with_name(output.name + ".cases")
+
+
+def _is_permission(exc: OSError) -> bool:
+    return isinstance(exc, PermissionError) or exc.errno in (errno.EROFS, errno.EACCES, errno.EPERM)
+
+
+def check_writable(directory: Path, what: str) -> None:
+    """Create ``directory`` if needed and prove a file can be created in it.
+
+    Raises :class:`OutputNotWritableError` with the reason (read-only, permissions).
+    """
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        probe = directory / f".vsi-write-test.{os.getpid()}"
+        with open(probe, "wb") as f:
+            f.write(b"x")
+        probe.unlink()
+    except OSError as exc:
+        raise OutputNotWritableError(
+            f"cannot write the {what} in {directory}: {exc.strerror or exc}. "
+            "Choose another output (-o PATH) or make the directory writable."
+        ) from exc
+
+
+class CaseStore:
+    """Finished cases of one study, one atomic netCDF file each (see the module notes).
+
+    Parameters
+    ----------
+    path : path-like
+        Store directory (:func:`store_path` of the output).
+    config_sha256, config_json : str
+        Identity and content of the resolved configuration.
+    model_sha256 : str
+        Hash of the model data built from it (see ``runner.model_fingerprint``).
+    fresh : bool
+        Delete an existing store of this output first (whatever its configuration).
+    """
+
+    def __init__(self, path, config_sha256: str, config_json: str, fresh: bool = False,
+                 model_sha256: str = ""):
+        self.path = Path(path)
+        self.sha256 = config_sha256
+        self.model_sha256 = model_sha256
+        self.config_json = config_json
+        self.fresh = fresh
+        self._lock_fd: int | None = None
+
+    # -------------------------------------------------------------- life cycle
+    def open(self) -> CaseStore:
+        """Create or adopt the store, refusing one made by another configuration."""
+        if self.path.exists() and not self.path.is_dir():
+            raise StoreMismatchError(f"{self.path} exists and is not a case store directory")
+        check_writable(self.path, "case store")
+        self._lock()
+        try:
+            if self.fresh:
+                self._check_ours(allow_other_config=True)
+                self._clear(keep_lock=True)
+            manifest = self.path / MANIFEST
+            self._check_ours(allow_other_config=False)
+            if not manifest.exists():
+                info = {
+                    "format": STORE_FORMAT,
+                    "config_sha256": self.sha256,
+                    "model_sha256": self.model_sha256,
+                    "package_version": package_version(),
+                    "created": datetime.now(UTC).isoformat(timespec="seconds"),
+                    "config_json": self.config_json,
+                }
+                try:
+                    write_bytes_atomic(manifest, json.dumps(info, indent=1).encode())
+                except OSError as exc:
+                    raise _write_error(exc, manifest, self) from exc
+            self._clean_temp()
+        except BaseException:
+            self.close()
+            raise
+        return self
+
+    def close(self) -> None:
+        """Release the lock (the files stay)."""
+        if self._lock_fd is not None:
+            os.close(self._lock_fd)
+            self._lock_fd = None
+
+    def __enter__(self) -> CaseStore:
+        return self.open()
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def remove(self) -> None:
+        """Delete the store (after its cases went into the final file)."""
+        self.close()
+        self._remove_tree()
+
+    # -------------------------------------------------------------- content
+    def done(self) -> set[str]:
+        """Keys of the finished cases."""
+        keys = set()
+        for p in self.path.iterdir():
+            m = _CASE_FILE.match(p.name)
+            if m:
+                keys.add(m.group(1))
+        return keys
+
+    def case_path(self, key: str) -> Path:
+        """File of case ``key``."""
+        return self.path / f"case_{key}.nc"
+
+    def write(self, key: str, data: bytes) -> Path:
+        """Store one finished case (netCDF bytes) atomically."""
+        target = self.case_path(key)
+        try:
+            return write_bytes_atomic(target, data)
+        except OSError as exc:
+            raise _write_error(exc, target, self) from exc
+
+    def load(self, key: str) -> xr.Dataset:
+        """Read one finished case into memory (the file is closed on return)."""
+        path = self.case_path(key)
+        try:
+            with xr.open_dataset(path, engine="netcdf4", decode_timedelta=False) as ds:
+                return ds.load()
+        except OSError as exc:
+            raise StudyError(
+                f"cannot read the stored case {path}: {exc}. Delete this file and re-run "
+                "the same command to compute that case again."
+            ) from exc
+
+    # -------------------------------------------------------------- helpers
+    def _check_ours(self, allow_other_config: bool) -> None:
+        manifest = self.path / MANIFEST
+        if not manifest.exists():
+            foreign = sorted(p.name for p in self.path.iterdir() if not p.name.startswith("."))
+            if foreign:
+                raise StoreMismatchError(
+                    f"{self.path} is not a vsi case store (no {MANIFEST}, but it holds "
+                    f"{', '.join(foreign[:3])}{' ...' if len(foreign) > 3 else ''}); not "
+                    "touching it. Delete it yourself or write to another output (-o PATH)."
+                )
+            return
+        try:
+            info = json.loads(manifest.read_text())
+        except (OSError, ValueError) as exc:
+            raise StoreMismatchError(f"unreadable case store manifest {manifest}: {exc}") from exc
+        if allow_other_config:
+            return
+        if info.get("format") != STORE_FORMAT:
+            raise StoreMismatchError(
+                f"the case store {self.path} has format {info.get('format')!r}, this version "
+                f"uses {STORE_FORMAT}: delete it, re-run with --fresh, or use another output."
+            )
+        if info.get("config_sha256") != self.sha256:
+            raise StoreMismatchError(
+                f"the case store {self.path} holds {len(self.done())} finished case(s) of a "
+                f"DIFFERENT configuration (sha256 {str(info.get('config_sha256'))[:12]}..., "
+                f"this one is {self.sha256[:12]}...). Results of two configurations are never "
+                "mixed: delete that directory (or re-run with --fresh) to start again, or "
+                "write to another output (-o PATH)."
+            )
+        if info.get("model_sha256", "") != self.model_sha256:
+            raise StoreMismatchError(
+                f"the case store {self.path} was computed from different model data than "
+                "this configuration now builds (same configuration text, but a train preset, "
+                "a profile file or the package changed). Results are never mixed: delete that "
+                "directory (or re-run with --fresh) to start again, or write to another "
+                "output (-o PATH)."
+            )
+
+    def _lock(self) -> None:
+        import fcntl
+
+        fd = os.open(self.path / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as exc:
+            os.close(fd)
+            raise StudyError(
+                f"another run is using the case store {self.path} (it is locked); wait for it "
+                "to finish or write to another output (-o PATH)."
+            ) from exc
+        self._lock_fd = fd
+
+    def _clean_temp(self) -> None:
+        """Remove temp files left by a killed run (never a finished case)."""
+        for p in self.path.iterdir():
+            if p.name.startswith(".") and p.name.endswith(".tmp"):
+                with contextlib.suppress(OSError):
+                    p.unlink()
+
+    def _clear(self, keep_lock: bool) -> None:
+        for p in self.path.iterdir():
+            if keep_lock and p.name == LOCK:
+                continue
+            if p.is_dir():
+                shutil.rmtree(p)
+            else:
+                p.unlink()
+
+    def _remove_tree(self) -> None:
+        self._clear(keep_lock=False)
+        self.path.rmdir()
+
+
+def _write_error(exc: OSError, target: Path, store: CaseStore) -> StudyError:
+    n = len(store.done()) if store.path.is_dir() else 0
+    keep = (
+        f"The {n} finished case(s) are kept in {store.path}; re-run the same command to "
+        "resume once this is fixed."
+    )
+    if _is_permission(exc):
+        return OutputNotWritableError(f"cannot write {target}: {exc.strerror or exc}. {keep}")
+    if exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
+        return StoreWriteError(f"cannot write {target}: {exc.strerror} (disk full?). {keep}")
+    return StoreWriteError(f"cannot write {target}: {exc}. {keep}")

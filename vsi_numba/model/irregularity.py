@@ -8,6 +8,16 @@ Every profile is carried to the kernels as a C2 cubic spline on a uniform grid
 continuous, so the interpolation adds no curvature spikes of its own (linear
 interpolation would put a Dirac in r'' at every sample, i.e. a force spike on a rigid
 wheel).  Outside the sampled range the profile is zero.
+
+Profiles provided
+-----------------
+* :func:`no_irregularity`, isolated defects :func:`cosine_defect` (dip / bump) and
+  :func:`step_defect` (smooth ramp to a new level, cosine or quintic);
+* random profiles from one-sided PSDs in rad/m (:data:`SPECTRA`: FRA classes 1-6,
+  German low / high interference), :func:`psd_profile` / :func:`psd_realisation`;
+* measured profiles from CSV, :func:`profile_from_file`;
+* :func:`combine` (sum on a common grid) and :func:`check_coverage` (does a profile
+  cover the run?).
 """
 
 from __future__ import annotations

@@ -194,7 +194,12 @@ def nanargmax_case(da: xr.DataArray) -> dict | None:
         return None
     flat = np.where(np.isfinite(values), values, -np.inf).argmax()
     index = np.unravel_index(flat, values.shape)
-    return {d: da[d].values[i].item() for d, i in zip(da.dims, index, strict=True)}
+    return {d: _scalar(da[d].values[i]) for d, i in zip(da.dims, index, strict=True)}
+
+
+def _scalar(value):
+    """A numpy scalar (or a Python object from an object array) as a Python scalar."""
+    return value.item() if hasattr(value, "item") else value
 
 
 def nanargmin_case(da: xr.DataArray) -> dict | None:

@@ -1,0 +1,382 @@
+"""Checks, statistics and layout handling of vsi_numba.analysis on datasets whose answers
+are set by construction."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scipy.stats
+import xarray as xr
+
+from vsi_numba.analysis import checks
+from vsi_numba.analysis.dataset import ResultsError, nanmax, prepare
+from vsi_numba.analysis.statistics import realisation_statistics, wilks_sample_size
+from vsi_numba.analysis.synthetic import synthetic_results
+
+TRAINS = (("A", 18.0, 6, "standard"), ("B", 21.0, 4, "suspect"))
+
+
+def _ds(**kw) -> xr.Dataset:
+    kw.setdefault("speeds_kmh", (200.0, 250.0, 300.0))
+    kw.setdefault("trains", TRAINS)
+    kw.setdefault("n_vehicles", 2)
+    return synthetic_results(**kw)
+
+
+def _set(ds, name, value, **where):
+    """ds[name].loc[where] = value, with speeds given in km/h as ``kmh``."""
+    if "kmh" in where:
+        where["speed"] = ds["speed"].values[np.isclose(ds["speed_kmh"].values,
+                                                       where.pop("kmh"))][0]
+    ds[name].loc[where] = value
+
+
+# --- deck acceleration ------------------------------------------------------------------
+
+
+def test_deck_acceleration_check__governing_case_and_margin_by_construction():
+    ds = _ds()
+    ds["max_deck_acceleration"][:] = 1.0
+    _set(ds, "max_deck_acceleration", 4.2, kmh=250.0, train="B", point=10.0)
+    _set(ds, "max_deck_acceleration", 3.0, kmh=300.0, train="A", point=5.0)
+    out = checks.deck_acceleration_check(ds)
+    a = out.attrs
+    assert a["limit"] == 3.5  # ballasted, EN 1990 A2.4.4.2.1
+    assert a["governing_train"] == "B"
+    assert a["governing_speed_kmh"] == pytest.approx(250.0)
+    assert a["governing_point"] == 10.0
+    assert a["value"] == pytest.approx(4.2)
+    assert a["margin"] == pytest.approx(-0.7)
+    assert a["utilisation"] == pytest.approx(1.2)
+    assert a["result"] == "FAIL"
+    # per speed and train: max over points
+    assert float(out["value"].sel(train="A").isel(speed=2)) == pytest.approx(3.0)
+    assert float(out["margin"].sel(train="A").isel(speed=2)) == pytest.approx(0.5)
+    assert bool(out["passed"].sel(train="A").isel(speed=2))
+    assert not bool(out["passed"].sel(train="B").isel(speed=1))
+
+
+def test_deck_acceleration_check__direct_fastening_limit_and_explicit_limit():
+    ds = _ds(track_type="direct_fastening")
+    ds["max_deck_acceleration"][:] = 1.0
+    _set(ds, "max_deck_acceleration", 4.2, kmh=250.0, train="B", point=10.0)
+    a = checks.deck_acceleration_check(ds).attrs
+    assert a["limit"] == 5.0 and a["result"] == "pass"
+    assert a["margin"] == pytest.approx(0.8)
+    assert checks.deck_acceleration_check(ds, limit=4.0).attrs["result"] == "FAIL"
+
+
+def test_deck_acceleration_check__missing_track_type_defaults_to_ballasted():
+    ds = _ds()
+    del ds.attrs["track_type"]
+    assert checks.deck_acceleration_check(ds).attrs["limit"] == 3.5
+
+
+def test_deck_acceleration_check__unknown_track_type_is_a_results_error():
+    with pytest.raises(ResultsError, match="track_type"):
+        checks.deck_acceleration_check(_ds(track_type="slab"))
+
+
+def test_deck_acceleration_check__characteristic_value_over_realisations():
+    ds = _ds(seeds=(1, 2, 3, 4, 5))
+    ds["max_deck_acceleration"][:] = 0.5
+    for k, seed in enumerate((1, 2, 3, 4, 5)):
+        _set(ds, "max_deck_acceleration", float(k + 1), kmh=300.0, train="A",
+             irregularity=seed, point=10.0)
+    out = checks.deck_acceleration_check(ds, n_boot=200)
+    # numpy 'linear' 95 % fractile of 1..5: 1 + 0.95 * 4 = 4.8
+    assert out.attrs["value"] == pytest.approx(4.8)
+    assert out.attrs["governing_irregularity"] == 5
+    case = out.sel(train="A").isel(speed=2)
+    assert int(case["n"]) == 5
+    assert float(case["mean"]) == pytest.approx(3.0)
+    assert float(case["exceedance_probability"]) == pytest.approx(0.4)  # 4 and 5 > 3.5
+
+
+def test_deck_acceleration_check__deterministic_and_random_takes_the_worse():
+    ds = _ds(seeds=(-1, 1, 2))
+    ds["max_deck_acceleration"][:] = 1.0
+    _set(ds, "max_deck_acceleration", 2.0, irregularity=-1)
+    out = checks.deck_acceleration_check(ds, n_boot=50)
+    assert out.attrs["value"] == pytest.approx(2.0)
+    assert "deterministic" in out.attrs["basis"]
+
+
+def test_deck_acceleration_check__failed_cases_are_ignored():
+    ds = _ds()
+    ds["max_deck_acceleration"][:] = 1.0
+    _set(ds, "max_deck_acceleration", 9.0, kmh=200.0, train="A")  # garbage of a failed case
+    _set(ds, "status", 3, kmh=200.0, train="A")
+    out = checks.deck_acceleration_check(ds)
+    assert out.attrs["value"] == pytest.approx(1.0)
+    assert np.isnan(float(out["value"].sel(train="A").isel(speed=0)))
+
+
+@pytest.mark.parametrize(
+    ("freqs", "expected"),
+    [
+        ((5.0, 20.0, 45.0), 45.0),  # f3 governs
+        ((25.0, 60.0, 100.0, 160.0), 100.0),
+        ((30.0, 35.0, 40.0), 45.0),  # 1.5 f1 governs
+        ((3.0, 12.0, 27.0), 30.0),  # the 30 Hz floor governs
+        ((45.0, 5.0, 20.0), 45.0),  # any order
+        ((2.0,), 30.0),  # f3 unknown
+        ((), 30.0),
+    ],
+)
+def test_frequency_cutoff__max_of_30hz_1p5f1_f3(freqs, expected):
+    assert checks.frequency_cutoff(freqs) == pytest.approx(expected)
+
+
+def test_deck_acceleration_check__reports_cutoff_from_frequencies():
+    a = checks.deck_acceleration_check(_ds(frequencies=(4.0, 16.0, 36.0, 64.0))).attrs
+    assert a["frequency_cutoff"] == pytest.approx(36.0)
+    assert a["highest_frequency"] == pytest.approx(64.0)
+
+
+# --- dynamic amplification --------------------------------------------------------------
+
+
+def test_dynamic_amplification__phi_dyn_from_known_static_and_dynamic_values():
+    ds = _ds(n_points=3, bridge_length=20.0, frequencies=(5.0, 20.0, 45.0))
+    ds["max_static_deck_displacement"][:] = [1.0e-3, 2.0e-3, 1.0e-3]  # both trains
+    ds["max_deck_displacement"][:] = 1.5e-3  # phi = 0.5 at the quarter points, -0.25 mid
+    _set(ds, "max_deck_displacement", 3.0e-3, kmh=250.0, train="B", point=10.0)
+    out = checks.dynamic_amplification(ds)
+    phi = out["phi_dyn"].sel(train="B")
+    assert float(phi.isel(speed=1).sel(point=10.0)) == pytest.approx(0.5)
+    assert float(phi.isel(speed=0).sel(point=5.0)) == pytest.approx(0.5)
+    assert float(phi.isel(speed=0).sel(point=10.0)) == pytest.approx(-0.25)
+    # deck value: max dyn / max static - 1
+    assert float(out["value"].sel(train="B").isel(speed=1)) == pytest.approx(0.5)
+    assert float(out["value"].sel(train="A").isel(speed=1)) == pytest.approx(-0.25)
+    assert float(out["phi_dyn_max"].sel(train="B", point=10.0)) == pytest.approx(0.5)
+    assert out.attrs["governing_train"] == "B"
+    assert out.attrs["value"] == pytest.approx(0.5)
+    assert out.attrs["result"] == "info"
+    # phi'' with L = 20 m, n0 = 5 Hz; 200 km/h > 22 m/s so a = 1
+    phi2 = 0.56 * math.exp(-4.0) + 0.50 * (5.0 * 20.0 / 80.0 - 1.0) * math.exp(-1.0)
+    assert float(out["phi2"].isel(speed=0)) == pytest.approx(phi2)
+    assert float(out["design_factor"].sel(train="B").isel(speed=1)) == pytest.approx(
+        1.0 + 0.5 + phi2 / 2)
+    assert "deterministic" in out.attrs["basis"]
+
+
+def test_irregularity_allowance__speed_factor_and_non_negative():
+    L, n0 = 10.0, 8.0
+    full = 0.56 * math.exp(-1.0) + 0.50 * (n0 * L / 80.0 - 1.0) * math.exp(-0.25)
+    v = np.array([11.0, 22.0, 80.0])
+    np.testing.assert_allclose(checks.irregularity_allowance(v, L, n0),
+                               [0.5 * full, full, full], rtol=1e-12)  # a = min(v/22, 1)
+    # long span, low frequency: the bracket is negative, phi'' = 0
+    assert checks.irregularity_allowance(50.0, 40.0, 1.0) == 0.0
+
+
+def test_dynamic_amplification__missing_static_response_is_a_results_error():
+    ds = _ds().drop_vars("max_static_deck_displacement")
+    with pytest.raises(ResultsError, match="max_static_deck_displacement"):
+        checks.dynamic_amplification(ds)
+
+
+# --- wheel unloading --------------------------------------------------------------------
+
+
+def test_wheel_unloading__governing_wheel_limit_and_padding():
+    ds = _ds()
+    assert np.isnan(ds["max_wheel_unloading"].sel(train="B", wheel=5)).all()  # 4 wheels
+    ds["max_wheel_unloading"] = ds["max_wheel_unloading"].where(
+        ds["max_wheel_unloading"].isnull(), 0.1)
+    _set(ds, "max_wheel_unloading", 0.72, kmh=300.0, train="A", wheel=3)
+    _set(ds, "min_contact_force", 10e3, kmh=300.0, train="A", wheel=3)
+    _set(ds, "contact_loss_duration", 0.02, kmh=300.0, train="A", wheel=3)
+    _set(ds, "contact_loss_count", 2.0, kmh=300.0, train="A", wheel=3)
+    out = checks.wheel_unloading(ds)
+    a = out.attrs
+    assert a["limit"] == 0.6
+    assert (a["governing_train"], a["governing_wheel"]) == ("A", 3)
+    assert a["governing_speed_kmh"] == pytest.approx(300.0)
+    assert a["value"] == pytest.approx(0.72)
+    assert a["margin"] == pytest.approx(-0.12)
+    assert a["result"] == "FAIL"
+    assert a["min_contact_force"] == pytest.approx(10e3)
+    assert a["max_contact_loss_duration"] == pytest.approx(0.02)
+    assert a["max_contact_loss_count"] == pytest.approx(2.0)
+    assert float(out["wheels_losing_contact"].sel(train="A").isel(speed=2)) == 1.0
+    assert float(out["value"].sel(train="B").isel(speed=0)) == pytest.approx(0.1)
+
+
+# --- comfort ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("bv", "level"),
+    [(0.4, "very good"), (1.0, "very good"), (1.2, "good"), (1.9, "acceptable"),
+     (2.5, "not acceptable"), (np.nan, "n/a")],
+)
+def test_comfort_level__en1990_table_a29_levels(bv, level):
+    assert checks.comfort_level(bv) == level
+
+
+def test_comfort__required_level_and_governing_case():
+    ds = _ds()
+    ds["max_carbody_acceleration"][:] = 0.5
+    _set(ds, "max_carbody_acceleration", 1.2, kmh=200.0, train="A", vehicle=1)
+    out = checks.comfort(ds)
+    assert out.attrs["result"] == "FAIL" and out.attrs["level"] == "good"
+    assert out.attrs["governing_train"] == "A"
+    assert out["level"].sel(train="B").isel(speed=0).item() == "very good"
+    good = checks.comfort(ds, required="good")
+    assert good.attrs["result"] == "pass"
+    assert good.attrs["margin"] == pytest.approx(0.1)
+    with pytest.raises(ValueError, match="required comfort level"):
+        checks.comfort(ds, required="excellent")
+
+
+def test_comfort__moving_force_model_without_car_bodies_is_not_applicable():
+    ds = _ds(n_vehicles=0)
+    out = checks.comfort(ds)
+    assert out.attrs["result"] == "n/a"
+    assert out["value"].isnull().all()
+
+
+# --- resonance speeds -------------------------------------------------------------------
+
+
+def test_resonance_speeds__f_D_over_i():
+    res = checks.resonance_speeds(5.0, 18.0, k_max=4)
+    np.testing.assert_allclose(res["speed"], [90.0, 45.0, 30.0, 22.5])
+    np.testing.assert_allclose(res["speed_kmh"], [324.0, 162.0, 108.0, 81.0])
+    assert list(res["i"]) == [1, 2, 3, 4]
+    assert checks.resonance_speeds(5.0, 0.0).empty
+    assert checks.resonance_speeds(np.nan, 18.0).empty
+
+
+# --- statistics -------------------------------------------------------------------------
+
+
+def test_realisation_statistics__bootstrap_ci_covers_the_true_fractile():
+    # 100 independent normal samples of n = 400: the 95 % CI of the 95 % fractile should
+    # cover mu + 1.645 sigma in about 95 % of them. Binomial sd of the coverage over 100
+    # cells is 2.2 %; accept 85-100 % (4.5 sd below, allowing the bootstrap's small-sample
+    # undercoverage).
+    rng = np.random.default_rng(42)
+    mu, sigma = 2.0, 0.5
+    da = xr.DataArray(rng.normal(mu, sigma, (100, 400)), dims=("cell", "irregularity"))
+    st = realisation_statistics(da, q=0.95, n_boot=1000, seed=1)
+    true = mu + sigma * scipy.stats.norm.ppf(0.95)
+    covered = ((st["ci_low"] <= true) & (true <= st["ci_high"])).mean().item()
+    assert 0.85 <= covered <= 1.0
+    assert (st["n"] == 400).all()
+    # the sample fractile is within a few standard errors of the truth on average
+    assert abs(float(st["characteristic"].mean()) - true) < 0.02  # se of the mean ~ 0.004
+
+
+def test_realisation_statistics__single_large_sample_ci_contains_true_fractile():
+    rng = np.random.default_rng(7)
+    da = xr.DataArray(rng.normal(0.0, 1.0, 5000), dims="irregularity")
+    st = realisation_statistics(da, q=0.95, n_boot=2000, seed=0, limit=1.0)
+    true = scipy.stats.norm.ppf(0.95)
+    assert float(st["ci_low"]) <= true <= float(st["ci_high"])
+    assert float(st["ci_high"] - st["ci_low"]) < 0.2  # se ~ 0.03 for n = 5000
+    # P(X > 1) = 0.1587: empirical se ~ 0.005, normal fit closer
+    assert float(st["exceedance_probability"]) == pytest.approx(0.1587, abs=0.02)
+    assert float(st["exceedance_probability_normal"]) == pytest.approx(0.1587, abs=0.01)
+
+
+def test_realisation_statistics__n1_degrades_gracefully():
+    da = xr.DataArray([[3.0], [4.0]], dims=("speed", "irregularity"))
+    st = realisation_statistics(da, limit=3.5)
+    np.testing.assert_array_equal(st["characteristic"], [3.0, 4.0])
+    np.testing.assert_array_equal(st["mean"], [3.0, 4.0])
+    np.testing.assert_array_equal(st["n"], [1, 1])
+    assert st["std"].isnull().all() and st["ci_low"].isnull().all()
+    assert st["ci_high"].isnull().all() and st["exceedance_probability_normal"].isnull().all()
+    np.testing.assert_array_equal(st["exceedance_probability"], [0.0, 1.0])
+    # no realisation dim at all: one realisation
+    st = realisation_statistics(xr.DataArray([1.0, 2.0], dims="speed"))
+    np.testing.assert_array_equal(st["characteristic"], [1.0, 2.0])
+
+
+def test_realisation_statistics__nan_realisations_left_out_per_cell():
+    da = xr.DataArray([[1.0, 2.0, np.nan, 4.0], [np.nan] * 4], dims=("speed", "irregularity"))
+    st = realisation_statistics(da, q=0.5, n_boot=100)
+    assert int(st["n"][0]) == 3 and int(st["n"][1]) == 0
+    assert float(st["characteristic"][0]) == 2.0  # median of 1, 2, 4
+    assert float(st["std"][0]) == pytest.approx(np.std([1, 2, 4], ddof=1))
+    assert st.isel(speed=1)["characteristic"].isnull()
+
+
+def test_realisation_statistics__reproducible_and_validated():
+    da = xr.DataArray(np.random.default_rng(0).normal(size=(3, 20)),
+                      dims=("speed", "irregularity"))
+    a = realisation_statistics(da, seed=5, n_boot=300)
+    b = realisation_statistics(da, seed=5, n_boot=300)
+    xr.testing.assert_identical(a, b)
+    assert realisation_statistics(da, n_boot=0)["ci_low"].isnull().all()
+    with pytest.raises(ValueError, match="q must"):
+        realisation_statistics(da, q=1.0)
+
+
+def test_wilks_sample_size__59_for_95_95():
+    assert wilks_sample_size(0.95, 0.95) == 59  # 1 - 0.95**59 = 0.952 >= 0.95 > 1 - 0.95**58
+    assert 1 - 0.95**58 < 0.95 <= 1 - 0.95**59
+
+
+# --- layout -----------------------------------------------------------------------------
+
+
+def _single_run(ds: xr.Dataset) -> xr.Dataset:
+    """A `vsi run` style file: no train/irregularity dims, train vars on their own dims."""
+    one = ds.isel(train=0, irregularity=0)
+    return one.drop_vars(["train", "irregularity"])
+
+
+def test_prepare__single_run_file_gets_train_and_irregularity_dims():
+    one = _single_run(_ds(histories=True, n_time=50))
+    assert "train" not in one.dims and "irregularity" not in one.dims
+    ds = prepare(one)
+    assert ds["max_deck_acceleration"].dims == ("speed", "train", "irregularity", "point")
+    assert ds["deck_acceleration"].dims[:3] == ("speed", "train", "irregularity")
+    assert ds["static_wheel_load"].dims == ("train", "wheel")
+    assert ds["frequency"].dims == ("mode",)
+    assert ds["irregularity"].values.tolist() == [-1]
+    assert prepare(ds) is ds  # idempotent
+    a = checks.deck_acceleration_check(one).attrs
+    assert a["governing_train"] == "train" and np.isfinite(a["value"])
+
+
+def test_prepare__scalar_train_coordinate_and_unsorted_speeds():
+    one = _ds().isel(train=1, irregularity=0).isel(speed=[2, 0, 1])
+    ds = prepare(one)
+    assert ds["train"].values.tolist() == ["B"]
+    assert np.all(np.diff(ds["speed"].values) > 0)
+    np.testing.assert_allclose(ds["speed_kmh"], [200.0, 250.0, 300.0])
+
+
+def test_prepare__adds_speed_kmh_and_requires_speed():
+    ds = _ds().drop_vars("speed_kmh")
+    np.testing.assert_allclose(prepare(ds)["speed_kmh"], [200.0, 250.0, 300.0])
+    with pytest.raises(ResultsError, match="speed"):
+        prepare(xr.Dataset({"x": ("point", [1.0])}))
+
+
+def test_nanmax__all_nan_and_empty_without_warnings():
+    da = xr.DataArray([[np.nan, np.nan], [1.0, np.nan]], dims=("a", "b"))
+    out = nanmax(da, "b")
+    assert np.isnan(out[0]) and out[1] == 1.0
+    empty = xr.DataArray(np.zeros((2, 0)), dims=("a", "b"))
+    assert nanmax(empty, "b").isnull().all()
+
+
+def test_summary_table__one_row_per_check():
+    ds = _ds()
+    table = checks.summary_table(checks.run_checks(ds, n_boot=50))
+    assert list(table.columns) == checks.SUMMARY_COLUMNS
+    assert table["check"].tolist() == [
+        "Peak deck acceleration", "Max deck displacement", "Dynamic increment φ'dyn",
+        "Design factor 1 + φ'dyn + φ''/2", "Wheel unloading ΔQ/Q₀",
+        "Car-body acceleration (comfort)",
+    ]
+    assert set(table["result"]) <= {"pass", "FAIL", "info", "n/a"}

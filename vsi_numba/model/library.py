@@ -923,7 +923,7 @@ def trains_command(name: str | None = None) -> int:
                   "validation. Documented doubts (notes/trains.md):[/]", highlight=False)
         for d in documented_doubts(canon):
             out.print(f"  - {d}", markup=False, highlight=False)
-    table = Table(title=f"{canon}: axles (static whole-axle loads)", box=None,
+    table = Table(title=f"{canon}: axles", box=None,
                   padding=(0, 1, 0, 0), header_style="bold underline", title_justify="left")
     for col in ("axle", "position\nm", "static load\nkN", "vehicle"):
         table.add_column(col, justify="left" if col == "vehicle" else "right",

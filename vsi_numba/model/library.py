@@ -547,7 +547,8 @@ def articulated_vehicle(
         for k in (j, j + 1):
             b.connect(f"body{j + 1}", f"bogie{k + 1}", centres[k],
                       s.whole["secondary_stiffness"], s.whole["secondary_damping"])
-    return b.build(body="body1", status=_worst_status([s.status for s in specs]))
+    return b.build(body=[f"body{j + 1}" for j in range(len(specs))],
+                   status=_worst_status([s.status for s in specs]))
 
 
 def static_axle_loads(vehicle: Vehicle) -> np.ndarray:

@@ -42,6 +42,9 @@ class Vehicle:
         Static load vector (N), positive down (the weight of each translational DOF).
     body_dof : int
         DOF whose acceleration is reported as the car-body acceleration (-1: none).
+    extra_body_dofs : tuple of int
+        Further car-body DOFs of a multi-body vehicle (articulated trains): each is
+        reported as one more entry of the ``vehicle`` output dimension.
     load_positions, loads : ndarray
         Point loads with no dynamics (moving forces), position behind the first axle (m)
         and magnitude (N, positive down).
@@ -57,6 +60,7 @@ class Vehicle:
     wheel_positions: np.ndarray
     gravity: np.ndarray
     body_dof: int = -1
+    extra_body_dofs: tuple[int, ...] = ()
     load_positions: np.ndarray = field(default_factory=lambda: np.zeros(0))
     loads: np.ndarray = field(default_factory=lambda: np.zeros(0))
     dof_names: tuple[str, ...] = ()
@@ -88,6 +92,11 @@ class Vehicle:
             raise ValueError(f"vehicle {self.name!r}: negative mass on the diagonal of M")
         if not self.dof_names:
             object.__setattr__(self, "dof_names", tuple(f"dof{i}" for i in range(n)))
+
+    @property
+    def body_dofs(self) -> tuple[int, ...]:
+        """Every car-body DOF reported as car-body acceleration, in train order."""
+        return ((self.body_dof,) if self.body_dof >= 0 else ()) + tuple(self.extra_body_dofs)
 
     @property
     def n_dof(self) -> int:
@@ -182,7 +191,8 @@ class MultibodyBuilder:
                 raise ValueError(f"connect: unknown body {body!r}")
         self._springs.append(((upper, lower, float(position)), float(stiffness), float(damping)))
 
-    def build(self, body: str | None = None, status: str = "") -> Vehicle:
+    def build(self, body: str | list[str] | None = None, status: str = "") -> Vehicle:
+        """The assembled vehicle; ``body`` names the car body (or bodies) to report."""
         n = len(self._masses)
         M = np.diag(self._masses)
         K = np.zeros((n, n))
@@ -194,6 +204,7 @@ class MultibodyBuilder:
         g = np.zeros(n)
         g[self._translational] = GRAVITY * M[self._translational, self._translational]
         order = sorted(self._wheels, key=lambda w: w[1])
+        bodies = [body] if isinstance(body, str) else list(body or [])
         return Vehicle(
             name=self.name,
             M=M,
@@ -202,7 +213,8 @@ class MultibodyBuilder:
             wheel_dofs=np.array([w[0] for w in order], dtype=np.int64),
             wheel_positions=np.array([w[1] for w in order]),
             gravity=g,
-            body_dof=self._bodies[body][0] if body is not None else -1,
+            body_dof=self._bodies[bodies[0]][0] if bodies else -1,
+            extra_body_dofs=tuple(self._bodies[b][0] for b in bodies[1:]),
             dof_names=tuple(self._names),
             status=status,
         )

@@ -55,8 +55,7 @@ class Packed:
     n_dof: int
     wheel_positions: np.ndarray  # m behind the first axle, per wheel (dynamic wheels first)
     load_positions: np.ndarray
-    vehicle_names: list
-    body_vehicles: np.ndarray  # index into train.vehicles of each dynamic vehicle
+    vehicle_names: list  # one per reported car body
 
 
 def _pack_bridge(bridge: ModalBridge) -> ek.BridgeArrays:
@@ -134,7 +133,7 @@ def pack(
     K = np.zeros_like(M)
     Kh = np.zeros((levels, n_veh, nb, nb))
     Mi = np.zeros_like(M)
-    grav, wdof, wveh, wpos, wmassless, body = [], [], [], [], [], []
+    grav, wdof, wveh, wpos, wmassless, body, body_names = [], [], [], [], [], [], []
     inverses: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
     for b, (_, v, off) in enumerate(dyn):
         n = v.n_dof
@@ -153,7 +152,9 @@ def pack(
             wpos.append(off + p)
             wmassless.append(0 if massive[kdof] else 1)
         grav.append(v.gravity)
-        body.append(start[b] + v.body_dof if v.body_dof >= 0 else -1)
+        for d in v.body_dofs:
+            body.append(start[b] + d)
+            body_names.append(v.name if len(v.body_dofs) == 1 else f"{v.name}:{v.dof_names[d]}")
     lpos, lp = [], []
     for v, off in zip(train.vehicles, train.offsets, strict=True):
         lpos.extend(off + v.load_positions)
@@ -206,8 +207,7 @@ def pack(
     return Packed(
         bridge=_pack_bridge(bridge), vehicles=veh, profile=pr, params=params,
         n_dof=int(start[-1]), wheel_positions=wpos, load_positions=lpos,
-        vehicle_names=[v.name for _, v, _ in dyn],
-        body_vehicles=np.array([i for i, _, _ in dyn], dtype=np.int64),
+        vehicle_names=body_names,
     )
 
 
@@ -221,13 +221,24 @@ def _dense(veh: ek.VehicleArrays, A: np.ndarray) -> np.ndarray:
 
 
 def _kkt(A, G, rhs_top, rhs_bottom):
+    """Solve [A G^T; G 0] [x; y] = [rhs_top; rhs_bottom].
+
+    The constraint rows are scaled to the size of ``A`` first: unscaled, a stiffness of
+    1e7 N/m next to unit constraint rows makes the system so badly conditioned that the
+    constraints are lost to round-off.
+    """
     n, m = A.shape[0], G.shape[0]
+    s = max(float(np.max(np.abs(A), initial=0.0)), 1e-300)
     kkt = np.zeros((n + m, n + m))
     kkt[:n, :n] = A
-    kkt[:n, n:] = G.T
-    kkt[n:, :n] = G
-    sol = np.linalg.lstsq(kkt, np.concatenate([rhs_top, rhs_bottom]), rcond=None)[0]
-    return sol[:n], sol[n:]
+    kkt[:n, n:] = s * G.T
+    kkt[n:, :n] = s * G
+    rhs = np.concatenate([rhs_top, s * np.asarray(rhs_bottom, float)])
+    try:
+        sol = np.linalg.solve(kkt, rhs)
+    except np.linalg.LinAlgError:
+        sol = np.linalg.lstsq(kkt, rhs, rcond=None)[0]
+    return sol[:n], s * sol[n:]
 
 
 def _static_loads(veh: ek.VehicleArrays) -> np.ndarray:

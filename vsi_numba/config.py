@@ -155,6 +155,13 @@ def _is_number(v) -> bool:
     return isinstance(v, int | float) and not isinstance(v, bool)
 
 
+def _finite(v) -> bool:
+    try:
+        return math.isfinite(float(v))
+    except OverflowError:  # an int beyond the float range
+        return False
+
+
 def _as_list(v):
     if isinstance(v, np.ndarray):
         return v.tolist()
@@ -231,7 +238,7 @@ class _Checker:
         if spec.integer:
             ok = isinstance(value, int) and not isinstance(value, bool)
         else:
-            ok = _is_number(value) and math.isfinite(float(value))
+            ok = _is_number(value) and _finite(value)
         if ok:
             x = int(value) if spec.integer else float(value)
             ok = (
@@ -316,15 +323,26 @@ class _Checker:
         if not isinstance(v, str) or not v.strip() or "\x00" in v:
             self.error(p, v, f"the path of {what} (a string)")
             return _BAD, _BAD
-        full = (base_dir / Path(v).expanduser()).resolve()
+        full = _resolve(base_dir, v)
+        if full is None:
+            self.error(p, v, f"a valid path of {what}")
+            return _BAD, _BAD
         try:
             exists = full.is_file()
-        except OSError:
+        except (OSError, ValueError):
             exists = False
         if not exists:
             self.error(p, v, f"an existing file with {what} (looked for {full})")
             return _BAD, _BAD
         return v, full
+
+
+def _resolve(base_dir: Path, given: str) -> Path | None:
+    """Return ``base_dir / given`` resolved, or None for an unusable path (``~nobody``)."""
+    try:
+        return (base_dir / Path(given).expanduser()).resolve()
+    except (OSError, ValueError, RuntimeError):
+        return None
 
 
 def _ok(*values) -> bool:
@@ -592,7 +610,7 @@ def _matrix(chk, value, path, n=None):
     bad = False
     for i, row in enumerate(rows):
         for j, x in enumerate(row):
-            if not (_is_number(x) and math.isfinite(float(x))):
+            if not (_is_number(x) and _finite(x)):
                 chk.error(f"{path}[{i}][{j}]", x, "a finite number")
                 bad = True
     if bad:
@@ -660,7 +678,8 @@ def _user_vehicle(chk, v, path, name):
 
 def _vehicle(chk, v, path, index):
     if not isinstance(v, Mapping):
-        return chk.error(path, v, "a table with kind = 'force' | 'sprung_mass' | 'car' | 'user'")
+        chk.error(path, v, "a table with kind = 'force' | 'sprung_mass' | 'car' | 'user'")
+        return _BAD, _BAD, None
     kind = chk.choice(v, path, "kind", VEHICLE_KINDS)
     if kind is _BAD:
         every = set(_COMMON_VEHICLE_KEYS).union(*(_vehicle_keys(k) for k in VEHICLE_KINDS))
@@ -839,7 +858,7 @@ def _load_user_trains(chk, lib, full: Path, given: str):
                                               "available in this installation)")
     try:
         out = lib.load_user_trains(full)
-    except (ValueError, KeyError, TypeError, OSError, tomllib.TOMLDecodeError) as exc:
+    except Exception as exc:  # noqa: BLE001 - any failure of a foreign file is a config error
         msg = " ".join(str(exc).split())
         return chk.error("train.file", given, f"a valid user train file ({msg})")
     if isinstance(out, Mapping):
@@ -984,7 +1003,7 @@ def _irregularity_section(chk, d, base_dir: Path) -> _IrregularitySpec | _Sentin
         else:
             seeds = chk.number_list(
                 d["seeds"], "irregularity.seeds",
-                _Num("an integer seed 0 <= seed < 2^63", ge=0, integer=True),
+                _Num("an integer seed 0 <= seed < 2^63", ge=0, lt=2**63, integer=True),
                 expected="a non-empty list of distinct integer seeds >= 0", max_len=10_000,
                 scalar_ok=True)
             if _is_number(seeds):
@@ -1142,8 +1161,10 @@ def _study_section(chk, d, default_output: str, base_dir: Path) -> dict | _Senti
         if "\x00" in output or not output.endswith(".nc"):
             output = chk.error("study.output", output, "a path to a netCDF file ending in .nc")
         else:
-            out_full = (base_dir / Path(output).expanduser()).resolve()
-            if out_full.is_dir():
+            out_full = _resolve(base_dir, output)
+            if out_full is None:
+                output = chk.error("study.output", output, "a valid path of a netCDF file")
+            elif out_full.is_dir():
                 output = chk.error("study.output", output, f"a file path ({out_full} is a "
                                                            "directory)")
     save = chk.boolean(d, path, "save_time_histories", True)
@@ -1333,6 +1354,10 @@ def _read_toml(path: Path) -> tuple[dict | None, list[str]]:
     except tomllib.TOMLDecodeError as exc:
         hint = "" if path.suffix.lower() == ".toml" else " (is this a TOML file?)"
         msg = " ".join(str(exc).split())
+        if "(at end of document)" in msg:  # tomllib gives no line/column there
+            lines = text.split("\n")
+            msg = msg.replace("(at end of document)", f"(at end of document, line {len(lines)}, "
+                                                      f"column {len(lines[-1]) + 1})")
         return None, [f"{path}: TOML syntax error: {msg}; expected valid TOML{hint}"]
 
 

@@ -1,0 +1,243 @@
+"""Kernel units against slow, obvious oracles, and engine-level invariants.
+
+Each kernel is compared with a dense numpy/itertools computation written here; the
+physical validation against closed forms and ODE integrations is in test_validation.py.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from vsi_numba.kernels import engine as ek
+from vsi_numba.model import bridge as br
+from vsi_numba.model import vehicle as vh
+from vsi_numba.model.irregularity import Profile, cosine_defect, no_irregularity
+from vsi_numba.solver import simulate as sm
+from vsi_numba.solver.settings import SolverSettings
+
+ICE_CAR = dict(
+    body_mass=47800.0, body_pitch_inertia=1957888.0, bogie_mass=3500.0,
+    bogie_pitch_inertia=1715.0, wheelset_mass=1800.0, bogie_spacing=17.375, wheelbase=2.5,
+    primary_stiffness=2.4e6, primary_damping=2e4, secondary_stiffness=7e5,
+    secondary_damping=4e4,
+)
+
+
+def _pack(bridge, train, speed=30.0, profile=None, **kw):
+    settings = SolverSettings(**{"dt": 1e-3, "free_vibration": 0.0, **kw})
+    return sm.pack(bridge, train, speed, profile or no_irregularity(), settings)
+
+
+# ------------------------------------------------------------------------- evaluation
+
+
+@pytest.mark.parametrize("kind", ["sine", "hermite"])
+def test_eval_modes__matches_numpy_evaluation(kind):
+    if kind == "sine":
+        bridge = br.simply_supported(20.0, 5e9, 1e4, n_modes=6)
+    else:
+        bridge = br.continuous([12.0, 17.0], 5e9, 1e4, n_modes=6, elements_per_span=8)
+    arr = sm._pack_bridge(bridge)
+    x = np.linspace(-1.0, bridge.length + 1.0, 57)
+    n = bridge.n_modes
+    for xi in x:
+        out, d1, d2 = np.zeros(n), np.zeros(n), np.zeros(n)
+        onb = ek.eval_modes(arr, xi, out, d1, d2)
+        assert onb == int(0.0 <= xi <= bridge.length)
+        # same cubic, two implementations (loops vs vectorised numpy): round-off only
+        np.testing.assert_allclose(out, bridge.shapes([xi])[0], rtol=1e-10, atol=1e-12)
+        np.testing.assert_allclose(d1, bridge.shapes([xi], 1)[0], rtol=1e-10, atol=1e-10)
+        np.testing.assert_allclose(d2, bridge.shapes([xi], 2)[0], rtol=1e-9, atol=1e-9)
+
+
+def test_eval_modes__sine_is_the_analytic_mode():
+    L, EI, m = 20.0, 5e9, 1e4
+    arr = sm._pack_bridge(br.simply_supported(L, EI, m, n_modes=3))
+    out, d1, d2 = np.zeros(3), np.zeros(3), np.zeros(3)
+    ek.eval_modes(arr, 7.3, out, d1, d2)
+    j = np.arange(1, 4)
+    expected = np.sqrt(2 / (m * L)) * np.sin(j * np.pi * 7.3 / L)
+    np.testing.assert_allclose(out, expected, rtol=1e-13)  # closed form, round-off only
+
+
+def test_eval_profile__matches_spline_evaluation():
+    x = np.linspace(0.0, 10.0, 41)
+    prof = Profile.from_samples(x, 1e-3 * np.sin(x) + 2e-4 * x)
+    arr = ek.ProfileArrays(prof.x0, prof.dx, prof.coef)
+    out = np.zeros(3)
+    for xi in np.linspace(-0.5, 10.5, 101):
+        ek.eval_profile(arr, xi, out)
+        expected = [prof(xi), prof(xi, 1), prof(xi, 2)]
+        np.testing.assert_allclose(out, np.ravel(expected), atol=1e-14)  # same cubic
+
+
+def test_profile__spline_is_c2():
+    prof = cosine_defect(0.01, 3.0, 5.0)
+    knots = prof.x0 + prof.dx * np.arange(1, prof.coef.shape[0])
+    eps = 1e-9
+    for d in (0, 1, 2):
+        left, right = prof(knots - eps, d), prof(knots + eps, d)
+        scale = np.abs(prof(knots, d)).max()
+        # continuity across every knot, up to the eps-shift of a smooth function
+        assert np.max(np.abs(left - right)) < 1e-6 * scale
+
+
+# ------------------------------------------------------------------------ Schur solve
+
+
+def test_cholesky_solve__matches_numpy():
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(7, 7))
+    A = A @ A.T + 7 * np.eye(7)
+    idx = np.array([5, 1, 3, 0, 0, 0, 0])
+    b = rng.normal(size=7)
+    x = np.zeros(7)
+    assert ek.cholesky_solve(A, idx, 3, np.zeros((7, 7)), b, x) == 0
+    sub = A[np.ix_(idx[:3], idx[:3])]
+    np.testing.assert_allclose(x[:3], np.linalg.solve(sub, b[:3]), rtol=1e-12)
+    assert ek.cholesky_solve(-A, idx, 3, np.zeros((7, 7)), b, x) == 1  # not SPD
+
+
+def _brute_force_lcp(S, gstar, scale):
+    """All 2^n active sets: the one with X >= 0 on it and gap >= 0 off it."""
+    n = len(gstar)
+    for bits in itertools.product([0, 1], repeat=n):
+        act = np.array(bits, bool)
+        X = np.zeros(n)
+        if act.any():
+            X[act] = np.linalg.solve(S[np.ix_(act, act)], -gstar[act] / scale)
+        gap = gstar + scale * S @ X
+        if np.all(X[act] >= -1e-12) and np.all(gap[~act] >= -1e-12):
+            return X
+    raise AssertionError("no complementary solution")
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_solve_active_set__is_the_lcp_solution(seed):
+    rng = np.random.default_rng(seed)
+    n = 5
+    A = rng.normal(size=(n, n))
+    S = A @ A.T * 1e-9 + np.eye(n) * 1e-9
+    gstar = rng.normal(size=n) * 1e-4
+    scale = 0.9
+    veh = ek.VehicleArrays(*([np.zeros(1)] * 7), wheel_dof=np.arange(n), wheel_veh=np.zeros(n, np.int64),
+                           wheel_x0=np.zeros(n), wheel_massless=np.zeros(n, np.int64),
+                           wheel_compliance=np.zeros(n), body_dof=np.zeros(0, np.int64),
+                           load_x0=np.zeros(0), load_p=np.zeros(0))
+    wk = sm._workspace(1, 1, n)
+    wk.S[:] = S
+    wk.gstar[:] = gstar
+    wk.active[:] = rng.integers(0, 2, n)
+    status, _ = ek.solve_active_set(veh, wk, scale, 50, 1e-15, 1e-9)
+    assert status == ek.OK
+    # the LCP with an SPD matrix has one solution: the two must agree to round-off
+    np.testing.assert_allclose(wk.X, _brute_force_lcp(S, gstar, scale), rtol=1e-8, atol=1e-6)
+
+
+def test_build_schur__equals_dense_b_khat_inv_bt():
+    beam = br.simply_supported(20.0, 5e9, 1e4, n_modes=5)
+    car = vh.railway_car(**ICE_CAR)
+    train = vh.Train("two", (car, vh.sprung_mass(5e3, 1e6, 1e3, 400.0)), (0.0, 25.0))
+    p = _pack(beam, train)
+    n_w = p.vehicles.wheel_dof.size
+    wk = sm._workspace(beam.n_modes, p.n_dof, n_w)
+    t = (p.params.speed ** -1) * 35.0  # some wheels on the bridge, some off it
+    ek.contact_search(p.bridge, p.vehicles, p.profile, t, p.params.speed, wk)
+    khat_q = np.linspace(1e5, 9e5, beam.n_modes)
+    ek.build_schur(p.vehicles, wk, khat_q, p.vehicles.Khat_inv[0])
+    # dense oracle: B = [-phi(x_i) | e_wheel], K^ = blockdiag(diag(khat_q), vehicle blocks)
+    n_m = beam.n_modes
+    Kinv = np.zeros((n_m + p.n_dof,) * 2)
+    Kinv[:n_m, :n_m] = np.diag(1 / khat_q)
+    Kinv[n_m:, n_m:] = sm._dense(p.vehicles, p.vehicles.Khat_inv[0])
+    x = p.vehicles.wheel_x0 + p.params.speed * t
+    B = np.zeros((n_w, n_m + p.n_dof))
+    B[:, :n_m] = -beam.shapes(x)
+    B[np.arange(n_w), n_m + p.vehicles.wheel_dof] = 1.0
+    assert 0 < wk.onb.sum() < n_w
+    np.testing.assert_allclose(wk.S, B @ Kinv @ B.T, rtol=1e-12, atol=1e-20)
+
+
+# ------------------------------------------------------------------- engine invariants
+
+
+def test_static_start__kept_on_level_rigid_track_for_every_library_train():
+    from vsi_numba.model.library import get_train, list_presets
+
+    names = [n for n in list_presets() if not n.upper().startswith("HSLM")]
+    assert len(names) >= 2
+    for name in names:
+        train = get_train(name)
+        ds = sm.simulate(br.rigid(5.0), train, 50.0,
+                         settings=SolverSettings(dt=2e-3, approach=1.0, free_vibration=0.0))
+        assert ds.attrs["status"] == 0, name
+        q0 = ds.static_wheel_load
+        # equilibrium is exact up to round-off of ~1e5 N forces: 1e-8 relative
+        assert float(np.abs(ds.contact_force - q0).max()) < 1e-8 * float(q0.max()), name
+        assert float(np.abs(ds.carbody_acceleration).max()) < 1e-9, name
+
+
+def test_static_wheel_loads__sum_to_the_weight():
+    car = vh.railway_car(**ICE_CAR)
+    p = _pack(br.rigid(10.0), vh.Train("c", (car,), (0.0,)))
+    Q = sm.static_wheel_loads(p)
+    total = 9.81 * (47800 + 2 * 3500 + 4 * 1800)
+    np.testing.assert_allclose(Q.sum(), total, rtol=1e-12)  # statics, round-off only
+
+
+def test_simulate__moving_force_train_has_loads_as_contact_forces():
+    train = vh.Train("f", (vh.point_loads([0.0, 3.0], [1e5, 2e5]),), (0.0,))
+    ds = sm.simulate(br.simply_supported(10.0, 1e9, 5e3, n_modes=2), train, 20.0,
+                     settings=SolverSettings(dt=2e-3, free_vibration=0.1))
+    np.testing.assert_array_equal(ds.contact_force.isel(time=5).values, [1e5, 2e5])
+    assert ds.sizes["vehicle"] == 0
+
+
+# --------------------------------------------------------------------- failure paths
+
+
+def test_failure__contact_not_converged_is_flagged_and_masked():
+    car = vh.sprung_mass(5000.0, 5e5, 2e3, 500.0)
+    train = vh.Train("q", (car,), (0.0,))
+    # a landing needs two active-set iterations; allow one, and no step subdivision
+    ds = sm.simulate(br.rigid(20.0), train, 30.0, profile=cosine_defect(0.03, 2.0, 5.0),
+                     settings=SolverSettings(dt=1e-3, max_iterations=1, max_subdivisions=0,
+                                             free_vibration=0.0))
+    assert ds.attrs["status"] == ek.NOT_CONVERGED
+    assert "did not converge" in ds.attrs["message"]
+    assert np.all(np.isnan(ds.max_contact_force))
+
+
+def test_failure__same_case_converges_with_default_settings():
+    car = vh.sprung_mass(5000.0, 5e5, 2e3, 500.0)
+    train = vh.Train("q", (car,), (0.0,))
+    ds = sm.simulate(br.rigid(20.0), train, 30.0, profile=cosine_defect(0.03, 2.0, 5.0),
+                     settings=SolverSettings(dt=1e-3, free_vibration=0.0))
+    assert ds.attrs["status"] == 0
+    assert int(ds.max_iterations) == 2  # the landing: one attach, one confirmation
+    assert float(ds.contact_loss_duration[0]) > 0.0
+
+
+def test_failure__diverging_vehicle_is_caught_as_non_finite():
+    # a negative stiffness makes the vehicle statically unstable: exponential growth
+    bad = vh.user_vehicle(M=[[1000.0, 0.0], [0.0, 100.0]],
+                          C=np.zeros((2, 2)),
+                          K=[[-1e9, 1e9], [1e9, -1e9]],
+                          wheel_dofs=[1], wheel_positions=[0.0])
+    ds = sm.simulate(br.rigid(300.0), vh.Train("bad", (bad,), (0.0,)), 30.0,
+                     settings=SolverSettings(dt=1e-3, free_vibration=0.0))
+    assert ds.attrs["status"] == ek.NON_FINITE
+    assert np.all(np.isnan(ds.max_carbody_acceleration))
+
+
+def test_failure__singular_vehicle_is_a_clear_model_error():
+    # a DOF with neither mass nor stiffness cannot be integrated
+    bad = vh.user_vehicle(M=[[1000.0, 0.0, 0.0], [0.0, 100.0, 0.0], [0.0, 0.0, 0.0]],
+                          C=np.zeros((3, 3)),
+                          K=[[1e6, -1e6, 0.0], [-1e6, 1e6, 0.0], [0.0, 0.0, 0.0]],
+                          wheel_dofs=[1], wheel_positions=[0.0])
+    with pytest.raises(sm.ModelError, match="singular effective stiffness"):
+        sm.simulate(br.rigid(10.0), vh.Train("bad", (bad,), (0.0,)), 30.0)

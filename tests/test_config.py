@@ -175,7 +175,7 @@ def test_config__missing_required_key():
          "bridge.output_points[1] = 30.0: expected a position on the bridge, 0 <= x <= 25 m"),
         ("contact.model", "hertz", "contact.model = \"hertz\": expected 'rigid' ('hertz' contact "
                                    "is not available in this version)"),
-        ("contact.model", "penalty", "contact.model = \"penalty\": expected one of 'rigid'"),
+        ("contact.model", "penalty", "contact.model = \"penalty\": expected 'rigid'"),
         ("bridge.kind", "simply_suported", 'bridge.kind = "simply_suported": expected one of '
                                            "'simply_supported', 'continuous', 'rigid', "
                                            "'modes_file' (did you mean 'simply_supported'?)"),

@@ -147,7 +147,8 @@ def _did_you_mean(word: str, choices) -> str | None:
     if close:
         return low[close[0]]
     w = str(word).lower()
-    part = [c for c in low if len(w) >= 3 and (w in c or c in w)]  # "mass" -> mass_per_length
+    part = [c for c in low  # "mass" -> mass_per_length
+            if min(len(w), len(c)) >= 3 and (w in c or c in w)]
     return low[part[0]] if len(part) == 1 else None
 
 
@@ -289,9 +290,10 @@ class _Checker:
     def choice(self, tbl, path: str, key: str, choices, default=_MISSING, note: str = ""):
         p = _join(path, key)
         listing = ", ".join(f"'{c}'" for c in choices)
+        listing = f"one of {listing}" if len(choices) > 1 else listing
         if key not in tbl:
             if default is _MISSING:
-                return self.error(p, _MISSING, f"one of {listing}{note}")
+                return self.error(p, _MISSING, f"{listing}{note}")
             return default
         v = tbl[key]
         if isinstance(v, str) and v in choices:
@@ -301,7 +303,7 @@ class _Checker:
             guess = _did_you_mean(v, choices)
             if guess:
                 hint = f" (did you mean '{guess}'?)"
-        return self.error(p, v, f"one of {listing}{note}{hint}")
+        return self.error(p, v, f"{listing}{note}{hint}")
 
     def boolean(self, tbl, path: str, key: str, default):
         if key not in tbl:
@@ -802,8 +804,8 @@ def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
         return _BAD
     given = [k for k in ("preset", "vehicles", "file") if k in d]
     if not given:
-        return chk.error(path, _MISSING if not d else dict(d),
-                         "train.preset (library names), [[train.vehicles]] or train.file")
+        return chk.error(path, _MISSING, "one of train.preset (library names), "
+                                         "[[train.vehicles]] or train.file")
     if "vehicles" in d and len(given) > 1:
         other = [k for k in given if k != "vehicles"][0]
         return chk.error(f"train.{other}", d[other],

@@ -1,0 +1,326 @@
+"""Study runner: case grid, backends (serial / spawned processes / Dask), file layout.
+
+Real components throughout: the TOML config loader, the train library (a small user train
+file), PSD irregularities and the numba engine.  The model is kept tiny (10 m span, 2
+modes, one- and two-car trains, dt = 2 ms) so each case takes tens of ms once the kernels
+are compiled; set NUMBA_CACHE_DIR so that compilation happens once per machine.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from vsi_numba.config import ConfigError, load_config
+from vsi_numba.io.netcdf import open_results
+from vsi_numba.io.schema import ENVELOPES, HISTORIES
+from vsi_numba.solver.simulate import simulate
+from vsi_numba.study.grid import history_mask, make_grid
+from vsi_numba.study.runner import (
+    StudySpec,
+    run_case,
+    run_study,
+    study_grid,
+    study_model,
+    study_spec,
+    sweep_command,
+)
+from vsi_numba.study.store import StoreMismatchError, store_path
+
+TRAINS_TOML = """
+[[vehicle]]
+id = "minicar"
+bogie_spacing = 6.0
+wheelbase = 2.0
+[vehicle.whole]
+body_mass = 30000.0
+body_pitch_inertia = 1.0e6
+bogie_mass = 2000.0
+bogie_pitch_inertia = 1500.0
+wheelset_mass = 1500.0
+primary_stiffness = 2.0e6
+primary_damping = 3.0e4
+secondary_stiffness = 6.0e5
+secondary_damping = 2.0e4
+
+[[train]]
+id = "one-car"
+vehicles = ["minicar"]
+
+[[train]]
+id = "two-cars"
+vehicles = ["minicar", "minicar"]
+vehicle_offsets = [0.0, 12.0]
+junctions = ["coupled"]
+"""
+
+
+def write_study(directory: Path, speeds=(100.0, 150.0, 200.0), history=(150.0,),
+                damping=0.02, seeds=(1, 2)) -> Path:
+    """A small study: 10 m span (2 modes), two user trains, PSD profiles."""
+    directory.mkdir(parents=True, exist_ok=True)
+    (directory / "trains.toml").write_text(TRAINS_TOML)
+    text = f"""
+    title = "study test: two small trains on a 10 m span"
+    [bridge]
+    kind = "simply_supported"
+    spans = [10.0]
+    EI = 2.0e9
+    mass_per_length = 10000.0
+    damping_ratio = {damping}
+    n_modes = 2
+    [train]
+    file = "trains.toml"
+    [irregularity]
+    kind = "psd"
+    spectrum = "fra4"
+    wavelength_min = 2.0
+    wavelength_max = 30.0
+    seeds = {list(seeds)}
+    [solver]
+    dt = 2e-3
+    approach = 2.0
+    free_vibration = 0.1
+    [study]
+    speeds_kmh = {list(speeds)}
+    output = "results/study.nc"
+    save_time_histories = true
+    history_speeds_kmh = {list(history)}
+    """
+    path = directory / "study.toml"
+    path.write_text(textwrap.dedent(text))
+    return path
+
+
+@pytest.fixture(scope="module")
+def study_config(tmp_path_factory) -> Path:
+    return write_study(tmp_path_factory.mktemp("study"))
+
+
+@pytest.fixture(scope="module")
+def serial_result(study_config) -> xr.Dataset:
+    out = study_config.parent / "serial.nc"
+    return run_study(study_config, out, backend="serial")
+
+
+def envelopes(ds: xr.Dataset) -> xr.Dataset:
+    names = [*ENVELOPES, "status", "max_iterations"]
+    return ds[names].drop_attrs(deep=False)
+
+
+# ------------------------------------------------------------------------------- grid
+
+
+def test_make_grid__deterministic_order_and_keys():
+    grid = make_grid([100.0, 150.0], ["A", "B"], [7, 9], [False, True])
+    assert grid.shape == (2, 2, 2)
+    assert [c.key for c in grid.cases[:3]] == ["s0000_t000_i000", "s0000_t000_i001",
+                                               "s0000_t001_i000"]
+    assert [c.index for c in grid.cases] == list(range(8))
+    assert [c.histories for c in grid.cases] == [False] * 4 + [True] * 4
+    assert grid.cases[-1].irregularity == 9 and grid.cases[-1].train == "B"
+    assert grid.cases[5].speed_m_s == 150.0 / 3.6
+
+
+def test_history_mask__none_all_subset():
+    speeds = [100.0, 150.0, 200.0]
+    assert not history_mask(speeds, False, None).any()
+    assert history_mask(speeds, True, None).all()
+    assert history_mask(speeds, True, [150.0]).tolist() == [False, True, False]
+
+
+def test_study_grid__from_config(study_config):
+    cfg = load_config(study_config)
+    grid = study_grid(study_model(study_spec(cfg)))
+    assert grid.trains == ("one-car", "two-cars")
+    assert grid.irregularities == (1, 2)
+    assert len(grid.cases) == 12
+    assert grid.history_speeds.tolist() == [False, True, False]
+
+
+def test_run_case__equals_simulate(study_config):
+    """A case rebuilt from the resolved JSON equals a direct simulate() call."""
+    cfg = load_config(study_config)
+    spec = study_spec(cfg)
+    assert isinstance(spec, StudySpec) and json.loads(spec.config_json) == cfg.resolved()
+    model = study_model(spec)
+    case = study_grid(model).cases[7]  # 150 km/h, two-cars, seed 2: keeps histories
+    ds = run_case(spec, case)
+    assert ds.sizes["speed"] == ds.sizes["train"] == ds.sizes["irregularity"] == 1
+    assert "deck_displacement" in ds and "time" in ds.dims
+    bridge, train = cfg.build_bridge(), cfg.trains()[1]
+    profile = dict(cfg.irregularities(*model.x_range))[2]
+    ref = simulate(bridge, train, 150.0 / 3.6, profile, cfg.solver_settings(),
+                   output_points=cfg.output_points, save_histories=True)
+    for name in ENVELOPES:
+        # same inputs, same serial kernel: bit-identical
+        np.testing.assert_array_equal(ds[name].values[0, 0, 0], ref[name].values)
+    np.testing.assert_array_equal(ds["deck_displacement"].values[0, 0, 0],
+                                  ref["deck_displacement"].values)
+
+
+# ------------------------------------------------------------------------------- backends
+
+
+def test_run_study__processes_and_dask_equal_serial(study_config, serial_result):
+    """Envelopes are bit-identical whichever backend ran the cases."""
+    d = study_config.parent
+    procs = run_study(study_config, d / "processes.nc", workers=2, backend="processes")
+    dask = run_study(study_config, d / "dask.nc", workers=2, backend="dask")
+    xr.testing.assert_identical(envelopes(serial_result), envelopes(procs))
+    xr.testing.assert_identical(envelopes(serial_result), envelopes(dask))
+    # and so is everything else but the history line
+    xr.testing.assert_identical(serial_result.drop_attrs(), dask.drop_attrs())
+    a, b = dict(serial_result.attrs), dict(procs.attrs)
+    assert a.pop("history") != "" and b.pop("history") != ""
+    assert a == b
+    assert not store_path(d / "dask.nc").exists()  # store removed after success
+
+
+# ------------------------------------------------------------------------------- layout
+
+
+def test_study_file__documented_names_and_attrs(study_config, serial_result):
+    path = study_config.parent / "serial.nc"
+    with open_results(path) as ds:
+        assert dict(ds.sizes) == {"speed": 3, "train": 2, "irregularity": 2, "point": 1,
+                                  "wheel": 8, "vehicle": 2, "mode": 2,
+                                  "time": ds.sizes["time"]}
+        for name in (*ENVELOPES, *HISTORIES, "status", "max_iterations", "message",
+                     "static_wheel_load", "max_static_deck_displacement",
+                     "train_regular_length", "train_status", "frequency", "wheel_position"):
+            assert name in ds.variables, name
+        for name, var in ds.variables.items():
+            assert "units" in var.attrs and "long_name" in var.attrs, name
+        assert ds["speed"].attrs["units"] == "m s-1"
+        np.testing.assert_allclose(ds["speed_kmh"], [100.0, 150.0, 200.0], rtol=0, atol=0)
+        np.testing.assert_allclose(ds["speed"], ds["speed_kmh"] / 3.6, rtol=1e-15)
+        assert ds["train"].values.tolist() == ["one-car", "two-cars"]
+        assert ds["irregularity"].values.tolist() == [1, 2]
+        assert ds["time"].dtype == np.float64 and ds["time"].attrs["units"] == "s"
+        attrs = ds.attrs
+        assert attrs["Conventions"] == "CF-1.12"
+        assert attrs["title"] == "study test: two small trains on a 10 m span"
+        assert attrs["source"].startswith("vsi_numba ") and "numba " in attrs["source"]
+        assert attrs["history"][:4].isdigit() and attrs["history"][19] == "Z"
+        cfg = load_config(study_config)
+        assert attrs["config_json"] == cfg.to_json()
+        assert attrs["config_sha256"] == cfg.sha256
+        assert attrs["bridge_length"] == 10.0
+        assert "simply supported" in attrs["bridge_description"]
+        assert "track_type" in attrs
+        assert attrs["n_cases"] == 12 and attrs["n_failed_cases"] == 0
+        assert (ds["status"] == 0).all()
+        assert ds["status"].dtype == np.int32 and ds["max_iterations"].dtype == np.int32
+        # the one-car train has 4 wheels and 1 vehicle: the rest is NaN padding
+        one = ds.sel(train="one-car")
+        assert np.isnan(one["max_contact_force"].isel(wheel=slice(4, None))).all()
+        assert np.isfinite(one["max_contact_force"].isel(wheel=slice(0, 4))).all()
+        assert np.isnan(one["static_wheel_load"].isel(wheel=slice(4, None))).all()
+        assert np.isnan(one["max_carbody_acceleration"].isel(vehicle=1)).all()
+        two = ds.sel(train="two-cars")
+        assert np.isfinite(two["max_contact_force"]).all()
+        # static wheel loads: the weight of one car shared by its 4 wheelsets
+        car_weight = (30000.0 + 2 * 2000.0 + 4 * 1500.0) * 9.81
+        np.testing.assert_allclose(two["static_wheel_load"].sum(), 2 * car_weight, rtol=1e-9)
+        # histories: only at 150 km/h; float32 in the file; time padded with NaN
+        hist = ds["deck_displacement"]
+        assert np.isnan(hist.isel(speed=0)).all() and np.isnan(hist.isel(speed=2)).all()
+        assert np.isfinite(hist.isel(speed=1, time=0)).all()
+        enc = hist.encoding
+        assert enc["dtype"] == np.float32 and enc["zlib"] and enc["shuffle"]
+        assert enc["complevel"] == 4
+        assert ds["max_deck_displacement"].encoding["dtype"] == np.float64
+        assert "_FillValue" not in ds["status"].encoding or \
+            ds["status"].encoding["_FillValue"] is None
+        assert ds["frequency"].attrs["units"] == "Hz"
+        np.testing.assert_allclose(ds["frequency"], cfg.build_bridge().frequencies, rtol=0)
+        # phi'_dyn ingredients: static envelope positive and below the dynamic one
+        assert (ds["max_static_deck_displacement"] > 0).all()
+
+
+# ------------------------------------------------------------------------------- CLI
+
+
+def test_sweep_command__config_error_exit_2(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('title = "x"\n[bridge]\nkind = "simply_supported"\nspans = [-3.0]\n')
+    assert sweep_command(bad, None, None, None, True) == 2
+    err = capsys.readouterr().err
+    assert "bridge.spans" in err and "Traceback" not in err
+
+
+def test_sweep_command__workers_and_scheduler_exclusive(study_config, capsys):
+    assert sweep_command(study_config, None, 2, "tcp://127.0.0.1:1", True) == 2
+    assert "not both" in capsys.readouterr().err
+
+
+def test_sweep_command__failed_cases_exit_1(tmp_path, capsys):
+    """A case that fails numerically is flagged (status, NaN, message) and exits 1."""
+    cfg = tmp_path / "fail.toml"
+    cfg.write_text(textwrap.dedent("""
+        title = "one case fails"
+        [bridge]
+        kind = "simply_supported"
+        spans = [10.0]
+        EI = 2.0e9
+        mass_per_length = 10000.0
+        n_modes = 2
+        [[train.vehicles]]
+        kind = "sprung_mass"
+        mass = 5000.0
+        stiffness = 1.0e7
+        wheel_mass = 500.0
+        [irregularity]
+        kind = "cosine"
+        depth = -0.001
+        wavelength = 0.5
+        position = 5.0
+        [solver]
+        dt = 2e-3
+        approach = 1.0
+        free_vibration = 0.05
+        max_iterations = 1
+        max_subdivisions = 0
+        [study]
+        speeds_kmh = [100.0, 300.0]
+        save_time_histories = false
+    """))
+    out = tmp_path / "fail.nc"
+    assert sweep_command(cfg, out, None, None, True) == 1
+    assert "1 of 2 cases failed numerically" in capsys.readouterr().err
+    with open_results(out) as ds:
+        assert ds["status"].values.ravel().tolist() == [0, 1]
+        assert ds.attrs["n_failed_cases"] == 1
+        assert ds.attrs["failed_cases"] == "s0001_t000_i000"
+        assert np.isnan(ds["max_deck_displacement"].isel(speed=1)).all()
+        assert "did not converge" in str(ds["message"].isel(speed=1).item())
+        assert "time" not in ds.dims  # save_time_histories = false
+
+
+def test_run_study__changed_config_refused(tmp_path):
+    """A store left by another configuration is never mixed in (fresh=True discards it)."""
+    cfg = write_study(tmp_path, speeds=(150.0,), seeds=(1,))
+    out = tmp_path / "s.nc"
+    store = store_path(out)
+    run_study(cfg, out, backend="serial", keep_cases=True)
+    n = len(list(store.glob("case_*.nc")))
+    assert n == 2
+    changed = write_study(tmp_path, speeds=(150.0,), seeds=(1,), damping=0.03)
+    with pytest.raises(StoreMismatchError, match="DIFFERENT configuration"):
+        run_study(changed, out, backend="serial")
+    assert len(list(store.glob("case_*.nc"))) == n  # untouched
+    ds = run_study(changed, out, backend="serial", fresh=True)
+    assert ds.attrs["config_sha256"] == load_config(changed).sha256
+
+
+def test_run_study__config_from_dict_and_invalid(tmp_path):
+    with pytest.raises(ConfigError):
+        run_study({"title": "x"}, tmp_path / "x.nc")
+    assert not os.listdir(tmp_path)  # nothing created for an invalid config

@@ -70,13 +70,23 @@ def test_deck_acceleration_check__direct_fastening_limit_and_explicit_limit():
 
 def test_deck_acceleration_check__missing_track_type_defaults_to_ballasted():
     ds = _ds()
+    assert checks.deck_acceleration_check(ds).attrs["track_type_assumed"] == 0
     del ds.attrs["track_type"]
+    a = checks.deck_acceleration_check(ds).attrs
+    assert a["limit"] == 3.5 and a["track_type_assumed"] == 1
+    ds.attrs["track_type"] = "unspecified"  # what the study runner writes when not given
     assert checks.deck_acceleration_check(ds).attrs["limit"] == 3.5
+
+
+@pytest.mark.parametrize(("attr", "limit"), [("Ballasted", 3.5), ("ballastless", 5.0),
+                                             ("slab", 5.0), ("direct_fastened", 5.0)])
+def test_deck_acceleration_check__track_type_aliases(attr, limit):
+    assert checks.deck_acceleration_check(_ds(track_type=attr)).attrs["limit"] == limit
 
 
 def test_deck_acceleration_check__unknown_track_type_is_a_results_error():
     with pytest.raises(ResultsError, match="track_type"):
-        checks.deck_acceleration_check(_ds(track_type="slab"))
+        checks.deck_acceleration_check(_ds(track_type="timber trestle"))
 
 
 def test_deck_acceleration_check__characteristic_value_over_realisations():

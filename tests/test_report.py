@@ -146,3 +146,33 @@ def test_cli_report__exit_code_2_on_missing_file(tmp_path):
     result = typer_testing.CliRunner().invoke(app, ["report", str(tmp_path / "x.nc")])
     assert result.exit_code == 2
     assert result.exception is None or isinstance(result.exception, SystemExit)
+
+
+def test_end_to_end__tiny_real_study_then_report(tmp_path, capsys):
+    """configs/quickstart.toml (2 speeds) on a random track, 2 realisations: run_study,
+    then `vsi report` on the file it wrote."""
+    import tomllib
+    from pathlib import Path
+
+    from vsi_numba.study.runner import run_study
+
+    root = Path(__file__).resolve().parents[1]
+    config = tomllib.loads((root / "configs" / "quickstart.toml").read_text())
+    config["irregularity"] = {"kind": "psd", "spectrum": "german_low",
+                              "wavelength_min": 3.0, "wavelength_max": 30.0, "seeds": [1, 2]}
+    out = tmp_path / "quick.nc"
+    ds = run_study(config, out, backend="serial")
+    assert int((ds["status"] != 0).sum()) == 0
+    assert report_command(out, tmp_path / "rep") == 0
+    capsys.readouterr()
+    for name in FIGURES:
+        assert (tmp_path / "rep" / name).is_file(), name
+    text = (tmp_path / "rep" / "report.md").read_text(encoding="utf-8")
+    # the governing value, recomputed here: per case max over points, 95 % fractile over
+    # the two realisations (linear: x_min + 0.95 (x_max - x_min)), max over speeds
+    peak = ds["max_deck_acceleration"].max("point").values  # (speed, train, irregularity)
+    expected = np.quantile(peak, 0.95, axis=-1).max()
+    row = next(line for line in text.splitlines() if line.startswith("| Peak deck accel"))
+    assert f"| {expected:.3g} m/s² | 3.5 m/s² |" in row
+    assert "| 2 |" in text  # n = 2 realisations in the statistics table
+    assert ds.attrs["config_sha256"] in text

@@ -37,6 +37,7 @@ from vsi_numba.analysis.dataset import (
     prepare,
     require,
     track_type,
+    track_type_assumed,
 )
 from vsi_numba.analysis.statistics import realisation_statistics
 
@@ -283,7 +284,9 @@ def deck_acceleration_check(
         ``max(30 Hz, 1.5 f1, f3)`` (:func:`frequency_cutoff`), as the clause requires.
     limit : float, optional
         Limit (m s-2). Default from the ``track_type`` attribute: 3.5 ballasted, 5.0
-        direct fastening (:data:`DECK_ACCELERATION_LIMITS`; 5.0 is [R]).
+        direct fastening (:data:`DECK_ACCELERATION_LIMITS`; 5.0 is [R]); a file that does
+        not state its track type gets the stricter ballasted limit
+        (attribute ``track_type_assumed`` = 1).
     q : float
         Characteristic fractile over irregularity realisations.
     n_boot, seed
@@ -314,6 +317,7 @@ def deck_acceleration_check(
                 "pass the acceleration limit explicitly"
             )
         limit = DECK_ACCELERATION_LIMITS[track]
+    limit = float(limit)
     acc = ds["max_deck_acceleration"]
     peak = nanmax(acc, "point").assign_attrs(units="m s-2")
     out = design_value(peak, q=q, limit=limit, n_boot=n_boot, seed=seed)
@@ -325,6 +329,7 @@ def deck_acceleration_check(
     f = bridge_frequencies(ds)
     extra = {
         "track_type": track,
+        "track_type_assumed": int(track_type_assumed(ds)),
         "frequency_cutoff": frequency_cutoff(f) if f.size else np.nan,
         "highest_frequency": float(f[-1]) if f.size else np.nan,
         "basis": out.attrs["basis"],

@@ -18,7 +18,8 @@ CASE_DIMS = ("speed", "train", "irregularity")
 
 #: Variables that depend on the train only.
 TRAIN_VARIABLES = frozenset(
-    {"static_wheel_load", "max_static_deck_displacement", "train_regular_length", "train_status"}
+    {"static_wheel_load", "max_static_deck_displacement", "train_regular_length", "train_status",
+     "wheel_position", "vehicle_name"}
 )
 
 #: Dims of variables that belong to the bridge alone (no case dims).
@@ -74,6 +75,10 @@ def prepare(ds: xr.Dataset) -> xr.Dataset:
         return ds
     if "speed" not in ds.variables:
         raise ResultsError("the results have no `speed` coordinate (m s-1)")
+    # Train properties written as coordinates become variables, so they get the train dim.
+    ds = ds.reset_coords([n for n in TRAIN_VARIABLES if n in ds.coords and n not in ds.dims])
+    if "train_status" not in ds.variables and "train_status" in ds.attrs:  # `vsi run` file
+        ds = ds.assign(train_status=((), str(ds.attrs["train_status"])))
 
     # Values of the dims to add, from scalar coordinates or defaults.
     added = {}
@@ -85,6 +90,9 @@ def prepare(ds: xr.Dataset) -> xr.Dataset:
             if value.ndim != 0:
                 raise ResultsError(f"`{dim}` is a variable on {ds[dim].dims}, not a dimension")
             added[dim] = [value.item()]
+        elif dim in ds.attrs and np.ndim(ds.attrs[dim]) == 0:  # `vsi run`: attrs name them
+            value = ds.attrs[dim]
+            added[dim] = [int(value) if dim == "irregularity" else str(value)]
         elif dim in _DEFAULTS:
             added[dim] = [_DEFAULTS[dim]]
         else:  # pragma: no cover - speed is checked above
@@ -151,9 +159,31 @@ def status_meanings(ds: xr.Dataset) -> dict[int, str]:
     return table
 
 
+_TRACK_ALIASES = {
+    "ballasted": "ballasted", "ballast": "ballasted",
+    "direct_fastening": "direct_fastening", "direct_fastened": "direct_fastening",
+    "direct fastening": "direct_fastening", "ballastless": "direct_fastening",
+    "slab": "direct_fastening", "slab_track": "direct_fastening",
+}
+_TRACK_UNSET = {"", "unspecified", "unknown", "none"}
+
+
 def track_type(ds: xr.Dataset) -> str:
-    """The ``track_type`` global attribute, ``"ballasted"`` when missing."""
-    return str(ds.attrs.get("track_type", "ballasted")).strip().lower() or "ballasted"
+    """Track type from the ``track_type`` attribute: "ballasted" or "direct_fastening".
+
+    Missing or "unspecified" gives "ballasted" (the stricter acceleration limit); see
+    :func:`track_type_assumed`. Common aliases (ballastless, slab) are recognised; any
+    other value is returned as is (the acceleration check then asks for a limit).
+    """
+    raw = str(ds.attrs.get("track_type", "")).strip().lower()
+    if raw in _TRACK_UNSET:
+        return "ballasted"
+    return _TRACK_ALIASES.get(raw, raw)
+
+
+def track_type_assumed(ds: xr.Dataset) -> bool:
+    """True when the file does not state the track type (ballasted is then assumed)."""
+    return str(ds.attrs.get("track_type", "")).strip().lower() in _TRACK_UNSET
 
 
 def bridge_frequencies(ds: xr.Dataset) -> np.ndarray:

@@ -29,6 +29,7 @@ from vsi_numba.analysis.dataset import (
     require,
     status_meanings,
     track_type,
+    track_type_assumed,
 )
 from vsi_numba.analysis.statistics import wilks_sample_size
 
@@ -129,6 +130,10 @@ def _bridge(ds: xr.Dataset) -> list[str]:
     out.append(f"- Track: {track}"
                + (f" (deck acceleration limit {limit:g} m/s², {chk.DECK_ACCELERATION_CLAUSE})"
                   if limit else " (unknown track type: no default acceleration limit)"))
+    if track_type_assumed(ds):
+        out.append(f"\n> **Note:** the results do not state the track type "
+                   f"(track_type = '{a.get('track_type', '')}'): the stricter ballasted-track "
+                   "limit 3.5 m/s² is used. For direct-fastened track the limit is 5 m/s².\n")
     if f.size:
         shown = f[:10]
         out.append("- Natural frequencies [Hz]: " + ", ".join(f"{x:.3f}" for x in shown)
@@ -169,7 +174,9 @@ def _summary(results: dict, table: pd.DataFrame) -> list[str]:
     if not isinstance(acc, str) and acc is not None:
         a = acc.attrs
         out.append(f"- Deck acceleration: max over the deck points; governing point "
-                   f"x = {a['governing_point']:g} m. Over realisations: {a['basis']}.")
+                   f"x = {a['governing_point']:g} m. Over realisations: {a['basis']}."
+                   + (" Track type not stated in the file: ballasted (3.5 m/s²) assumed."
+                      if a.get("track_type_assumed") else ""))
     dyn = results.get("dynamic_amplification")
     if not isinstance(dyn, str) and dyn is not None:
         a = dyn.attrs

@@ -173,9 +173,8 @@ def test_config__missing_required_key():
         ("bridge.n_modes", 0, "bridge.n_modes = 0: expected an integer number of modes"),
         ("bridge.output_points", [12.5, 30.0],
          "bridge.output_points[1] = 30.0: expected a position on the bridge, 0 <= x <= 25 m"),
-        ("contact.model", "hertz", "contact.model = \"hertz\": expected 'rigid' ('hertz' contact "
-                                   "is not available in this version)"),
-        ("contact.model", "penalty", "contact.model = \"penalty\": expected 'rigid'"),
+        ("contact.model", "penalty", "contact.model = \"penalty\": expected one of 'rigid', "
+                                     "'hertz', 'hertz_linear'"),
         ("bridge.kind", "simply_suported", 'bridge.kind = "simply_suported": expected one of '
                                            "'simply_supported', 'continuous', 'rigid', "
                                            "'modes_file' (did you mean 'simply_supported'?)"),
@@ -186,6 +185,26 @@ def test_config__bad_values(path, value, expected):
     assert msg.startswith(expected), msg
     # one-line format: "<key path> = <value>: expected <what>"
     assert re.match(r"^[\w.\[\]\"-]+ = .+: expected .+", msg)
+
+
+def test_config__hertz_contact():
+    data = with_("contact", {"model": "hertz", "hertz_coefficient": 4e-8},
+                 with_("train.vehicles[0].wheel_mass", 500.0))
+    cfg = load_config(data)
+    s = cfg.solver_settings()
+    assert (s.contact_model, s.hertz_coefficient) == ("hertz", 4e-8)
+    assert cfg.contact_model == "hertz"
+    # wheel (500 kg) on the Hertz spring at (5750 + 500) kg g: ~190 Hz > 0.1 / dt
+    [w] = cfg.warnings
+    assert "Hertz contact spring" in w
+    assert load_config(base()).solver_settings().contact_model == "rigid"
+    assert one_error(with_("contact", {"model": "hertz"})).startswith(
+        "contact.hertz_coefficient: missing required key; expected a Hertz constant G > 0 "
+        "m N^-2/3"
+    )
+    ignored = load_config(with_("contact", {"model": "rigid", "hertz_coefficient": 4e-8}))
+    assert ignored.warnings == ["contact.hertz_coefficient is ignored: not used by "
+                                "contact.model = 'rigid'"]
 
 
 def test_config__several_spans_need_continuous():

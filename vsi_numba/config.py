@@ -14,6 +14,40 @@ what was expected, e.g.::
 Physically suspicious but legal input (time step too coarse for the retained modes,
 modes missing below the EN 1990 A2 cut-off, ...) is reported in :attr:`Config.warnings`.
 
+Keys (units; default)
+---------------------
+``title`` (file stem).
+``[bridge]`` ``kind`` = simply_supported | continuous | rigid | modes_file (required);
+``spans`` (m, one per span; one value for simply_supported and rigid); ``EI`` (N m^2) and
+``mass_per_length`` (kg/m), a number or one per span; ``damping_ratio`` (-, a number or
+one per mode; 0); ``n_modes`` (10 unless ``max_frequency``, Hz, is given; both: the
+smaller set); ``elements_per_span`` (continuous; 40); ``output_points`` (m; every
+mid-span); ``file`` (modes_file: accepted and checked, built in a later version).
+``[train]`` exactly one of ``preset`` (library name or list; one train each), ``file``
+(user train TOML, see :func:`vsi_numba.model.library.load_user_trains`) or
+``[[train.vehicles]]`` (one train named after ``title``, else "custom"); ``model`` =
+interaction | moving_force for presets (default: interaction where the library has
+vehicle dynamics, moving forces for the HSLM load models).  A vehicle has ``kind`` =
+force (``load``, N) | sprung_mass (``mass``, ``stiffness``, ``damping`` 0,
+``wheel_mass`` 0) | car (the [whole] values of ``data/trains.toml`` plus
+``body_cg_to_front_bogie``, default mid-way) | user (``M``, ``C``, ``K``, ``wheel_dofs``,
+``wheel_positions``, ``gravity`` g diag(M), ``body_dof`` -1); ``offset`` (m behind the
+train's first axle; 0) and ``name``.  Vehicles are listed front to back, not overlapping.
+``[irregularity]`` ``kind`` = none (default) | cosine (``depth``, ``wavelength``,
+``position``, m) | step (``height``, ``length``, ``position``, ``shape`` cosine) | psd
+(``spectrum``, ``wavelength_min``, ``wavelength_max``, ``seeds``, ``dx``) | file
+(``path``, ``x_column`` x, ``r_column`` r, ``r_unit`` m, ``dx``); ``[[irregularity.defects]]``
+(cosine / step) are added to every realisation.
+``[solver]`` ``dt`` (s; 1e-3), ``hht_alpha`` (-0.1), ``approach`` (m; 5),
+``free_vibration`` (s; 1), ``max_iterations`` (50), ``max_subdivisions`` (4),
+``acceleration_cutoff`` (Hz; EN 1990 A2 rule).
+``[contact]`` ``model`` = rigid (default) | hertz | hertz_linear (as offered by
+:mod:`vsi_numba.solver.settings`), ``hertz_coefficient`` G (m N^-2/3; required for Hertz).
+``[study]`` ``speeds_kmh`` (list, or {start, stop, step} with stop included when on the
+grid) or ``line_speed_kmh`` (then 140 .. 1.2 x line speed, step 5, 1.2 x line speed
+included); ``output`` (results/<stem>.nc); ``save_time_histories`` (true);
+``history_speeds_kmh`` (all).
+
 Example
 -------
 >>> cfg = load_config("configs/quickstart.toml")            # doctest: +SKIP
@@ -38,6 +72,7 @@ import numpy as np
 from vsi_numba.model import bridge as _bridge
 from vsi_numba.model import irregularity as _irr
 from vsi_numba.model import vehicle as _veh
+from vsi_numba.solver import settings as _settings
 from vsi_numba.solver.settings import SolverSettings
 
 __all__ = ["Config", "ConfigError", "load_config"]
@@ -47,8 +82,8 @@ VEHICLE_KINDS = ("force", "sprung_mass", "car", "user")
 IRREGULARITY_KINDS = ("none", "cosine", "step", "psd", "file")
 DEFECT_KINDS = ("cosine", "step")
 TRAIN_MODELS = ("interaction", "moving_force")
-CONTACT_MODELS = ("rigid",)
-RESERVED_CONTACT_MODELS = ("hertz",)
+CONTACT_MODELS = tuple(_settings.CONTACT_MODELS) if hasattr(_settings, "CONTACT_MODELS") else (
+    "rigid",)
 
 DT_RESOLUTION = 0.1  # dt * f above this: fewer than 10 steps per period (warning)
 STEPS_PER_WAVELENGTH = 10  # fewer time steps per shortest irregularity wavelength: warning
@@ -1091,14 +1126,20 @@ def _solver_section(chk, d) -> dict | _Sentinel:
 def _contact_section(chk, d) -> dict | _Sentinel:
     if d is _MISSING:
         return {"model": "rigid"}
-    if chk.table(d, "contact", {"model"}, what=" [contact] with model = 'rigid'") is _BAD:
+    if chk.table(d, "contact", {"model", "hertz_coefficient"},
+                 what=" [contact] with model = 'rigid'") is _BAD:
         return _BAD
-    v = d.get("model", "rigid")
-    if v in RESERVED_CONTACT_MODELS:
-        return chk.error("contact.model", v, f"'rigid' ('{v}' contact is not available in "
-                                             "this version)")
     model = chk.choice(d, "contact", "model", CONTACT_MODELS, default="rigid")
-    return _BAD if model is _BAD else {"model": model}
+    spec = _Num("a Hertz constant G > 0 m N^-2/3 (about 4e-8 for a wheel on a rail)", gt=0,
+                lt=1.0, default=_MISSING if model not in ("rigid", _BAD) else None)
+    if model == "rigid":
+        if "hertz_coefficient" in d:
+            chk.warn("contact.hertz_coefficient is ignored: not used by contact.model = 'rigid'")
+        return {"model": "rigid"}
+    g = chk.get_number(d, "contact", "hertz_coefficient", spec)
+    if not _ok(model, g):
+        return _BAD
+    return {"model": model, "hertz_coefficient": g}
 
 
 # ---------------------------------------------------------------------------------- study
@@ -1288,8 +1329,17 @@ class Config:
         return [(i, _irr.combine(p, *extra)) for i, p in base]
 
     def solver_settings(self) -> SolverSettings:
-        """Return the :class:`~vsi_numba.solver.settings.SolverSettings` (SI units)."""
-        return SolverSettings(**self._solver)
+        """Return the :class:`~vsi_numba.solver.settings.SolverSettings` (SI units).
+
+        The ``[contact]`` keys are part of the settings (``contact_model``,
+        ``hertz_coefficient``).
+        """
+        contact = self._resolved["contact"]
+        extra = {}
+        if contact["model"] != "rigid":
+            extra = {"contact_model": contact["model"],
+                     "hertz_coefficient": contact["hertz_coefficient"]}
+        return SolverSettings(**self._solver, **extra)
 
     # -- study
     @property
@@ -1315,7 +1365,7 @@ class Config:
 
     @property
     def contact_model(self) -> str:
-        """Wheel-rail contact model ('rigid')."""
+        """Wheel-rail contact model ('rigid', 'hertz', ...)."""
         return self._resolved["contact"]["model"]
 
     # -- provenance
@@ -1434,7 +1484,7 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     if chk.errors:
         raise ConfigError(chk.errors, source=source)
 
-    _physics_warnings(chk, bridge, train, irr, solver, study)
+    _physics_warnings(chk, bridge, train, irr, solver, study, contact)
     resolved = {
         "title": title if title is not None else default_title,
         "bridge": bridge.resolved,
@@ -1459,8 +1509,33 @@ def _check_file_coverage(chk, irr, x_start, x_stop):
                   "profile is zero outside)")
 
 
-def _physics_warnings(chk, bridge, train, irr, solver, study):
+def _hertz_warning(chk, train, dt, g):
+    """Wheel on the Hertz spring linearised at the mean static wheel load."""
+    f_max, where = 0.0, ""
+    for tr in train.trains:
+        for v in tr.vehicles:
+            if not v.n_wheels or v.total_weight <= 0:
+                continue
+            n0 = v.total_weight / v.n_wheels
+            k_h = 1.5 * n0 ** (1.0 / 3.0) / g  # N/m, d(N)/d(delta) of delta = G N^(2/3)
+            m_w = np.diag(v.M)[v.wheel_dofs]
+            m_w = m_w[m_w > 0]
+            if m_w.size:
+                f = math.sqrt(k_h / float(m_w.min())) / (2 * math.pi)
+                if f > f_max:
+                    f_max, where = f, f"train '{tr.name}', vehicle '{v.name}'"
+    if dt * f_max > DT_RESOLUTION:
+        chk.warn(
+            f"solver.dt = {dt:g} s: dt x f = {dt * f_max:.3g} for the wheel on the Hertz "
+            f"contact spring ({f_max:.4g} Hz, {where}, at the mean static wheel load); above "
+            f"{DT_RESOLUTION} it is under-resolved; use dt <= {DT_RESOLUTION / f_max:.3g} s"
+        )
+
+
+def _physics_warnings(chk, bridge, train, irr, solver, study, contact):
     dt = solver["dt"]
+    if contact["model"] != "rigid":
+        _hertz_warning(chk, train, dt, contact["hertz_coefficient"])
     vmax = max(study["speeds_kmh"]) / 3.6
     model = bridge.model
     if model is not None and model.n_modes:
@@ -1526,6 +1601,14 @@ def _physics_warnings(chk, bridge, train, irr, solver, study):
         if amp > 0.05:
             chk.warn(f"irregularity: |{'depth' if 'depth' in r else 'height'}| = {amp:g} m is "
                      "more than 50 mm; irregularities are in metres (was mm intended?)")
+    prof = irr.file_profile
+    if prof is not None and bridge.length is not None and train.trains:
+        tl = max(t.length for t in train.trains)
+        lo, hi = -solver["approach"] - tl, bridge.length + tl
+        if prof.x0 > lo + 1e-9 or prof.x_end < hi - 1e-9:
+            chk.warn(f"irregularity.path: the profile covers x = {prof.x0:g} .. "
+                     f"{prof.x_end:g} m; the trailing axles run over {lo:g} .. {hi:g} m and see "
+                     "r = 0 outside the measured range")
     if model is not None and train.trains:
         length = max(t.length for t in train.trains)
         vmin = min(study["speeds_kmh"]) / 3.6

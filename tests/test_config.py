@@ -109,6 +109,21 @@ def test_config__example_counts():
     assert quick.trains()[0].name.startswith("Quick start")
 
 
+def test_config__explicit_train_name():
+    assert load_config(base()).trains()[0].name == "test"  # the title
+    untitled = with_("title", ...)
+    cfg = load_config(untitled)
+    assert cfg.title == "untitled" and cfg.trains()[0].name == "custom"
+    # the name is part of the resolved config: a reload (worker process) agrees
+    again = load_config(cfg.resolved())
+    assert again.trains()[0].name == "custom" and again.sha256 == cfg.sha256
+    named = load_config(with_("train.name", "quarter car"))
+    assert named.trains()[0].name == "quarter car"
+    w = load_config(with_("train.model", "moving_force")).warnings
+    assert w == ["train.model is ignored: it applies to library presets, not to "
+                 "[[train.vehicles]]"]
+
+
 # ---------------------------------------------------------------- one error per kind
 
 

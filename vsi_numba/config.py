@@ -25,7 +25,7 @@ smaller set); ``elements_per_span`` (continuous; 40); ``output_points`` (m; ever
 mid-span); ``file`` (modes_file: accepted and checked, built in a later version).
 ``[train]`` exactly one of ``preset`` (library name or list; one train each), ``file``
 (user train TOML, see :func:`vsi_numba.model.library.load_user_trains`) or
-``[[train.vehicles]]`` (one train named after ``title``, else "custom"); ``model`` =
+``[[train.vehicles]]`` (one train, ``name``: default ``title``, else "custom"); ``model`` =
 interaction | moving_force for presets (default: interaction where the library has
 vehicle dynamics, moving forces for the HSLM load models).  A vehicle has ``kind`` =
 force (``load``, N) | sprung_mass (``mass``, ``stiffness``, ``damping`` 0,
@@ -834,8 +834,12 @@ def _get_preset(chk, lib, name, path, model):
 
 def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
     path = "train"
-    allowed = {"preset", "model", "vehicles", "file"}
-    if chk.table(d, path, allowed, what=" [train] with preset, vehicles or file") is _BAD:
+    allowed = {"preset", "model", "vehicles", "file", "name"}
+    ignored = {"name": "it names the train of [[train.vehicles]]; presets keep their names"}
+    if isinstance(d, Mapping) and "vehicles" in d:
+        ignored = {"model": "it applies to library presets, not to [[train.vehicles]]"}
+    if chk.table(d, path, allowed - set(ignored), ignored=ignored,
+                 what=" [train] with preset, vehicles or file") is _BAD:
         return _BAD
     given = [k for k in ("preset", "vehicles", "file") if k in d]
     if not given:
@@ -845,16 +849,15 @@ def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
         other = [k for k in given if k != "vehicles"][0]
         return chk.error(f"train.{other}", d[other],
                          "either [[train.vehicles]] or train.preset/train.file, not both")
-    model = chk.choice(d, path, "model", TRAIN_MODELS, default=None)
     res: dict[str, Any] = {}
+    if "vehicles" in d:
+        name = chk.string(d, path, "name", "a train name (string)",
+                          default=title if title else "custom")
+        res["name"] = name
+        return _explicit_train(chk, d["vehicles"], name, res)
+    model = chk.choice(d, path, "model", TRAIN_MODELS, default=None)
     if model is not None and model is not _BAD:
         res["model"] = model
-    if "vehicles" in d:
-        if "model" in d:
-            chk.warn("train.model is ignored: it applies to library presets, not to "
-                     "[[train.vehicles]]")
-            res.pop("model", None)
-        return _explicit_train(chk, d["vehicles"], title, res)
 
     lib = _library()
     user_trains: dict = {}
@@ -903,7 +906,7 @@ def _load_user_trains(chk, lib, full: Path, given: str):
     return {t.name: t for t in out}
 
 
-def _explicit_train(chk, vehicles, title, res) -> _TrainSpec | _Sentinel:
+def _explicit_train(chk, vehicles, name, res) -> _TrainSpec | _Sentinel:
     vehicles = _as_list(vehicles)
     if not isinstance(vehicles, list) or not vehicles or len(vehicles) > MAX_VEHICLES:
         return chk.error("train.vehicles", vehicles,
@@ -931,7 +934,8 @@ def _explicit_train(chk, vehicles, title, res) -> _TrainSpec | _Sentinel:
                       f"behind the first axle)")
             return _BAD
         prev_end = end
-    name = title if title else "custom"
+    if not _ok(name):
+        return _BAD
     train = _veh.Train(name=name, vehicles=tuple(v for v, _ in built),
                        offsets=tuple(o for _, o in built), status="user")
     return _TrainSpec(resolved=res, trains=[train], explicit=True)

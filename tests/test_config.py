@@ -132,6 +132,9 @@ def test_config__unknown_key_did_you_mean():
     assert msg == "bridge.spna = [30.0]: unknown key; did you mean 'spans'?"
     msg = one_error(with_("solver.DT", 1e-3))
     assert msg.startswith("solver.DT = 0.001: unknown key; did you mean 'dt'?")
+    assert one_error(with_("study.speeds_kmh", {"start": 100, "stop": 200, "stpe": 5,
+                                                "step": 5})).startswith(
+        "study.speeds_kmh.stpe = 5: unknown key; did you mean 'step'?")  # swapped letters
     msg = one_error(with_("zzz", 1))
     assert msg.startswith("zzz = 1: unknown key; expected one of 'bridge'")
 
@@ -487,6 +490,9 @@ def test_config__all_errors_reported_together():
         "train.vehicles[0].stiffness", "solver.hht_alpha", "study.speeds_kmh.stop",
         "irregularity.spectrum", "irregularity.wavelength_max", "irregularity.seeds",
     }, errs
+    # in the order of the sections (bridge, train, solver, study, irregularity)
+    firsts = [e.split(".")[0] for e in errs]
+    assert firsts == sorted(firsts, key=list(data).index)
     assert any("did you mean 'german_low'?" in e for e in errs)
     assert any("did you mean 'mass_per_length'?" in e for e in errs)
 

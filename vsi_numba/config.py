@@ -178,6 +178,9 @@ def _did_you_mean(word: str, choices) -> str | None:
     low = {c.lower(): c for c in choices}
     if str(word).lower() in low:
         return low[str(word).lower()]
+    swapped = [c for c in low if sorted(c) == sorted(str(word).lower())]  # "stpe" -> step
+    if len(swapped) == 1:
+        return low[swapped[0]]
     close = difflib.get_close_matches(str(word).lower(), list(low), n=1, cutoff=0.6)
     if close:
         return low[close[0]]
@@ -1486,7 +1489,15 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     if _ok(bridge, solver, irr) and irr.file_profile is not None and bridge.length is not None:
         _check_file_coverage(chk, irr, -solver["approach"], bridge.length)
     if chk.errors:
-        raise ConfigError(chk.errors, source=source)
+        # report in the order of the file's sections (validation order differs)
+        order = {k: i for i, k in enumerate(data) if isinstance(k, str)}
+        head = re.compile(r"^([^.\[ :=]+)")
+
+        def rank(msg):
+            m = head.match(msg)
+            return order.get(m.group(1) if m else "", len(order))
+
+        raise ConfigError(sorted(chk.errors, key=rank), source=source)
 
     _physics_warnings(chk, bridge, train, irr, solver, study, contact)
     resolved = {

@@ -77,6 +77,7 @@ class BaselineResult:
     n_steps: int  # steps actually integrated
     n_steps_full: int  # steps of the complete run (engine convention)
     seconds: float  # wall time of the time loop
+    cpu_seconds: float  # CPU time of this process during the time loop
     solves: int  # scipy.linalg.solve calls in the loop
     landings: int  # steps with a plastic impact
     bridge: ModalBridge = field(repr=False)
@@ -88,6 +89,10 @@ class BaselineResult:
     @property
     def seconds_per_step(self) -> float:
         return self.seconds / max(self.n_steps, 1)
+
+    @property
+    def cpu_per_step(self) -> float:
+        return self.cpu_seconds / max(self.n_steps, 1)
 
 
 def _kkt_lstsq(A, G, top, bottom):
@@ -283,6 +288,7 @@ def run_baseline(
 
     # ----------------------------------------------------------------------- time loop
     t_start = time.perf_counter()
+    c_start = time.process_time()
     for n in range(n_run):
         t1 = (n + 1) * dt
         xw = xw0 + v * t1
@@ -346,11 +352,12 @@ def run_baseline(
         X_out[n + 1] = X_step
         act_out[n + 1] = active
     seconds = time.perf_counter() - t_start
+    cpu_seconds = time.process_time() - c_start
     return BaselineResult(
         time=np.arange(n_run + 1) * dt, q=q_out, X=X_out, active=act_out,
         wheel_positions=wpos, load_positions=lpos, loads=lp, n_steps=n_run,
-        n_steps_full=n_full, seconds=seconds, solves=solves, landings=landings,
-        bridge=bridge,
+        n_steps_full=n_full, seconds=seconds, cpu_seconds=cpu_seconds, solves=solves,
+        landings=landings, bridge=bridge,
     )
 
 

@@ -357,6 +357,34 @@ def test_prepare__single_run_file_gets_train_and_irregularity_dims():
     assert a["governing_train"] == "train" and np.isfinite(a["value"])
 
 
+def test_prepare__vsi_run_layout_names_in_attrs_and_train_props_as_coords():
+    # `vsi run` writes the train name, data status and realisation as global attrs and
+    # static_wheel_load as a coordinate on (wheel)
+    one = _single_run(_ds()).drop_vars(["train_status", "train_regular_length",
+                                        "max_static_deck_displacement"])
+    one = one.set_coords("static_wheel_load")
+    one.attrs.update(train="ICE 3", train_status="reconstruction", irregularity=-1)
+    ds = prepare(one)
+    assert ds["train"].values.tolist() == ["ICE 3"]
+    assert ds["train_status"].dims == ("train",)
+    assert ds["train_status"].values.tolist() == ["reconstruction"]
+    assert ds["static_wheel_load"].dims == ("train", "wheel")
+    assert ds["status"].dims == ("speed", "train", "irregularity")
+    assert "dynamic_amplification" in checks.run_checks(ds, n_boot=0)
+
+
+def test_wheel_unloading__moving_force_model_is_not_applicable():
+    ds = _ds()
+    ds["max_wheel_unloading"] = ds["max_wheel_unloading"] * 0.0
+    q0 = ds["static_wheel_load"].broadcast_like(ds["min_contact_force"])
+    ds["min_contact_force"] = q0.transpose(*ds["min_contact_force"].dims)
+    ds["max_contact_force"] = ds["min_contact_force"].copy()
+    a = checks.wheel_unloading(ds).attrs
+    assert a["result"] == "n/a" and "moving-force" in a["note"]
+    assert a["governing_train"] == "" and np.isnan(a["value"])
+    assert checks.wheel_unloading(_ds()).attrs["result"] in ("pass", "FAIL")
+
+
 def test_prepare__scalar_train_coordinate_and_unsorted_speeds():
     one = _ds().isel(train=1, irregularity=0).isel(speed=[2, 0, 1])
     ds = prepare(one)

@@ -106,6 +106,21 @@ def test_write_report__moving_force_model_skips_comfort_figure(tmp_path):
     assert (tmp_path / "rep" / "deck_acceleration.png").exists()
 
 
+def test_write_report__moving_force_results_and_no_stale_figures(tmp_path):
+    path = _results(tmp_path, n_vehicles=0, histories=True, n_time=30)
+    with xr.open_dataset(path) as ds:
+        write_report(ds, tmp_path / "rep")  # with wheel unloading and time history
+        assert (tmp_path / "rep" / "wheel_unloading.png").exists()
+        ds = ds.drop_vars(["deck_acceleration"]).load()
+    ds["max_wheel_unloading"] = ds["max_wheel_unloading"] * 0.0
+    ds["max_contact_force"] = ds["min_contact_force"]
+    md = write_report(ds, tmp_path / "rep")
+    assert not (tmp_path / "rep" / "wheel_unloading.png").exists()
+    assert not (tmp_path / "rep" / "time_history.png").exists()
+    text = md.read_text(encoding="utf-8")
+    assert "Wheel unloading: not applicable" in text and "Comfort: not applicable" in text
+
+
 def test_report_command__writes_default_directory(tmp_path, capsys):
     path = _results(tmp_path)
     assert report_command(path, None) == 0

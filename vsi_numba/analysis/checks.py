@@ -381,7 +381,7 @@ def dynamic_amplification(
     """
     ds = prepare(ds)
     require(ds, ["max_deck_displacement", "max_static_deck_displacement"],
-            "the dynamic increment phi'_dyn")
+            "the dynamic increment φ'dyn")
     dyn = ds["max_deck_displacement"]
     irr = np.asarray(ds["irregularity"].values)
     if (irr == DETERMINISTIC).any():
@@ -459,7 +459,8 @@ def wheel_unloading(
         worst realisation); ``wheels_losing_contact(speed, train)``; the statistics of
         ``value``; summary attrs plus ``governing_wheel``, ``min_contact_force``
         (smallest over all cases, N), ``max_contact_loss_duration`` (s) and
-        ``max_contact_loss_count``.
+        ``max_contact_loss_count``. When the contact forces never vary (moving-force
+        model) the result is "n/a" and the attribute ``note`` says why.
     """
     ds = prepare(ds)
     require(ds, ["max_wheel_unloading"], "the wheel unloading check")
@@ -495,6 +496,11 @@ def wheel_unloading(
         extra["max_contact_loss_count"] = float(nanmax(cnt, ["speed", "train"]))
     out = _summarise(out, "Wheel unloading ΔQ/Q₀", WHEEL_UNLOADING_CLAUSE, "1", limit,
                      extra={**extra, "basis": out.attrs["basis"]})
+    if _prescribed_contact_forces(ds):
+        out.attrs.update(result=_RESULT_NA, value=np.nan, margin=np.nan, utilisation=np.nan,
+                         governing_train="", governing_speed=np.nan, governing_speed_kmh=np.nan,
+                         note="the contact forces never change (moving-force model): wheel "
+                              "unloading does not apply")
     if out.attrs["governing_train"]:
         t, v = out.attrs["governing_train"], out.attrs["governing_speed"]
         w = nanargmax_case(out["wheel_unloading"].sel(train=t, speed=v))
@@ -503,6 +509,19 @@ def wheel_unloading(
     else:
         out.attrs["governing_wheel"] = -1
     return out
+
+
+def _prescribed_contact_forces(ds: xr.Dataset) -> bool:
+    """True when min and max contact force coincide for every wheel and case (the forces are
+    prescribed, as in a moving-force model, so unloading and contact loss cannot occur)."""
+    if "min_contact_force" not in ds or "max_contact_force" not in ds:
+        return False
+    hi, lo = ds["max_contact_force"], ds["min_contact_force"]
+    finite = hi.notnull() & lo.notnull()
+    if not bool(finite.any()):
+        return False
+    spread = abs(hi - lo).where(finite, 0.0)
+    return bool((spread <= 1e-9 * abs(hi).where(finite, 0.0)).all())
 
 
 def comfort(
@@ -529,7 +548,8 @@ def comfort(
         ``level(speed, train)`` (str: the best level attained, or "not acceptable");
         ``margin``/``utilisation``/``passed`` against the required level; statistics;
         summary attrs plus ``required_level`` and ``level`` (attained in the governing
-        case). All NaN (result "n/a") for a moving-force model (no car bodies).
+        case). All NaN (result "n/a", attribute ``note``) for a moving-force model (no
+        car bodies).
     """
     ds = prepare(ds)
     require(ds, ["max_carbody_acceleration"], "the comfort check")
@@ -544,6 +564,8 @@ def comfort(
     out = _summarise(out, "Car-body acceleration (comfort)", COMFORT_CLAUSE, "m s-2", limit,
                      extra={"required_level": required, "basis": out.attrs["basis"]})
     out.attrs["level"] = comfort_level(out.attrs["value"])
+    if ds.sizes.get("vehicle", 0) == 0 or not bool(out["value"].notnull().any()):
+        out.attrs["note"] = "no car-body accelerations in the results (moving-force model)"
     return out
 
 

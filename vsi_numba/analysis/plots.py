@@ -297,5 +297,6 @@ def plot_time_history(
     axes[-1].set_xlabel("Time [s]", fontsize=9)
     kmh = float(case["speed_kmh"])
     irr = "deterministic track" if int(irregularity) == -1 else f"irregularity seed {irregularity}"
-    fig.suptitle(f"{train} at {kmh:.0f} km/h, deck point x = {point:g} m, {irr}", fontsize=10)
+    name = str(train) if len(str(train)) <= 60 else str(train)[:57] + "…"
+    fig.suptitle(f"{name} at {kmh:.0f} km/h\ndeck point x = {point:g} m, {irr}", fontsize=10)
     return fig

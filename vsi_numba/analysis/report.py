@@ -36,6 +36,10 @@ from vsi_numba.analysis.statistics import wilks_sample_size
 #: Variables without which no report is written.
 REQUIRED_VARIABLES = ("max_deck_acceleration", "max_deck_displacement")
 
+#: Every figure the report may write.
+FIGURE_NAMES = ("deck_acceleration.png", "dynamic_amplification.png", "wheel_unloading.png",
+                "comfort.png", "time_history.png")
+
 #: Train data statuses that get a loud warning (see data/trains.toml status_values).
 WARN_STATUSES = {
     "suspect": "transcribed values with a documented inconsistency",
@@ -187,7 +191,9 @@ def _summary(results: dict, table: pd.DataFrame) -> list[str]:
                    "The design factor 1 + φ'dyn + φ''/2 is information for the comparison "
                    "with Φ × LM71 (EN 1991-2 6.4.6.5(3) [R]), not a pass/fail check.")
     wu = results.get("wheel_unloading")
-    if not isinstance(wu, str) and wu is not None:
+    if not isinstance(wu, str) and wu is not None and "note" in wu.attrs:
+        out.append(f"- Wheel unloading: not applicable, {wu.attrs['note']}.")
+    elif not isinstance(wu, str) and wu is not None:
         a = wu.attrs
         txt = f"- Wheel unloading: governing axle {a['governing_wheel']}"
         if "min_contact_force" in a:
@@ -200,7 +206,9 @@ def _summary(results: dict, table: pd.DataFrame) -> list[str]:
                        if "max_contact_loss_count" in a else ""))
         out.append(txt + ".")
     cf = results.get("comfort")
-    if not isinstance(cf, str) and cf is not None:
+    if not isinstance(cf, str) and cf is not None and "note" in cf.attrs:
+        out.append(f"- Comfort: not applicable, {cf.attrs['note']}.")
+    elif not isinstance(cf, str) and cf is not None:
         a = cf.attrs
         out.append(f"- Comfort: required level **{a['required_level']}**; level reached in "
                    f"the governing case: {a['level']}.")
@@ -389,7 +397,7 @@ def _figures(ds: xr.Dataset, results: dict, outdir: Path) -> list[tuple[str, str
             "Dynamic increment φ'dyn of the deck maximum displacement against speed; "
             "dotted: φ''/2 (EN 1991-2 Annex C [R]).")
     wu = results.get("wheel_unloading")
-    if not isinstance(wu, str):
+    if not isinstance(wu, str) and "note" not in wu.attrs:
         put(plots.plot_wheel_unloading(ds, wu), "wheel_unloading.png",
             "Minimum wheel–rail contact force and wheel unloading ΔQ/Q₀ (max over axles) "
             "against speed, with the 0.6 limit (EN 14363 practice [R]).")
@@ -452,6 +460,8 @@ def write_report(
     require(ds, REQUIRED_VARIABLES, "the report")
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
+    for name in FIGURE_NAMES:  # no stale figure of an earlier report may stay behind
+        (outdir / name).unlink(missing_ok=True)
     results = chk.run_checks(ds, q=q, comfort_level_required=comfort_level, n_boot=n_boot,
                              seed=seed)
     table = chk.summary_table(results)

@@ -159,7 +159,7 @@ def _bridge(ds: xr.Dataset) -> list[str]:
     return out + [""]
 
 
-def _summary(results: dict, table: pd.DataFrame) -> list[str]:
+def _summary(results: dict, table: pd.DataFrame, pts: np.ndarray) -> list[str]:
     out = ["## Summary of checks", ""]
     rows = []
     for _, r in table.iterrows():
@@ -177,10 +177,16 @@ def _summary(results: dict, table: pd.DataFrame) -> list[str]:
     acc = results.get("deck_acceleration")
     if not isinstance(acc, str) and acc is not None:
         a = acc.attrs
-        out.append(f"- Deck acceleration: max over the deck points; governing point "
+        shown = ", ".join(f"{x:g}" for x in pts[:8]) + (" …" if pts.size > 8 else "")
+        out.append(f"- Deck acceleration: max over the {pts.size} output point"
+                   f"{'s' if pts.size != 1 else ''} (x = {shown} m); governing point "
                    f"x = {a['governing_point']:g} m. Over realisations: {a['basis']}."
                    + (" Track type not stated in the file: ballasted (3.5 m/s²) assumed."
                       if a.get("track_type_assumed") else ""))
+        if pts.size < 3:
+            out.append("  **Few output points:** peaks of the higher modes (within the "
+                       "cut-off) may lie between them; add output points along the deck "
+                       "(e.g. every L/8) for the acceleration check.")
     dyn = results.get("dynamic_amplification")
     if not isinstance(dyn, str) and dyn is not None:
         a = dyn.attrs
@@ -478,7 +484,7 @@ def write_report(
                   "data of doubtful status — see [Trains](#trains).**", ""]
     lines += _provenance(ds, Path(source_path) if source_path else None)
     lines += _bridge(ds)
-    lines += _summary(results, table)
+    lines += _summary(results, table, np.asarray(ds["point"].values, float))
     lines += _trains(ds)
     lines += _cases(ds)
     lines += _statistics(results, ds)

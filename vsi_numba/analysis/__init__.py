@@ -1,5 +1,6 @@
-"""Result analysis: EN 1990 A2 / EN 1991-2 checks, statistics over irregularity
-realisations, figures and the ``vsi report`` Markdown report.
+"""Result analysis: checks, statistics, figures and the ``vsi report`` Markdown report.
+
+EN 1990 A2 / EN 1991-2 checks, statistics over irregularity realisations, figures.
 
 Checks and statistics (xarray in, xarray/pandas out; no matplotlib)::
 

@@ -1,5 +1,7 @@
-"""Design checks of a results Dataset: EN 1990 A2 deck acceleration, dynamic increment,
-wheel unloading, passenger comfort, resonance speeds.
+"""Design checks of a results Dataset.
+
+EN 1990 A2 deck acceleration, dynamic increment, wheel unloading, passenger comfort,
+resonance speeds.
 
 Every check takes the results Dataset (single run or study, see
 :func:`vsi_numba.analysis.dataset.prepare`) and returns an :class:`xarray.Dataset` with
@@ -512,8 +514,11 @@ def wheel_unloading(
 
 
 def _prescribed_contact_forces(ds: xr.Dataset) -> bool:
-    """True when min and max contact force coincide for every wheel and case (the forces are
-    prescribed, as in a moving-force model, so unloading and contact loss cannot occur)."""
+    """Tell whether min and max contact force coincide for every wheel and case.
+
+    They do when the forces are prescribed, as in a moving-force model, so unloading and
+    contact loss cannot occur.
+    """
     if "min_contact_force" not in ds or "max_contact_force" not in ds:
         return False
     hi, lo = ds["max_contact_force"], ds["min_contact_force"]
@@ -580,8 +585,10 @@ def comfort_level(bv: float) -> str:
 
 
 def max_deck_displacement(ds: xr.Dataset, q: float = DEFAULT_Q) -> xr.Dataset:
-    """Maximum deck displacement (information; the L/600 limit of EN 1990 A2.4.4.2.3 is
-    for LM71, not for these trains)."""
+    """Maximum deck displacement (information, no limit).
+
+    The L/600 limit of EN 1990 A2.4.4.2.3 [R] is for LM71, not for these trains.
+    """
     ds = prepare(ds)
     require(ds, ["max_deck_displacement"], "the deck displacement summary")
     out = design_value(nanmax(ds["max_deck_displacement"], "point"), q=q, n_boot=0)

@@ -258,8 +258,11 @@ def plot_time_history(
     ds: xr.Dataset, train, speed: float, irregularity: int, point: float,
     wheel: int | None = None, limit: float | None = None,
 ) -> Figure:
-    """Deck displacement and acceleration at ``point`` (and the contact force of ``wheel``)
-    against time for one case."""
+    """Time histories of one case.
+
+    Deck displacement and acceleration at ``point`` (and the contact force of ``wheel``)
+    against time.
+    """
     ds = prepare(ds)
     case = ds.sel(train=train, speed=speed, irregularity=irregularity)
     panels = [n for n in ("deck_displacement", "deck_acceleration") if n in case]

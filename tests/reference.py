@@ -1,0 +1,1036 @@
+"""Independent reference solutions for validating the vsi_numba engine.
+
+Everything here uses numpy and scipy only and never imports ``vsi_numba``: the
+validation tests compare the engine with these closed forms, ``solve_ivp`` integrations
+of the coupled equations and event-driven solutions, never with the engine's own output.
+
+Conventions (those of the design note, section 2)
+--------------------------------------------------
+* SI units (m, s, kg, N).
+* Vertical displacements, velocities and accelerations are positive **down**; gravity
+  acts in the positive direction.
+* Irregularity ``r(x) > 0`` means the rail is **lower** (a dip): on a deck with
+  deflection ``w(x, t)`` the rail top is at ``w + r``.
+* Contact forces are positive in **compression**.
+* ``x`` is measured from the left support of the bridge; a vehicle starting at
+  ``x_start`` is at ``x(t) = x_start + v t``.
+
+Simply supported beam: mass-normalised modes ``phi_j = sqrt(2/(m L)) sin(j pi x / L)``,
+``omega_j = (j pi / L)^2 sqrt(EI/m)``, modal equations
+``q_j'' + 2 zeta omega_j q_j' + omega_j^2 q_j = sum_k P_k phi_j(x_k)``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.integrate
+import scipy.linalg
+import scipy.optimize
+
+#: Gravity (m s-2), the value used by the published train data and the design note.
+GRAVITY = 9.81
+
+
+# =============================================================================
+# Simply supported beam: modes, static deflection, moving constant force
+# =============================================================================
+
+
+def ss_omega(L: float, EI: float, m: float, n_modes: int) -> np.ndarray:
+    """Circular natural frequencies (rad/s) of a simply supported Euler-Bernoulli beam."""
+    j = np.arange(1, n_modes + 1)
+    return (j * np.pi / L) ** 2 * np.sqrt(EI / m)
+
+
+def ss_shapes(L: float, m: float, n_modes: int, x, derivative: int = 0) -> np.ndarray:
+    """Mass-normalised sine modes (or derivatives) at ``x``: shape (len(x), n_modes).
+
+    Zero outside ``[0, L]`` (the vehicle is on rigid ground there).
+    """
+    x = np.atleast_1d(np.asarray(x, float))
+    k = np.pi * np.arange(1, n_modes + 1) / L
+    amp = np.sqrt(2.0 / (m * L))
+    arg = np.outer(x, k)
+    if derivative == 0:
+        out = amp * np.sin(arg)
+    elif derivative == 1:
+        out = amp * k * np.cos(arg)
+    elif derivative == 2:
+        out = -amp * k**2 * np.sin(arg)
+    else:
+        raise ValueError("derivative must be 0, 1 or 2")
+    out[(x < 0.0) | (x > L)] = 0.0
+    return out
+
+
+def static_deflection_point_load(P: float, L: float, EI: float, a: float, x) -> np.ndarray:
+    """Static deflection (m, down) at ``x`` of a simply supported beam, point load P at a.
+
+    ``w(x) = P b x (L^2 - b^2 - x^2) / (6 EI L)`` for ``x <= a`` (``b = L - a``) and the
+    mirror formula for ``x > a``; under the load ``w(a) = P a^2 b^2 / (3 EI L)``.
+    Zero when the load is off the span.
+    """
+    x = np.asarray(x, float)
+    if a < 0.0 or a > L:
+        return np.zeros_like(x)
+    b = L - a
+    xr = L - x
+    left = P * b * x * (L**2 - b**2 - x**2) / (6.0 * EI * L)
+    right = P * a * xr * (L**2 - a**2 - xr**2) / (6.0 * EI * L)
+    return np.where(x <= a, left, right)
+
+
+def _sdof_sine_from_rest(F, Om, om, zeta, t):
+    """``q'' + 2 zeta om q' + om^2 q = F sin(Om t)``, ``q(0) = q'(0) = 0``: (q, q').
+
+    Arrays ``F, Om, om`` of shape (n,) (one per mode), ``t`` of shape (nt,); returns
+    arrays (nt, n).  Exact, including the undamped resonance limit ``Om = om``.
+    """
+    t = np.asarray(t, float)[:, None]
+    F, Om, om = (np.asarray(a, float)[None, :] for a in (F, Om, om))
+    if zeta == 0.0:
+        den = om**2 - Om**2
+        res = np.abs(den) <= 1e-12 * om**2
+        den_s = np.where(res, 1.0, den)
+        q = F * (np.sin(Om * t) - Om / om * np.sin(om * t)) / den_s
+        qd = F * Om * (np.cos(Om * t) - np.cos(om * t)) / den_s
+        # resonance: q = F/(2 om^2) (sin om t - om t cos om t), q' = F t sin(om t) / 2
+        q_r = F / (2 * om**2) * (np.sin(om * t) - om * t * np.cos(om * t))
+        qd_r = 0.5 * F * t * np.sin(om * t)
+        return np.where(res, q_r, q), np.where(res, qd_r, qd)
+    D = (om**2 - Om**2) ** 2 + (2 * zeta * om * Om) ** 2
+    ap = F * (om**2 - Om**2) / D  # particular: ap sin(Om t) + bp cos(Om t)
+    bp = -F * 2 * zeta * om * Om / D
+    wd = om * np.sqrt(1.0 - zeta**2)
+    a = -bp  # homogeneous: exp(-zeta om t) (a cos wd t + b sin wd t)
+    b = (zeta * om * a - ap * Om) / wd
+    e = np.exp(-zeta * om * t)
+    c, s = np.cos(wd * t), np.sin(wd * t)
+    q = ap * np.sin(Om * t) + bp * np.cos(Om * t) + e * (a * c + b * s)
+    qd = (
+        ap * Om * np.cos(Om * t)
+        - bp * Om * np.sin(Om * t)
+        + e * ((-zeta * om * a + wd * b) * c + (-zeta * om * b - wd * a) * s)
+    )
+    return q, qd
+
+
+def _sdof_free(q0, qd0, om, zeta, tau):
+    """Free vibration of ``q'' + 2 zeta om q' + om^2 q = 0`` from (q0, qd0): (q, q')."""
+    tau = np.asarray(tau, float)[:, None]
+    wd = om * np.sqrt(1.0 - zeta**2)
+    e = np.exp(-zeta * om * tau)
+    b = (qd0 + zeta * om * q0) / wd
+    c, s = np.cos(wd * tau), np.sin(wd * tau)
+    q = e * (q0 * c + b * s)
+    qd = e * ((-zeta * om * q0 + wd * b) * c + (-zeta * om * b - wd * q0) * s)
+    return q, qd
+
+
+def moving_force_modal(P, L, EI, m, v, t, n_modes, zeta=0.0):
+    """Modal response to a constant force P entering a SS beam at ``t = 0``.
+
+    Exact solution of each modal equation ``q'' + 2 zeta w q' + w^2 q = P phi_j(v t)``
+    for ``0 <= t <= L/v`` and free vibration afterwards; ``q = 0`` for ``t < 0``.
+
+    Returns
+    -------
+    q, qd, qdd : ndarray, shape (len(t), n_modes)
+        Modal displacement, velocity, acceleration.
+    """
+    t = np.atleast_1d(np.asarray(t, float))
+    om = ss_omega(L, EI, m, n_modes)
+    Om = np.arange(1, n_modes + 1) * np.pi * v / L
+    F = np.full(n_modes, P * np.sqrt(2.0 / (m * L)))
+    T = L / v
+    q = np.zeros((t.size, n_modes))
+    qd = np.zeros_like(q)
+    on = (t >= 0.0) & (t <= T)
+    after = t > T
+    if np.any(on):
+        q[on], qd[on] = _sdof_sine_from_rest(F, Om, om, zeta, t[on])
+    if np.any(after):
+        qT, qdT = _sdof_sine_from_rest(F, Om, om, zeta, [T])
+        q[after], qd[after] = _sdof_free(qT[0], qdT[0], om, zeta, t[after] - T)
+    force = np.where(on[:, None], F * np.sin(np.outer(t, Om)), 0.0)
+    qdd = force - 2 * zeta * om * qd - om**2 * q
+    return q, qd, qdd
+
+
+def moving_force_series(P, L, EI, m, v, x, t, n_modes, zeta=0.0) -> np.ndarray:
+    """Frýba's modal series for a constant force crossing a simply supported beam.
+
+    The force ``P`` (N, down) enters at ``x = 0`` at ``t = 0`` and moves at ``v``; the
+    beam starts from rest; after ``t = L/v`` the beam vibrates freely.
+
+    Parameters
+    ----------
+    P, L, EI, m, v : float
+        Force (N), span (m), bending stiffness (N m2), mass per length (kg/m), speed (m/s).
+    x : array_like, shape (nx,)
+        Abscissae (m) where the deflection is wanted.
+    t : array_like, shape (nt,)
+        Times (s) since the force entered the span.
+    n_modes : int
+        Number of modes in the series.
+    zeta : float
+        Modal damping ratio (same for every mode).
+
+    Returns
+    -------
+    ndarray, shape (nt, nx)
+        Deflection w(x, t) (m, positive down).
+
+    Notes
+    -----
+    Undamped: ``w = sum 2P/(mL) (sin Om_j t - Om_j/w_j sin w_j t)/(w_j^2 - Om_j^2)
+    sin(j pi x/L)``, railway notes section 3.1; the damped case is the exact damped
+    SDOF solution of each mode.
+    """
+    q, _, _ = moving_force_modal(P, L, EI, m, v, t, n_modes, zeta)
+    return q @ ss_shapes(L, m, n_modes, x).T
+
+
+def moving_force_daf(alpha: float, n_modes: int = 60, x_ratio: float = 0.5,
+                     include_free_vibration: bool = False) -> float:
+    """Dynamic amplification max_t w(x, t) / w_st of a moving force (undamped).
+
+    ``alpha = v / (2 f1 L)``; ``w_st = P L^3 / (48 EI)`` (the midspan static deflection).
+    The maximum is taken while the force is on the span (``include_free_vibration``
+    extends it over the following free vibration).
+    """
+    L = EI = m = P = 1.0
+    f1 = np.pi / 2.0  # (pi/L)^2 sqrt(EI/m) / (2 pi)
+    v = alpha * 2.0 * f1 * L
+    T = L / v
+    t_end = T * (4.0 if include_free_vibration else 1.0)
+    x = [x_ratio * L]
+    w_st = P * L**3 / (48.0 * EI)
+
+    def w(tt):
+        return moving_force_series(P, L, EI, m, v, x, np.atleast_1d(tt), n_modes)[:, 0]
+
+    tg = np.linspace(0.0, t_end, 40001)
+    wg = w(tg)
+    i = int(np.argmax(wg))
+    lo, hi = tg[max(i - 1, 0)], tg[min(i + 1, tg.size - 1)]
+    res = scipy.optimize.minimize_scalar(
+        lambda s: -w(s)[0], bounds=(lo, hi), method="bounded", options={"xatol": 1e-12}
+    )
+    return float(max(wg[i], -res.fun) / w_st)
+
+
+# =============================================================================
+# Track profiles (with exact derivatives, for the reference integrations)
+# =============================================================================
+
+
+@dataclass(frozen=True)
+class FlatTrack:
+    """No irregularity."""
+
+    breakpoints: tuple[float, ...] = ()
+
+    def __call__(self, x, derivative: int = 0):
+        return np.zeros_like(np.asarray(x, float))
+
+
+@dataclass(frozen=True)
+class CosineDip:
+    """Isolated cosine dip ``r = depth/2 (1 - cos(2 pi (x - position)/wavelength))``.
+
+    Nonzero on ``[position, position + wavelength]``; positive depth = rail lower.
+    r and r' are continuous, r'' jumps at both ends (listed in ``breakpoints``).
+    """
+
+    depth: float
+    wavelength: float
+    position: float
+
+    @property
+    def breakpoints(self) -> tuple[float, ...]:
+        return (self.position, self.position + self.wavelength)
+
+    def __call__(self, x, derivative: int = 0):
+        x = np.asarray(x, float)
+        k = 2.0 * np.pi / self.wavelength
+        s = x - self.position
+        inside = (s >= 0.0) & (s <= self.wavelength)
+        h = 0.5 * self.depth
+        if derivative == 0:
+            val = h * (1.0 - np.cos(k * s))
+        elif derivative == 1:
+            val = h * k * np.sin(k * s)
+        elif derivative == 2:
+            val = h * k**2 * np.cos(k * s)
+        else:
+            raise ValueError("derivative must be 0, 1 or 2")
+        return np.where(inside, val, 0.0)
+
+
+@dataclass(frozen=True)
+class SmoothDip:
+    """C2 isolated dip ``r = depth sin^4(pi (x - position)/wavelength)``.
+
+    r, r' and r'' are continuous everywhere (no jump of the rail acceleration at its
+    ends), so the first loss of contact happens where the dynamics say, not at an edge.
+    """
+
+    depth: float
+    wavelength: float
+    position: float
+
+    @property
+    def breakpoints(self) -> tuple[float, ...]:
+        return (self.position, self.position + self.wavelength)
+
+    def __call__(self, x, derivative: int = 0):
+        x = np.asarray(x, float)
+        k = np.pi / self.wavelength
+        s = x - self.position
+        inside = (s >= 0.0) & (s <= self.wavelength)
+        sn, cs = np.sin(k * s), np.cos(k * s)
+        if derivative == 0:
+            val = self.depth * sn**4
+        elif derivative == 1:
+            val = self.depth * 4 * k * sn**3 * cs
+        elif derivative == 2:
+            val = self.depth * 4 * k**2 * (3 * sn**2 * cs**2 - sn**4)
+        else:
+            raise ValueError("derivative must be 0, 1 or 2")
+        return np.where(inside, val, 0.0)
+
+
+def _time_breaks(x_marks: Sequence[float], x_start: float, v: float, t_end: float):
+    """Times in (0, t_end) at which the vehicle passes the abscissae ``x_marks``."""
+    ts = sorted({(xm - x_start) / v for xm in x_marks})
+    return [0.0] + [t for t in ts if 0.0 < t < t_end] + [t_end]
+
+
+class _Piecewise:
+    """Dense output stitched from consecutive ``solve_ivp`` segments."""
+
+    def __init__(self):
+        self.t0: list[float] = []
+        self.t1: list[float] = []
+        self.sols: list = []
+        self.tags: list = []
+
+    def add(self, t0, t1, sol, tag=None):
+        self.t0.append(float(t0))
+        self.t1.append(float(t1))
+        self.sols.append(sol)
+        self.tags.append(tag)
+
+    def index(self, t: float) -> int:
+        """Segment holding ``t`` (right-continuous: a boundary belongs to the next)."""
+        i = int(np.searchsorted(np.asarray(self.t0), t, side="right")) - 1
+        return min(max(i, 0), len(self.sols) - 1)
+
+
+# =============================================================================
+# Quarter car / sprung mass crossing a simply supported beam (contact always kept)
+# =============================================================================
+
+
+@dataclass
+class BeamCrossing:
+    """Reference solution of a quarter car (or sprung mass) crossing a SS beam.
+
+    Use :meth:`evaluate` to get the response at any times (dense ODE output).
+    """
+
+    body_mass: float
+    stiffness: float
+    damping: float
+    wheel_mass: float
+    L: float
+    EI: float
+    m: float
+    speed: float
+    n_modes: int
+    zeta: float
+    x_start: float
+    profile: Callable
+    points: np.ndarray
+    omega: np.ndarray = field(init=False)
+    pieces: _Piecewise = field(init=False)
+
+    def __post_init__(self):
+        self.omega = ss_omega(self.L, self.EI, self.m, self.n_modes)
+        self._k = np.pi * np.arange(1, self.n_modes + 1) / self.L
+        self._amp = np.sqrt(2.0 / (self.m * self.L))
+        self._zeros = np.zeros(self.n_modes)
+        self._ampk = self._amp * self._k
+        self._k2 = self._k**2
+        self._2zw = 2.0 * self.zeta * self.omega
+        self._w2 = self.omega**2
+        self._flat = isinstance(self.profile, FlatTrack)
+        self.points = np.atleast_1d(np.asarray(self.points, float))
+
+    # -- equations ---------------------------------------------------------------
+    def _terms(self, t, s):
+        """Everything derived from the state s = [z, z', q (n), q' (n)] at time t."""
+        n = self.n_modes
+        v = self.speed
+        z, zd = s[0], s[1]
+        q, qd = s[2 : 2 + n], s[2 + n :]
+        x = self.x_start + v * t
+        if 0.0 <= x <= self.L and n > 0:
+            arg = self._k * x
+            sn = self._amp * np.sin(arg)
+            phi, dphi, ddphi = sn, self._amp * self._k * np.cos(arg), -self._k**2 * sn
+        else:
+            phi = dphi = ddphi = self._zeros
+        if self._flat:
+            r0 = r1 = r2 = 0.0
+        else:
+            r0, r1, r2 = (float(self.profile(x, d)) for d in (0, 1, 2))
+        # wheel (= contact point) follows the rail: y = phi.q + r(x), x = x_start + v t
+        y = phi @ q + r0
+        yd = phi @ qd + v * (dphi @ q) + v * r1
+        conv = 2.0 * v * (dphi @ qd) + v * v * (ddphi @ q) + v * v * r2  # y'' - phi.q''
+        fs = self.stiffness * (z - y) + self.damping * (zd - yd)  # suspension force
+        zdd = GRAVITY - fs / self.body_mass
+        mw = self.wheel_mass
+        # beam: q'' + 2 zeta w q' + w^2 q = phi P,  P = mw g + fs - mw (phi.q'' + conv)
+        # => (I + mw phi phi^T) q'' = rhs  (Sherman-Morrison)
+        rhs = -2 * self.zeta * self.omega * qd - self.omega**2 * q + phi * (
+            mw * GRAVITY + fs - mw * conv
+        )
+        qdd = rhs - phi * (mw * (phi @ rhs)) / (1.0 + mw * (phi @ phi))
+        ydd = phi @ qdd + conv
+        P = mw * GRAVITY + fs - mw * ydd
+        return dict(x=x, z=z, zd=zd, zdd=zdd, q=q, qd=qd, qdd=qdd, y=y, yd=yd, ydd=ydd, P=P)
+
+    def _rhs(self, t, s):
+        """Lean version of :meth:`_terms` (same equations), for the integrator."""
+        n = self.n_modes
+        v = self.speed
+        q, qd = s[2 : 2 + n], s[2 + n :]
+        x = self.x_start + v * t
+        out = np.empty_like(s)
+        out[0] = s[1]
+        out[2 : 2 + n] = qd
+        if self._flat:
+            r0 = r1 = r2 = 0.0
+        else:
+            r0, r1, r2 = (float(self.profile(x, d)) for d in (0, 1, 2))
+        rhs = -self._2zw * qd - self._w2 * q
+        if 0.0 <= x <= self.L and n > 0:
+            arg = self._k * x
+            phi = self._amp * np.sin(arg)
+            dphi = self._ampk * np.cos(arg)
+            y = phi.dot(q) + r0
+            yd = phi.dot(qd) + v * (dphi.dot(q) + r1)
+            conv = 2.0 * v * dphi.dot(qd) - v * v * (self._k2phi(phi).dot(q) - r2)
+            fs = self.stiffness * (s[0] - y) + self.damping * (s[1] - yd)
+            mw = self.wheel_mass
+            rhs += phi * (mw * GRAVITY + fs - mw * conv)
+            if mw:
+                rhs -= phi * (mw * phi.dot(rhs) / (1.0 + mw * phi.dot(phi)))
+        else:
+            fs = self.stiffness * (s[0] - r0) + self.damping * (s[1] - v * r1)
+        out[1] = GRAVITY - fs / self.body_mass
+        out[2 + n :] = rhs
+        return out
+
+    def _k2phi(self, phi):
+        return self._k2 * phi
+
+    def solve(self, t_end: float, rtol: float = 1e-10, atol: float = 1e-13,
+              method: str = "DOP853") -> BeamCrossing:
+        """Integrate from static equilibrium on level rigid ground, q = 0 (in place)."""
+        n = self.n_modes
+        s0 = np.zeros(2 + 2 * n)
+        s0[0] = (self.body_mass * GRAVITY) / self.stiffness + float(
+            self.profile(self.x_start)
+        )
+        marks = [0.0, self.L, *getattr(self.profile, "breakpoints", ())]
+        breaks = _time_breaks(marks, self.x_start, self.speed, t_end)
+        self.pieces = _Piecewise()
+        for ta, tb in zip(breaks[:-1], breaks[1:], strict=True):
+            sol = scipy.integrate.solve_ivp(
+                self._rhs, (ta, tb), s0, method=method, rtol=rtol, atol=atol,
+                dense_output=True,
+            )
+            if sol.status != 0:
+                raise RuntimeError(f"solve_ivp failed: {sol.message}")
+            self.pieces.add(ta, tb, sol.sol)
+            s0 = sol.y[:, -1]
+        return self
+
+    def evaluate(self, t) -> dict[str, np.ndarray]:
+        """Response at times ``t`` (s, same origin as the integration).
+
+        Keys: ``x`` (vehicle position), ``deck_displacement`` and ``deck_acceleration``
+        (nt, n_points), ``body_displacement``, ``body_acceleration``,
+        ``wheel_displacement``, ``contact_force``, ``q`` (nt, n_modes).
+        """
+        t = np.atleast_1d(np.asarray(t, float))
+        n = self.n_modes
+        shp = ss_shapes(self.L, self.m, n, self.points)
+        out = {k: np.zeros(t.size) for k in ("x", "body_displacement", "body_velocity",
+                                             "body_acceleration", "wheel_displacement",
+                                             "contact_force")}
+        q_all = np.zeros((t.size, n))
+        qdd_all = np.zeros((t.size, n))
+        for i, ti in enumerate(t):
+            sol = self.pieces.sols[self.pieces.index(ti)]
+            d = self._terms(ti, sol(ti))
+            out["x"][i] = d["x"]
+            out["body_displacement"][i] = d["z"]
+            out["body_velocity"][i] = d["zd"]
+            out["body_acceleration"][i] = d["zdd"]
+            out["wheel_displacement"][i] = d["y"]
+            out["contact_force"][i] = d["P"]
+            q_all[i] = d["q"]
+            qdd_all[i] = d["qdd"]
+        out["q"] = q_all
+        out["deck_displacement"] = q_all @ shp.T
+        out["deck_acceleration"] = qdd_all @ shp.T
+        return out
+
+
+    def first_loss_of_contact(self, t_grid) -> float:
+        """First time (s) at which the bilateral contact force turns negative.
+
+        Sign change located on ``t_grid`` and refined by ``brentq`` on the dense
+        solution; ``nan`` if the force stays compressive over the grid.
+        """
+        t_grid = np.asarray(t_grid, float)
+        P = self.evaluate(t_grid)["contact_force"]
+        neg = np.flatnonzero(P < 0.0)
+        if neg.size == 0:
+            return float("nan")
+        i = neg[0]
+        if i == 0:
+            return float(t_grid[0])
+
+        def f(tt):
+            return self.evaluate([tt])["contact_force"][0]
+
+        return float(scipy.optimize.brentq(f, t_grid[i - 1], t_grid[i], xtol=1e-12))
+
+
+def quarter_car_on_beam(
+    body_mass, stiffness, damping, wheel_mass, L, EI, m, speed, n_modes, t_end,
+    x_start=0.0, zeta=0.0, profile=None, points=None, rtol=1e-10, atol=1e-13,
+    method="DOP853",
+) -> BeamCrossing:
+    """Quarter car (body on spring-dashpot on a wheel that stays in contact) on a SS beam.
+
+    Parameters
+    ----------
+    body_mass, stiffness, damping, wheel_mass : float
+        kg, N/m, N s/m, kg.  ``wheel_mass = 0`` is the sprung mass with a massless
+        contact point.
+    L, EI, m : float
+        Span (m), bending stiffness (N m2), mass per length (kg/m).
+    speed : float
+        m/s.
+    n_modes : int
+        Sine modes kept.
+    t_end : float
+        Integration time (s); ``t = 0`` with the wheel at ``x_start`` (m, < 0 on the
+        approach).
+    zeta : float
+        Modal damping ratio of the beam.
+    profile : callable ``profile(x, derivative)`` or None
+        Rail irregularity (positive = lower) on the beam and on the rigid approach/exit.
+    points : array_like
+        Deck output abscissae (default: midspan).
+
+    Notes
+    -----
+    Unknowns: body displacement z and modal coordinates q.  The wheel follows the rail,
+    ``y = phi(x) q + r(x)`` with ``x = x_start + v t``, so
+    ``y' = phi q' + v phi' q + v r'`` and ``y'' = phi q'' + 2 v phi' q' + v^2 phi'' q
+    + v^2 r''``.  With the suspension force ``F_s = k (z - y) + c (z' - y')``:
+
+    * body: ``M z'' = M g - F_s``;
+    * wheel: ``m_w y'' = m_w g + F_s - P`` gives the contact force ``P``;
+    * beam: ``q'' + 2 zeta w q' + w^2 q = phi(x) P``; substituting P gives
+      ``(I + m_w phi phi^T) q'' = -2 zeta w q' - w^2 q
+      + phi (m_w g + F_s - m_w (2 v phi' q' + v^2 phi'' q + v^2 r''))``.
+
+    Off the span phi = 0 (rigid level ground).  The start is static equilibrium on the
+    rigid approach: ``z = M g / k``, q = 0.  Integration is split where the vehicle
+    enters/leaves the span and at profile breakpoints.  At the exit the deck slope makes
+    the wheel velocity jump (the contact force has an impulse there when m_w > 0); the
+    state (z, z', q, q') stays continuous.
+    """
+    profile = FlatTrack() if profile is None else profile
+    points = [0.5 * L] if points is None else points
+    ref = BeamCrossing(
+        body_mass=body_mass, stiffness=stiffness, damping=damping, wheel_mass=wheel_mass,
+        L=L, EI=EI, m=m, speed=speed, n_modes=n_modes, zeta=zeta, x_start=x_start,
+        profile=profile, points=points,
+    )
+    return ref.solve(t_end, rtol=rtol, atol=atol, method=method)
+
+
+def sprung_mass_on_beam(
+    body_mass, stiffness, damping, L, EI, m, speed, n_modes, t_end, x_start=0.0,
+    zeta=0.0, profile=None, points=None, rtol=1e-10, atol=1e-13, method="DOP853",
+) -> BeamCrossing:
+    """Sprung mass with a massless contact point crossing a SS beam (see
+    :func:`quarter_car_on_beam` with ``wheel_mass = 0``: the contact force is the
+    suspension force and acts on the beam)."""
+    return quarter_car_on_beam(
+        body_mass, stiffness, damping, 0.0, L, EI, m, speed, n_modes, t_end,
+        x_start=x_start, zeta=zeta, profile=profile, points=points, rtol=rtol, atol=atol,
+        method=method,
+    )
+
+
+# =============================================================================
+# Quarter car on rigid track over a dip, with loss of contact (event-driven)
+# =============================================================================
+
+
+@dataclass
+class ContactEvent:
+    """A change of contact state: ``kind`` is ``"detach"`` or ``"attach"``."""
+
+    kind: str
+    t: float
+    x: float
+    wheel_velocity_jump: float = 0.0  # m/s, plastic impact (attach only)
+
+
+@dataclass
+class EventDrivenSolution:
+    """Event-driven quarter car on rigid track: contact and free-flight phases."""
+
+    body_mass: float
+    stiffness: float
+    damping: float
+    wheel_mass: float
+    speed: float
+    profile: Callable
+    x_start: float
+    events: list[ContactEvent] = field(default_factory=list)
+    pieces: _Piecewise = field(default_factory=_Piecewise)
+
+    @property
+    def detachment_positions(self) -> np.ndarray:
+        return np.array([e.x for e in self.events if e.kind == "detach"])
+
+    @property
+    def reattachment_positions(self) -> np.ndarray:
+        return np.array([e.x for e in self.events if e.kind == "attach"])
+
+    @property
+    def event_times(self) -> np.ndarray:
+        return np.array([e.t for e in self.events])
+
+    # -- phase equations -----------------------------------------------------------
+    def _rail(self, t):
+        x = self.x_start + self.speed * t
+        v = self.speed
+        return (x, float(self.profile(x)), v * float(self.profile(x, 1)),
+                v * v * float(self.profile(x, 2)))
+
+    def _contact(self, t, s):
+        """Contact phase, s = [z, z']: (z'', y, y', y'', P)."""
+        _, y, yd, ydd = self._rail(t)
+        fs = self.stiffness * (s[0] - y) + self.damping * (s[1] - yd)
+        zdd = GRAVITY - fs / self.body_mass
+        P = self.wheel_mass * GRAVITY + fs - self.wheel_mass * ydd
+        return zdd, y, yd, ydd, P
+
+    def _flight(self, t, s):
+        """Flight phase, s = [z, z', y, y']: (z'', y'')."""
+        fs = self.stiffness * (s[0] - s[2]) + self.damping * (s[1] - s[3])
+        return GRAVITY - fs / self.body_mass, GRAVITY + fs / self.wheel_mass
+
+    def evaluate(self, t) -> dict[str, np.ndarray]:
+        """Response at times ``t``: x, body displacement/velocity/acceleration,
+        wheel displacement/velocity, contact force, in_contact (0/1)."""
+        t = np.atleast_1d(np.asarray(t, float))
+        keys = ("x", "body_displacement", "body_velocity", "body_acceleration",
+                "wheel_displacement", "wheel_velocity", "contact_force", "in_contact")
+        out = {k: np.zeros(t.size) for k in keys}
+        for i, ti in enumerate(t):
+            j = self.pieces.index(ti)
+            s = self.pieces.sols[j](ti)
+            out["x"][i] = self.x_start + self.speed * ti
+            out["body_displacement"][i] = s[0]
+            out["body_velocity"][i] = s[1]
+            if self.pieces.tags[j] == "contact":
+                zdd, y, yd, _, P = self._contact(ti, s)
+                out["contact_force"][i] = P
+                out["in_contact"][i] = 1.0
+            else:
+                zdd, _ = self._flight(ti, s)
+                y, yd = s[2], s[3]
+            out["body_acceleration"][i] = zdd
+            out["wheel_displacement"][i] = y
+            out["wheel_velocity"][i] = yd
+        return out
+
+
+def quarter_car_rigid_dip_event_driven(
+    body_mass, stiffness, damping, wheel_mass, speed, profile, t_end, x_start=0.0,
+    rtol=1e-11, atol=1e-14, max_events=200,
+) -> EventDrivenSolution:
+    """Quarter car on RIGID track over an isolated dip, unilateral contact, event-driven.
+
+    Parameters
+    ----------
+    body_mass, stiffness, damping, wheel_mass : float
+        kg, N/m, N s/m, kg (wheel_mass > 0).
+    speed : float
+        m/s.
+    profile : callable ``profile(x, derivative)`` with ``breakpoints``
+        Rail irregularity (positive = rail lower), e.g. :class:`CosineDip`.
+    t_end : float
+        End time (s); ``t = 0`` with the wheel at ``x_start``, in static equilibrium.
+
+    Notes
+    -----
+    * Contact phase (state z, z'): the wheel follows the rail, ``y = r(x(t))``,
+      ``y' = v r'``, ``y'' = v^2 r''``; body ``M z'' = M g - F_s`` with
+      ``F_s = k (z - y) + c (z' - y')``; contact force ``P = m_w g + F_s - m_w y''``.
+      Lift-off when P crosses zero downwards (event; also checked at the profile
+      breakpoints, where r'' and hence P jump).
+    * Flight phase (state z, z', y, y'): ``m_w y'' = m_w g + F_s``, P = 0.  Landing when
+      the gap ``r(x) - y`` (wheel above the rail is y < r) returns to zero from above.
+    * Landing is a plastic impact: the wheel velocity becomes the rail velocity
+      ``v r'(x)``; the body velocity is unchanged (a spring-dashpot transmits no
+      impulse).  If the contact force right after the impact is negative the wheel
+      leaves again at once (grazing).
+    """
+    if wheel_mass <= 0:
+        raise ValueError("the event-driven reference needs a wheel mass > 0")
+    sol = EventDrivenSolution(body_mass, stiffness, damping, wheel_mass, speed, profile,
+                              x_start)
+    breaks = _time_breaks(getattr(profile, "breakpoints", ()), x_start, speed, t_end)[1:]
+    z0 = body_mass * GRAVITY / stiffness + float(profile(x_start))
+    state = np.array([z0, 0.0])
+    phase = "contact"
+    t = 0.0
+    n_ev = 0
+
+    def lift(tt, s):
+        return sol._contact(tt, s)[4]
+
+    lift.terminal, lift.direction = True, -1
+
+    def land(tt, s):
+        return float(profile(x_start + speed * tt)) - s[2]
+
+    land.terminal, land.direction = True, -1
+
+    def rhs_contact(tt, s):
+        return [s[1], sol._contact(tt, s)[0]]
+
+    def rhs_flight(tt, s):
+        zdd, ydd = sol._flight(tt, s)
+        return [s[1], zdd, s[3], ydd]
+
+    while t < t_end - 1e-15:
+        tb = next(b for b in breaks if b > t + 1e-15)
+        if phase == "contact":
+            if lift(t, state) < 0.0:  # e.g. r'' jumps at a breakpoint, or grazing landing
+                x = x_start + speed * t
+                sol.events.append(ContactEvent("detach", t, x))
+                n_ev += 1
+                _, y, yd, _, _ = sol._contact(t, state)
+                state = np.array([state[0], state[1], y, yd])
+                phase = "flight"
+                continue
+            r = scipy.integrate.solve_ivp(rhs_contact, (t, tb), state, method="DOP853",
+                                          rtol=rtol, atol=atol, dense_output=True,
+                                          events=lift)
+            sol.pieces.add(t, r.t[-1], r.sol, "contact")
+            if r.status == 1:
+                te = float(r.t_events[0][0])
+                se = r.y_events[0][0]
+                sol.events.append(ContactEvent("detach", te, x_start + speed * te))
+                n_ev += 1
+                _, y, yd, _, _ = sol._contact(te, se)
+                state = np.array([se[0], se[1], y, yd])
+                phase = "flight"
+                t = te
+            else:
+                state, t = r.y[:, -1], tb
+        else:
+            # a short first step without the landing event: at lift-off the gap is zero
+            # and grows like t^2 (or t^3); avoid a spurious root at the start.
+            t_skip = min(t + 1e-7, tb)
+            r0 = scipy.integrate.solve_ivp(rhs_flight, (t, t_skip), state, method="DOP853",
+                                           rtol=rtol, atol=atol, dense_output=True)
+            sol.pieces.add(t, t_skip, r0.sol, "flight")
+            state, t = r0.y[:, -1], t_skip
+            if t >= tb - 1e-15:
+                continue
+            r = scipy.integrate.solve_ivp(rhs_flight, (t, tb), state, method="DOP853",
+                                          rtol=rtol, atol=atol, dense_output=True,
+                                          events=land)
+            sol.pieces.add(t, r.t[-1], r.sol, "flight")
+            if r.status == 1:
+                te = float(r.t_events[0][0])
+                se = r.y_events[0][0]
+                x = x_start + speed * te
+                yd_rail = speed * float(profile(x, 1))
+                sol.events.append(ContactEvent("attach", te, x, yd_rail - se[3]))
+                n_ev += 1
+                state = np.array([se[0], se[1]])  # plastic impact: body velocity kept
+                phase = "contact"
+                t = te
+            else:
+                state, t = r.y[:, -1], tb
+        if n_ev > max_events:
+            raise RuntimeError("too many contact events (chattering?)")
+    return sol
+
+
+# =============================================================================
+# Two-span continuous beam
+# =============================================================================
+
+
+def _two_span_matrix(beta, L1, L2):
+    """Characteristic matrix of the two-span beam, unknowns (A1, B1~, A2, B2~).
+
+    Span i, local coordinate xi from its outer (pinned) end:
+    ``W_i = A_i sin(beta xi) + B~_i sinh(beta xi)/cosh(beta L_i)`` (w = w'' = 0 at the
+    outer end).  At the middle support: ``W_1 = W_2 = 0``, slope continuity
+    ``W_1' = -W_2'`` (span 2's xi runs backwards) and equal bending moments
+    ``W_1'' = W_2''``.  The hyperbolic terms are scaled by cosh to stay O(1).
+    """
+    s1, s2 = np.sin(beta * L1), np.sin(beta * L2)
+    c1, c2 = np.cos(beta * L1), np.cos(beta * L2)
+    t1, t2 = np.tanh(beta * L1), np.tanh(beta * L2)
+    return np.array([
+        [s1, t1, 0.0, 0.0],
+        [0.0, 0.0, s2, t2],
+        [c1, 1.0, c2, 1.0],
+        [-s1, t1, s2, -t2],
+    ])
+
+
+def _two_span_betas(L1, L2, n):
+    """The first n roots beta of det(_two_span_matrix) = 0 (brentq on sign changes)."""
+    Lt = L1 + L2
+    det = lambda b: np.linalg.det(_two_span_matrix(b, L1, L2))  # noqa: E731
+    step = np.pi / Lt / 64.0
+    roots: list[float] = []
+    b0 = 1e-6
+    f0 = det(b0)
+    while len(roots) < n:
+        b1 = b0 + step
+        f1 = det(b1)
+        if f0 == 0.0:
+            roots.append(b0)
+        elif f0 * f1 < 0.0:
+            roots.append(scipy.optimize.brentq(det, b0, b1, xtol=1e-15))
+        b0, f0 = b1, f1
+    return np.array(roots[:n])
+
+
+def two_span_continuous_frequencies(L1, L2, EI, m, n) -> np.ndarray:
+    """Natural frequencies (Hz) of a two-span continuous Euler-Bernoulli beam.
+
+    Pinned at both ends with an intermediate point support at ``x = L1``; uniform EI
+    (N m2) and m (kg/m).  Roots ``beta`` of the 4x4 characteristic determinant (see
+    ``_two_span_matrix``) by a sign scan and ``brentq``; ``omega = beta^2 sqrt(EI/m)``.
+    """
+    beta = _two_span_betas(L1, L2, n)
+    return beta**2 * np.sqrt(EI / m) / (2.0 * np.pi)
+
+
+def two_span_equal_frequencies(L, EI, m, n) -> np.ndarray:
+    """Closed form for two equal spans (Hz): the antisymmetric modes are the simply
+    supported modes of one span, ``beta L = j pi``; the symmetric ones are the
+    clamped-pinned modes of one span, ``tan(beta L) = tanh(beta L)``."""
+    ss = np.arange(1, n + 1) * np.pi
+    cp = []
+    for j in range(1, n + 1):  # one root in (j pi, j pi + pi/2)
+        f = lambda b: np.tan(b) - np.tanh(b)  # noqa: E731
+        cp.append(scipy.optimize.brentq(f, j * np.pi + 1e-9, j * np.pi + 0.5 * np.pi - 1e-9,
+                                        xtol=1e-15))
+    beta_l = np.sort(np.concatenate([ss, cp]))[:n]
+    return (beta_l / L) ** 2 * np.sqrt(EI / m) / (2.0 * np.pi)
+
+
+def two_span_continuous_modes(L1, L2, EI, m, n, x, derivative: int = 0):
+    """Frequencies (Hz) and mass-normalised mode shapes of the two-span beam.
+
+    Returns ``(freqs, shapes)`` with shapes of shape (len(x), n) (or their
+    ``derivative``-th x-derivative, 0..2), each mode with ``int m phi^2 dx = 1`` and its
+    largest displacement positive (down).
+    """
+    x = np.atleast_1d(np.asarray(x, float))
+    beta = _two_span_betas(L1, L2, n)
+    gx, gw = np.polynomial.legendre.leggauss(200)
+
+    def span_shape(c, b, Li, xi, d):
+        a, bt = c
+        sc = 1.0 / np.cosh(b * Li)
+        if d == 0:
+            return a * np.sin(b * xi) + bt * sc * np.sinh(b * xi)
+        if d == 1:
+            return b * (a * np.cos(b * xi) + bt * sc * np.cosh(b * xi))
+        return b * b * (-a * np.sin(b * xi) + bt * sc * np.sinh(b * xi))
+
+    def shape(c, b, xx, d):
+        out = np.zeros_like(xx)
+        left = xx <= L1
+        out[left] = span_shape(c[:2], b, L1, xx[left], d)
+        xi = L1 + L2 - xx[~left]
+        out[~left] = (-1.0) ** d * span_shape(c[2:], b, L2, xi, d)
+        out[(xx < 0) | (xx > L1 + L2)] = 0.0
+        return out
+
+    freqs = beta**2 * np.sqrt(EI / m) / (2.0 * np.pi)
+    shapes = np.zeros((x.size, n))
+    dense = np.linspace(0.0, L1 + L2, 4001)
+    for j, b in enumerate(beta):
+        _, _, vt = np.linalg.svd(_two_span_matrix(b, L1, L2))
+        c = vt[-1]
+        norm = 0.0
+        for a0, a1 in ((0.0, L1), (L1, L1 + L2)):
+            xq = 0.5 * (a1 - a0) * gx + 0.5 * (a1 + a0)
+            norm += 0.5 * (a1 - a0) * np.sum(gw * m * shape(c, b, xq, 0) ** 2)
+        c = c / np.sqrt(norm)
+        wd = shape(c, b, dense, 0)
+        c = c * np.sign(wd[np.argmax(np.abs(wd))])
+        shapes[:, j] = shape(c, b, x, derivative)
+    return freqs, shapes
+
+
+# =============================================================================
+# Vehicles: 10-DOF railway car, lever-rule static loads
+# =============================================================================
+
+
+def lever_rule(weight: float, p_cg: float, p_front: float, p_rear: float):
+    """Split ``weight`` (N) between two supports at positions p_front < p_rear (m)."""
+    span = p_rear - p_front
+    rear = weight * (p_cg - p_front) / span
+    return weight - rear, rear
+
+
+def railway_car_static_axle_loads(body_mass, bogie_mass, wheelset_mass, bogie_spacing,
+                                  body_cg_to_front_bogie=None) -> np.ndarray:
+    """Static axle loads (N) of the 4-axle car on level rigid track, by the lever rule.
+
+    Body weight split between the bogie centres, each bogie's load split equally
+    between its two axles (bogie mass centred), plus the wheelset weight.
+    """
+    if body_cg_to_front_bogie is None:
+        body_cg_to_front_bogie = 0.5 * bogie_spacing
+    front, rear = lever_rule(body_mass * GRAVITY, body_cg_to_front_bogie, 0.0, bogie_spacing)
+    b = bogie_mass * GRAVITY
+    w = wheelset_mass * GRAVITY
+    return np.array([0.5 * (front + b) + w] * 2 + [0.5 * (rear + b) + w] * 2)
+
+
+def railway_car_matrices(body_mass, body_pitch_inertia, bogie_mass, bogie_pitch_inertia,
+                         wheelset_mass, bogie_spacing, wheelbase, primary_stiffness,
+                         primary_damping, secondary_stiffness, secondary_damping,
+                         body_cg_to_front_bogie=None):
+    """Mass, damping and stiffness matrices of the planar 10-DOF car.
+
+    DOFs: body bounce z_c, body pitch t_c, bogie 1 bounce/pitch (z_1, t_1), bogie 2
+    (z_2, t_2), wheelsets w_1..w_4 (front to rear).  Here pitch is positive when the
+    front goes up (a point a distance ``d`` ahead of the centre moves ``z - d t``);
+    eigenvalues and static loads do not depend on this choice.
+
+    Returns
+    -------
+    M, C, K : ndarray (10, 10)
+    wheel_dofs : ndarray (4,)
+    """
+    if body_cg_to_front_bogie is None:
+        body_cg_to_front_bogie = 0.5 * bogie_spacing
+    d1 = body_cg_to_front_bogie  # front bogie ahead of the body cg
+    d2 = bogie_spacing - body_cg_to_front_bogie  # rear bogie behind the body cg
+    a = 0.5 * wheelbase
+    M = np.diag([body_mass, body_pitch_inertia, bogie_mass, bogie_pitch_inertia, bogie_mass,
+                 bogie_pitch_inertia] + [wheelset_mass] * 4)
+    K = np.zeros((10, 10))
+    C = np.zeros((10, 10))
+
+    def spring(i_up, up_coef, i_lo, lo_coef, k, c):
+        # relative displacement = sum(up) - sum(lo)
+        e = np.zeros(10)
+        for i, cf in zip(i_up, up_coef, strict=True):
+            e[i] += cf
+        for i, cf in zip(i_lo, lo_coef, strict=True):
+            e[i] -= cf
+        K[:] += k * np.outer(e, e)
+        C[:] += c * np.outer(e, e)
+
+    ks, cs, kp, cp = secondary_stiffness, secondary_damping, primary_stiffness, primary_damping
+    # secondary: body point over bogie centre (front: ahead by d1 -> z - d1 t)
+    spring([0, 1], [1.0, -d1], [2], [1.0], ks, cs)
+    spring([0, 1], [1.0, +d2], [4], [1.0], ks, cs)
+    # primary: bogie point over each wheelset (front axle ahead of the bogie centre by a)
+    spring([2, 3], [1.0, -a], [6], [1.0], kp, cp)
+    spring([2, 3], [1.0, +a], [7], [1.0], kp, cp)
+    spring([4, 5], [1.0, -a], [8], [1.0], kp, cp)
+    spring([4, 5], [1.0, +a], [9], [1.0], kp, cp)
+    return M, C, K, np.array([6, 7, 8, 9])
+
+
+def fixed_wheel_frequencies(M, K, wheel_dofs) -> np.ndarray:
+    """Undamped natural frequencies (Hz) with the wheel DOFs held fixed."""
+    keep = np.setdiff1d(np.arange(M.shape[0]), wheel_dofs)
+    lam = scipy.linalg.eigh(K[np.ix_(keep, keep)], M[np.ix_(keep, keep)], eigvals_only=True)
+    return np.sqrt(np.clip(lam, 0.0, None)) / (2.0 * np.pi)
+
+
+# =============================================================================
+# Signal utilities (for free-vibration checks)
+# =============================================================================
+
+
+def dominant_frequency(t, y, f_lo=0.0, f_hi=np.inf) -> float:
+    """Frequency (Hz) of the largest spectral peak of ``y(t)`` in ``[f_lo, f_hi]``.
+
+    Hann window, 16x zero padding, then the peak of the (continuous) windowed DTFT is
+    refined with a bounded scalar search: the estimate is limited by leakage from
+    other components, not by the bin width.
+    """
+    t = np.asarray(t, float)
+    y = np.asarray(y, float) - np.mean(y)
+    dt = t[1] - t[0]
+    w = np.hanning(y.size)
+    nfft = 16 * int(2 ** np.ceil(np.log2(y.size)))
+    spec = np.abs(np.fft.rfft(w * y, nfft))
+    f = np.fft.rfftfreq(nfft, dt)
+    band = (f >= f_lo) & (f <= f_hi)
+    i = np.flatnonzero(band)[np.argmax(spec[band])]
+
+    def amp(fr):
+        return -abs(np.sum(w * y * np.exp(-2j * np.pi * fr * (t - t[0]))))
+
+    res = scipy.optimize.minimize_scalar(amp, bounds=(f[i - 1], f[i + 1]), method="bounded",
+                                         options={"xatol": 1e-10})
+    return float(res.x)
+
+
+def free_vibration_fit(t, y, freqs) -> float:
+    """Relative residual of the least-squares fit of ``y(t)`` by sinusoids at ``freqs``.
+
+    ``y ~ c + sum_k a_k cos(2 pi f_k t) + b_k sin(2 pi f_k t)``; returns
+    ``||y - fit|| / ||y - mean(y)||``.  Small only if the signal's frequencies are
+    (very nearly) the given ones: a relative frequency error e over a record of N
+    periods leaves a residual of order 2 pi N e.
+    """
+    t = np.asarray(t, float)
+    y = np.asarray(y, float)
+    fr = np.unique(np.round(np.asarray(freqs, float), 12))
+    cols = [np.ones_like(t)]
+    for f in fr:
+        cols += [np.cos(2 * np.pi * f * t), np.sin(2 * np.pi * f * t)]
+    A = np.column_stack(cols)
+    coef, *_ = np.linalg.lstsq(A, y, rcond=None)
+    return float(np.linalg.norm(y - A @ coef) / np.linalg.norm(y - y.mean()))

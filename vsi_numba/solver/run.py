@@ -59,6 +59,15 @@ def run_config(cfg, progress=None) -> xr.Dataset:
     out["message"] = ("speed", np.asarray(messages, dtype=str),
                       {"long_name": "analysis status message", "units": "1"})
     out["frequency"] = ("mode", bridge.frequencies, attrs_for("frequency"))
+    from vsi_numba.solver.simulate import static_deck_envelope
+
+    out["max_static_deck_displacement"] = (
+        "point", static_deck_envelope(bridge, train, out.point.values),
+        {"units": "m", "long_name": "maximum static deck displacement under the train "
+         "(same modes, crawling speed)", "positive": "down"},
+    )
+    out["train_regular_length"] = ((), float(train.regular_length),
+                                   {"units": "m", "long_name": "regular coach length D"})
     out = out.assign_coords(mode=("mode", np.arange(1, bridge.n_modes + 1), attrs_for("mode")))
     now = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
     out.attrs = {
@@ -77,8 +86,15 @@ def run_config(cfg, progress=None) -> xr.Dataset:
         "dt": float(settings.dt),
         "hht_alpha": float(settings.hht_alpha),
         "failed_cases": int(sum(s != 0 for s in status)),
+        "track_type": _track_type(cfg),
     }
     return out
+
+
+def _track_type(cfg) -> str:
+    from vsi_numba.study.runner import _track_type as study_track_type
+
+    return study_track_type(cfg)
 
 
 def write_netcdf(ds: xr.Dataset, path: Path) -> Path:

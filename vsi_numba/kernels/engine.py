@@ -163,14 +163,20 @@ def eval_modes(br, x, out, dout, d2out):
             d2out[j] = 0.0
         return 0
     if br.kind == 1:
+        # sin(j k1 x), cos(j k1 x) by the angle-addition recurrence: two
+        # transcendentals per call instead of two per mode (sine_k[j] = (j+1) k1)
+        k1 = br.sine_k[0]
+        s1 = np.sin(k1 * x)
+        c1 = np.cos(k1 * x)
+        s = s1
+        c = c1
         for j in range(n_m):
             k = br.sine_k[j]
             a = br.sine_amp[j]
-            s = np.sin(k * x)
-            c = np.cos(k * x)
             out[j] = a * s
             dout[j] = a * k * c
             d2out[j] = -a * k * k * s
+            s, c = s * c1 + c * s1, c * c1 - s * s1
         return 1
     nodes = br.nodes
     e = np.searchsorted(nodes, x, side="right") - 1

@@ -22,7 +22,13 @@ Keys (units; default)
 ``mass_per_length`` (kg/m), a number or one per span; ``damping_ratio`` (-, a number or
 one per mode; 0); ``n_modes`` (10 unless ``max_frequency``, Hz, is given; both: the
 smaller set); ``elements_per_span`` (continuous; 40); ``output_points`` (m; every
-mid-span); ``file`` (modes_file: accepted and checked, built in a later version).
+mid-span).  Imported bridges (formats: :mod:`vsi_numba.model.imported`), read and
+checked at load time: modes_file (``file``, netCDF or CSV; ``track_line`` when it has
+several; ``mass_normalised`` true when there is no modal_mass; n_modes default: every mode
+of the file) | matrices (``stiffness_matrix``, ``mass_matrix`` Matrix Market;
+``station_map`` CSV; ``fixed_dofs`` [] = supports already applied; ``dof_base`` 0;
+``rotation_sign`` 1; ``vertical_dofs`` station DOFs, or {start, step}; ``track_line``);
+both: ``spans`` optional (m along the track line; the table must cover their sum).
 ``[train]`` exactly one of ``preset`` (library name or list; one train each), ``file``
 (user train TOML, see :func:`vsi_numba.model.library.load_user_trains`) or
 ``[[train.vehicles]]`` (one train, ``name``: default ``title``, else "custom"); ``model`` =
@@ -77,7 +83,7 @@ from vsi_numba.solver.settings import SolverSettings
 
 __all__ = ["Config", "ConfigError", "load_config"]
 
-BRIDGE_KINDS = ("simply_supported", "continuous", "rigid", "modes_file")
+BRIDGE_KINDS = ("simply_supported", "continuous", "rigid", "modes_file", "matrices")
 VEHICLE_KINDS = ("force", "sprung_mass", "car", "user")
 IRREGULARITY_KINDS = ("none", "cosine", "step", "psd", "file")
 DEFECT_KINDS = ("cosine", "step")
@@ -431,17 +437,21 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
     path = "bridge"
     allowed_all = {
         "kind", "spans", "EI", "mass_per_length", "damping_ratio", "n_modes",
-        "max_frequency", "elements_per_span", "output_points", "file",
+        "max_frequency", "elements_per_span", "output_points", "file", *_IMPORT_KEYS,
     }
     if not isinstance(d, Mapping):
         return chk.error(path, d, "a table [bridge] with kind, spans, EI, mass_per_length")
     kind = chk.choice(d, path, "kind", BRIDGE_KINDS)
+    classic = allowed_all - {"file", *_IMPORT_KEYS}
+    modal = {"kind", "damping_ratio", "n_modes", "max_frequency", "output_points", "spans",
+             "track_line"}
     used = {
-        "simply_supported": allowed_all - {"elements_per_span", "file"},
-        "continuous": allowed_all - {"file"},
+        "simply_supported": classic - {"elements_per_span"},
+        "continuous": classic,
         "rigid": {"kind", "spans", "output_points"},
-        "modes_file": {"kind", "file", "damping_ratio", "n_modes", "max_frequency",
-                       "output_points", "spans"},
+        "modes_file": modal | {"file", "mass_normalised"},
+        "matrices": modal | {"stiffness_matrix", "mass_matrix", "station_map", "fixed_dofs",
+                             "dof_base", "rotation_sign", "vertical_dofs"},
     }
     if kind is _BAD:
         chk.table(d, path, allowed_all)
@@ -467,11 +477,10 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
             more = " (use kind = 'continuous' for several spans)" if kind != "rigid" else ""
             spans = chk.error("bridge.spans", d["spans"], f"one span length for kind = "
                               f"'{kind}'{more}")
-    elif kind != "modes_file":
+    elif kind not in _IMPORTED:
         chk.error("bridge.spans", _MISSING, span_expect)
-    elif "output_points" not in d:
-        chk.error("bridge.output_points", _MISSING,
-                  "positions on the deck (m) when kind = 'modes_file' has no spans")
+    if kind in _IMPORTED and "spans" not in d:
+        spans = None  # optional: the track line's length comes from the file
     n_spans = len(spans) if isinstance(spans, list) else None
     length = float(sum(spans)) if isinstance(spans, list) else None
 
@@ -481,7 +490,6 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
     flexible = kind in ("simply_supported", "continuous")
     ei = mass = damping = n_modes = fmax = _BAD
     eps = None
-    file_given = None
     if flexible:
         ei = _per_span(chk, d, path, "EI", "a bending stiffness EI > 0 N m^2", n_spans)
         mass = _per_span(chk, d, path, "mass_per_length", "a mass per length > 0 kg/m", n_spans)
@@ -499,8 +507,8 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
         n_modes = chk.get_number(d, path, "n_modes", n_spec)
         fmax = chk.get_number(d, path, "max_frequency",
                               _Num("a frequency > 0 Hz", gt=0, default=None))
-        if n_modes is None and fmax is None:
-            n_modes = 10
+        if n_modes is None and fmax is None and kind != "modes_file":
+            n_modes = 10  # modes_file: default every mode of the file
         res.update(damping_ratio=damping, n_modes=n_modes, max_frequency=fmax)
     if kind == "continuous":
         eps = chk.get_number(d, path, "elements_per_span", _Num(
@@ -511,10 +519,12 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
                             f"at most {MAX_ELEMENTS} elements in all ({n_spans} spans x "
                             f"{eps} = {n_spans * eps})")
         res["elements_per_span"] = eps
-    if kind == "modes_file":
-        file_given, _full = chk.file(d, path, "file", base_dir,
-                                     "the deck modes (x, frequencies, mode shapes)")
-        res["file"] = file_given
+    imported = None
+    if kind in _IMPORTED:
+        imported = _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes,
+                                    fmax, solver_cutoff)
+        if imported is not _BAD:
+            length = imported.bridge.length
 
     # output points
     points = _BAD
@@ -530,9 +540,16 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
                     chk.error(f"bridge.output_points[{i}]", x,
                               f"a position on the bridge, 0 <= x <= {length:g} m")
                     points = _BAD
-    elif isinstance(spans, list):
+    elif isinstance(spans, list) and kind not in _IMPORTED:
         edges = np.concatenate([[0.0], np.cumsum(spans)])
         points = (0.5 * (edges[:-1] + edges[1:])).tolist()
+    elif imported is not None and imported is not _BAD:
+        edges = np.asarray(imported.bridge.supports, float)
+        points = (0.5 * (edges[:-1] + edges[1:])).tolist()
+        if edges.size == 2 and not isinstance(spans, list):
+            chk.warn(f"bridge.output_points: the supports along the track line are unknown "
+                     f"(give bridge.spans); the default output point is the middle of the "
+                     f"{edges[-1]:g} m line, x = {points[0]:g} m")
     if isinstance(points, list):
         res["output_points"] = points
 
@@ -540,8 +557,12 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
     if not _ok(spans, points) or (flexible and not _ok(ei, mass, damping, n_modes, fmax, eps)):
         return _BAD
     spec.output_points = np.asarray(points, float)
-    if kind == "modes_file":
-        return spec if _ok(file_given) else _BAD
+    if kind in _IMPORTED:
+        if imported is None or imported is _BAD:
+            return _BAD
+        spec.model = imported.bridge
+        spec.all_frequencies = imported.all_frequencies
+        return spec
     if kind == "rigid":
         spec.model = _bridge.rigid(length)
         return spec
@@ -559,6 +580,107 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
         supports=model.supports, description=model.description,
     )
     return spec
+
+
+_IMPORTED = ("modes_file", "matrices")
+_IMPORT_KEYS = ("track_line", "mass_normalised", "stiffness_matrix", "mass_matrix",
+                "station_map", "fixed_dofs", "dof_base", "rotation_sign", "vertical_dofs")
+_IMPORT_FILES = {
+    "file": "the deck modes (frequencies, modal masses, mode shapes at stations)",
+    "stiffness_matrix": "the stiffness matrix K (Matrix Market)",
+    "mass_matrix": "the mass matrix M (Matrix Market)",
+    "station_map": "the station map (CSV: x, dof, rotation_dof, line)",
+}
+MAX_FIXED_DOFS = 100_000
+
+
+def _dof_indices(chk, d, key, base, allow_pattern=False):
+    """A list of DOF numbers >= dof_base (or, when allowed, a {start, step} table)."""
+    p = _join("bridge", key)
+    v = _as_list(d[key])
+    if allow_pattern and isinstance(v, Mapping):
+        chk.table(v, p, {"start", "step"})
+        start = chk.get_number(v, p, "start", _Num(
+            f"an integer DOF number >= dof_base ({base})", ge=base, integer=True, default=base))
+        step = chk.get_number(v, p, "step", _Num(
+            "an integer step >= 1", ge=1, integer=True, default=1))
+        return {"start": start, "step": step} if _ok(start, step) else _BAD
+    expected = f"a list of integer DOF numbers >= dof_base ({base})" + (
+        ", or {start = i, step = s}" if allow_pattern else "")
+    if not isinstance(v, list) or len(v) > MAX_FIXED_DOFS:
+        return chk.error(p, d[key], expected)
+    out = [chk.number(x, f"{p}[{i}]", _Num(f"an integer DOF number >= dof_base ({base})",
+                                            ge=base, integer=True)) for i, x in enumerate(v)]
+    return out if _ok(*out) else _BAD
+
+
+def _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes, fmax, cutoff):
+    """kind = modes_file | matrices: read the files now (errors join the others)."""
+    from vsi_numba.model import imported as _imp
+
+    path = "bridge"
+    files = ("file",) if kind == "modes_file" else ("stiffness_matrix", "mass_matrix",
+                                                    "station_map")
+    given, full = {}, {}
+    for key in files:
+        given[key], full[key] = chk.file(d, path, key, base_dir, _IMPORT_FILES[key])
+        res[key] = given[key]
+    line = chk.string(d, path, "track_line", "the name of a track line (string)",
+                      default=None)
+    res["track_line"] = line
+    extra: dict[str, Any] = {}
+    if kind == "modes_file":
+        extra["mass_normalised"] = chk.boolean(d, path, "mass_normalised", None)
+        res["mass_normalised"] = extra["mass_normalised"]
+    else:
+        base = chk.get_number(d, path, "dof_base", _Num(
+            "0 (DOFs numbered from 0) or 1 (from 1)", ge=0, le=1, integer=True, default=0))
+        sign = chk.get_number(d, path, "rotation_sign", _Num(
+            "1 (rotation DOF = +dw/dx) or -1 (= -dw/dx)", default=1))
+        if _ok(sign) and sign not in (1, -1):
+            sign = chk.error("bridge.rotation_sign", d["rotation_sign"],
+                             "1 (rotation DOF = +dw/dx) or -1 (= -dw/dx)")
+        b0 = base if _ok(base) else 0
+        fixed = _dof_indices(chk, d, "fixed_dofs", b0) if "fixed_dofs" in d else []
+        vert = (_dof_indices(chk, d, "vertical_dofs", b0, allow_pattern=True)
+                if "vertical_dofs" in d else None)
+        res.update(dof_base=base, rotation_sign=sign, fixed_dofs=fixed, vertical_dofs=vert)
+        extra = {"dof_base": base, "rotation_sign": float(sign) if _ok(sign) else sign,
+                 "fixed_dofs": fixed, "vertical_dofs": vert}
+    if not _ok(*full.values(), line, spans, damping, n_modes, fmax, *extra.values()):
+        return _BAD
+    zeta = damping if "damping_ratio" in d else None
+    span_list = spans if isinstance(spans, list) else None
+    try:
+        if kind == "modes_file":
+            out = _imp.read_modes_table(
+                full["file"], track_line=line, n_modes=n_modes, max_frequency=fmax,
+                damping_ratio=zeta, mass_normalised=extra["mass_normalised"],
+                spans=span_list, name=given["file"])
+        else:
+            out = _imp.read_matrices(
+                full["stiffness_matrix"], full["mass_matrix"], full["station_map"],
+                fixed_dofs=extra["fixed_dofs"], dof_base=extra["dof_base"], track_line=line,
+                n_modes=n_modes, max_frequency=fmax, damping_ratio=damping,
+                rotation_sign=extra["rotation_sign"], vertical_dofs=extra["vertical_dofs"],
+                spans=span_list, all_up_to=max(30.0, cutoff or 0.0),
+                names={"stiffness": given["stiffness_matrix"], "mass": given["mass_matrix"],
+                       "stations": given["station_map"]})
+    except _imp.ModelFileError as exc:
+        for key, value, expected in exc.problems:
+            if key in given:
+                value = given[key]
+            chk.error(_join(path, key), _MISSING if value is None else value, expected)
+        return _BAD
+    except (ValueError, OSError, ArithmeticError, MemoryError) as exc:  # unforeseen content
+        key = files[0]
+        chk.error(_join(path, key), given[key],
+                  f"{_IMPORT_FILES[key]} that can be read ({type(exc).__name__}: "
+                  f"{' '.join(str(exc).split())[:160]})")
+        return _BAD
+    for w in out.warnings:
+        chk.warn(w)
+    return out
 
 
 def _flexible_bridge(chk, spec, spans, ei, mass, n_modes, fmax, eps, solver_cutoff):
@@ -1278,10 +1400,13 @@ class Config:
     def build_bridge(self) -> _bridge.ModalBridge:
         """Return the bridge model (:class:`~vsi_numba.model.bridge.ModalBridge`).
 
+        Imported bridges (``modes_file``, ``matrices``) are read and checked by
+        :func:`load_config` already; this returns that model.
+
         Raises
         ------
         ConfigError
-            For ``bridge.kind = 'modes_file'`` (not supported by this version).
+            If no model could be built for the bridge kind.
         """
         if self._bridge.model is None:
             raise ConfigError(

@@ -37,6 +37,12 @@ class ModalBridge:
         (n_nodes, n_modes).  SINE: ``values[0]`` holds the amplitudes sqrt(2/(m L)).
     supports : ndarray
         Abscissae of the supports (m), for plots and reports.
+    description : str
+        One line saying where the modes come from.
+    effective_mass_fraction : ndarray or None
+        Effective (participating) vertical mass of each retained mode as a fraction of
+        the structure's vertical mass, shape (n_modes,), when known (modes computed from
+        matrices, see :mod:`vsi_numba.model.imported`); None otherwise.
     """
 
     kind: int
@@ -48,6 +54,7 @@ class ModalBridge:
     slopes: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     supports: np.ndarray = field(default_factory=lambda: np.zeros(0))
     description: str = ""
+    effective_mass_fraction: np.ndarray | None = None
 
     @property
     def n_modes(self) -> int:

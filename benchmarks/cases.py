@@ -74,9 +74,9 @@ def make_plan(mode: str, cold: bool | None = None) -> Plan:
                     (420.0,), (1,), False, 15, (5, 20), (1, 2), 1, 15,
                     False, False, 1)
     if mode == "quick":
-        return Plan("quick", 7, 1, tuple(HSLM_NAMES), every[::4], (140.0, 420.0), 300,
+        return Plan("quick", 7, 1, tuple(HSLM_NAMES), every[::8], (140.0, 420.0), 300,
                     (140.0, 280.0, 420.0), (1,), False, 100, (5, 20, 80), (1, 4, 16), 3, 60,
-                    True, bool(cold), 3)
+                    True, bool(cold), 2)
     if mode in ("normal", "full"):
         return Plan(mode, 15, 3, tuple(HSLM_NAMES), every, (140.0, 280.0, 420.0), 600,
                     every[::8], (1, 2), mode == "full", 300, (5, 10, 20, 40, 80),

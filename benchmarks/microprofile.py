@@ -68,6 +68,22 @@ def _build():
             ek.build_schur(veh, wk, wk.khat, veh.Khat_inv[0])
 
     @numba.njit(**_OPTS)
+    def d_active(br, veh, pr, prm, st, bk, wk, n):
+        # the active-set solve of the last step (its S and predictor gaps are in wk)
+        act0 = wk.act0.copy()
+        scale = 1.0 + prm.alpha
+        for _k in range(n):
+            for i in range(act0.shape[0]):
+                wk.active[i] = act0[i]
+            ek.solve_active_set(veh, wk, scale, prm.max_iter, prm.tol_gap, prm.tol_force)
+
+    @numba.njit(**_OPTS)
+    def d_matvec(br, veh, pr, prm, st, bk, wk, n):
+        kh = veh.Khat_inv[0]
+        for _k in range(n):
+            ek.block_matvec(veh, kh, wk.rv, wk.yv, False, 1.0)
+
+    @numba.njit(**_OPTS)
     def d_step(br, veh, pr, prm, st, bk, wk, n):
         # the same step, from the mid-run state ``bk``, n times: one full HHT step
         # (time_loop adds copy_state, state_is_finite and record per step)
@@ -81,7 +97,8 @@ def _build():
             ek.hht_step(br, veh, pr, prm, st, wk, t1, prm.dt, 0)
 
     _DRIVERS.update(contact_search=d_search, assemble_loads=d_loads,
-                    loads_flat_arrays=d_loads_flat, copy_state=d_copy, build_schur=d_schur,
+                    loads_flat_arrays=d_loads_flat, build_schur=d_schur,
+                    solve_active_set=d_active, block_matvec=d_matvec, copy_state=d_copy,
                     hht_step=d_step)
     return _DRIVERS
 
@@ -122,7 +139,8 @@ def microprofile(models, n_calls=20000):
         args = _setup(bridge, train, speed, settings)
         row = {}
         for name, fn in drivers.items():
-            if name == "build_schur" and args[1].wheel_dof.size == 0:
+            if (name in ("build_schur", "solve_active_set", "block_matvec")
+                    and args[1].wheel_dof.size == 0):
                 continue
             if name == "loads_flat_arrays" and args[0].kind != 1:
                 continue

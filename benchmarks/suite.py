@@ -143,11 +143,31 @@ def run_suite(mode: str = "quick", write: bool = True, report: Path | None = Non
 # ---------------------------------------------------------------------------- report
 
 
+def _step_parts(row: dict) -> str:
+    """'hht_step X us = part a (p %), ...' from one micro-profile row."""
+    step = row.get("hht_step", float("nan"))
+    parts = [("contact_search", 1), ("assemble_loads", 1), ("build_schur", 1),
+             ("solve_active_set", 1), ("block_matvec", 5)]
+    txt, used = [], 0.0
+    for name, times in parts:
+        if name in row:
+            t = times * row[name]
+            used += t
+            label = f"{times} x {name}" if times > 1 else name
+            txt.append(f"{label} {t:.2f} us ({100 * t / step:.0f} %)")
+    rest = step - used
+    txt.append(f"rest of the step {rest:.2f} us ({100 * rest / step:.0f} %)")
+    return (f"one `hht_step` {step:.2f} us = " + ", ".join(txt)
+            + f"; `time_loop` adds `copy_state` {row.get('copy_state', float('nan')):.2f} us "
+            "per step")
+
+
 def _findings(suite: SuiteResult) -> list[str]:
     """Where the time goes and what would close each missed target (from the numbers)."""
     out = []
     c1, c2, c3 = suite.case("1"), suite.case("2"), suite.case("3")
     c4, c5 = suite.case("4"), suite.case("5")
+    parts = {}
     if suite.micro:
         comp, parts = suite.micro
         names = sorted({k for row in parts.values() for k in row})
@@ -155,99 +175,126 @@ def _findings(suite: SuiteResult) -> list[str]:
                          [[label] + [f"{row[n]:.2f}" if n in row else "-" for n in names]
                           for label, row in parts.items()])
         out.append(
-            "**Inside the kernel** (CPU time per call of each engine function, called in a "
-            "jitted loop; `hht_step` is one whole step from a mid-passage state, "
-            "`time_loop` adds `copy_state` + `record` + a finiteness check per step; "
+            "**Inside the kernel** (CPU time per call of each engine function, called "
+            "20000 times in a jitted loop from the state in the middle of the passage; "
+            "`hht_step` is one whole step; `loads_flat_arrays` is NOT engine code: the same "
+            "sine-mode load vector with flat array arguments and phi only, for comparison; "
             f"drivers compiled in {comp:.0f} s):\n\n" + tab)
-        one = parts.get(next(iter(parts)), {})
-        if one:
-            out.append(
-                "Reading: the per-step cost hardly depends on the work done.  The sprung "
-                "mass (1 wheel) spends "
-                f"{one.get('contact_search', float('nan')):.2f} us in `contact_search` "
-                f"(sin and cos of 20 modes for phi, phi', phi'' of ONE wheel), "
-                f"{one.get('assemble_loads', float('nan')):.2f} us in `assemble_loads` with "
-                f"no point load at all, and {one.get('copy_state', float('nan')):.2f} us "
-                "copying 9 vectors of <= 20 entries.  Such fixed costs point at call "
-                "overhead, not arithmetic: every non-inlined call takes the named tuples "
-                "(`BridgeArrays`, `VehicleArrays`, `Work` with ~30 arrays, `State`) and numba "
-                "increments/decrements the reference count of each array member on entry/exit "
-                "(atomic operations).  `loads_flat_arrays` (same sine-mode load vector with "
-                "flat array arguments, phi only) shows the difference on the moving-force "
-                "model.")
+        rows = list(parts.values())
+        mf = rows[1] if len(rows) > 1 else {}
+        out.append(
+            "Reading: a large part of every step is call overhead, not arithmetic.  "
+            f"`contact_search` costs {mf.get('contact_search', float('nan')):.2f} us on the "
+            "moving-force model, which has NO wheel (an empty loop), and `assemble_loads` "
+            f"{rows[0].get('assemble_loads', float('nan')):.2f} us on the sprung mass, which "
+            "has NO point load.  Every one of these non-inlined calls receives the named "
+            "tuples (`BridgeArrays`, `VehicleArrays`, `ProfileArrays`, `Work` with ~30 "
+            "arrays, `State`), and the fixed cost is consistent with numba's reference "
+            "counting of each array member on entry and exit (atomic operations that LLVM "
+            "cannot remove across the call).  `eval_modes` is called once per load and per "
+            "wheel with the bridge tuple, which multiplies the effect.")
     elif suite.micro_error:
         out.append(f"Micro-profile failed: {suite.micro_error}")
+    labels = list(parts)
     if c1 and c1.data:
         d = c1.data
         med = d["breakdown"]
+        n = d["n_steps"]
+        micro = f"  Mid-passage, {_step_parts(parts[labels[0]])}." if parts else ""
         out.append(
-            f"**Case 1 (target 0.5 ms per crossing)**: simulate() takes "
-            f"{C.fmt_s(d['simulate'])}; the time loop {C.fmt_s(d['kernel'])} for "
-            f"{d['n_steps']} steps ({d['kernel'] / d['n_steps'] * 1e6:.2f} us/step) and the "
-            f"wrapper {C.fmt_s(med['total'] - med['kernel'])} (pack {C.fmt_s(med['pack'])}, "
-            f"initial_state {C.fmt_s(med['initial_state'])}, output allocation "
-            f"{C.fmt_s(med['run_kernel other'])}, to_dataset {C.fmt_s(med['to_dataset'])}).  "
-            "Closing it needs both: (a) a kernel at <= 0.3 us/step for 20 modes and one "
-            "wheel - evaluate sin(j k x) for all modes by the Chebyshev recurrence "
-            "sin((j+1)a) = 2 cos(a) sin(ja) - sin((j-1)a) (2 transcendental calls per wheel "
-            "instead of 2 x n_modes), compute phi' and phi'' only at landings, mark the small "
-            "helpers `inline='always'` or pass flat arrays so the named-tuple reference "
-            "counting disappears from the step, and back up the state only when a step "
-            "fails (swap two state buffers instead of `copy_state` every step); (b) a "
-            "light wrapper: `to_dataset` builds an xarray Dataset with ~20 variables, "
-            "keyword-validated attrs and envelopes - offer a `simulate_arrays()` (raw "
-            "NumPy outputs + envelopes) for sweeps and time-critical callers, and cache "
-            "`pack` per (train, settings) so only the speed changes between runs.")
+            f"**Case 1 (target 0.5 ms per crossing), missed by "
+            f"x{d['simulate'] / 0.5e-3:.0f}**: simulate() takes {C.fmt_s(d['simulate'])} "
+            f"wall ({C.fmt_s(d['simulate_cpu'])} CPU); the time loop {C.fmt_s(d['kernel_cpu'])} "
+            f"CPU for {n} steps ({d['kernel_cpu'] / n * 1e6:.2f} us/step) and the wrapper "
+            f"(medians, wall): pack {C.fmt_s(med['pack'])}, initial_state "
+            f"{C.fmt_s(med['initial_state'])}, output allocation "
+            f"{C.fmt_s(med['run_kernel other'])}, to_dataset {C.fmt_s(med['to_dataset'])}."
+            + micro + "  What would close it: (a) the loop must reach ~0.3 us/step: "
+            "evaluate the sine modes by the Chebyshev recurrence sin((j+1)a) = 2 cos(a) "
+            "sin(ja) - sin((j-1)a) (2 transcendental calls per wheel instead of 2 x 20 x 3), "
+            "compute phi' and phi'' only where they are used (impacts), mark the small "
+            "helpers `inline='always'` or pass them flat arrays so the per-call overhead "
+            "disappears, skip `assemble_loads`/`contact_search` when there are no loads/"
+            "wheels, and back up the state only when a step has to be retried (two state "
+            "buffers swapped, instead of `copy_state` every step); (b) the wrapper must "
+            "drop to ~0.1 ms: `to_dataset` (xarray Dataset with ~20 variables and attrs) is "
+            "the largest part - a `simulate_arrays()` returning NumPy histories/envelopes "
+            "for time-critical callers and sweeps, and `pack` cached per (train, settings) "
+            "so only the speed changes between runs.")
     if c2 and c2.data:
         d = c2.data
+        micro = ""
+        if len(labels) > 1:
+            row = parts[labels[1]]
+            micro = (f"  Mid-passage (HSLM-A1, 50 loads, 10 modes), {_step_parts(row)}.  The "
+                     f"same modal load vector with flat arrays and phi only takes "
+                     f"{row.get('loads_flat_arrays', float('nan')):.2f} us instead of "
+                     f"{row.get('assemble_loads', float('nan')):.2f} us.")
         out.append(
-            f"**Case 2 (target 1 s for 570 HSLM runs)**: {d['total']:.3g} s serial, of which "
-            f"~{d['a'] * 570:.3g} s is the per-run wrapper ({d['a'] * 1e3:.1f} ms x 570) and "
-            f"~{d['kernel_total']:.3g} s the kernel ({d['total_steps']:,} steps).  1 s means "
-            f"{1e9 / d['total_steps']:.0f} ns per step all included.  The way there: one "
-            "jitted sweep over all (train, speed) pairs returning envelopes only (no xarray "
-            "per run), the moving-force load vector by the recurrence above (or tabulated "
-            "phi on a fine x grid, since every load of every train uses the same shapes), "
-            "no contact machinery at all for trains without wheels (today the moving-force "
-            "step still runs contact_search, Schur assembly and the state back-up), then "
-            "`prange` over the pairs for the 2 cores.  A closed-form alternative for linear "
-            "moving-force problems - exact modal convolution (Duhamel) per mode and load - "
-            "is independent of dt.")
+            f"**Case 2 (target 1 s for 570 HSLM runs), missed by x{d['total'] / 1.0:.0f} "
+            f"serial**: {d['total']:.3g} s wall, {d['total_cpu']:.3g} s CPU, of which "
+            f"~{d['ac'] * 570:.3g} s CPU is the per-run wrapper ({d['ac'] * 1e3:.1f} ms x 570) "
+            f"and ~{d['kernel_total']:.3g} s CPU the time loop ({d['total_steps']:,} steps at "
+            f"{d['kernel_cpu_step'] * 1e6:.1f} us/step)." + micro + "  1 s for the grid means "
+            f"{1e9 / d['total_steps']:.0f} ns per step with everything included.  The way "
+            "there: a moving-force step without the contact machinery (no contact_search, "
+            "active set or state back-up when the train has no wheels), the load vector "
+            "without per-load `eval_modes` calls (flat loop, recurrence for the sines: "
+            "~0.1-0.2 us/step for the few loads on a 25 m span), ONE jitted sweep over all "
+            "(train, speed) pairs that returns envelopes only (no pack/initial_state/xarray "
+            "per run), and `prange` over the pairs for the 2 cores.  For linear moving-force "
+            "problems an exact modal convolution (Duhamel, per mode and load, independent "
+            "of dt) is the classical alternative.")
     if c3 and c3.data:
         d = c3.data
+        micro = ""
+        if len(labels) > 2:
+            micro = f"  Mid-passage (8 of 32 wheels on the span), {_step_parts(parts[labels[2]])}."
         out.append(
-            f"**Case 3 (target 30 s on 2 cores)**: extrapolated {d['serial'] / 2:.3g} s on 2 "
-            f"ideal cores ({d['serial']:.3g} s serial, {d['serial_cpu']:.3g} s of CPU) at "
-            f"{d['kernel_step'] * 1e6:.1f} us/step for 32 wheels and 20 modes.  The per-step "
-            "work is dominated by the wheel count: `build_schur` fills the full 32 x 32 "
-            "S = B K^-1 B^T (modal sum over 20 modes for every pair on the span) and "
-            "`cholesky_solve` factors the active block (32^3/6 flops) every step although "
-            "the vehicle part is constant and wheels off the span only couple within their "
-            "car.  Closing it: keep the constant vehicle part of S and its factor, update "
-            "only the rows of wheels on the span (rank-k update with the phi of the <= ~8 "
-            "wheels on a 25 m span), skip the impact/landing machinery when no wheel "
-            "changes state, and run the 570 cases with `prange` or 2 processes.")
+            f"**Case 3 (target 30 s on 2 cores), missed by x{d['serial'] / 2 / 30:.0f} on "
+            f"wall time (x{d['serial_cpu'] / 2 / 30:.0f} on CPU time)**: extrapolated "
+            f"{d['serial'] / 2:.3g} s on 2 ideal cores ({d['serial']:.3g} s serial wall, "
+            f"{d['serial_cpu']:.3g} s CPU); the time loop runs at "
+            f"{d['kernel_cpu_step'] * 1e6:.1f} us/step CPU for 32 wheels and 20 modes and "
+            f"the grid has {d['grid_steps']:,} steps, so the loop alone is "
+            f"{d['kernel_cpu_step'] * d['grid_steps']:.0f} s CPU." + micro + "  What would "
+            "close it (needs <= "
+            f"{60 / d['grid_steps'] * 1e6:.1f} us/step overall): `contact_search` evaluates "
+            "phi, phi', phi'' (2 x 20 sin/cos calls) for every wheel on the span each step; "
+            "phi alone by the recurrence needs 2 calls per wheel; `solve_active_set` "
+            "refactors the full 32 x 32 Schur matrix every step although only the rows of "
+            "the wheels on the span change (the wheels on the approach/exit track couple "
+            "only within their car, through a constant block): factor the constant vehicle "
+            "blocks once and treat the bridge coupling as a low-rank update (rank <= number "
+            "of wheels on the span); remove the per-call overhead as for case 1; then run "
+            "the 570 cases in parallel (`prange` over cases, or the study runner's 2 "
+            "processes).")
     if c4 and c4.data.get("fit_modes"):
         fm, fc = c4.data["fit_modes"], c4.data["fit_cars"]
         out.append(
             f"**Scaling (case 4)**: engine time per step grows like n_modes^{fm['power']:.2f} "
-            f"and n_cars^{fc['power']:.2f} (baseline: ^{fm['baseline_power']:.2f} and "
-            f"^{fc['baseline_power']:.2f}).  A near-zero exponent in the modes means the step "
-            "is dominated by fixed costs, not by modal arithmetic; the growth with cars "
-            "follows the O(n_wheels^2) Schur assembly and O(n_wheels^3) factorisation.")
+            f"and n_cars^{fc['power']:.2f} (dense baseline: ^{fm['baseline_power']:.2f} and "
+            f"^{fc['baseline_power']:.2f}).  The small exponent in the modes says the step "
+            "is dominated by per-wheel and per-call costs, not by modal arithmetic (each mode "
+            "adds a few multiply-adds per wheel on the span); the growth with the cars is the "
+            "per-wheel work (contact search of the wheels, the n_wheels^2 Schur matrix and "
+            "its factorisation) - sub-linear over this range because most wheels are off the "
+            "span, where the bridge terms are skipped.")
     if c5 and c5.data:
         d = c5.data
         out.append(
-            f"**Case 5 (target 5 s warm)**: warm `vsi run` {C.fmt_s(d['warm'])}: "
-            f"interpreter + imports {C.fmt_s(d['imports'])} (`vsi --help` "
-            f"{C.fmt_s(d['cli_help'])}), kernel load from the cache + a tiny run "
-            f"{C.fmt_s(d['warm_up'])}.  Cold (empty cache): {C.fmt_s(d['cold'])}, nearly all "
-            "JIT compilation.  If the warm target is missed, the imports are the lever "
-            "(lazy import of xarray/netCDF4/pandas/scipy in the CLI path, no dask import for "
-            "`vsi run`); the cold time is governed by the size of `time_loop` (everything "
-            "is inlined into it) - hand-written LU/Cholesky instead of `np.linalg` and "
-            "fewer array expressions keep it down, and shipping a pre-warmed cache (or "
-            "AOT compilation) removes it from the user's first run.")
+            f"**Case 5 (target 5 s warm)**: warm `vsi run` {C.fmt_s(d['warm'])} wall: the "
+            f"imports alone (`import vsi_numba.solver.simulate, vsi_numba.config`) take "
+            f"{C.fmt_s(d['imports'])}, `vsi --help` {C.fmt_s(d['cli_help'])}, loading the "
+            f"kernels from the cache + a tiny run {C.fmt_s(d['warm_up'])}.  Cold (empty "
+            f"cache): {C.fmt_s(d['cold'])}, nearly all JIT compilation.  `python -X "
+            "importtime` shows xarray (+ pandas), scipy.interpolate (imported at module "
+            "level by `model.irregularity`) and numba as the big imports; deferring "
+            "scipy.interpolate/scipy.optimize and xarray to the functions that need them "
+            "shortens the warm start; the cold "
+            "time is governed by the size of the inlined `time_loop` - shipping a pre-warmed "
+            "cache (or AOT compilation) removes it from the user's first run.  Under the load "
+            "of this machine every figure here is inflated ~2-3x (see cpu/wall).")
     return out
 
 

@@ -211,7 +211,7 @@ def _findings(suite: SuiteResult) -> list[str]:
             f"{C.fmt_s(med['run_kernel other'])}, to_dataset {C.fmt_s(med['to_dataset'])}."
             + micro + "  What would close it: (a) the loop must reach ~0.3 us/step: "
             "evaluate the sine modes by the Chebyshev recurrence sin((j+1)a) = 2 cos(a) "
-            "sin(ja) - sin((j-1)a) (2 transcendental calls per wheel instead of 2 x 20 x 3), "
+            "sin(ja) - sin((j-1)a) (2 transcendental calls per wheel instead of 2 x 20), "
             "compute phi' and phi'' only where they are used (impacts), mark the small "
             "helpers `inline='always'` or pass them flat arrays so the per-call overhead "
             "disappears, skip `assemble_loads`/`contact_search` when there are no loads/"

@@ -21,6 +21,7 @@ from vsi_numba.config import ConfigError, load_config
 from vsi_numba.io.netcdf import open_results
 from vsi_numba.io.schema import ENVELOPES, HISTORIES
 from vsi_numba.solver.simulate import simulate
+from vsi_numba.study import runner
 from vsi_numba.study.grid import history_mask, make_grid
 from vsi_numba.study.runner import (
     StudySpec,
@@ -261,8 +262,10 @@ def test_sweep_command__workers_and_scheduler_exclusive(study_config, capsys):
     assert "not both" in capsys.readouterr().err
 
 
-def test_sweep_command__failed_cases_exit_1(tmp_path, capsys):
+def test_sweep_command__failed_cases_exit_1(tmp_path, capsys, monkeypatch):
     """A case that fails numerically is flagged (status, NaN, message) and exits 1."""
+    # one core available -> the default backend runs in this process (no spawn start-up)
+    monkeypatch.setattr(runner, "available_cores", lambda: 1)
     cfg = tmp_path / "fail.toml"
     cfg.write_text(textwrap.dedent("""
         title = "one case fails"

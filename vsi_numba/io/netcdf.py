@@ -86,9 +86,21 @@ def encoding_for(ds: xr.Dataset) -> dict[Hashable, dict]:
 
 
 def to_netcdf_bytes(ds: xr.Dataset) -> bytes:
-    """Encode ``ds`` as a netCDF-4 file in memory (used to ship results from workers)."""
+    """Encode ``ds`` as the bytes of a netCDF-4 file (used to ship results from workers).
+
+    Written through a private temporary file: the in-memory writer of netCDF-C pads every
+    image to a multiple of 64 KiB, several times the size of a small file.  When the
+    temporary directory cannot be written (full, read-only), the in-memory image is used.
+    """
     ds = ds.drop_encoding()
-    return bytes(ds.to_netcdf(None, engine="netcdf4", format="NETCDF4", encoding=encoding_for(ds)))
+    enc = encoding_for(ds)
+    try:
+        with tempfile.TemporaryDirectory(prefix="vsi-case-") as tmp:
+            path = Path(tmp) / "case.nc"
+            ds.to_netcdf(path, engine="netcdf4", format="NETCDF4", encoding=enc)
+            return path.read_bytes()
+    except (OSError, RuntimeError):
+        return bytes(ds.to_netcdf(None, engine="netcdf4", format="NETCDF4", encoding=enc))
 
 
 def _fsync_dir(directory: Path) -> None:

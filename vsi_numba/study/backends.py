@@ -115,10 +115,13 @@ class ProcessBackend:
         if exc_type is None:
             pool.shutdown(wait=True)
         else:  # interrupted or failed: drop queued cases and stop running ones now
+            procs = list((getattr(pool, "_processes", None) or {}).values())
             pool.shutdown(wait=False, cancel_futures=True)
-            for proc in list(getattr(pool, "_processes", {}).values()):
+            for proc in procs:
                 if proc.is_alive():
                     proc.terminate()
+            for proc in procs:
+                proc.join(timeout=10)
         return None
 
     def run(self, fn: Callable, config_json: str, cases: Iterable) -> Iterator[tuple[Any, Any]]:

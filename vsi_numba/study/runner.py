@@ -571,6 +571,8 @@ def sweep_command(config: Path, output: Path | None, workers: int | None,
     except KeyboardInterrupt:
         return fail("interrupted: the finished cases are kept; re-run the same command to "
                     "resume", 130)
+    except OSError as exc:  # I/O outside the store/output writes (numba cache, temp files)
+        return fail(f"{exc}. Finished cases are kept; re-run the same command to resume.", 1)
     n_failed = int(ds.attrs.get("n_failed_cases", 0))
     if n_failed:
         return fail(f"{n_failed} of {ds.attrs.get('n_cases')} cases failed numerically "

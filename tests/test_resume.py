@@ -1,0 +1,263 @@
+"""No data loss and resume: Ctrl-C, SIGKILL, changed config, read-only output, full disk.
+
+The sweep runs as a real ``python -m vsi_numba.cli sweep`` subprocess (local spawned worker
+processes, the default backend) in its own process group, so the test can interrupt it
+the way a terminal does (SIGINT to the group) or kill it outright (SIGKILL).  The numba
+cache directory (NUMBA_CACHE_DIR) is inherited by the subprocess and its workers.
+"""
+
+from __future__ import annotations
+
+import os
+import resource
+import shutil
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+import xarray as xr
+
+from vsi_numba.io.netcdf import open_results
+from vsi_numba.study.runner import run_study, sweep_command
+from vsi_numba.study.store import store_path
+
+TRAINS_TOML = """
+[[vehicle]]
+id = "minicar"
+bogie_spacing = 6.0
+wheelbase = 2.0
+[vehicle.whole]
+body_mass = 30000.0
+body_pitch_inertia = 1.0e6
+bogie_mass = 2000.0
+bogie_pitch_inertia = 1500.0
+wheelset_mass = 1500.0
+primary_stiffness = 2.0e6
+primary_damping = 3.0e4
+secondary_stiffness = 6.0e5
+secondary_damping = 2.0e4
+
+[[train]]
+id = "one-car"
+vehicles = ["minicar"]
+
+[[train]]
+id = "two-cars"
+vehicles = ["minicar", "minicar"]
+vehicle_offsets = [0.0, 12.0]
+junctions = ["coupled"]
+"""
+
+SPEEDS = [60.0 + 10.0 * i for i in range(12)]  # 12 speeds x 2 trains x 2 seeds = 48 cases
+
+
+def write_study(directory: Path, name="study.toml", damping=0.02, histories="first",
+                speeds=SPEEDS, seeds=(1, 2), one_train=False) -> Path:
+    directory.mkdir(parents=True, exist_ok=True)
+    trains = TRAINS_TOML.rsplit("[[train]]", 1)[0] if one_train else TRAINS_TOML
+    (directory / "trains.toml").write_text(trains)
+    if histories == "first":
+        histories = f"[{speeds[0]}]"
+    hist = "save_time_histories = false" if histories is None else (
+        f"save_time_histories = true\nhistory_speeds_kmh = {histories}")
+    text = textwrap.dedent(f"""
+        title = "resume test"
+        [bridge]
+        kind = "simply_supported"
+        spans = [10.0]
+        EI = 2.0e9
+        mass_per_length = 10000.0
+        damping_ratio = {damping}
+        n_modes = 2
+        [train]
+        file = "trains.toml"
+        [irregularity]
+        kind = "psd"
+        spectrum = "fra4"
+        wavelength_min = 2.0
+        wavelength_max = 30.0
+        seeds = {list(seeds)}
+        [solver]
+        dt = 2e-3
+        approach = 2.0
+        free_vibration = 0.2
+        [study]
+        speeds_kmh = {list(speeds)}
+        output = "results/study.nc"
+    """) + hist + "\n"
+    path = directory / name
+    path.write_text(text)
+    return path
+
+
+def start_sweep(config: Path, output: Path, *extra, preexec_fn=None) -> subprocess.Popen:
+    """``python -m vsi_numba.cli sweep`` in a new process group (stderr captured)."""
+    cmd = [sys.executable, "-m", "vsi_numba.cli", "sweep", str(config), "-o", str(output),
+           *extra]
+    return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True, env=os.environ.copy(),
+                            preexec_fn=preexec_fn)
+
+
+def n_stored(output: Path) -> int:
+    store = store_path(output)
+    return len(list(store.glob("case_*.nc"))) if store.is_dir() else 0
+
+
+def wait_for_cases(proc: subprocess.Popen, output: Path, n: int, timeout=600.0) -> int:
+    """Poll until ``n`` cases are stored; fail if the sweep ended first."""
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        k = n_stored(output)
+        if k >= n:
+            return k
+        if proc.poll() is not None:
+            out, err = proc.communicate()
+            pytest.fail(f"the sweep ended (rc {proc.returncode}) before {n} cases were "
+                        f"stored:\n{err}")
+        time.sleep(0.02)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.communicate()
+    pytest.fail(f"fewer than {n} cases stored after {timeout} s")
+
+
+def without_history_line(ds: xr.Dataset) -> xr.Dataset:
+    ds = ds.copy()
+    ds.attrs.pop("history")
+    return ds
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """The uninterrupted study (computed in this process)."""
+    d = tmp_path_factory.mktemp("reference")
+    return run_study(write_study(d), d / "reference.nc", backend="serial")
+
+
+def test_resume__interrupt_and_kill_then_rerun_equals_uninterrupted(tmp_path, reference):
+    config = write_study(tmp_path)
+    out = tmp_path / "out" / "study.nc"
+
+    # 1. Ctrl-C (SIGINT to the process group, as a terminal does): exit 130, cases kept
+    proc = start_sweep(config, out)
+    wait_for_cases(proc, out, 1)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "interrupted" in err and "Traceback" not in err
+    k1 = n_stored(out)
+    assert 1 <= k1 < 48 and not out.exists()
+
+    # 2. SIGKILL of the whole group (no chance to clean up): cases still kept
+    proc = start_sweep(config, out)
+    wait_for_cases(proc, out, k1 + 2)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.communicate(timeout=120)
+    k2 = n_stored(out)
+    assert k1 + 2 <= k2 < 48, "the sweep finished before it could be killed"
+    assert not out.exists()
+
+    # 3. re-run the same command: only the missing cases run; same file as uninterrupted
+    proc = start_sweep(config, out)
+    _, err = proc.communicate(timeout=900)
+    assert proc.returncode == 0, err
+    assert f"{k2} done earlier, {48 - k2} to run" in err
+    assert not store_path(out).exists()
+    assert not [p for p in out.parent.iterdir() if p.name.endswith(".tmp")]
+    with open_results(out) as ds:
+        xr.testing.assert_identical(without_history_line(ds.load()),
+                                    without_history_line(reference))
+        assert "vsi sweep" in ds.attrs["history"]
+
+
+def test_resume__changed_config_refused_and_store_kept(tmp_path, capsys):
+    config = write_study(tmp_path, speeds=SPEEDS[:2])
+    out = tmp_path / "study.nc"
+    run_study(config, out, backend="serial", keep_cases=True)  # a store as a crash leaves it
+    before = sorted(p.name for p in store_path(out).iterdir())
+    changed = write_study(tmp_path, name="changed.toml", damping=0.05, speeds=SPEEDS[:2])
+    assert sweep_command(changed, out, None, None, True) == 2
+    err = capsys.readouterr().err
+    assert "DIFFERENT configuration" in err and str(store_path(out)) in err
+    assert "-o PATH" in err and "Traceback" not in err
+    assert sorted(p.name for p in store_path(out).iterdir()) == before
+    # the owner of the store still resumes (nothing left to run: just assembles)
+    assert sweep_command(config, out, None, None, True) == 0
+
+
+def _make_read_only(directory: Path):
+    """Make ``directory`` unwritable even for root (chattr +i); return the undo."""
+    if os.geteuid() != 0:
+        directory.chmod(0o555)
+        return lambda: directory.chmod(0o755)
+    if shutil.which("chattr") is None:
+        pytest.skip("running as root without chattr: cannot make a directory read-only")
+    r = subprocess.run(["chattr", "+i", str(directory)], capture_output=True)
+    if r.returncode != 0:
+        pytest.skip(f"chattr +i not supported here: {r.stderr.decode().strip()}")
+    return lambda: subprocess.run(["chattr", "-i", str(directory)], check=True)
+
+
+def test_resume__read_only_output_dir_clear_error_cases_kept(tmp_path, capsys):
+    config = write_study(tmp_path, speeds=SPEEDS[:2])
+    outdir = tmp_path / "ro"
+    out = outdir / "study.nc"
+    run_study(config, out, backend="serial", keep_cases=True)
+    out.unlink()
+    before = sorted(p.name for p in store_path(out).iterdir())
+    undo = _make_read_only(outdir)
+    try:
+        assert sweep_command(config, out, None, None, True) == 2
+    finally:
+        undo()
+    err = capsys.readouterr().err
+    assert f"cannot write the results file in {outdir}" in err and "Traceback" not in err
+    assert sorted(p.name for p in store_path(out).iterdir()) == before
+    assert not out.exists()
+
+
+def _file_size_limit(limit: int):
+    """preexec_fn: writes beyond ``limit`` bytes fail with EFBIG, as on a full disk."""
+
+    def apply():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # EFBIG instead of a fatal signal
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    return apply
+
+
+def test_resume__full_disk_clear_error_cases_kept(tmp_path):
+    """Writes that fail for lack of space (simulated with RLIMIT_FSIZE, which makes a
+    write past the limit fail like a full disk) -> exit 1, a clear message, cases kept."""
+    # a single case: the sweep runs it in-process (no worker start-up to wait for)
+    config = write_study(tmp_path, speeds=SPEEDS[:1], seeds=(1,), one_train=True,
+                         histories=None)
+    out = tmp_path / "study.nc"
+    # the kernels this model needs are compiled (cached) here, not under the size limit
+    run_study(config, out, backend="serial", keep_cases=True)
+    out.unlink()
+    size = max(p.stat().st_size for p in store_path(out).glob("case_*.nc"))
+    # 1. room for the case files but not for the final file: every case is kept
+    proc = start_sweep(config, out, "--quiet", preexec_fn=_file_size_limit(size + 1024))
+    _, err = proc.communicate(timeout=900)
+    assert proc.returncode == 1, err
+    assert f"cannot write {out}" in err and "re-run the same command" in err
+    assert "Traceback" not in err
+    assert n_stored(out) == 1 and not out.exists()
+    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
+    # 2. no room for even one case file (the store manifest, ~1 KiB, still fits)
+    other = tmp_path / "other.nc"
+    proc = start_sweep(config, other, "--quiet", preexec_fn=_file_size_limit(size // 2))
+    _, err = proc.communicate(timeout=900)
+    assert proc.returncode == 1, err
+    assert "cannot write" in err and "case_s" in err and "re-run the same command" in err
+    assert "Traceback" not in err and n_stored(other) == 0
+    # 3. with room again the same command completes from the stored cases
+    proc = start_sweep(config, out)
+    _, err = proc.communicate(timeout=900)
+    assert proc.returncode == 0, err
+    assert "all done earlier" in err and out.exists()

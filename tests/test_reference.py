@@ -19,7 +19,7 @@ import scipy.integrate
 G = ref.GRAVITY
 
 
-# ----------------------------------------------------------------------------- moving force
+# ------------------------------------------------------------------ moving force
 
 
 @pytest.mark.parametrize(
@@ -87,7 +87,7 @@ def test_static_deflection__formula_and_modal_sum():
         P * L**3 / (48 * EI), rel=1e-14)
 
 
-# ----------------------------------------------------------------------------- beam crossing
+# ------------------------------------------------------------------ beam crossing
 
 BEAM = dict(L=10.0, EI=1.2e9, m=3000.0)
 
@@ -187,7 +187,7 @@ def test_sprung_mass_on_beam__is_the_massless_wheel_limit():
     np.testing.assert_allclose(e0["body_acceleration"], 0.0, atol=1e-12)
 
 
-# ----------------------------------------------------------------------------- event-driven
+# ------------------------------------------------------------------ event-driven
 
 QC = dict(body_mass=2000.0, stiffness=3e6, damping=1e4, wheel_mass=500.0)
 
@@ -239,7 +239,7 @@ def test_event_driven__several_events_consistent_with_unilateral_contact():
         assert mom == pytest.approx((QC["body_mass"] + QC["wheel_mass"]) * G * dt, rel=1e-8)
 
 
-# ----------------------------------------------------------------------------- two-span beam
+# ------------------------------------------------------------------ two-span beam
 
 
 def test_two_span__equal_spans_determinant_matches_closed_form():
@@ -285,7 +285,7 @@ def test_two_span__very_short_second_span_clamps_the_first():
     np.testing.assert_allclose(f, beta**2 * np.sqrt(EI / m) / (2 * np.pi), rtol=2e-3)
 
 
-# ----------------------------------------------------------------------------- railway car
+# ------------------------------------------------------------------ railway car
 
 TRAINS = Path(__file__).resolve().parents[1] / "vsi_numba" / "data" / "trains.toml"
 
@@ -327,7 +327,7 @@ def test_railway_car__lever_rule_equals_static_equilibrium_with_offset_cg():
     assert loads.sum() == pytest.approx(G * (40000.0 + 2 * 3000.0 + 4 * 1500.0), rel=1e-14)
 
 
-# ----------------------------------------------------------------------------- signals
+# ------------------------------------------------------------------ signals
 
 
 def test_signal_tools__recover_known_frequencies():

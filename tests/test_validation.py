@@ -61,16 +61,18 @@ def test_moving_force__peak_midspan_deflection_matches_fryba_series(alpha):
     P, n, approach = 1.7e5, 10, 1.0
     v = alpha * 2.0 * f1 * L
     beam = br.simply_supported(L, EI, m, n_modes=n, damping_ratio=0.0)
-    ds = _run(beam, vh.moving_force(P), v, dt=1e-3, approach=approach, free_vibration=0.3,
+    ds = _run(beam, vh.moving_force(P), v, dt=5e-4, approach=approach, free_vibration=0.3,
               points=[0.5 * L])
     t = ds.time.values
     w_eng = ds.deck_displacement.isel(point=0).values
     # same 10-mode series, same sampling instants, force entering at t = approach / v
     w_ref = ref.moving_force_series(P, L, EI, m, v, [0.5 * L], t - approach / v, n)[:, 0]
-    # trapezoidal period error (w1 dt)^2/12 < 1e-4; modes >= 7 (poorly resolved at this
-    # dt) carry < 0.1 % of the midspan deflection: 0.5 % on the peak is a real check
+    # trapezoidal period error (w dt)^2/12: 2e-5 for mode 1, 2e-3 for mode 3 (whose free
+    # vibration matters at alpha = 1.5, where the peak comes after the passage); observed
+    # <= 1e-3: 0.5 % on the peak as asked
     assert w_eng.max() == pytest.approx(w_ref.max(), rel=5e-3)
-    # whole history incl. 0.3 s of free vibration: phase drift (w1 dt)^2/12 w1 t < 1e-3
+    # whole history incl. 0.3 s of free vibration: phase drift of modes 3-5 (observed
+    # <= 3e-3 of the peak)
     np.testing.assert_allclose(w_eng, w_ref, atol=1e-2 * w_ref.max())
 
 
@@ -111,28 +113,69 @@ def test_sprung_mass__crossing_simply_supported_beam_matches_solve_ivp(sprung_ma
     np.testing.assert_allclose(P - Mg, dP_ref, atol=2e-2 * np.abs(dP_ref).max())
 
 
-def test_quarter_car__crossing_simply_supported_beam_matches_solve_ivp():
+QC_ON_BEAM = dict(c=1e4, mw=1000.0, n=5)
+
+
+@pytest.fixture(scope="module")
+def quarter_car_reference():
+    t_end = (VBI_BEAM["L"] + VBI_APPROACH) / VBI_V + 0.5
+    return ref.quarter_car_on_beam(VBI_CAR["body_mass"], VBI_CAR["stiffness"],
+                                   QC_ON_BEAM["c"], QC_ON_BEAM["mw"], **VBI_BEAM, speed=VBI_V,
+                                   n_modes=QC_ON_BEAM["n"], t_end=t_end, x_start=-VBI_APPROACH)
+
+
+def _quarter_car_run(dt, alpha):
     L = VBI_BEAM["L"]
-    M, k, c, mw, n = VBI_CAR["body_mass"], VBI_CAR["stiffness"], 1e4, 1000.0, 5
-    t_end = (L + VBI_APPROACH) / VBI_V + 0.5
-    r = ref.quarter_car_on_beam(M, k, c, mw, **VBI_BEAM, speed=VBI_V, n_modes=n,
-                                t_end=t_end, x_start=-VBI_APPROACH)
-    beam = br.simply_supported(L, VBI_BEAM["EI"], VBI_BEAM["m"], n_modes=n)
-    car = vh.sprung_mass(M, k, c, wheel_mass=mw)
+    beam = br.simply_supported(L, VBI_BEAM["EI"], VBI_BEAM["m"], n_modes=QC_ON_BEAM["n"])
+    car = vh.sprung_mass(VBI_CAR["body_mass"], VBI_CAR["stiffness"], QC_ON_BEAM["c"],
+                         wheel_mass=QC_ON_BEAM["mw"])
+    return _run(beam, car, VBI_V, dt=dt, alpha=alpha, approach=VBI_APPROACH, points=[0.5 * L])
+
+
+def test_quarter_car__crossing_simply_supported_beam_matches_solve_ivp(quarter_car_reference):
     dt = 2.5e-4
-    ds = _run(beam, car, VBI_V, dt=dt, approach=VBI_APPROACH, points=[0.5 * L])
+    ds = _quarter_car_run(dt, 0.0)
     t = ds.time.values
-    e = r.evaluate(t)
+    e = quarter_car_reference.evaluate(t)
     w_ref, a_ref = e["deck_displacement"][:, 0], e["body_acceleration"]
     w = ds.deck_displacement.isel(point=0).values
     a = ds.carbody_acceleration.isel(vehicle=0).values
-    # O(dt^2) errors ~1e-3 of peak; 1 % of peak per brief
+    # O(dt^2) errors ~2e-4 of peak; 1 % of peak per brief
     np.testing.assert_allclose(w, w_ref, atol=1e-2 * np.abs(w_ref).max())
-    # at the exit the deck slope makes the wheel velocity (hence the damper force on the
-    # body) jump: skip the two samples either side of it
-    t_exit = (L + VBI_APPROACH) / VBI_V
-    keep = np.abs(t - t_exit) > 2.5 * dt
-    np.testing.assert_allclose(a[keep], a_ref[keep], atol=1e-2 * np.abs(a_ref).max())
+    # while the wheel is on the deck (the exit is tested on its own below)
+    t_exit = (VBI_BEAM["L"] + VBI_APPROACH) / VBI_V
+    on = t < t_exit
+    np.testing.assert_allclose(a[on], a_ref[on], atol=1e-2 * np.abs(a_ref).max())
+    # contact force: its dynamic part is only ~1.5 % of the static load here and the
+    # wheel-inertia term m_w y'' carries the O((w5 dt)^2) ~ 3 % acceleration error of the
+    # highest mode: 0.5 % of the static load
+    P = ds.contact_force.isel(wheel=0).values
+    Q0 = (VBI_CAR["body_mass"] + QC_ON_BEAM["mw"]) * G
+    np.testing.assert_allclose(P[on], e["contact_force"][on], atol=5e-3 * Q0)
+
+
+def test_quarter_car__leaving_the_deck_is_a_consistent_impact(quarter_car_reference):
+    """At the far support the deflected deck's slope meets level track: the rail velocity
+    under the wheel jumps (by v phi'(L) q), so the wheel velocity must jump with it, as
+    at a landing (design note 1.4: velocity-level impact solve).  The reference does
+    exactly that; afterwards the contact force is the static load plus the slowly varying
+    suspension force.  A scheme that only imposes the displacement constraint leaves a
+    velocity inconsistency that makes the contact force ring at the Nyquist frequency
+    (and, with alpha = 0, grow until a spurious lift-off)."""
+    dt = 2.5e-4
+    ds = _quarter_car_run(dt, -0.1)  # the robust default alpha
+    t = ds.time.values
+    t_exit = (VBI_BEAM["L"] + VBI_APPROACH) / VBI_V
+    after = (t >= t_exit + 2 * dt) & (t <= t_exit + 0.2)  # the impulse itself: <= 1 step
+    e = quarter_car_reference.evaluate(t[after])
+    P = ds.contact_force.isel(wheel=0).values[after]
+    Q0 = (VBI_CAR["body_mass"] + QC_ON_BEAM["mw"]) * G
+    assert ds.in_contact.isel(wheel=0).values[after].all()
+    # the wheel velocity jump is ~6e-4 m/s: nothing physical moves the force by > 1 %
+    np.testing.assert_allclose(P, e["contact_force"], atol=1e-2 * Q0)
+    a = ds.carbody_acceleration.isel(vehicle=0).values[after]
+    a_ref = quarter_car_reference.evaluate(t)["body_acceleration"]
+    np.testing.assert_allclose(a, e["body_acceleration"], atol=1e-2 * np.abs(a_ref).max())
 
 
 # ------------------------------------------------------------------ loss of contact, rigid track

@@ -122,6 +122,8 @@ class Work(NamedTuple):
     act0: np.ndarray  # (n_w,) int: contact set at t_n, kept for step retries
     J: np.ndarray  # (n_w, n_w) Newton matrix of the Hertz contact
     first: np.ndarray  # (n_w,) int: envelope of the active Schur block
+    onb_prev: np.ndarray  # (n_w,) int: on-bridge flags at the start of the step
+    onb0: np.ndarray  # (n_w,) int: on-bridge flags at t_n, kept for step retries
 
 
 class State(NamedTuple):
@@ -660,6 +662,8 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
     speed = prm.speed
     khat_v = veh.Khat_inv[level]
 
+    for i in range(n_w):
+        wk.onb_prev[i] = wk.onb[i]
     contact_search(br, veh, pr, t1, speed, wk)
     assemble_loads(br, veh, t1, speed, wk.fq, wk.phil, wk.hq, wk.rq)
 
@@ -727,10 +731,14 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
         st.udd[k] = acc
         st.u[k] += du
 
+    # Velocity jumps of the rail under a wheel in contact are impacts: a landing, and
+    # a wheel crossing an end of the deck, where the rail velocity v phi'(x) q jumps
+    # to or from the rigid track's (the slope of the deflected deck at its ends).
     landing = False
-    for i in range(n_w):
-        if wk.active[i] == 1 and wk.was_active[i] == 0 and prm.contact_model == 0:
-            landing = True  # compliant (Hertz) contact lands without an impulse
+    if prm.contact_model == 0:  # compliant (Hertz) contact takes them without impulse
+        for i in range(n_w):
+            if wk.active[i] == 1 and (wk.was_active[i] == 0 or wk.onb[i] != wk.onb_prev[i]):
+                landing = True
     if landing:
         # A landing is a plastic impact (design note 1.4): make the velocities
         # compatible with the rail, then the accelerations consistent with the
@@ -816,6 +824,7 @@ def time_loop(br, veh, pr, prm, st, bk, wk, out):
     n_w = veh.wheel_dof.shape[0]
     for i in range(n_w):
         wk.xout[i] = st.X[i]
+    contact_search(br, veh, pr, 0.0, prm.speed, wk)  # on-bridge flags at t = 0
     record(veh, st, wk, out, 0, 0)
     dt = prm.dt
     for n in range(prm.n_steps):
@@ -823,6 +832,7 @@ def time_loop(br, veh, pr, prm, st, bk, wk, out):
         for i in range(n_w):
             wk.was_active[i] = wk.active[i]
             wk.act0[i] = wk.active[i]  # the set at t_n, for retries
+            wk.onb0[i] = wk.onb[i]
         status, iters = hht_step(br, veh, pr, prm, st, wk, (n + 1) * dt, dt, 0)
         level = 0
         while status != OK and level < prm.max_sub:
@@ -830,6 +840,7 @@ def time_loop(br, veh, pr, prm, st, bk, wk, out):
             copy_state(bk, st)
             for i in range(n_w):
                 wk.active[i] = wk.act0[i]
+                wk.onb[i] = wk.onb0[i]
             sub = 1 << level
             h = dt / sub
             iters = 0

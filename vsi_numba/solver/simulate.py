@@ -313,7 +313,7 @@ def _workspace(n_m, n_v, n_w) -> ek.Work:
         yq=z(n_m), yv=z(n_v), rq=z(n_m), rv=z(n_v), fq=z(n_m), phil=z(n_m), hq=z(n_m),
         hv=z(n_v), ones=np.ones(n_m), khat=z(n_m), xout=z(n_w), vq=z(n_m), vv=z(n_v),
         av=z(n_v), act0=z(n_w, np.int64), J=z((n_w, n_w)),
-        first=z(n_w, np.int64),
+        first=z(n_w, np.int64), onb_prev=z(n_w, np.int64), onb0=z(n_w, np.int64),
     )
 
 

@@ -52,6 +52,18 @@ def trains(name: str | None = typer.Argument(None, help="train name: print its a
 
 
 @app.command()
+def modes(
+    config: Path = typer.Argument(..., help="TOML configuration file"),
+    output: Path | None = typer.Option(None, "-o", "--output",
+                                       help="plot the mode shapes to this PNG"),
+):
+    """Print the bridge's retained modes (and effective masses) and plot their shapes."""
+    from vsi_numba.model.imported import modes_command
+
+    raise typer.Exit(modes_command(config, output))
+
+
+@app.command()
 def report(
     results: Path = typer.Argument(..., help="netCDF results of `vsi run` or `vsi sweep`"),
     outdir: Path | None = typer.Option(None, "-o", "--output", help="report directory"),

@@ -88,9 +88,12 @@ exact Hermite FE field of a beam model), else from the spline.
 
 Effective (participating) vertical mass of mode j: ``Gamma_j^2`` with
 ``Gamma_j = phi_j^T M r``, ``r`` = 1 on the vertical DOFs (``vertical_dofs``; default:
-the station DOFs of every track line) and 0 elsewhere, divided by ``r^T M r`` over the
-free DOFs.  Stored per mode in ``ModalBridge.effective_mass_fraction`` and printed by
-``vsi modes``.  For a 3-D model give ``vertical_dofs`` (a list, or
+the station DOFs of every track line) and 0 elsewhere, divided by the total vertical
+mass ``r^T M r`` (support DOFs included: for a consistent-mass beam these are exactly
+``int m phi dx`` and ``int m dx``, so a simply supported span gives 8/pi^2 = 81.1% for
+mode 1; the mass sitting on the supports never participates, so the sum over all modes
+stays a little below 100%).  Stored per mode in
+``ModalBridge.effective_mass_fraction`` and printed by ``vsi modes``.  For a 3-D model give ``vertical_dofs`` (a list, or
 ``{start = 2, step = 6}`` for every 6th DOF from 2) so that r is the whole vertical
 translation.
 
@@ -888,9 +891,11 @@ def modes_from_matrices(
         p.add("vertical_dofs", (vdofs[:8] + dof_base).tolist(),
               f"DOF numbers {dof_base} <= i < {n + dof_base} (the matrices have {n} DOFs)")
         p.raise_if_any()
+    # r: unit vertical translation of the whole structure (support DOFs included), so
+    # that phi^T M r = int m phi dx and r^T M r = the total vertical mass exactly for a
+    # consistent-mass beam; phi is zero on the fixed DOFs
     r = np.zeros(n)
     r[np.unique(vdofs)] = 1.0
-    r[fixed] = 0.0
     m_tot = float(r @ (M @ r))
     gamma = phi.T @ (M @ r)
     eff = gamma**2 / m_tot if m_tot > 0 else np.full(n_keep, np.nan)
@@ -1111,7 +1116,8 @@ def plot_modes(bridge: _br.ModalBridge, path, title: str = "", per_panel: int = 
         ax.set_ylabel("phi (1/sqrt(kg)),\npositive down")
         ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
         ax.grid(alpha=0.3)
-    axes[-1, 0].set_xlabel("x along the track line (m)")
+    axes[-1, 0].set_xlabel("x along the track line (m)     [dots: table stations / FE nodes; "
+                           "triangles: supports]")
     head = title or "Mode shapes along the track"
     fig.suptitle(f"{head}\n{bridge.description}" if bridge.description else head,
                  fontsize=9)

@@ -93,9 +93,9 @@ mass ``r^T M r`` (support DOFs included: for a consistent-mass beam these are ex
 ``int m phi dx`` and ``int m dx``, so a simply supported span gives 8/pi^2 = 81.1% for
 mode 1; the mass sitting on the supports never participates, so the sum over all modes
 stays a little below 100%).  Stored per mode in
-``ModalBridge.effective_mass_fraction`` and printed by ``vsi modes``.  For a 3-D model give ``vertical_dofs`` (a list, or
-``{start = 2, step = 6}`` for every 6th DOF from 2) so that r is the whole vertical
-translation.
+``ModalBridge.effective_mass_fraction`` and printed by ``vsi modes``.  For a 3-D model
+give ``vertical_dofs`` (a list, or ``{start = 2, step = 6}`` for every 6th DOF from 2)
+so that r is the whole vertical translation.
 
 Notes
 -----

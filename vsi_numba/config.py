@@ -44,7 +44,7 @@ train's first axle; 0) and ``name``.  Vehicles are listed front to back, not ove
 (``spectrum``, ``wavelength_min``, ``wavelength_max``, ``seeds``, ``dx``) | file
 (``path``, ``x_column`` x, ``r_column`` r, ``r_unit`` m, ``dx``); ``[[irregularity.defects]]``
 (cosine / step) are added to every realisation.
-``[solver]`` ``dt`` (s; 1e-3), ``hht_alpha`` (-0.1), ``approach`` (m; 5),
+``[solver]`` ``dt`` (s; 1e-3), ``hht_alpha`` (-0.3), ``approach`` (m; 5),
 ``free_vibration`` (s; 1), ``max_iterations`` (50), ``max_subdivisions`` (4),
 ``acceleration_cutoff`` (Hz; EN 1990 A2 rule).
 ``[contact]`` ``model`` = rigid (default) | hertz | hertz_linear (as offered by

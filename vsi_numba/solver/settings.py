@@ -43,7 +43,12 @@ class SolverSettings:
         Time step (s).
     hht_alpha : float
         HHT-alpha parameter in [-1/3, 0]; 0 is the trapezoidal rule (no numerical
-        damping), a small negative value damps spurious high-frequency contact forces.
+        damping).  The default -0.3 damps the step-to-step ringing of the rigid contact
+        forces after abrupt changes of rail curvature (spectral radius at infinity
+        (1 + alpha)/(1 - alpha) = 0.54, against 0.82 for -0.1, so a spurious one-step
+        lift-off is much less likely) while its algorithmic damping of the bridge and
+        vehicle modes is negligible (O((w dt)^3): below 0.01 % of critical for 30 Hz at
+        dt = 1 ms; see tests/test_engine.py).
     approach : float
         Length of track ahead of the bridge (m): the first axle starts at x = -approach.
     free_vibration : float
@@ -66,7 +71,7 @@ class SolverSettings:
     """
 
     dt: float = 1e-3
-    hht_alpha: float = -0.1
+    hht_alpha: float = -0.3
     approach: float = 5.0
     free_vibration: float = 1.0
     max_iterations: int = 50

@@ -29,7 +29,15 @@ def main(argv=None) -> int:
                    help="kernel micro-profile (default: normal/full)")
     p.add_argument("--case", action="append", choices=list("12345"),
                    help="run only these cases (repeatable)")
+    p.add_argument("--blas-threads", type=int, default=1,
+                   help="OPENBLAS/OMP/MKL threads for this process (default 1: every run is "
+                        "serial and OpenBLAS threads fighting for 2 shared cores slow small "
+                        "solves down by orders of magnitude); 0 = leave the environment")
     args = p.parse_args(argv)
+    if args.blas_threads > 0:
+        from benchmarks.timing import limit_blas_threads
+
+        limit_blas_threads(args.blas_threads)
     from benchmarks.suite import run_suite, text_table
 
     suite = run_suite(args.mode or "normal", write=not args.no_write, report=args.report,

@@ -22,9 +22,11 @@ complement, no pre-factorisation):
   in tension is released, a free wheel that penetrates is attached, until the set is
   stable; tolerances as in the engine: 1e-12 max(L, 1) m on gaps, 1e-9 x the largest
   gravity load on forces);
-* a wheel landing (free -> active) is a plastic impact: a velocity-level solve with the
-  mass matrix, then accelerations and forces consistent with the HHT equilibrium and the
-  rail acceleration (design note 1.4), both as dense KKT solves;
+* a wheel landing (free -> active), and a wheel in contact crossing an end of the deck
+  (where the rail velocity v phi'(x) q jumps to or from the rigid track's), is a plastic
+  impact: a velocity-level solve with the mass matrix, then accelerations and forces
+  consistent with the HHT equilibrium and the rail acceleration (design note 1.4), both
+  as dense KKT solves;
 * moving point forces enter ``R0`` through ``sum_k P_k phi(x_k(t))``.
 
 Conventions shared with ``vsi_numba.solver.simulate`` (needed to compare histories step
@@ -53,7 +55,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg
 
-from vsi_numba.model.bridge import ModalBridge
+from vsi_numba.model.bridge import RIGID, ModalBridge
 from vsi_numba.model.irregularity import Profile, no_irregularity
 from vsi_numba.model.vehicle import Train
 from vsi_numba.solver.settings import SolverSettings
@@ -277,6 +279,12 @@ def run_baseline(
     F[:n_m] += bridge.shapes(xl0).T @ lp
     F -= B.T @ X
     active = np.ones(n_w, dtype=bool)
+    deck = bridge.kind != RIGID and n_m > 0
+
+    def on_deck(x):
+        return (x >= 0.0) & (x <= bridge.length) if deck else np.zeros(x.shape, bool)
+
+    onb = on_deck(xw0)
 
     q_out = np.zeros((n_run + 1, n_m))
     X_out = np.zeros((n_run + 1, n_w))
@@ -341,7 +349,8 @@ def run_baseline(
         zdd = acc
         z = z + dz
 
-        if np.any(active & ~was_active):
+        onb_prev, onb = onb, on_deck(xw)
+        if np.any(active & (~was_active | (onb != onb_prev))):
             landings += 1
             zd, zdd, X = _plastic_impact(
                 bridge, profile, v, xw, phi, B, X, z, zd, zdd, Mg, Cg, s, n_m, wcol,

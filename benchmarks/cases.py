@@ -366,6 +366,22 @@ def fit_linear(x, y):
     return float(a), float(b)
 
 
+def run_cost_model(steps, walls, cpus, kernels, kernel_cpu_step):
+    """Per-run cost ``overhead + per_step x steps`` from measured runs.
+
+    Wall: per_step = sum(time loop) / sum(steps), overhead = median(wall - time loop) (the
+    wrapper: pack, static start, Dataset).  CPU: per_step = the time loop's CPU time per
+    step on whole runs, overhead = median(cpu - per_step x steps), at least 0.  Returns
+    (overhead_wall, step_wall, overhead_cpu, step_cpu).
+    """
+    steps = np.asarray(steps, float)
+    kernels = np.asarray(kernels, float)
+    w = float(kernels.sum() / steps.sum())
+    o = median(list(np.asarray(walls, float) - kernels))
+    oc = max(median(list(np.asarray(cpus, float) - kernel_cpu_step * steps)), 0.0)
+    return max(o, 0.0), w, oc, float(kernel_cpu_step)
+
+
 def fit_power(x, y):
     """``y = c x^p`` by least squares in log-log; returns (c, p)."""
     x = np.asarray(x, float)
@@ -460,9 +476,14 @@ def case2(plan: Plan) -> CaseResult:
     cpu = time.process_time() - c0
     load = max(load0, load1())
     steps = np.array([r[0] for r in runs])
-    a, b = fit_linear(steps, [r[1] for r in runs])
-    ac, bc = fit_linear(steps, [r[2] for r in runs])
-    kern_step = sum(r[3] for r in runs) / steps.sum()
+    # the time loop alone, CPU time per step, on whole runs of the grid
+    kfull = [engine_window(bridge, trains[t], v / 3.6, None, settings)
+             for t, v in ((plan.c2_trains[0], plan.c2_speeds[0]),
+                          (plan.c2_trains[-1], plan.c2_speeds[-1]))]
+    kern_cpu_step = sum(x.cpu for x in kfull) / sum(x.steps for x in kfull)
+    a, b, ac, bc = run_cost_model(steps, [r[1] for r in runs], [r[2] for r in runs],
+                                  [r[3] for r in runs], kern_cpu_step)
+    kern_step = b
     full = len(runs) == len(grid)
     if full:
         total, total_cpu = wall, cpu
@@ -470,7 +491,8 @@ def case2(plan: Plan) -> CaseResult:
     else:
         total = a * len(grid) + b * total_steps
         total_cpu = ac * len(grid) + bc * total_steps
-        label = f"EXTRAPOLATED from {len(runs)} of {len(grid)} runs (fit a + b steps)"
+        label = (f"EXTRAPOLATED from {len(runs)} of {len(grid)} runs: overhead per run + "
+                 "time loop per step x steps")
     # baseline vs engine time loop over the same first steps
     bsteps, ksteps, kwall, agree = [], [], [], {}
     tr = trains["HSLM-A1"]
@@ -486,11 +508,6 @@ def case2(plan: Plan) -> CaseResult:
     res.agreement.update({f"case 2 {key} (HSLM-A1, first {plan.c2_baseline_steps} steps)": d
                           for key, d in agree.items()})
     base_step, win_step = median(bsteps), median(ksteps)
-    # the time loop over whole runs, CPU time: a few runs of the grid
-    kfull = [engine_window(bridge, trains[t], v / 3.6, None, settings)
-             for t, v in ((plan.c2_trains[0], plan.c2_speeds[0]),
-                          (plan.c2_trains[-1], plan.c2_speeds[-1]))]
-    kern_cpu_step = sum(x.cpu for x in kfull) / sum(x.steps for x in kfull)
     target = 1.0
     res.rows.append(Row("2", f"570 runs serial, {'measured' if full else 'EXTRAPOLATED'}",
                         fmt_s(total), kern_step * 1e6, kern_cpu_step * 1e6, base_step * 1e6,
@@ -511,7 +528,8 @@ def case2(plan: Plan) -> CaseResult:
         f"Grid: {len(grid)} runs, {total_steps:,} steps in all.  Measured {len(runs)} runs "
         f"({int(steps.sum()):,} steps) in {wall:.3g} s wall / {cpu:.3g} s CPU (load "
         f"{load:.2f}); per run: wall = {a * 1e3:.2f} ms + {b * 1e6:.2f} us x steps, CPU = "
-        f"{ac * 1e3:.2f} ms + {bc * 1e6:.2f} us x steps (least squares).  Whole grid: "
+        f"{ac * 1e3:.2f} ms + {bc * 1e6:.2f} us x steps (overhead = median of run minus "
+        "time loop; per step = time loop).  Whole grid: "
         f"**{total:.3g} s wall, {total_cpu:.3g} s CPU** ({label}).  Time loop alone: "
         f"{kern_step * 1e6:.2f} us/step wall ({kern_cpu_step * 1e6:.2f} us/step CPU on whole "
         f"runs) -> {kernel_total:.3g} s CPU for the grid; the rest is the per-run "
@@ -579,6 +597,47 @@ def _case3_parallel(workers=2):
             os.environ["NUMBA_NUM_THREADS"] = env_before
 
 
+_BLAS_PROBE = """
+import time
+from benchmarks import cases as C
+from vsi_numba.solver import simulate as sim
+sim.warm_up()
+bridge, train, settings = C.case3_model()
+prof = C.case3_profile(train, settings, 1)
+packed = sim.pack(bridge, train, 300 / 3.6, prof, settings)
+ini, tot = [], []
+for _ in range(5):
+    t0 = time.perf_counter()
+    sim.initial_state(packed, prof)
+    t1 = time.perf_counter()
+    sim.simulate(bridge, train, 300 / 3.6, profile=prof, settings=settings,
+                 save_histories=False)
+    ini.append(t1 - t0)
+    tot.append(time.perf_counter() - t1)
+print(sorted(ini)[2], sorted(tot)[2])
+"""
+
+
+def blas_threads_effect() -> dict:
+    """Median initial_state() and simulate() of one ICE3 run in fresh processes with the
+    BLAS threads left at the OpenBLAS default and with OPENBLAS_NUM_THREADS=1."""
+    out = {}
+    for label, n in (("default", None), ("1", "1")):
+        env = dict(os.environ)
+        for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+            env.pop(var, None)
+            if n is not None:
+                env[var] = n
+        p = subprocess.run([sys.executable, "-c", _BLAS_PROBE], env=env, cwd=REPO,
+                           capture_output=True, text=True, timeout=900)
+        try:
+            ini, tot = (float(x) for x in p.stdout.split()[-2:])
+        except ValueError:
+            ini = tot = float("nan")
+        out[label] = (ini, tot, load1())
+    return out
+
+
 def case3(plan: Plan) -> CaseResult:
     sim = _engine()
     res = CaseResult("3", "ICE3 (8 x 10-DOF cars, 32 wheels) interaction, German-low track, "
@@ -601,18 +660,18 @@ def case3(plan: Plan) -> CaseResult:
     cpu = time.process_time() - c0
     load = max(load0, load1())
     steps = np.array([r["n_steps"] for r in runs])
-    a, b = fit_linear(steps, [r["wall"] for r in runs])
-    ac, bc = fit_linear(steps, [r["cpu"] for r in runs])
+    v = 300.0
+    kf = engine_window(bridge, train, v / 3.6, p0, settings)  # time loop alone, CPU
+    kern_cpu_step = kf.cpu / kf.steps
+    a, b, ac, bc = run_cost_model(steps, [r["wall"] for r in runs], [r["cpu"] for r in runs],
+                                  [r["kernel"] for r in runs], kern_cpu_step)
     grid_steps = N_SEEDS * sum(n_steps_for(bridge, train, v / 3.6, settings) for v in SPEEDS_KMH)
     n_runs = N_SEEDS * SPEEDS_KMH.size
     serial = a * n_runs + b * grid_steps + N_SEEDS * t_prof.wall_median
     serial_cpu = ac * n_runs + bc * grid_steps + N_SEEDS * t_prof.cpu_median
     kern_step = sum(r["kernel"] for r in runs) / steps.sum()
     target = 30.0
-    # time loop alone (CPU) on one whole run, and baseline vs engine over the same steps
-    v = 300.0
-    kf = engine_window(bridge, train, v / 3.6, p0, settings)
-    kern_cpu_step = kf.cpu / kf.steps
+    # baseline vs engine over the same first steps
     bres = run_baseline(bridge, train, v / 3.6, p0, settings, n_steps=plan.c3_baseline_steps)
     k = kernel_median(bridge, train, v / 3.6, p0, settings, plan.c3_baseline_steps, 3)
     base_step = bres.cpu_per_step
@@ -653,8 +712,9 @@ def case3(plan: Plan) -> CaseResult:
         f"`simulate(..., save_histories=False)`.\n\n"
         f"Measured {len(runs)} runs in {wall:.3g} s wall / {cpu:.3g} s CPU (load "
         f"{load:.2f}):\n\n" + tab + "\n\n"
-        f"Fit per run: wall = {a * 1e3:.1f} ms + {b * 1e6:.2f} us x steps "
-        f"(CPU: {ac * 1e3:.1f} ms + {bc * 1e6:.2f} us x steps).  The grid has {n_runs} runs and "
+        f"Cost model per run: wall = {a * 1e3:.1f} ms + {b * 1e6:.2f} us x steps "
+        f"(CPU: {ac * 1e3:.1f} ms + {bc * 1e6:.2f} us x steps; overhead = median of run "
+        "minus time loop, per step = time loop).  The grid has {n_runs} runs and "
         f"{grid_steps:,} steps; one profile per seed costs {fmt_s(t_prof.wall_median)}.  "
         f"**EXTRAPOLATED serial: {serial:.3g} s wall ({serial_cpu:.3g} s CPU); ideal 2 cores: "
         f"{serial / 2:.3g} s wall ({serial_cpu / 2:.3g} s on CPU time).**  "
@@ -664,6 +724,18 @@ def case3(plan: Plan) -> CaseResult:
         f"\n\nStatic start: max |u_wheel - r| = {misfit:.2e} m.  Baseline over the first "
         f"{plan.c3_baseline_steps} steps at 300 km/h (CPU): {base_step * 1e6:.0f} us/step vs "
         f"engine time loop {win_step * 1e6:.1f} us/step (x{base_step / win_step:.0f}).")
+    if plan.name in ("normal", "full"):
+        be = blas_threads_effect()
+        res.data["blas"] = be
+        res.details.append(
+            "**BLAS threads and the wrapper**: the static start (`initial_state`, dense KKT "
+            f"solves of {train.n_wheels + sum(x.n_dof for x in train.vehicles)} unknowns with "
+            "`np.linalg`) in a fresh process, median of 5, ICE3 at 300 km/h:\n\n"
+            + md_table(["OPENBLAS_NUM_THREADS", "initial_state", "whole simulate()", "load"],
+                       [[k, fmt_s(v[0]), fmt_s(v[1]), f"{v[2]:.2f}"] for k, v in be.items()])
+            + "\n\nWith the OpenBLAS default (one thread per core) on this shared machine, "
+            "its threads wait for each other while other jobs hold the cores; the runner "
+            "itself uses 1 BLAS thread (`--blas-threads`).")
     cmp_wall = par[0] if par else serial / 2
     if cmp_wall > target:
         res.details.append(

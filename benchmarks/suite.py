@@ -269,6 +269,24 @@ def _findings(suite: SuiteResult) -> list[str]:
             "of wheels on the span); remove the per-call overhead as for case 1; then run "
             "the 570 cases in parallel (`prange` over cases, or the study runner's 2 "
             "processes).")
+    if c3 and c3.data.get("blas"):
+        be = c3.data["blas"]
+        d0, d1 = be.get("default"), be.get("1")
+        if d0 and d1 and d0[0] == d0[0] and d1[0] == d1[0]:
+            out.append(
+                f"**BLAS threading (all cases that run `simulate`)**: in a fresh process "
+                f"with the OpenBLAS default threads, `initial_state` of the ICE3 takes "
+                f"{C.fmt_s(d0[0])} and a whole simulate() {C.fmt_s(d0[1])}; with "
+                f"OPENBLAS_NUM_THREADS=1 {C.fmt_s(d1[0])} and {C.fmt_s(d1[1])} "
+                f"(x{d0[0] / max(d1[0], 1e-12):.0f} on the static start).  The dense "
+                "`np.linalg` solves of the wrapper (`initial_state`, `static_wheel_loads`: "
+                "global KKT systems of ~110 unknowns) hit OpenBLAS's threading, whose "
+                "threads spin and wait for each other when the cores are shared.  Fix in "
+                "the package: solve the static start per vehicle (block-diagonal, 10 DOFs + "
+                "4 wheels each) or by elimination of the wheel DOFs, and/or pin the BLAS "
+                "threads to 1 for serial runs (set OPENBLAS_NUM_THREADS before numpy is "
+                "imported in the CLI / study workers, or use threadpoolctl).  The numbers "
+                "above were taken with 1 BLAS thread.")
     if c4 and c4.data.get("fit_modes"):
         fm, fc = c4.data["fit_modes"], c4.data["fit_cars"]
         out.append(
@@ -318,6 +336,7 @@ def markdown(suite: SuiteResult) -> str:
              f"{m['python']} / {m['numpy']} / {m['scipy']} / {m['numba']} / {m['xarray']}"],
             ["NUMBA_NUM_THREADS / NUMBA_CACHE_DIR",
              f"{m['numba_threads']} / `{m['numba_cache_dir']}`"],
+            ["BLAS threads (OPENBLAS_NUM_THREADS)", m["blas_threads"]],
             ["git commit", m["git_commit"]],
             ["warm_up() in the runner (cache load or JIT)", f"{suite.warm_up_s:.1f} s"],
         ]),
@@ -339,8 +358,9 @@ def markdown(suite: SuiteResult) -> str:
         "or the whole run (see the details); *speed-up* = baseline / engine, CPU time per "
         "step.  *cpu/wall*: CPU time / wall time of the measurement (< 1: the process "
         "waited for a core).  EXTRAPOLATED rows are predictions "
-        "from a subset (least-squares per-run cost a + b x steps over the measured runs, "
-        "applied to the step count of every run of the grid); '2 cores' rows are the "
+        "from a subset (per-run cost = overhead + time loop per step x steps, the overhead "
+        "being the median of (run - time loop) over the measured runs, applied to the "
+        "step count of every run of the grid); '2 cores' rows are the "
         "serial figure divided by 2 (ideal) unless marked MEASURED.",
         "",
     ]

@@ -22,6 +22,19 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+BLAS_NOTE = ""  # set by benchmarks.__main__ when it fixes the BLAS threads
+
+
+def limit_blas_threads(n: int) -> str:
+    """Set the BLAS/OpenMP thread counts to ``n`` for this process (effective only if
+    numpy is not imported yet); returns a note for the report."""
+    global BLAS_NOTE
+    late = "numpy" in sys.modules
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ[var] = str(n)
+    BLAS_NOTE = (" (set by the runner AFTER numpy was imported: no effect)" if late else
+                 " (set by the runner: serial runs, single-threaded linear algebra)")
+    return BLAS_NOTE
 
 
 @dataclass
@@ -131,5 +144,7 @@ def machine_info() -> dict:
         "xarray": xarray.__version__,
         "numba_threads": numba.config.NUMBA_NUM_THREADS,
         "numba_cache_dir": os.environ.get("NUMBA_CACHE_DIR", "(default: __pycache__)"),
+        "blas_threads": os.environ.get("OPENBLAS_NUM_THREADS", "unset (OpenBLAS default: "
+                                       "one thread per core)") + BLAS_NOTE,
         "git_commit": commit + (" (vsi_numba/ has uncommitted changes)" if dirty else ""),
     }

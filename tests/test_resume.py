@@ -14,6 +14,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import textwrap
 import time
 from pathlib import Path
@@ -94,12 +95,22 @@ def write_study(directory: Path, name="study.toml", damping=0.02, histories="fir
     return path
 
 
+def subprocess_env() -> dict[str, str]:
+    """The test's environment (NUMBA_CACHE_DIR included), with Python bytecode cached in a
+    private directory: the sweep and each of its spawned workers import numpy, xarray,
+    numba and dask, which takes seconds per process when nothing is byte-compiled."""
+    env = os.environ.copy()
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    env["PYTHONPYCACHEPREFIX"] = str(Path(tempfile.gettempdir()) / "vsi_numba_test_pycache")
+    return env
+
+
 def start_sweep(config: Path, output: Path, *extra, preexec_fn=None) -> subprocess.Popen:
     """``python -m vsi_numba.cli sweep`` in a new process group (stderr captured)."""
     cmd = [sys.executable, "-m", "vsi_numba.cli", "sweep", str(config), "-o", str(output),
            *extra]
     return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True, env=os.environ.copy(),
+                            start_new_session=True, env=subprocess_env(),
                             preexec_fn=preexec_fn)
 
 

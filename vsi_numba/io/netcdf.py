@@ -57,7 +57,7 @@ def history_line(command: str) -> str:
 
 
 def encoding_for(ds: xr.Dataset) -> dict[Hashable, dict]:
-    """netCDF encodings for every variable and coordinate of ``ds`` (see module notes)."""
+    """Return the netCDF encodings of every variable and coordinate of ``ds`` (module notes)."""
     enc: dict[Hashable, dict] = {}
     for name, var in ds.variables.items():
         kind = var.dtype.kind

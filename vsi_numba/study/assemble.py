@@ -59,7 +59,7 @@ def case_dataset(sim: xr.Dataset, case) -> xr.Dataset:
 
 
 def _check_case(ds: xr.Dataset, case) -> None:
-    """A stored case must be the case its file name says (defence against stale stores)."""
+    """Check that a stored case is the case its file name says (defence against stale stores)."""
     ok = (
         ds.attrs.get("case_key") == case.key
         and float(ds["speed_kmh"].values[0]) == case.speed_kmh

@@ -54,7 +54,7 @@ def available_cores() -> int:
 
 
 def _init_worker(env: dict[str, str]) -> None:
-    """Initializer of local worker processes: one thread for numba/BLAS/OpenMP."""
+    """Set up a local worker process: one thread for numba/BLAS/OpenMP."""
     os.environ.update(env)
     if "numba" in sys.modules:  # imported while unpickling; env var came too late
         import numba

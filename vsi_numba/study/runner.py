@@ -34,8 +34,8 @@ import sys
 import time as _time
 import traceback
 from dataclasses import dataclass
-from typing import NamedTuple
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import xarray as xr
@@ -86,8 +86,11 @@ class StudyModel:
 
 
 class StudySpec(NamedTuple):
-    """What a worker needs to rebuild a study's model: the resolved configuration (JSON)
-    and the directory its relative paths (profile file, train file) resolve against."""
+    """What a worker needs to rebuild a study's model.
+
+    The resolved configuration (JSON) and the directory its relative paths (profile file,
+    train file) resolve against.
+    """
 
     config_json: str
     base_dir: str
@@ -109,7 +112,7 @@ def study_spec(config) -> StudySpec:
 
 
 def _load(config):
-    """A ``Config`` from a path, mapping, :class:`StudySpec` or ``Config``."""
+    """Return a ``Config`` from a path, mapping, :class:`StudySpec` or ``Config``."""
     from vsi_numba.config import load_config
 
     if isinstance(config, StudySpec):
@@ -129,11 +132,8 @@ def _build_model(cfg) -> StudyModel:
     bridge = cfg.build_bridge()
     trains = tuple(cfg.trains())
     settings = cfg.solver_settings()
-    speeds = np.asarray(cfg.speeds_kmh, float)
-    x_range = profile_range(
-        bridge.length, [t.length for t in trains], settings.approach,
-        settings.free_vibration, float(speeds.max()) / 3.6 if speeds.size else 0.0,
-    )
+    x_range = profile_range(bridge.length, [t.length for t in trains], settings.approach,
+                            settings.free_vibration)
     profiles = dict(cfg.irregularities(*x_range))
     points = cfg.output_points
     if points is None:
@@ -184,7 +184,7 @@ def model_fingerprint(model: StudyModel) -> str:
 
 
 def study_grid(model: StudyModel) -> StudyGrid:
-    """The case grid of a configuration (deterministic order)."""
+    """Return the case grid of a configuration (deterministic order)."""
     cfg = model.config
     hist = history_mask(cfg.speeds_kmh, bool(cfg.save_time_histories),
                         getattr(cfg, "history_speeds_kmh", None))
@@ -454,7 +454,10 @@ def run_study(
         raise OutputNotWritableError(f"the output {output} is a directory")
     model = _build_model(cfg)
     grid = study_grid(model)
-    command = command or f"vsi_numba.run_study({str(getattr(config, 'name', '') or '')!r})"
+    if command is None:
+        source = str(cfg.path) if getattr(cfg, "path", None) else "<mapping>"
+        command = (f"vsi_numba.run_study({source!r}, output={str(output)!r}, "
+                   f"workers={workers!r}, scheduler={scheduler!r}, backend={backend!r})")
 
     check_writable(output.parent if str(output.parent) else Path("."), "results file")
     store = CaseStore(store_path(output), sha, config_json, fresh=fresh,
@@ -512,10 +515,13 @@ def _run_pending(be, spec, grid, pending, model, store, progress) -> None:
             except BaseException as exc:
                 if isinstance(exc, KeyboardInterrupt | StudyError):
                     raise
+                try:
+                    kept = f"{len(store.done())} finished cases are kept in {store.path}"
+                except OSError:
+                    kept = f"finished cases are kept in {store.path}"
                 raise StudyError(
-                    f"the study stopped: {type(exc).__name__}: {exc}. "
-                    f"{len(store.done())} finished cases are kept in {store.path}; re-run "
-                    "the same command to resume."
+                    f"the study stopped: {type(exc).__name__}: {exc}. {kept}; re-run the "
+                    "same command to resume."
                 ) from exc
     if errors:
         case, exc = errors[0]

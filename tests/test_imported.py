@@ -603,3 +603,96 @@ def test_imported__bundled_example_sweeps(tmp_path):
     with xr.open_dataset(out) as ds:
         d = ds["max_deck_displacement"].values
         assert np.all(np.isfinite(d)) and np.all(d > 0)
+
+
+# ------------------------------------------------------------------------ track layer
+
+TRACK = {"rail_EI": 1.28e7, "rail_mass_per_length": 120.6, "pad_stiffness": 2.4e8,
+         "pad_damping": 1.0e5, "sleeper_mass": 280.0, "sleeper_spacing": 0.6,
+         "ballast_stiffness": 2.0e8, "ballast_damping": 1.2e5}
+
+
+def test_track__rail_on_rigid_deck_is_a_winkler_beam():
+    """Static rail deflection under a unit load vs the Winkler beam P beta / (2 k)."""
+    layer = br.TrackLayer(**{**TRACK, "rail_elements_per_bay": 4})
+    tm = br.track_matrices([30.0], 1e15, 15000.0, 30, layer)  # practically rigid deck
+    free = np.setdiff1d(np.arange(tm.K.shape[0]), tm.fixed)
+    k_eff = 1.0 / (1.0 / TRACK["pad_stiffness"] + 1.0 / TRACK["ballast_stiffness"])
+    k_w = k_eff / TRACK["sleeper_spacing"]  # smeared foundation modulus, N/m^2
+    beta = (k_w / (4 * TRACK["rail_EI"])) ** 0.25
+    w_winkler = beta / (2 * k_w)
+    s = int(np.argmin(np.abs(tm.sleepers - 15.0)))
+    for j in (int(np.searchsorted(tm.rail_nodes, tm.sleepers[s])),  # over a sleeper
+              int(np.searchsorted(tm.rail_nodes, tm.sleepers[s])) + 2):  # mid-bay
+        dof = tm.rail_dof0 + 2 * j
+        f = np.zeros(free.size)
+        f[np.searchsorted(free, dof)] = 1.0
+        w = np.linalg.solve(tm.K[np.ix_(free, free)], f) @ f
+        # discrete pads every 0.6 m vs a continuous foundation: 2 % (0.4 / 0.8 % here)
+        assert w == pytest.approx(w_winkler, rel=2e-2)
+
+
+def test_track__stiff_track_moves_with_the_deck():
+    """Very stiff pads and ballast: the deck modes of a beam with the track's mass and EI."""
+    stiff = br.TrackLayer(**{**TRACK, "pad_stiffness": 1e13, "ballast_stiffness": 1e13})
+    b = br.continuous_with_track(TWO["spans"], TWO["EI"], TWO["m"], stiff, n_modes=3,
+                                 elements_per_span=40)
+    m_tot = TWO["m"] + TRACK["rail_mass_per_length"] + TRACK["sleeper_mass"] / 0.6
+    ref = br.continuous(TWO["spans"], TWO["EI"] + TRACK["rail_EI"], m_tot, 3,
+                        elements_per_span=40)
+    # sleepers as point masses every 0.6 m instead of smeared: 1e-4 on the first modes
+    np.testing.assert_allclose(b.frequencies, ref.frequencies, rtol=1e-4)
+    assert b.deck is not None
+    xx = np.linspace(0, 40, 401)
+    # rail and deck move together (1e-3 of the amplitude: the stiff springs still give)
+    np.testing.assert_allclose(b.shapes(xx), b.output_shapes(xx),
+                               atol=1e-3 * np.abs(b.values).max())
+
+
+def test_track__flexibility_report_and_modal_damping():
+    layer = br.TrackLayer(**TRACK)
+    b, rep = br.continuous_with_track(TWO["spans"], TWO["EI"], TWO["m"], layer, n_modes=None,
+                                      max_frequency=np.inf, damping_ratio=0.01, report=True)
+    # every mode kept: the modal sum is the FE static flexibility (round-off)
+    assert rep.flexibility_fraction == pytest.approx(1.0, rel=1e-8)
+    assert 80.0 < rep.first_track_frequency < 300.0  # sleepers on pads and ballast
+    assert rep.modes_for_95 > 50  # the cost: many track modes for the rail deflection
+    few = br.continuous_with_track(TWO["spans"], TWO["EI"], TWO["m"], layer, n_modes=6,
+                                   damping_ratio=0.01)
+    # deck modes: ~1 % (structural) plus a little from the dashpots; track modes: more
+    assert np.all(few.damping >= 0.01) and few.damping[0] < 0.011
+    assert b.damping[rep.modes_for_95 - 1] > 0.05
+
+
+def test_track__config_keys_warning_and_errors(tmp_path):
+    bridge = {"kind": "continuous", "spans": [20.0, 20.0], "EI": 7e10,
+              "mass_per_length": 15000.0, "n_modes": 10, "track": dict(TRACK)}
+    cfg = load_config(base_config(bridge))
+    b = cfg.build_bridge()
+    assert b.deck is not None and b.n_modes == 10
+    assert cfg.resolved()["bridge"]["track"]["rail_elements_per_bay"] == 2
+    (warn,) = [w for w in cfg.warnings if w.startswith("bridge.track:")]
+    assert "of the static rail deflection under a wheel" in warn and "95% needs" in warn
+    errors = config_errors({**bridge, "kind": "simply_supported", "spans": [20.0]}, tmp_path)
+    assert any(e.startswith("bridge.track = {") and "no [bridge.track] with kind = "
+               "'simply_supported'" in e for e in errors), errors
+    errors = config_errors({**bridge, "track": {**TRACK, "sleeper_spacing": 0.0,
+                                                "pad_stifness": 1.0}}, tmp_path)
+    assert sorted(errors) == sorted([
+        "bridge.track.pad_stifness = 1.0: unknown key; did you mean 'pad_stiffness'?",
+        "bridge.track.sleeper_spacing = 0.0: expected a sleeper spacing > 0 m"]), errors
+
+
+def test_track__moving_force_runs_on_the_rail():
+    layer = br.TrackLayer(**TRACK)
+    b = br.continuous_with_track(TWO["spans"], TWO["EI"], TWO["m"], layer, n_modes=20)
+    w = midspan_history(b, 10.0, speed=40.0)
+    ref = midspan_history(br.continuous(TWO["spans"], TWO["EI"], TWO["m"], 20), 10.0, 40.0)
+    assert np.all(np.isfinite(w))
+    # the rail deflects more than the bare deck, by less than the full static track
+    # compression under the 100 kN force (Winkler beam, P beta / 2k: 0.38 mm); 10 %:
+    # dynamic amplification at 40 m/s
+    k_eff = 1.0 / (1.0 / TRACK["pad_stiffness"] + 1.0 / TRACK["ballast_stiffness"])
+    k_w = k_eff / TRACK["sleeper_spacing"]
+    compression = 1.0e5 * (k_w / (4 * TRACK["rail_EI"])) ** 0.25 / (2 * k_w)
+    assert np.max(ref) < np.max(w) < 1.1 * (np.max(ref) + compression)

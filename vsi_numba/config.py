@@ -438,16 +438,17 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
     allowed_all = {
         "kind", "spans", "EI", "mass_per_length", "damping_ratio", "n_modes",
         "max_frequency", "elements_per_span", "output_points", "file", *_IMPORT_KEYS,
+        "track",
     }
     if not isinstance(d, Mapping):
         return chk.error(path, d, "a table [bridge] with kind, spans, EI, mass_per_length")
     kind = chk.choice(d, path, "kind", BRIDGE_KINDS)
-    classic = allowed_all - {"file", *_IMPORT_KEYS}
+    classic = allowed_all - {"file", "track", *_IMPORT_KEYS}
     modal = {"kind", "damping_ratio", "n_modes", "max_frequency", "output_points", "spans",
              "track_line"}
     used = {
         "simply_supported": classic - {"elements_per_span"},
-        "continuous": classic,
+        "continuous": classic | {"track"},
         "rigid": {"kind", "spans", "output_points"},
         "modes_file": modal | {"file", "mass_normalised"},
         "matrices": modal | {"stiffness_matrix", "mass_matrix", "station_map", "fixed_dofs",
@@ -457,7 +458,10 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
         chk.table(d, path, allowed_all)
         return _BAD
     ignored = {k: f"not used by bridge.kind = '{kind}'" for k in allowed_all - used[kind]}
-    chk.table(d, path, used[kind], ignored=ignored)
+    ignored.pop("track", None)
+    chk.table(d, path, used[kind], ignored=ignored, elsewhere={"track": (
+        f"no [bridge.track] with kind = '{kind}': the track layer is assembled into the FE "
+        "model of kind = 'continuous' (use it with a single span for one span)")})
 
     # spans
     spans = _BAD
@@ -519,6 +523,10 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
                             f"at most {MAX_ELEMENTS} elements in all ({n_spans} spans x "
                             f"{eps} = {n_spans * eps})")
         res["elements_per_span"] = eps
+    track = None
+    if kind == "continuous" and "track" in d:
+        track = _track_section(chk, d["track"], spans)
+        res["track"] = track
     imported = None
     if kind in _IMPORTED:
         imported = _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes,
@@ -554,7 +562,8 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
         res["output_points"] = points
 
     spec = _BridgeSpec(kind=kind, resolved=_drop_none(res), length=length)
-    if not _ok(spans, points) or (flexible and not _ok(ei, mass, damping, n_modes, fmax, eps)):
+    if not _ok(spans, points) or (flexible and not _ok(ei, mass, damping, n_modes, fmax, eps,
+                                                       track)):
         return _BAD
     spec.output_points = np.asarray(points, float)
     if kind in _IMPORTED:
@@ -566,6 +575,8 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
     if kind == "rigid":
         spec.model = _bridge.rigid(length)
         return spec
+    if track is not None:
+        return _track_bridge(chk, spec, spans, ei, mass, n_modes, fmax, eps, damping, track)
     model = _flexible_bridge(chk, spec, spans, ei, mass, n_modes, fmax, eps, solver_cutoff)
     if model is _BAD:
         return _BAD
@@ -579,6 +590,74 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
         nodes=model.nodes, values=model.values, slopes=model.slopes,
         supports=model.supports, description=model.description,
     )
+    return spec
+
+
+_TRACK_FIELDS = {
+    "rail_EI": _Num("a bending stiffness of both rails > 0 N m^2 (2 x 6.42e6 for UIC60)",
+                    gt=0),
+    "rail_mass_per_length": _Num("a mass of both rails > 0 kg/m (2 x 60.3 for UIC60)", gt=0),
+    "pad_stiffness": _Num("a rail pad stiffness per sleeper (both rail seats) > 0 N/m", gt=0),
+    "pad_damping": _Num("a rail pad damping per sleeper >= 0 N s/m", ge=0, default=0.0),
+    "sleeper_mass": _Num("a sleeper mass > 0 kg", gt=0),
+    "sleeper_spacing": _Num("a sleeper spacing > 0 m", gt=0),
+    "ballast_stiffness": _Num("a ballast stiffness per sleeper > 0 N/m", gt=0),
+    "ballast_damping": _Num("a ballast damping per sleeper >= 0 N s/m", ge=0, default=0.0),
+    "rail_elements_per_bay": _Num("an integer number of rail elements between sleepers, "
+                                  "1 .. 8", ge=1, le=8, integer=True, default=2),
+}
+MAX_TRACK_DOFS = 4000  # deck + rail + sleepers (dense eigensolution at load time)
+FLEXIBILITY_WARNING = 0.95  # share of the static rail flexibility kept by the modes
+
+
+def _track_section(chk, t, spans):
+    """[bridge.track]: the track layer of a continuous deck (values per track)."""
+    path = "bridge.track"
+    if chk.table(t, path, set(_TRACK_FIELDS), what=" [bridge.track] of track-layer values") \
+            is _BAD:
+        return _BAD
+    vals = chk.numbers(t, path, _TRACK_FIELDS)
+    if not _ok(*vals.values()):
+        return _BAD
+    if isinstance(spans, list):
+        a, n_e = vals["sleeper_spacing"], vals["rail_elements_per_bay"]
+        if a > 0.5 * min(spans):
+            return chk.error(f"{path}.sleeper_spacing", a,
+                             f"a spacing of at most half the shortest span ({min(spans):g} m)")
+        n_rail = 2 * n_e * (sum(spans) / a + 1)
+        if n_rail + sum(spans) / a > MAX_TRACK_DOFS:
+            return chk.error(f"{path}.sleeper_spacing", a,
+                             f"a track layer of at most {MAX_TRACK_DOFS} rail and sleeper DOFs "
+                             f"(this one has about {n_rail + sum(spans) / a:.0f}: fewer "
+                             "rail_elements_per_bay, or a shorter deck)")
+    return vals
+
+
+def _track_bridge(chk, spec, spans, ei, mass, n_modes, fmax, eps, damping, track):
+    """Continuous deck + track layer: modes of the assembly, along the rail."""
+    layer = _bridge.TrackLayer(**track)
+    try:
+        with np.errstate(all="ignore"):
+            model, rep = _bridge.continuous_with_track(
+                spans, ei, mass, layer, n_modes, fmax, damping, eps, report=True)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        if "damping_ratio" in str(exc):
+            return chk.error("bridge.damping_ratio", damping,
+                             f"a single ratio or at least one per retained mode ({exc})")
+        return chk.error("bridge.track", track, f"a buildable deck and track layer ({exc})")
+    spec.model = model
+    spec.all_frequencies = rep.all_frequencies
+    if rep.flexibility_fraction < FLEXIBILITY_WARNING:
+        chk.warn(
+            f"bridge.track: the {model.n_modes} retained modes (up to "
+            f"{model.frequencies[-1]:.4g} Hz) keep {100 * rep.flexibility_fraction:.0f}% of "
+            f"the static rail deflection under a wheel (x = {rep.probe_x:g} m); the track "
+            f"modes start at {rep.first_track_frequency:.4g} Hz and 95% needs "
+            f"{rep.modes_for_95} modes (bridge.n_modes = {rep.modes_for_95}, up to "
+            f"{rep.frequency_for_95:.4g} Hz, with solver.dt <= "
+            f"{DT_RESOLUTION / rep.frequency_for_95:.2g} s); with fewer the track is too stiff "
+            "under the wheels"
+        )
     return spec
 
 

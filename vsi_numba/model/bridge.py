@@ -43,6 +43,10 @@ class ModalBridge:
         Effective (participating) vertical mass of each retained mode as a fraction of
         the structure's vertical mass, shape (n_modes,), when known (modes computed from
         matrices, see :mod:`vsi_numba.model.imported`); None otherwise.
+    deck : ModalBridge or None
+        With a track layer (:func:`continuous_with_track`) the track line is the rail;
+        ``deck`` tabulates the same modes along the deck, for the deck outputs
+        (:meth:`output_shapes`).  None: the deck is the track line.
     """
 
     kind: int
@@ -55,6 +59,7 @@ class ModalBridge:
     supports: np.ndarray = field(default_factory=lambda: np.zeros(0))
     description: str = ""
     effective_mass_fraction: np.ndarray | None = None
+    deck: ModalBridge | None = None
 
     @property
     def n_modes(self) -> int:
@@ -97,6 +102,15 @@ class ModalBridge:
             + n[3][:, None] * self.slopes[e + 1]
         )
         return out
+
+
+    def output_shapes(self, x, derivative: int = 0) -> np.ndarray:
+        """Mode shapes for the *deck* outputs at ``x``: shape (len(x), n_modes).
+
+        The deck line when the bridge has a track layer (:attr:`deck`), else the track
+        line (:meth:`shapes`).
+        """
+        return (self.deck if self.deck is not None else self).shapes(x, derivative)
 
 
 def _hermite(s, h, derivative):
@@ -278,3 +292,274 @@ def from_table(
         supports=np.asarray(supports if supports is not None else [x[0], x[-1]], float),
         description=description,
     )
+
+
+# ------------------------------------------------------------------------ track layer
+
+
+@dataclass(frozen=True)
+class TrackLayer:
+    """Ballasted track on the deck, 2-D (the whole track: both rails together), SI units.
+
+    The rail is an Euler-Bernoulli beam (Hermite elements) on discrete rail pads at the
+    sleepers; each sleeper is a mass on a ballast spring that bears on the deck (at the
+    sleeper's abscissa, through the deck element's Hermite shape functions).  The train
+    runs on the rail.  Values are per track (two rails, one sleeper), consistent with
+    the whole-vehicle axle loads of the 2-D model.
+
+    Parameters
+    ----------
+    rail_EI : float
+        Bending stiffness of both rails (N m^2), e.g. 2 x 6.42e6 for UIC60.
+    rail_mass_per_length : float
+        Mass of both rails (kg/m), e.g. 2 x 60.3 for UIC60.
+    pad_stiffness : float
+        Rail pads under one sleeper, both rail seats together (N/m).
+    sleeper_mass : float
+        One sleeper (kg).
+    sleeper_spacing : float
+        Distance between sleepers (m); the first sleeper is half a spacing from x = 0.
+    ballast_stiffness : float
+        Ballast under one sleeper (N/m).  The ballast *mass* belongs to the deck's
+        ``mass_per_length``.
+    pad_damping, ballast_damping : float
+        Dashpots per sleeper (N s/m), as modal damping: ``zeta_j += phi_j^T C phi_j /
+        (2 w_j)`` (the off-diagonal terms of ``Phi^T C Phi`` are dropped).
+    rail_elements_per_bay : int
+        Rail elements between two sleepers (2: the pinned-pinned rail mode is resolved
+        to a few per cent).
+
+    Notes
+    -----
+    When is it needed: wheel-rail forces above ~50-100 Hz (short wavelength irregularity,
+    rail joints, wheel flats), short spans (L < ~10 m, where the track spreads an axle
+    load over a good part of the span and the track mass is a large part of the deck's),
+    transition zones and deck-end rotations.  For deck displacements and accelerations
+    of ordinary spans (EN 1990 A2 checks up to 30 Hz and more) it changes little: the
+    rigid-track model is the default.
+
+    What it costs: the track modes start with the sleepers bouncing on ballast and pads
+    (~100-300 Hz) and the rail on its pads (~300-1000 Hz; the pinned-pinned mode near
+    1 kHz); there are about two of them per sleeper, i.e. 3-4 per metre of bridge.  The
+    quasi-static rail deflection under a wheel is a sum over *all* of them, so a modal
+    model keeps only part of the track flexibility unless it keeps modes up to ~1-2 kHz
+    -- several hundred modes for a 20-40 m deck -- and then needs dt <= 0.1 / f_max
+    (~1e-4 s or less).  :func:`continuous_with_track` reports the share of the static
+    rail flexibility under a wheel that the retained modes represent, and how many modes
+    reach 95 %.  The approach track of the kernels is rigid: the rail is pinned (w = 0)
+    at both ends of the deck, so within ~1.5-2 m of each end the track is stiffer than
+    in reality (a transition from rigid to ballasted track).
+    """
+
+    rail_EI: float
+    rail_mass_per_length: float
+    pad_stiffness: float
+    sleeper_mass: float
+    sleeper_spacing: float
+    ballast_stiffness: float
+    pad_damping: float = 0.0
+    ballast_damping: float = 0.0
+    rail_elements_per_bay: int = 2
+
+
+@dataclass(frozen=True)
+class TrackModel:
+    """FE matrices of a deck with a track layer (see :func:`track_matrices`).
+
+    DOFs: deck (w, theta) per deck node, then rail (w, theta) per rail node, then one
+    vertical DOF per sleeper.
+    """
+
+    K: np.ndarray
+    M: np.ndarray
+    C: np.ndarray  # track dashpots only (pads, ballast)
+    deck_nodes: np.ndarray
+    rail_nodes: np.ndarray
+    sleepers: np.ndarray
+    rail_dof0: int  # first rail DOF
+    sleeper_dof0: int  # first sleeper DOF
+    fixed: np.ndarray
+    supports: np.ndarray
+
+
+def _beam_element(h, ei, m):
+    ke = ei / h**3 * np.array(
+        [[12, 6 * h, -12, 6 * h], [6 * h, 4 * h * h, -6 * h, 2 * h * h],
+         [-12, -6 * h, 12, -6 * h], [6 * h, 2 * h * h, -6 * h, 4 * h * h]])
+    me = m * h / 420.0 * np.array(
+        [[156, 22 * h, 54, -13 * h], [22 * h, 4 * h * h, 13 * h, -3 * h * h],
+         [54, 13 * h, 156, -22 * h], [-13 * h, -3 * h * h, -22 * h, 4 * h * h]])
+    return ke, me
+
+
+def track_matrices(spans, EI, mass_per_length, elements_per_span, track: TrackLayer):
+    """Assemble deck + rail + sleepers (dense; sizes of a few thousand DOFs)."""
+    deck_nodes, Kd, Md, fixed_d, supports = beam_matrices(spans, EI, mass_per_length,
+                                                          elements_per_span)
+    length = float(supports[-1])
+    a = float(track.sleeper_spacing)
+    sleepers = np.arange(0.5 * a, length - 0.25 * a + 1e-12, a)
+    breaks = np.concatenate([[0.0], sleepers, [length]])
+    ne = int(track.rail_elements_per_bay)
+    rail = [0.0]
+    for x0, x1 in zip(breaks[:-1], breaks[1:], strict=True):
+        rail.extend(x0 + (x1 - x0) * np.arange(1, ne + 1) / ne)
+    rail_nodes = np.array(rail)
+    rail_nodes[-1] = length
+    at_sleeper = np.searchsorted(rail_nodes, sleepers)  # rail node index of each sleeper
+    nd, nr, ns = Kd.shape[0], 2 * rail_nodes.size, sleepers.size
+    n = nd + nr + ns
+    K = np.zeros((n, n))
+    M = np.zeros((n, n))
+    C = np.zeros((n, n))
+    K[:nd, :nd] = Kd
+    M[:nd, :nd] = Md
+    for e in range(rail_nodes.size - 1):
+        ke, me = _beam_element(rail_nodes[e + 1] - rail_nodes[e], track.rail_EI,
+                               track.rail_mass_per_length)
+        idx = nd + np.arange(2 * e, 2 * e + 4)
+        K[np.ix_(idx, idx)] += ke
+        M[np.ix_(idx, idx)] += me
+    for s, xs in enumerate(sleepers):
+        js = nd + nr + s
+        jr = nd + 2 * at_sleeper[s]
+        M[js, js] += track.sleeper_mass
+        # pad: rail node -- sleeper
+        for mat, c in ((K, track.pad_stiffness), (C, track.pad_damping)):
+            mat[jr, jr] += c
+            mat[js, js] += c
+            mat[jr, js] -= c
+            mat[js, jr] -= c
+        # ballast: sleeper -- deck at xs (Hermite shape functions of the deck element)
+        e = int(np.clip(np.searchsorted(deck_nodes, xs, side="right") - 1, 0,
+                        deck_nodes.size - 2))
+        h = deck_nodes[e + 1] - deck_nodes[e]
+        sh = np.array(_hermite(np.array([(xs - deck_nodes[e]) / h]), h, 0)).ravel()
+        b = np.zeros(n)
+        b[js] = 1.0
+        b[2 * e: 2 * e + 4] -= sh
+        K += track.ballast_stiffness * np.outer(b, b)
+        C += track.ballast_damping * np.outer(b, b)
+    fixed = np.concatenate([fixed_d, [nd, nd + nr - 2]])  # rail pinned at both deck ends
+    return TrackModel(K, M, C, deck_nodes, rail_nodes, sleepers, nd, nd + nr, fixed,
+                      supports)
+
+
+@dataclass(frozen=True)
+class TrackReport:
+    """What a track layer costs in modes (see :func:`continuous_with_track`).
+
+    Attributes
+    ----------
+    all_frequencies : ndarray
+        Every natural frequency of the deck + track model (Hz).
+    first_track_frequency : float
+        The lowest mode whose kinetic energy is mostly in the track (rail, sleepers), Hz.
+    flexibility_fraction : float
+        Static rail deflection under a unit load at ``probe_x`` from the retained modes,
+        as a fraction of the full FE value (1 = every mode).
+    modes_for_95 : int
+        Number of modes needed for 95 % of that static flexibility.
+    frequency_for_95 : float
+        Frequency of the last of those modes (Hz).
+    probe_x : float
+        The load position (m): the sleeper nearest the middle of the first span.
+    """
+
+    all_frequencies: np.ndarray
+    first_track_frequency: float
+    flexibility_fraction: float
+    modes_for_95: int
+    frequency_for_95: float
+    probe_x: float
+
+
+def continuous_with_track(
+    spans,
+    EI,
+    mass_per_length,
+    track: TrackLayer,
+    n_modes: int | None = 10,
+    max_frequency: float | None = None,
+    damping_ratio=0.0,
+    elements_per_span: int = 40,
+    report: bool = False,
+):
+    """Continuous deck with a track layer, reduced to the modes of the whole assembly.
+
+    The FE matrices of deck, rail and sleepers are assembled first
+    (:func:`track_matrices`) and the modes computed from the assembly
+    (``scipy.linalg.eigh``), so the track-deck interaction is in the modes.  The
+    returned bridge tabulates the modes along the *rail* (the train runs on it); its
+    ``damping`` is ``damping_ratio`` plus the modal approximation of the pad and ballast
+    dashpots.  See :class:`TrackLayer` for when this is worth it and what it costs.
+
+    Returns
+    -------
+    ModalBridge, or (ModalBridge, TrackReport) when ``report`` is true.
+    """
+    tm = track_matrices(spans, EI, mass_per_length, elements_per_span, track)
+    n = tm.K.shape[0]
+    free = np.setdiff1d(np.arange(n), tm.fixed)
+    lam, vec = scipy.linalg.eigh(tm.K[np.ix_(free, free)], tm.M[np.ix_(free, free)],
+                                 driver="gvd")  # divide and conquer: every mode is needed
+    freqs = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
+    full = np.zeros((n, free.size))
+    full[free] = vec
+    rail = full[tm.rail_dof0: tm.sleeper_dof0]
+    w = rail[0::2]
+    sign = np.sign(w[np.argmax(np.abs(w), axis=0), np.arange(w.shape[1])])
+    sign[sign == 0] = 1.0
+    full *= sign
+    keep = _n_keep(freqs, n_modes, max_frequency)
+    omega = 2 * np.pi * freqs
+    zeta_track = np.einsum("ij,ij->j", full, tm.C @ full) / (2 * np.maximum(omega, 1e-300))
+    zeta = np.minimum(_per_mode(damping_ratio, keep, "damping_ratio") + zeta_track[:keep],
+                      0.99)
+    rail = full[tm.rail_dof0: tm.sleeper_dof0]
+    deck = full[: tm.rail_dof0]
+    length = float(tm.supports[-1])
+    # static flexibility under a unit load on the rail at the sleeper nearest mid-span 1
+    mid = 0.5 * (tm.supports[0] + tm.supports[1])
+    k = int(np.argmin(np.abs(tm.sleepers - mid)))
+    jr = int(np.searchsorted(tm.rail_nodes, tm.sleepers[k]))
+    f = np.zeros(free.size)
+    f[np.searchsorted(free, tm.rail_dof0 + 2 * jr)] = 1.0
+    static = float(f @ np.linalg.solve(tm.K[np.ix_(free, free)], f))
+    contrib = rail[2 * jr] ** 2 / np.maximum(omega, 1e-300) ** 2
+    cum = np.cumsum(contrib) / static
+    n95 = int(np.searchsorted(cum, 0.95) + 1)
+    energy = np.einsum("ij,ij->j", full[tm.rail_dof0:], (tm.M @ full)[tm.rail_dof0:])
+    track_modes = np.flatnonzero(energy > 0.5)
+    rep = TrackReport(
+        all_frequencies=freqs,
+        first_track_frequency=float(freqs[track_modes[0]]) if track_modes.size else np.nan,
+        flexibility_fraction=float(cum[keep - 1]),
+        modes_for_95=min(n95, freqs.size),
+        frequency_for_95=float(freqs[min(n95, freqs.size) - 1]),
+        probe_x=float(tm.sleepers[k]),
+    )
+    bridge = ModalBridge(
+        kind=HERMITE,
+        length=length,
+        frequencies=freqs[:keep].copy(),
+        damping=zeta,
+        nodes=tm.rail_nodes.copy(),
+        values=np.ascontiguousarray(rail[0::2, :keep]),
+        slopes=np.ascontiguousarray(rail[1::2, :keep]),
+        supports=tm.supports,
+        deck=ModalBridge(
+            kind=HERMITE, length=length, frequencies=freqs[:keep].copy(), damping=zeta,
+            nodes=tm.deck_nodes.copy(), values=np.ascontiguousarray(deck[0::2, :keep]),
+            slopes=np.ascontiguousarray(deck[1::2, :keep]), supports=tm.supports,
+            description="the deck under the track layer"),
+        description=(
+            f"continuous deck, spans={[float(v) for v in np.atleast_1d(spans)]} m, with a "
+            "track layer "
+            f"({tm.sleepers.size} sleepers at {track.sleeper_spacing:g} m; {n} DOFs): modes "
+            f"along the rail; {keep} modes keep {100 * rep.flexibility_fraction:.0f}% of the "
+            f"static rail flexibility at x = {rep.probe_x:g} m (95% needs "
+            f"{rep.modes_for_95} modes, up to {rep.frequency_for_95:.0f} Hz)"
+        ),
+    )
+    return (bridge, rep) if report else bridge

@@ -22,9 +22,10 @@ from pathlib import Path
 import pytest
 import xarray as xr
 
+from vsi_numba.config import load_config
 from vsi_numba.io.netcdf import open_results
 from vsi_numba.study.runner import run_study, sweep_command
-from vsi_numba.study.store import store_path
+from vsi_numba.study.store import CaseStore, store_path
 
 TRAINS_TOML = """
 [[vehicle]]
@@ -198,6 +199,19 @@ def test_resume__changed_config_refused_and_store_kept(tmp_path, capsys):
     assert sorted(p.name for p in store_path(out).iterdir()) == before
     # the owner of the store still resumes (nothing left to run: just assembles)
     assert sweep_command(config, out, None, None, True) == 0
+
+
+def test_resume__store_in_use_refused(tmp_path, capsys):
+    """Two runs never write one store: the second is refused while the first holds it."""
+    config = write_study(tmp_path, speeds=SPEEDS[:1])
+    out = tmp_path / "study.nc"
+    cfg = load_config(config)
+    holder = CaseStore(store_path(out), cfg.sha256, cfg.to_json()).open()
+    try:
+        assert sweep_command(config, out, None, None, True) == 2
+    finally:
+        holder.close()
+    assert "another run is using the case store" in capsys.readouterr().err
 
 
 def _make_read_only(directory: Path):

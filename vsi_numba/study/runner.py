@@ -21,7 +21,8 @@ Exit codes of :func:`sweep_command` (``vsi sweep``)
       stopped on an error of its own (a case raised, a worker died, the disk is full):
       then no results file is written, finished cases are kept and a re-run resumes;
   2   the study cannot run as asked: invalid configuration, a case store of another
-      configuration, an output location that cannot be written, bad options;
+      configuration or in use by another run, an output location that cannot be
+      written, bad options;
   130 interrupted (Ctrl-C); finished cases are kept and a re-run resumes.
 """
 

@@ -57,6 +57,12 @@ class OutputNotWritableError(StudyError):
     exit_code = 2
 
 
+class StoreBusyError(StudyError):
+    """Another run holds the case store's lock."""
+
+    exit_code = 2
+
+
 class StoreWriteError(StudyError):
     """Writing a finished case or the final file failed (e.g. disk full)."""
 
@@ -248,7 +254,7 @@ class CaseStore:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError as exc:
             os.close(fd)
-            raise StudyError(
+            raise StoreBusyError(
                 f"another run is using the case store {self.path} (it is locked); wait for it "
                 "to finish or write to another output (-o PATH)."
             ) from exc

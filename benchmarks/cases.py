@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.baseline import n_steps_for, run_baseline
-from benchmarks.timing import REPO, Timing, load1, measure, median
+from benchmarks.timing import REPO, Timing, load1, measure, median, user_env
 
 SPAN = 25.0
 LIGHT_BEAM = {"EI": 8.323e9, "mass_per_length": 2303.0}
@@ -714,7 +714,7 @@ def case3(plan: Plan) -> CaseResult:
         f"{load:.2f}):\n\n" + tab + "\n\n"
         f"Cost model per run: wall = {a * 1e3:.1f} ms + {b * 1e6:.2f} us x steps "
         f"(CPU: {ac * 1e3:.1f} ms + {bc * 1e6:.2f} us x steps; overhead = median of run "
-        "minus time loop, per step = time loop).  The grid has {n_runs} runs and "
+        f"minus time loop, per step = time loop).  The grid has {n_runs} runs and "
         f"{grid_steps:,} steps; one profile per seed costs {fmt_s(t_prof.wall_median)}.  "
         f"**EXTRAPOLATED serial: {serial:.3g} s wall ({serial_cpu:.3g} s CPU); ideal 2 cores: "
         f"{serial / 2:.3g} s wall ({serial_cpu / 2:.3g} s on CPU time).**  "
@@ -874,7 +874,7 @@ def case5(plan: Plan) -> CaseResult:
     with tempfile.TemporaryDirectory(prefix="vsi_bench_") as tmp:
         tmp = Path(tmp)
         out = tmp / "quickstart.nc"
-        env = dict(os.environ)
+        env = user_env()  # the user's BLAS settings: this is the user's command
         if plan.c5_cold:
             env["NUMBA_CACHE_DIR"] = str(tmp / "numba_cache")  # empty: JIT compile
         run = [*cmd, "run", str(config), "-o", str(out), "-q"]

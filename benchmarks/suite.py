@@ -202,8 +202,9 @@ def _findings(suite: SuiteResult) -> list[str]:
         n = d["n_steps"]
         micro = f"  Mid-passage, {_step_parts(parts[labels[0]])}." if parts else ""
         out.append(
-            f"**Case 1 (target 0.5 ms per crossing), missed by "
-            f"x{d['simulate'] / 0.5e-3:.0f}**: simulate() takes {C.fmt_s(d['simulate'])} "
+            "**Case 1 (target 0.5 ms per crossing), "
+            + (f"missed by x{d['simulate'] / 0.5e-3:.0f}" if d["simulate"] > 0.5e-3 else "met")
+            + f"**: simulate() takes {C.fmt_s(d['simulate'])} "
             f"wall ({C.fmt_s(d['simulate_cpu'])} CPU); the time loop {C.fmt_s(d['kernel_cpu'])} "
             f"CPU for {n} steps ({d['kernel_cpu'] / n * 1e6:.2f} us/step) and the wrapper "
             f"(medians, wall): pack {C.fmt_s(med['pack'])}, initial_state "
@@ -230,8 +231,9 @@ def _findings(suite: SuiteResult) -> list[str]:
                      f"{row.get('loads_flat_arrays', float('nan')):.2f} us instead of "
                      f"{row.get('assemble_loads', float('nan')):.2f} us.")
         out.append(
-            f"**Case 2 (target 1 s for 570 HSLM runs), missed by x{d['total'] / 1.0:.0f} "
-            f"serial**: {d['total']:.3g} s wall, {d['total_cpu']:.3g} s CPU, of which "
+            "**Case 2 (target 1 s for 570 HSLM runs), "
+            + (f"missed by x{d['total']:.0f} serial" if d["total"] > 1.0 else "met")
+            + f"**: {d['total']:.3g} s wall, {d['total_cpu']:.3g} s CPU, of which "
             f"~{d['ac'] * 570:.3g} s CPU is the per-run wrapper ({d['ac'] * 1e3:.1f} ms x 570) "
             f"and ~{d['kernel_total']:.3g} s CPU the time loop ({d['total_steps']:,} steps at "
             f"{d['kernel_cpu_step'] * 1e6:.1f} us/step)." + micro + "  1 s for the grid means "
@@ -249,16 +251,21 @@ def _findings(suite: SuiteResult) -> list[str]:
         micro = ""
         if len(labels) > 2:
             micro = f"  Mid-passage (8 of 32 wheels on the span), {_step_parts(parts[labels[2]])}."
+        two = d["parallel"] if d.get("parallel") else d["serial"] / 2
+        how = "measured on 2 processes" if d.get("parallel") else "extrapolated, ideal 2 cores"
+        verdict = (f"met ({how}: {two:.3g} s, margin x{30 / two:.2f})" if two <= 30 else
+                   f"missed by x{two / 30:.1f} ({how})")
         out.append(
-            f"**Case 3 (target 30 s on 2 cores), missed by x{d['serial'] / 2 / 30:.0f} on "
-            f"wall time (x{d['serial_cpu'] / 2 / 30:.0f} on CPU time)**: extrapolated "
+            f"**Case 3 (target 30 s on 2 cores), {verdict}**: extrapolated "
             f"{d['serial'] / 2:.3g} s on 2 ideal cores ({d['serial']:.3g} s serial wall, "
             f"{d['serial_cpu']:.3g} s CPU); the time loop runs at "
             f"{d['kernel_cpu_step'] * 1e6:.1f} us/step CPU for 32 wheels and 20 modes and "
             f"the grid has {d['grid_steps']:,} steps, so the loop alone is "
-            f"{d['kernel_cpu_step'] * d['grid_steps']:.0f} s CPU." + micro + "  What would "
-            "close it (needs <= "
-            f"{60 / d['grid_steps'] * 1e6:.1f} us/step overall): `contact_search` evaluates "
+            f"{d['kernel_cpu_step'] * d['grid_steps']:.0f} s CPU." + micro + "  The target "
+            f"means <= {60 / d['grid_steps'] * 1e6:.1f} us/step overall on 2 cores, with "
+            "nothing left for imperfect parallel scaling on a shared machine or for the "
+            "OpenBLAS default threads (next paragraph).  Where the margin would come from: "
+            "`contact_search` evaluates "
             "phi, phi' and phi'' (3 x 20 values) for every wheel on the span each step and "
             "calls `eval_modes`/`eval_profile` for all 32 wheels - phi alone, and no calls "
             "for wheels far from the span, cut it; `solve_active_set` refactors the active "
@@ -301,7 +308,9 @@ def _findings(suite: SuiteResult) -> list[str]:
     if c5 and c5.data:
         d = c5.data
         out.append(
-            f"**Case 5 (target 5 s warm)**: warm `vsi run` {C.fmt_s(d['warm'])} wall: the "
+            "**Case 5 (target 5 s warm), "
+            + (f"missed by x{d['warm'] / 5:.1f}" if d["warm"] > 5 else "met")
+            + f"**: warm `vsi run` {C.fmt_s(d['warm'])} wall: the "
             f"imports alone (`import vsi_numba.solver.simulate, vsi_numba.config`) take "
             f"{C.fmt_s(d['imports'])}, `vsi --help` {C.fmt_s(d['cli_help'])}, loading the "
             f"kernels from the cache + a tiny run {C.fmt_s(d['warm_up'])}.  Cold (empty "
@@ -311,8 +320,8 @@ def _findings(suite: SuiteResult) -> list[str]:
             "scipy.interpolate/scipy.optimize and xarray to the functions that need them "
             "shortens the warm start; the cold "
             "time is governed by the size of the inlined `time_loop` - shipping a pre-warmed "
-            "cache (or AOT compilation) removes it from the user's first run.  Under the load "
-            "of this machine every figure here is inflated ~2-3x (see cpu/wall).")
+            "cache (or AOT compilation) removes it from the user's first run.  These runs "
+            "use the user's BLAS settings (not the runner's single thread).")
     return out
 
 

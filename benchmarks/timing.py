@@ -23,6 +23,20 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 BLAS_NOTE = ""  # set by benchmarks.__main__ when it fixes the BLAS threads
+BLAS_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+ORIGINAL_BLAS_ENV: dict = {}  # the user's values before limit_blas_threads
+
+
+def user_env() -> dict:
+    """``os.environ`` with the BLAS variables as the user had them (for subprocesses
+    that must behave as a user's command would)."""
+    env = dict(os.environ)
+    for var, val in ORIGINAL_BLAS_ENV.items():
+        if val is None:
+            env.pop(var, None)
+        else:
+            env[var] = val
+    return env
 
 
 def limit_blas_threads(n: int) -> str:
@@ -30,7 +44,8 @@ def limit_blas_threads(n: int) -> str:
     numpy is not imported yet); returns a note for the report."""
     global BLAS_NOTE
     late = "numpy" in sys.modules
-    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    for var in BLAS_VARS:
+        ORIGINAL_BLAS_ENV.setdefault(var, os.environ.get(var))
         os.environ[var] = str(n)
     BLAS_NOTE = (" (set by the runner AFTER numpy was imported: no effect)" if late else
                  " (set by the runner: serial runs, single-threaded linear algebra)")

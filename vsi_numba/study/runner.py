@@ -28,6 +28,7 @@ Exit codes of :func:`sweep_command` (``vsi sweep``)
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 import os
@@ -157,23 +158,29 @@ def model_fingerprint(model: StudyModel) -> str:
     h = hashlib.sha256()
 
     def add(value):
-        if isinstance(value, np.ndarray):
+        if isinstance(value, np.ndarray) and value.dtype.kind in "biufc":
             a = np.ascontiguousarray(value)
             h.update(f"{a.dtype.str}{a.shape}".encode())
             h.update(a.tobytes())
         else:
-            h.update(repr(value).encode())
+            text = repr(value.tolist() if isinstance(value, np.ndarray) else value)
+            if " at 0x" in text:  # an object without a stable repr: its type only
+                text = type(value).__qualname__
+            h.update(text.encode())
 
-    b = model.bridge
-    for name in ("kind", "length", "frequencies", "damping", "nodes", "values", "slopes"):
-        add(getattr(b, name))
-    for t in model.trains:
-        add(t.name)
-        add(np.asarray(t.offsets, float))
-        for v in t.vehicles:
-            for name in ("M", "C", "K", "wheel_dofs", "wheel_positions", "gravity", "body_dof",
-                         "load_positions", "loads"):
-                add(getattr(v, name))
+    def add_fields(obj):
+        if dataclasses.is_dataclass(obj):
+            for f in dataclasses.fields(obj):
+                add(f.name)
+                add_fields(getattr(obj, f.name))
+        elif isinstance(obj, tuple | list):
+            for item in obj:
+                add_fields(item)
+        else:
+            add(obj)
+
+    add_fields(model.bridge)
+    add_fields(model.trains)
     for rid, p in model.profiles.items():
         add(rid)
         add(float(p.x0))

@@ -823,6 +823,7 @@ def plot_scaling(res: CaseResult, path: Path) -> bool:
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
+        import matplotlib.ticker
     except ImportError:
         return False
     curves = res.data.get("curves")
@@ -834,6 +835,9 @@ def plot_scaling(res: CaseResult, path: Path) -> bool:
         ax.loglog(ns, [p["engine"] * 1e6 for p in pts], "o-", label="engine (whole run)")
         ax.loglog(ns, [p["window"] * 1e6 for p in pts], "s--", label="engine (first steps)")
         ax.loglog(ns, [p["baseline"] * 1e6 for p in pts], "^-", label="dense baseline")
+        ax.set_xticks(ns)
+        ax.set_xticklabels([str(n) for n in ns])
+        ax.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())
         ax.set_xlabel("number of modes" if axis == "modes" else "number of cars")
         ax.set_ylabel("CPU time per step (us)")
         ax.grid(True, which="both", alpha=0.3)

@@ -330,7 +330,13 @@ def _train_info(model: StudyModel) -> dict:
     }
 
 
-def _track_type(cfg) -> str:
+def track_type_of(cfg) -> str:
+    """Track type stated by a configuration (``"unspecified"`` when it states none).
+
+    Looked up as ``cfg.track_type``, then ``track_type`` in the resolved ``[bridge]``,
+    ``[track]`` or ``[study]`` tables (or a string ``track``).  The EN 1990 A2 deck
+    acceleration check reads it from the results' ``track_type`` attribute.
+    """
     value = getattr(cfg, "track_type", None)
     if value is None:
         resolved = cfg.resolved() if hasattr(cfg, "resolved") else {}
@@ -342,6 +348,9 @@ def _track_type(cfg) -> str:
             if section == "track" and isinstance(resolved.get("track"), str):
                 value = resolved["track"]
     return "unspecified" if value is None else str(value)
+
+
+_track_type = track_type_of  # used by vsi_numba.solver.run
 
 
 def _global_attrs(model: StudyModel, config_json: str, sha: str, grid: StudyGrid,
@@ -364,7 +373,7 @@ def _global_attrs(model: StudyModel, config_json: str, sha: str, grid: StudyGrid
         ),
         "config_json": config_json,
         "config_sha256": sha,
-        "track_type": _track_type(cfg),
+        "track_type": track_type_of(cfg),
         "bridge_length": float(model.bridge.length),
         "bridge_description": str(model.bridge.description or ""),
         "n_cases": len(grid.cases),

@@ -29,6 +29,13 @@ of the file) | matrices (``stiffness_matrix``, ``mass_matrix`` Matrix Market;
 ``station_map`` CSV; ``fixed_dofs`` [] = supports already applied; ``dof_base`` 0;
 ``rotation_sign`` 1; ``vertical_dofs`` station DOFs, or {start, step}; ``track_line``);
 both: ``spans`` optional (m along the track line; the table must cover their sum).
+``[bridge.track]`` (continuous only; values per track, both rails): ``rail_EI`` (N m^2),
+``rail_mass_per_length`` (kg/m), ``pad_stiffness`` (N/m per sleeper), ``pad_damping``
+(N s/m; 0), ``sleeper_mass`` (kg), ``sleeper_spacing`` (m), ``ballast_stiffness`` (N/m
+per sleeper), ``ballast_damping`` (N s/m; 0), ``rail_elements_per_bay`` (2): a track
+layer assembled with the deck before the modal reduction; the train runs on the rail
+(see :class:`vsi_numba.model.bridge.TrackLayer` for when it is needed and what it costs:
+a warning says how many modes keep 95 % of the rail's static flexibility).
 ``[train]`` exactly one of ``preset`` (library name or list; one train each), ``file``
 (user train TOML, see :func:`vsi_numba.model.library.load_user_trains`) or
 ``[[train.vehicles]]`` (one train, ``name``: default ``title``, else "custom"); ``model`` =

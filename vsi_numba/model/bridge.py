@@ -346,9 +346,10 @@ class TrackLayer:
     -- several hundred modes for a 20-40 m deck -- and then needs dt <= 0.1 / f_max
     (~1e-4 s or less).  :func:`continuous_with_track` reports the share of the static
     rail flexibility under a wheel that the retained modes represent, and how many modes
-    reach 95 %.  The approach track of the kernels is rigid: the rail is pinned (w = 0)
-    at both ends of the deck, so within ~1.5-2 m of each end the track is stiffer than
-    in reality (a transition from rigid to ballasted track).
+    reach 95 %.  The approach track of the kernels is rigid: the rail continues onto it,
+    so it is clamped (w = 0, dw/dx = 0) at both ends of the deck and within ~1.5-2 m of
+    each end the track is stiffer than in reality (a transition from rigid to ballasted
+    track: the wheel-rail forces there show that transition, not the real embankment).
     """
 
     rail_EI: float
@@ -440,7 +441,9 @@ def track_matrices(spans, EI, mass_per_length, elements_per_span, track: TrackLa
         b[2 * e: 2 * e + 4] -= sh
         K += track.ballast_stiffness * np.outer(b, b)
         C += track.ballast_damping * np.outer(b, b)
-    fixed = np.concatenate([fixed_d, [nd, nd + nr - 2]])  # rail pinned at both deck ends
+    # the rail continues onto the (rigid) approach track: w = 0 and dw/dx = 0 at both
+    # deck ends, so the wheel path stays C1 there (no slope jump = no spurious impact)
+    fixed = np.concatenate([fixed_d, [nd, nd + 1, nd + nr - 2, nd + nr - 1]])
     return TrackModel(K, M, C, deck_nodes, rail_nodes, sleepers, nd, nd + nr, fixed,
                       supports)
 

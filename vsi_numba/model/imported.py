@@ -107,6 +107,7 @@ the shape error is about 1e-4 of the amplitude.
 from __future__ import annotations
 
 import math
+import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -1079,24 +1080,27 @@ def read_matrices(
 # ------------------------------------------------------------------------ vsi modes
 
 
-def plot_modes(bridge: _br.ModalBridge, path, title: str = "", per_panel: int = 4):
+def plot_modes(bridge: _br.ModalBridge, path, title: str = "", per_panel: int = 4,
+               max_modes: int = 12):
     """Plot the mode shapes along the track line to ``path`` (PNG, matplotlib Agg).
 
-    One panel per ``per_panel`` modes, stacked; deflection positive down plotted
-    downwards; supports marked; the legend gives each mode's frequency (and effective
-    mass fraction when known).
+    One panel per ``per_panel`` modes, stacked, for the first ``max_modes`` modes;
+    deflection positive down plotted downwards; supports marked; the legend gives each
+    mode's frequency (and effective mass fraction when known).  With a track layer the
+    deck under the rail is drawn dashed.
     """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    n = bridge.n_modes
+    n = min(bridge.n_modes, max_modes)
     n_pan = max(1, math.ceil(n / per_panel))
     fig, axes = plt.subplots(n_pan, 1, figsize=(9.0, 2.4 + 2.2 * n_pan), sharex=True,
                              squeeze=False)
     x = np.linspace(0.0, bridge.length, max(400, 20 * int(bridge.length) + 1))
     phi = bridge.shapes(x)
+    deck = bridge.deck.shapes(x) if getattr(bridge, "deck", None) is not None else None
     eff = getattr(bridge, "effective_mass_fraction", None)
     nodes = bridge.nodes if bridge.kind == _br.HERMITE else np.zeros(0)
     for k in range(n_pan):
@@ -1106,6 +1110,8 @@ def plot_modes(bridge: _br.ModalBridge, path, title: str = "", per_panel: int = 
             if eff is not None and np.isfinite(eff[j]):
                 lab += f", {100 * eff[j]:.1f}% mass"
             line, = ax.plot(x, phi[:, j], lw=1.6, label=lab)
+            if deck is not None:
+                ax.plot(x, deck[:, j], lw=1.0, ls="--", color=line.get_color())
             if 0 < nodes.size <= 400:
                 ax.plot(nodes, bridge.shapes(nodes)[:, j], ".", ms=3, color=line.get_color())
         for s in bridge.supports:
@@ -1119,8 +1125,12 @@ def plot_modes(bridge: _br.ModalBridge, path, title: str = "", per_panel: int = 
     axes[-1, 0].set_xlabel("x along the track line (m)     [dots: table stations / FE nodes; "
                            "triangles: supports]")
     head = title or "Mode shapes along the track"
-    fig.suptitle(f"{head}\n{bridge.description}" if bridge.description else head,
-                 fontsize=9)
+    if bridge.n_modes > n:
+        head += f" (first {n} of {bridge.n_modes} modes)"
+    if deck is not None:
+        head += "; solid: rail, dashed: deck"
+    desc = "\n".join(textwrap.wrap(bridge.description, 120)) if bridge.description else ""
+    fig.suptitle(f"{head}\n{desc}" if desc else head, fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=130)
     plt.close(fig)

@@ -36,11 +36,14 @@ def sweep(
         None, "--scheduler", help="address of an existing Dask scheduler, tcp://HOST:PORT"
     ),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress bar"),
+    fresh: bool = typer.Option(
+        False, "--fresh", help="discard finished cases stored by an earlier run and start over"
+    ),
 ):
     """Sweep speeds x trains x irregularity realisations; resumable."""
     from vsi_numba.study.runner import sweep_command
 
-    raise typer.Exit(sweep_command(config, output, workers, scheduler, quiet))
+    raise typer.Exit(sweep_command(config, output, workers, scheduler, quiet, fresh))
 
 
 @app.command()

@@ -28,12 +28,16 @@ def run_config(cfg, progress=None) -> xr.Dataset:
     """Run every speed of ``cfg`` for its first train and first irregularity realisation."""
     from vsi_numba.solver.simulate import simulate
 
+    from vsi_numba.study.grid import profile_range
+
     bridge = cfg.build_bridge()
-    train = cfg.trains()[0]
+    trains = cfg.trains()
+    train = trains[0]
     settings = cfg.solver_settings()
-    x_start = -settings.approach - train.length - 1.0
-    x_stop = bridge.length + 1.0
-    realisation, profile = cfg.irregularities(x_start, x_stop)[0]
+    # the same track range as `vsi sweep`, so a seed is the same realisation in both
+    x_range = profile_range(bridge.length, [t.length for t in trains], settings.approach,
+                            settings.free_vibration)
+    realisation, profile = cfg.irregularities(*x_range)[0]
     runs = []
     speeds = np.asarray(cfg.speeds_kmh, float)
     for k, v_kmh in enumerate(speeds):

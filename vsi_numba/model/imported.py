@@ -137,6 +137,7 @@ NORMALISATION_TOL = 1e-6  # max |Phi^T M Phi - I|
 END_TOL = 1e-2  # |phi(end)| / max |phi| above this: the shape does not vanish at an end
 COVER_TOL = 1e-4  # relative to the length: stations must reach both ends
 RIGID_BODY_HZ = 1e-3  # a mode below this is a rigid-body mode (missing supports)
+LOW_FREQUENCY_HZ = 0.5  # a first mode below this: units or K/M swapped? (warning)
 MAX_MODES = 1000
 
 
@@ -902,6 +903,11 @@ def modes_from_matrices(
     eff = gamma**2 / m_tot if m_tot > 0 else np.full(n_keep, np.nan)
 
     warnings: list[str] = []
+    if freqs[0] < LOW_FREQUENCY_HZ:
+        warnings.append(f"bridge.stiffness_matrix: the first natural frequency is "
+                        f"{freqs[0]:.3g} Hz, implausibly low for a railway bridge: check the "
+                        f"units (N/m and kg) and that {names['stiffness']} and {names['mass']} "
+                        "are not swapped")
     values = phi[dofs]
     if rot is not None:
         slopes = rotation_sign * phi[rot]
@@ -915,9 +921,9 @@ def modes_from_matrices(
                   f"bridge.rotation_sign = {-int(rotation_sign)}")
             p.raise_if_any()
         if c < 0.9:
-            warnings.append(f"{names['stations']}: the rotation DOFs correlate only {c:.2f} "
-                            "with the slope of the vertical station DOFs (wrong rotation_dof "
-                            "column, or too few stations per mode?)")
+            warnings.append(f"bridge.station_map ({names['stations']}): the rotation DOFs "
+                            f"correlate only {c:.2f} with the slope of the vertical station "
+                            "DOFs (wrong rotation_dof column, or too few stations per mode?)")
     else:
         slopes = _spline_slopes(x, values)
     values, slopes = _flip_positive(values, slopes)
@@ -1174,7 +1180,9 @@ def modes_command(config, output=None) -> int:
             row += [f"{100 * eff[j]:.2f}", f"{100 * cum:.2f}"]
         table.add_row(*row)
     console.print(table)
-    if output is not None:
+    if output is not None and bridge.n_modes == 0:
+        console.print("no modes (rigid track): nothing to plot", highlight=False)
+    elif output is not None:
         plot_modes(bridge, output, title=cfg.title)
         console.print(f"mode shapes plotted to {output}", highlight=False)
     return 0

@@ -195,7 +195,8 @@ def test_config__missing_required_key():
                                      "'hertz', 'hertz_linear'"),
         ("bridge.kind", "simply_suported", 'bridge.kind = "simply_suported": expected one of '
                                            "'simply_supported', 'continuous', 'rigid', "
-                                           "'modes_file' (did you mean 'simply_supported'?)"),
+                                           "'modes_file', 'matrices' (did you mean "
+                                           "'simply_supported'?)"),
     ],
 )
 def test_config__bad_values(path, value, expected):
@@ -459,13 +460,12 @@ vehicle_offsets = [0.0, 25.0]
         library.clear_user_trains()
 
 
-def test_config__modes_file_is_reserved(tmp_path):
+def test_config__modes_file_must_be_a_readable_table(tmp_path):
     (tmp_path / "modes.nc").write_bytes(b"")
     data = with_("bridge", {"kind": "modes_file", "file": "modes.nc", "spans": [25.0]})
-    cfg = load_config(data, base_dir=tmp_path)
-    with pytest.raises(ConfigError, match="bridge.kind = 'modes_file' is not supported by this "
-                                          "version"):
-        cfg.build_bridge()
+    msg = one_error(data, base_dir=tmp_path)
+    assert msg.startswith('bridge.file = "modes.nc": expected a netCDF or CSV modes table '
+                          "(the file is empty)"), msg
     msg = one_error(data, base_dir=tmp_path / "elsewhere")
     assert msg.startswith('bridge.file = "modes.nc": expected an existing file')
 
@@ -552,13 +552,13 @@ def test_config__hash_stable_and_sensitive(tmp_path):
     assert changed != text
     assert load_config(write(tmp_path, changed, "d.toml")).sha256 != a.sha256
     # defaults are explicit: writing a default value gives the same hash
-    explicit = text.replace("[solver]", "[solver]\nhht_alpha = -0.1\nmax_iterations = 50")
+    explicit = text.replace("[solver]", "[solver]\nhht_alpha = -0.3\nmax_iterations = 50")
     assert load_config(write(tmp_path, explicit, "e.toml")).sha256 == a.sha256
 
 
 def test_config__resolved_fills_defaults():
     r = load_config(base()).resolved()
-    assert r["solver"]["hht_alpha"] == -0.1 and r["solver"]["approach"] == 5.0
+    assert r["solver"]["hht_alpha"] == -0.3 and r["solver"]["approach"] == 5.0
     assert r["irregularity"] == {"kind": "none"}
     assert r["contact"] == {"model": "rigid"}
     assert r["bridge"]["output_points"] == [12.5]

@@ -399,7 +399,7 @@ def to_dataset(bridge, train, packed, profile, settings, points, status, reached
     dt = settings.dt
     n = packed.params.n_steps + 1
     time = np.arange(n) * dt
-    phi_p = bridge.shapes(points)
+    phi_p = bridge.output_shapes(points)  # the deck line (not the rail of a track layer)
     cutoff = settings.acceleration_cutoff
     if cutoff is None:
         cutoff = acceleration_cutoff(bridge.frequencies)
@@ -514,7 +514,7 @@ def static_deck_envelope(bridge: ModalBridge, train: Train, output_points, step:
     x = fronts[:, None] - pos[None, :]
     phi_k = bridge.shapes(x.ravel()).reshape(x.shape + (bridge.n_modes,))
     modal = np.einsum("fkj,k->fj", phi_k, Q) / bridge.omega**2
-    w = modal @ bridge.shapes(points).T
+    w = modal @ bridge.output_shapes(points).T
     return np.max(np.abs(w), axis=0)
 
 

@@ -440,12 +440,15 @@ def _per_span(chk, tbl, path, key, expected, n_spans):
     return v
 
 
+TRACK_TYPES = ("ballasted", "direct_fastening")
+
+
 def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeSpec | _Sentinel:
     path = "bridge"
     allowed_all = {
         "kind", "spans", "EI", "mass_per_length", "damping_ratio", "n_modes",
         "max_frequency", "elements_per_span", "output_points", "file", *_IMPORT_KEYS,
-        "track",
+        "track", "track_type",
     }
     if not isinstance(d, Mapping):
         return chk.error(path, d, "a table [bridge] with kind, spans, EI, mass_per_length")
@@ -464,6 +467,8 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
     if kind is _BAD:
         chk.table(d, path, allowed_all)
         return _BAD
+    for k in used:
+        used[k] = used[k] | {"track_type"}
     ignored = {k: f"not used by bridge.kind = '{kind}'" for k in allowed_all - used[kind]}
     ignored.pop("track", None)
     chk.table(d, path, used[kind], ignored=ignored, elsewhere={"track": (
@@ -496,6 +501,8 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
     length = float(sum(spans)) if isinstance(spans, list) else None
 
     res: dict[str, Any] = {"kind": kind}
+    # EN 1990 A2.4.4.2.1(4)P: the deck-acceleration limit depends on the track form
+    res["track_type"] = chk.choice(d, path, "track_type", TRACK_TYPES, default="ballasted")
     if isinstance(spans, list):
         res["spans"] = spans
     flexible = kind in ("simply_supported", "continuous")
@@ -1580,6 +1587,11 @@ class Config:
         """Speeds (km/h) whose time histories are kept; None = every speed."""
         h = self._study.get("history_speeds_kmh")
         return None if h is None else np.asarray(h, float)
+
+    @property
+    def track_type(self) -> str:
+        """Track form on the deck: 'ballasted' (3.5 m/s2) or 'direct_fastening' (5 m/s2)."""
+        return self._resolved["bridge"].get("track_type", "ballasted")
 
     @property
     def contact_model(self) -> str:

@@ -280,12 +280,17 @@ def _findings(suite: SuiteResult) -> list[str]:
         be = c3.data["blas"]
         d0, d1 = be.get("default"), be.get("1")
         if d0 and d1 and d0[0] == d0[0] and d1[0] == d1[0]:
+            ratio = d0[0] / max(d1[0], 1e-12)
             out.append(
-                f"**BLAS threading (all cases that run `simulate`)**: in a fresh process "
-                f"with the OpenBLAS default threads, `initial_state` of the ICE3 takes "
+                f"**BLAS threading (all cases that run `simulate`)**: in this run, in a fresh "
+                f"process with the OpenBLAS default threads, `initial_state` of the ICE3 took "
                 f"{C.fmt_s(d0[0])} and a whole simulate() {C.fmt_s(d0[1])}; with "
                 f"OPENBLAS_NUM_THREADS=1 {C.fmt_s(d1[0])} and {C.fmt_s(d1[1])} "
-                f"(x{d0[0] / max(d1[0], 1e-12):.0f} on the static start).  The dense "
+                f"(x{ratio:.1f} on the static start, load {d0[2]:.1f}).  The effect depends "
+                "on what else runs: while this suite was developed (2026-11-21, load 3-7 on "
+                "the 2 cores) the same probe gave 500-550 ms against 0.9 ms (x540) and a "
+                "whole ICE3 simulate() of 0.8-1.1 s against 0.08-0.16 s; the dense baseline "
+                "went from ~1 ms to 55-77 ms per step at 40-80 modes.  The dense "
                 "`np.linalg` solves of the wrapper (`initial_state`, `static_wheel_loads`: "
                 "global KKT systems of ~110 unknowns) hit OpenBLAS's threading, whose "
                 "threads spin and wait for each other when the cores are shared.  Fix in "

@@ -272,3 +272,36 @@ def test_hht__algorithmic_damping_of_bridge_modes_is_negligible():
     # (an algorithmic damping ratio of 1e-5 would lose 0.1 %; sampling the peaks at
     # dt = 1 ms adds at most (2 pi f dt)^2 / 2 = 0.06 %)
     assert abs(last / first - 1.0) < 1e-3
+
+
+def test_failure__huge_profile_step_is_survived_or_flagged():
+    from vsi_numba.model.irregularity import step_defect
+
+    car = vh.railway_car(**ICE_CAR)
+    # a 10 cm drop of the rail over 5 cm of track: every wheel flies and lands hard
+    prof = step_defect(0.10, 0.05, 3.0, x_stop=60.0)
+    ds = sm.simulate(br.simply_supported(20.0, 5e10, 1.5e4, n_modes=3),
+                     vh.Train("car", (car,), (0.0,)), 40.0, profile=prof,
+                     settings=SolverSettings(dt=1e-3, free_vibration=0.2))
+    if ds.attrs["status"] == 0:
+        assert np.all(np.isfinite(ds.contact_force))
+        assert float(ds.contact_loss_duration.max()) > 0.0  # the wheels did lift off
+        assert np.all(ds.contact_force >= 0.0)  # unilateral: never a pulling wheel
+    else:  # flagged: then masked, with a message
+        assert np.all(np.isnan(ds.max_contact_force))
+        assert ds.attrs["message"] != "ok"
+
+
+def test_failure__absurd_dt_warns_with_the_ratio():
+    from vsi_numba.config import load_config
+
+    cfg = load_config({
+        "bridge": {"kind": "simply_supported", "spans": [25.0], "EI": 8.323e9,
+                   "mass_per_length": 2303.0, "n_modes": 3},
+        "train": {"vehicles": [{"kind": "sprung_mass", "mass": 5750.0,
+                                "stiffness": 1.595e6}]},
+        "solver": {"dt": 0.2},
+        "study": {"speeds_kmh": [100.0]},
+    })
+    [w] = [w for w in cfg.warnings if "bridge mode" in w]
+    assert "solver.dt" in w and "8.6" in w  # 0.2 s x 43 Hz = 8.6 steps short of 1/period

@@ -304,4 +304,4 @@ def test_failure__absurd_dt_warns_with_the_ratio():
         "study": {"speeds_kmh": [100.0]},
     })
     [w] = [w for w in cfg.warnings if "bridge mode" in w]
-    assert "solver.dt" in w and "8.6" in w  # 0.2 s x 43 Hz = 8.6 steps short of 1/period
+    assert "solver.dt" in w and "8.6" in w  # dt x f3 = 0.2 s x 43 Hz = 8.6

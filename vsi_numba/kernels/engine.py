@@ -239,7 +239,7 @@ def eval_profile(pr, x, out):
     out[2] = 2.0 * c2 + 6.0 * s * c3
 
 
-@njit
+@njit(inline="always")
 def contact_search(br, veh, pr, t, speed, wk):
     """Position every wheel at time ``t``: on/off the bridge, mode values, irregularity."""
     n_w = veh.wheel_dof.shape[0]
@@ -249,21 +249,25 @@ def contact_search(br, veh, pr, t, speed, wk):
         eval_profile(pr, x, wk.rr[i])
 
 
-@njit
+@njit(inline="always")
 def assemble_loads(br, veh, t, speed, fq, scratch, scratch2, scratch3):
     """Modal load vector of the point loads (moving forces) at time ``t``."""
     n_m = fq.shape[0]
     for j in range(n_m):
         fq[j] = 0.0
+    if br.kind == 0 or n_m == 0:
+        return
     for k in range(veh.load_x0.shape[0]):
         x = veh.load_x0[k] + speed * t
-        if eval_modes(br, x, scratch, scratch2, scratch3):
-            p = veh.load_p[k]
-            for j in range(n_m):
-                fq[j] += p * scratch[j]
+        if x < 0.0 or x > br.length:
+            continue  # off the bridge: no modal load
+        eval_modes(br, x, scratch, scratch2, scratch3)
+        p = veh.load_p[k]
+        for j in range(n_m):
+            fq[j] += p * scratch[j]
 
 
-@njit
+@njit(inline="always")
 def block_matvec(veh, A, x, y, accumulate, scale):
     """y (+)= scale * blockdiag(A) x over the vehicle DOFs."""
     n_veh = veh.start.shape[0] - 1
@@ -316,7 +320,7 @@ def cholesky_solve(A, idx, m, Lw, b, x):
     return 0
 
 
-@njit
+@njit(inline="always")
 def contact_profile(veh, wk, m):
     """Envelope of the active Schur block: ``wk.first[a]`` is the first active position
     coupled to active position ``a`` (same vehicle, or both wheels on the bridge).
@@ -371,7 +375,7 @@ def skyline_cholesky_solve(A, idx, m, first, Lw, b, x):
     return 0
 
 
-@njit
+@njit(inline="always")
 def build_schur(veh, wk, khat_q, A):
     """S_ik = B_i K^-1 B_k^T for all wheel pairs (or B_i M^-1 B_k^T with ``A = M_inv``
     and unit modal masses in ``khat_q``).
@@ -621,7 +625,7 @@ def consistent_accelerations(br, veh, wk, st, speed, scale):
 # --------------------------------------------------------------------------- time loop
 
 
-@njit
+@njit(inline="always")
 def update_force_totals(br, veh, wk, st):
     """Total modal and vehicle forces at the new time (external loads + contact)."""
     n_m = st.q.shape[0]
@@ -777,7 +781,7 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
     return OK, iters
 
 
-@njit
+@njit(inline="always")
 def copy_state(src, dst):
     dst.q[:] = src.q
     dst.qd[:] = src.qd
@@ -790,7 +794,7 @@ def copy_state(src, dst):
     dst.X[:] = src.X
 
 
-@njit
+@njit(inline="always")
 def state_is_finite(st):
     s = 0.0
     for j in range(st.q.shape[0]):
@@ -800,7 +804,7 @@ def state_is_finite(st):
     return np.isfinite(s)
 
 
-@njit
+@njit(inline="always")
 def record(veh, st, wk, out, n, iters):
     for j in range(st.q.shape[0]):
         out.q[n, j] = st.q[j]

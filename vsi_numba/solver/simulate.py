@@ -448,21 +448,21 @@ def to_dataset(bridge, train, packed, profile, settings, points, status, reached
             data[k] = np.full_like(np.asarray(data[k], float), np.nan)
     from vsi_numba.io.schema import ENVELOPES, HISTORIES
 
-    ds = xr.Dataset(
-        coords={
-            "point": ("point", points, attrs_for("point")),
-            "wheel": ("wheel", np.arange(wheel_pos.size), attrs_for("wheel")),
-            "vehicle": ("vehicle", np.arange(body_acc.shape[1]), attrs_for("vehicle")),
-            "wheel_position": ("wheel", wheel_pos, attrs_for("wheel_position")),
-            "static_wheel_load": ("wheel", Q0, attrs_for("static_wheel_load")),
-        }
-    )
-    ds["vehicle_name"] = ("vehicle", np.array(packed.vehicle_names, dtype=str),
-                          {"long_name": "vehicle name", "units": "1"})
+    coords = {
+        "point": ("point", points, attrs_for("point")),
+        "wheel": ("wheel", np.arange(wheel_pos.size), attrs_for("wheel")),
+        "vehicle": ("vehicle", np.arange(body_acc.shape[1]), attrs_for("vehicle")),
+        "wheel_position": ("wheel", wheel_pos, attrs_for("wheel_position")),
+        "static_wheel_load": ("wheel", Q0, attrs_for("static_wheel_load")),
+    }
+    variables = {
+        "vehicle_name": ("vehicle", np.array(packed.vehicle_names, dtype=str),
+                         {"long_name": "vehicle name", "units": "1"}),
+    }
     for name, val in data.items():
-        ds[name] = (ENVELOPES[name][0], np.asarray(val, float), attrs_for(name))
+        variables[name] = (ENVELOPES[name][0], np.asarray(val, float), attrs_for(name))
     if save_histories:
-        ds = ds.assign_coords(time=("time", time, attrs_for("time")))
+        coords["time"] = ("time", time, attrs_for("time"))
         hist = {
             "deck_displacement": disp,
             "deck_acceleration": acc,
@@ -471,10 +471,13 @@ def to_dataset(bridge, train, packed, profile, settings, points, status, reached
             "carbody_acceleration": body_acc,
         }
         for name, val in hist.items():
-            ds[name] = (HISTORIES[name][0], val, attrs_for(name))
-    ds["status"] = ((), np.int32(status), attrs_for("status"))
-    ds["max_iterations"] = ((), np.int32(np.abs(out.iters).max(initial=0)),
-                            attrs_for("max_iterations"))
+            variables[name] = (HISTORIES[name][0], val, attrs_for(name))
+    variables["status"] = ((), np.int32(status), attrs_for("status"))
+    variables["max_iterations"] = ((), np.int32(np.abs(out.iters).max(initial=0)),
+                                   attrs_for("max_iterations"))
+    # one constructor call: assigning variables one by one re-aligns the whole
+    # dataset each time and cost more than the time loop of a short run
+    ds = xr.Dataset(variables, coords=coords)
     message = STATUS_MESSAGES[status]
     if status != ek.OK:
         message += f" at t = {reached * dt:.6g} s (step {reached})"

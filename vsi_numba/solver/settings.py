@@ -67,7 +67,9 @@ class SolverSettings:
         Schur system); or its linearisation at each wheel's static load,
         ``k_H = 3 N0^(1/3) / (2 G)`` (valid while N stays near N0).
     hertz_coefficient : float
-        Hertz constant G (m N^-2/3) of ``contact_model = "hertz"``.
+        Hertz constant G (m N^-2/3) of ``contact_model = "hertz"``, applied to the contact
+        force as the vehicle model carries it.  The planar railway cars carry whole-axle
+        forces (two wheels), so use ``G_axle = G_wheel / 2^(2/3)``.
     """
 
     dt: float = 1e-3

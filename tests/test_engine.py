@@ -123,8 +123,9 @@ def test_solve_active_set__is_the_lcp_solution(seed):
     S = A @ A.T * 1e-9 + np.eye(n) * 1e-9
     gstar = rng.normal(size=n) * 1e-4
     scale = 0.9
-    veh = ek.VehicleArrays(*([np.zeros(1)] * 7), wheel_dof=np.arange(n), wheel_veh=np.zeros(n, np.int64),
-                           wheel_x0=np.zeros(n), wheel_massless=np.zeros(n, np.int64),
+    veh = ek.VehicleArrays(*([np.zeros(1)] * 7), wheel_dof=np.arange(n),
+                           wheel_veh=np.zeros(n, np.int64), wheel_x0=np.zeros(n),
+                           wheel_massless=np.zeros(n, np.int64),
                            wheel_compliance=np.zeros(n), body_dof=np.zeros(0, np.int64),
                            load_x0=np.zeros(0), load_p=np.zeros(0))
     wk = sm._workspace(1, 1, n)

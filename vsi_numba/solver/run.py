@@ -27,7 +27,6 @@ def _source() -> str:
 def run_config(cfg, progress=None) -> xr.Dataset:
     """Run every speed of ``cfg`` for its first train and first irregularity realisation."""
     from vsi_numba.solver.simulate import simulate
-
     from vsi_numba.study.grid import profile_range
 
     bridge = cfg.build_bridge()

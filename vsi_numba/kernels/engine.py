@@ -592,7 +592,8 @@ def consistent_accelerations(br, veh, wk, st, speed, scale):
             c = speed * speed * wk.rr[i, 2]
             for j in range(n_m):
                 ga -= wk.phi[i, j] * st.qdd[j]
-                c += speed * speed * wk.d2phi[i, j] * st.q[j] + 2.0 * speed * wk.dphi[i, j] * st.qd[j]
+                c += (speed * speed * wk.d2phi[i, j] * st.q[j]
+                      + 2.0 * speed * wk.dphi[i, j] * st.qd[j])
             wk.idx[m] = i
             wk.rhs[m] = (ga - c) / scale
             m += 1

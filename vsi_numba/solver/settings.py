@@ -47,7 +47,7 @@ class SolverSettings:
         forces after abrupt changes of rail curvature (spectral radius at infinity
         (1 + alpha)/(1 - alpha) = 0.54, against 0.82 for -0.1, so a spurious one-step
         lift-off is much less likely) while its algorithmic damping of the bridge and
-        vehicle modes is negligible (O((w dt)^3): below 0.01 % of critical for 30 Hz at
+        vehicle modes is negligible (O((w dt)^3): about 0.01 % of critical for 30 Hz at
         dt = 1 ms; see tests/test_engine.py).
     approach : float
         Length of track ahead of the bridge (m): the first axle starts at x = -approach.

@@ -3,7 +3,10 @@
 Every backend calls the same picklable function ``fn(config_json, case)`` and yields
 ``(case, result)`` pairs as cases finish (in completion order), ``result`` being the
 function's return value or the exception it raised.  The parent process alone writes the
-results, so workers need no shared file system (a remote Dask cluster works).
+results, so workers never write to a shared file system.  They do rebuild the model from
+the config, so on a remote Dask cluster the files a config names (imported bridge,
+profile CSV, user train file) must exist at the same absolute paths on every worker, and
+the workers should set their own ``NUMBA_CACHE_DIR``.
 
 * ``SerialBackend`` - in this process, in grid order.
 * ``ProcessBackend`` - ``concurrent.futures.ProcessPoolExecutor`` with the **spawn**

@@ -39,11 +39,22 @@ def sweep(
     fresh: bool = typer.Option(
         False, "--fresh", help="discard finished cases stored by an earlier run and start over"
     ),
+    report_dir: Path | None = typer.Option(
+        None, "--report", help="then write the report of the results into this directory"
+    ),
 ):
     """Sweep speeds x trains x irregularity realisations; resumable."""
     from vsi_numba.study.runner import sweep_command
 
-    raise typer.Exit(sweep_command(config, output, workers, scheduler, quiet, fresh))
+    code = sweep_command(config, output, workers, scheduler, quiet, fresh)
+    if report_dir is not None and code in (0, 1):  # 1: written, some cases flagged
+        from vsi_numba.analysis.report import report_command
+        from vsi_numba.config import load_config
+
+        results = output if output is not None else load_config(config).output_path
+        rc = report_command(Path(results), report_dir)
+        code = code or rc
+    raise typer.Exit(code)
 
 
 @app.command()

@@ -119,7 +119,16 @@ def _fsync_dir(directory: Path) -> None:
 def _temp_path(path: Path) -> Path:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
+    _default_mode(tmp)
     return Path(tmp)
+
+
+def _default_mode(path) -> None:
+    """Give a temporary file the mode of a normally created one (0666 & ~umask):
+    mkstemp makes it private (0600), and the rename would keep that."""
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(path, 0o666 & ~umask)
 
 
 def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:

@@ -117,6 +117,9 @@ def write_netcdf(ds: xr.Dataset, path: Path) -> Path:
                 encoding[name].update(zlib=True, complevel=4)
     fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
     os.close(fd)
+    from vsi_numba.io.netcdf import _default_mode
+
+    _default_mode(tmp)
     try:
         ds.to_netcdf(tmp, encoding=encoding, format="NETCDF4")
         os.replace(tmp, path)

@@ -88,6 +88,17 @@ def report(
     raise typer.Exit(report_command(results, outdir))
 
 
+@app.command()
+def profile(
+    config: Path = typer.Argument(..., help="TOML configuration file"),
+    plot: Path | None = typer.Option(None, "--plot", help="draw the profiles into this PNG"),
+):
+    """Show the track irregularity profiles a configuration would use."""
+    from vsi_numba.model.irregularity_plot import profile_command
+
+    raise typer.Exit(profile_command(config, plot))
+
+
 def main():  # pragma: no cover - console entry
     app()
 

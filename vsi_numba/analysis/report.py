@@ -247,12 +247,24 @@ def _deck_end_note(ds: xr.Dataset, reach: float = 1.0) -> list[str]:
     at_end = ok & ((np.abs(x) <= reach) | (np.abs(x - float(length)) <= reach))
     if not at_end.any():
         return []
+    import json
+
+    try:
+        contact = json.loads(ds.attrs.get("config_json", "{}")).get("contact", {})
+        model = contact.get("model", "rigid")
+    except (TypeError, ValueError, AttributeError):
+        model = "rigid"
+    if model == "rigid":
+        advice = ("the minimum there depends on it and, with rigid contact (an impact at the "
+                  "kink), on dt. Check it with Hertz contact (`[contact] model = \"hertz\"`) "
+                  "or a track layer.")
+    else:
+        advice = ("the Hertz contact softens the impact at the kink, but the minimum there "
+                  "still depends on this idealisation; a track layer models the transition.")
     return [f"> **Note:** {int(at_end.sum())} of the {int(ok.sum())} wheel records with "
             f"ΔQ/Q₀ > 0.3 have their minimum contact force within {reach:g} m of a deck end. "
             "There the deflected deck meets rigid approach track with a kink in the rail, an "
-            "idealisation of the transition: the minimum there depends on it and, with rigid "
-            "contact (an impact at the kink), on dt. Check it with Hertz contact (`[contact] "
-            "model = \"hertz\"`) or a track layer.", ""]
+            f"idealisation of the transition: {advice}", ""]
 
 
 def _trains(ds: xr.Dataset) -> list[str]:

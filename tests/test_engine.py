@@ -88,17 +88,18 @@ def test_profile__spline_is_c2():
 # ------------------------------------------------------------------------ Schur solve
 
 
-def test_cholesky_solve__matches_numpy():
+def test_cholesky_solve__dense_envelope_matches_numpy():
     rng = np.random.default_rng(3)
     A = rng.normal(size=(7, 7))
     A = A @ A.T + 7 * np.eye(7)
     idx = np.array([5, 1, 3, 0, 0, 0, 0])
+    first = np.zeros(7, np.int64)  # the full envelope: a dense factorisation
     b = rng.normal(size=7)
     x = np.zeros(7)
-    assert ek.cholesky_solve(A, idx, 3, np.zeros((7, 7)), b, x) == 0
+    assert ek.skyline_cholesky_solve(A, idx, 3, first, np.zeros((7, 7)), b, x) == 0
     sub = A[np.ix_(idx[:3], idx[:3])]
     np.testing.assert_allclose(x[:3], np.linalg.solve(sub, b[:3]), rtol=1e-12)
-    assert ek.cholesky_solve(-A, idx, 3, np.zeros((7, 7)), b, x) == 1  # not SPD
+    assert ek.skyline_cholesky_solve(-A, idx, 3, first, np.zeros((7, 7)), b, x) == 1  # not SPD
 
 
 def _brute_force_lcp(S, gstar, scale):

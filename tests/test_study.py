@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
+from study_trains import TRAINS_TOML
 
 from vsi_numba.config import ConfigError, load_config
 from vsi_numba.io.netcdf import open_results
@@ -34,33 +35,6 @@ from vsi_numba.study.runner import (
     sweep_command,
 )
 from vsi_numba.study.store import StoreMismatchError, store_path
-
-TRAINS_TOML = """
-[[vehicle]]
-id = "minicar"
-bogie_spacing = 6.0
-wheelbase = 2.0
-[vehicle.whole]
-body_mass = 30000.0
-body_pitch_inertia = 1.0e6
-bogie_mass = 2000.0
-bogie_pitch_inertia = 1500.0
-wheelset_mass = 1500.0
-primary_stiffness = 2.0e6
-primary_damping = 3.0e4
-secondary_stiffness = 6.0e5
-secondary_damping = 2.0e4
-
-[[train]]
-id = "one-car"
-vehicles = ["minicar"]
-
-[[train]]
-id = "two-cars"
-vehicles = ["minicar", "minicar"]
-vehicle_offsets = [0.0, 12.0]
-junctions = ["coupled"]
-"""
 
 
 def write_study(directory: Path, speeds=(100.0, 150.0, 200.0), history=(150.0,),

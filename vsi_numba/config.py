@@ -1855,3 +1855,14 @@ def _physics_warnings(chk, bridge, train, irr, solver, study, contact):
         if steps > 2e7:
             chk.warn(f"solver.dt = {dt:g} s: the slowest run needs about {steps:.3g} time "
                      "steps; check the time step")
+
+
+def load_config_for_cli(path, console) -> Config | None:
+    """``load_config`` for a command: on a config error print every message on
+    ``console`` (a rich Console) and return None (the command then exits with 2)."""
+    try:
+        return load_config(path)
+    except ConfigError as exc:
+        console.print(f"[bold red]error[/]: {path}: invalid configuration", highlight=False)
+        console.print(str(exc), highlight=False, markup=False)
+        return None

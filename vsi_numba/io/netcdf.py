@@ -131,18 +131,13 @@ def _default_mode(path) -> None:
     os.chmod(path, 0o666 & ~umask)
 
 
-def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically (temp file in the same directory + rename).
-
-    Raises ``OSError`` (e.g. ``PermissionError``, ``ENOSPC``); the temp file is removed and
-    an existing ``path`` is left untouched.
-    """
-    path = Path(path)
+def _replace_atomically(path: Path, write) -> Path:
+    """Call ``write(tmp)`` on a temporary file beside ``path``, flush it to disk and
+    rename it over ``path``; on any error the temp file goes and ``path`` is untouched."""
     tmp = _temp_path(path)
     try:
-        with open(tmp, "wb") as f:
-            f.write(data)
-            f.flush()
+        write(tmp)
+        with open(tmp, "rb+") as f:
             os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException:
@@ -150,6 +145,15 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
         raise
     _fsync_dir(path.parent)
     return path
+
+
+def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically (temp file in the same directory + rename).
+
+    Raises ``OSError`` (e.g. ``PermissionError``, ``ENOSPC``); the temp file is removed and
+    an existing ``path`` is left untouched.
+    """
+    return _replace_atomically(Path(path), lambda tmp: tmp.write_bytes(data))
 
 
 def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> Path:
@@ -161,20 +165,14 @@ def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> Path:
     """
     path = Path(path)
     ds = ds.drop_encoding()
-    tmp = _temp_path(path)
-    try:
+
+    def write(tmp):
         try:
             ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding_for(ds))
         except RuntimeError as exc:  # HDF5/netCDF-C errors (disk full, quota, ...)
             raise OSError(f"cannot write {path}: {exc}") from exc
-        with open(tmp, "rb+") as f:
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    _fsync_dir(path.parent)
-    return path
+
+    return _replace_atomically(path, write)
 
 
 def open_results(path: str | os.PathLike) -> xr.Dataset:

@@ -287,39 +287,6 @@ def block_matvec(veh, A, x, y, accumulate, scale):
 # ------------------------------------------------------------------------ Schur solve
 
 
-@njit
-def cholesky_solve(A, idx, m, Lw, b, x):
-    """Solve A[idx, idx] x = b for the ``m`` indices in ``idx`` by dense Cholesky.
-
-    ``b`` and ``x`` are indexed 0..m-1.  Returns 0, or 1 if the block is not positive
-    definite.
-    """
-    for i in range(m):
-        ii = idx[i]
-        for j in range(i + 1):
-            jj = idx[j]
-            s = A[ii, jj]
-            for k in range(j):
-                s -= Lw[i, k] * Lw[j, k]
-            if i == j:
-                if s <= 0.0:
-                    return 1
-                Lw[i, i] = np.sqrt(s)
-            else:
-                Lw[i, j] = s / Lw[j, j]
-    for i in range(m):
-        s = b[i]
-        for k in range(i):
-            s -= Lw[i, k] * x[k]
-        x[i] = s / Lw[i, i]
-    for i in range(m - 1, -1, -1):
-        s = x[i]
-        for k in range(i + 1, m):
-            s -= Lw[k, i] * x[k]
-        x[i] = s / Lw[i, i]
-    return 0
-
-
 @njit(inline="always")
 def contact_profile(veh, wk, m):
     """Envelope of the active Schur block: ``wk.first[a]`` is the first active position
@@ -342,10 +309,12 @@ def contact_profile(veh, wk, m):
 
 @njit
 def skyline_cholesky_solve(A, idx, m, first, Lw, b, x):
-    """``cholesky_solve`` restricted to the envelope ``first`` (see contact_profile).
+    """Solve A[idx, idx] x = b for the ``m`` indices in ``idx`` by Cholesky, within the
+    envelope ``first`` (see contact_profile; ``first = 0`` is the dense factorisation).
 
     Cholesky keeps the envelope of a symmetric matrix, so entries left of ``first`` are
-    zero in the factor too and are never touched.  Returns 0, or 1 if not SPD.
+    zero in the factor too and are never touched.  ``b`` and ``x`` are indexed 0..m-1.
+    Returns 0, or 1 if the block is not positive definite.
     """
     for i in range(m):
         ii = idx[i]

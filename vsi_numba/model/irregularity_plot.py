@@ -16,15 +16,12 @@ def profile_command(config: Path, plot: Path | None) -> int:
     from rich.console import Console
     from rich.table import Table
 
-    from vsi_numba.config import ConfigError, load_config
+    from vsi_numba.config import load_config_for_cli
     from vsi_numba.study.grid import profile_range
 
     out, err = Console(), Console(stderr=True)
-    try:
-        cfg = load_config(config)
-    except ConfigError as exc:
-        err.print(f"[bold red]error[/]: {config}: invalid configuration", highlight=False)
-        err.print(str(exc), highlight=False, markup=False)
+    cfg = load_config_for_cli(config, err)
+    if cfg is None:
         return 2
     bridge = cfg.build_bridge()
     trains = cfg.trains()

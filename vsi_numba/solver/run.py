@@ -5,9 +5,7 @@ parallel workers and resume, is ``vsi sweep`` (``vsi_numba.study``)."""
 from __future__ import annotations
 
 import datetime as _dt
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +26,7 @@ def run_config(cfg, progress=None) -> xr.Dataset:
     """Run every speed of ``cfg`` for its first train and first irregularity realisation."""
     from vsi_numba.solver.simulate import simulate
     from vsi_numba.study.grid import profile_range
+    from vsi_numba.study.runner import track_type_of
 
     bridge = cfg.build_bridge()
     trains = cfg.trains()
@@ -89,59 +88,21 @@ def run_config(cfg, progress=None) -> xr.Dataset:
         "dt": float(settings.dt),
         "hht_alpha": float(settings.hht_alpha),
         "failed_cases": int(sum(s != 0 for s in status)),
-        "track_type": _track_type(cfg),
+        "track_type": track_type_of(cfg),
     }
     return out
-
-
-def _track_type(cfg) -> str:
-    from vsi_numba.study.runner import _track_type as study_track_type
-
-    return study_track_type(cfg)
-
-
-def write_netcdf(ds: xr.Dataset, path: Path) -> Path:
-    """Write ``ds`` atomically (temporary file in the same directory, then rename)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    encoding = {}
-    for name, var in ds.data_vars.items():
-        if var.dtype.kind == "f":
-            enc = {"_FillValue": np.nan}
-            if "time" in var.dims:
-                enc.update(zlib=True, complevel=4, shuffle=True, dtype="float32")
-            encoding[name] = enc
-        elif var.dtype.kind in "iu":
-            encoding[name] = {"_FillValue": None}
-            if "time" in var.dims:
-                encoding[name].update(zlib=True, complevel=4)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    from vsi_numba.io.netcdf import _default_mode
-
-    _default_mode(tmp)
-    try:
-        ds.to_netcdf(tmp, encoding=encoding, format="NETCDF4")
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
 
 
 def run_command(config: Path, output: Path | None, quiet: bool) -> int:
     """Entry of ``vsi run``; returns the process exit code."""
     from rich.console import Console
 
-    from vsi_numba.config import ConfigError, load_config
+    from vsi_numba.config import load_config_for_cli
+    from vsi_numba.io.netcdf import write_netcdf
 
     err = Console(stderr=True)
-    try:
-        cfg = load_config(config)
-    except ConfigError as exc:
-        err.print(f"[bold red]error[/]: {config}: invalid configuration", highlight=False)
-        err.print(str(exc), highlight=False, markup=False)
+    cfg = load_config_for_cli(config, err)
+    if cfg is None:
         return 2
     for w in cfg.warnings:
         err.print(f"[yellow]warning[/]: {w}", highlight=False)

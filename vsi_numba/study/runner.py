@@ -350,7 +350,6 @@ def track_type_of(cfg) -> str:
     return "unspecified" if value is None else str(value)
 
 
-_track_type = track_type_of  # used by vsi_numba.solver.run
 
 
 def _global_attrs(model: StudyModel, config_json: str, sha: str, grid: StudyGrid,

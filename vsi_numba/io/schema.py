@@ -59,8 +59,20 @@ ENVELOPES = {
         {"cell_methods": "time: maximum"},
     ),
     "contact_loss_duration": (
-        ("wheel",), "s", "total time the wheel is separated from the rail",
+        ("wheel",), "s", "total time the wheel is separated from the rail (all events)",
         {"cell_methods": "time: sum"},
+    ),
+    "longest_contact_loss": (
+        ("wheel",), "s", "duration of the longest single separation of the wheel from the rail",
+        {"cell_methods": "time: maximum"},
+    ),
+    "contact_loss_events": (
+        ("wheel",), "1", "number of separations of the wheel from the rail", {},
+    ),
+    "single_step_contact_losses": (
+        ("wheel",), "1",
+        "number of separations that lasted exactly one time step (suspect: numerical "
+        "ringing of the contact force rather than a physical lift-off)", {},
     ),
     "time_of_max_deck_displacement": (
         ("point",), "s", "time of the maximum absolute deck displacement", {},
@@ -103,6 +115,7 @@ COORDS = {
     "wheel_position": ("m", "axle position behind the first axle", {}),
     "static_wheel_load": ("N", "static wheel (axle) load on level rigid track", {}),
     "frequency": ("Hz", "natural frequency", {}),
+    "vehicle_name": ("1", "vehicle name", {}),
     "mode": ("1", "mode number", {}),
 }
 

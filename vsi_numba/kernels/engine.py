@@ -141,12 +141,55 @@ class State(NamedTuple):
 
 
 class Output(NamedTuple):
-    q: np.ndarray  # (n_steps + 1, n_m)
-    qdd: np.ndarray  # (n_steps + 1, n_m)
-    X: np.ndarray  # (n_steps + 1, n_w)
-    contact: np.ndarray  # (n_steps + 1, n_w) int8
-    body_acc: np.ndarray  # (n_steps + 1, n_veh)
-    iters: np.ndarray  # (n_steps + 1,) int16
+    """Raw per-step histories of the runs that keep them (one slot per such run)."""
+
+    q: np.ndarray  # (n_slots, n_steps + 1, n_m)
+    qdd: np.ndarray  # (n_slots, n_steps + 1, n_m)
+    X: np.ndarray  # (n_slots, n_steps + 1, n_w)
+    contact: np.ndarray  # (n_slots, n_steps + 1, n_w) int8
+    body_acc: np.ndarray  # (n_slots, n_steps + 1, n_veh)
+    iters: np.ndarray  # (n_slots, n_steps + 1) int16
+
+
+class Reduce(NamedTuple):
+    """Envelopes reduced while the time loop steps, one row per run of a batch.
+
+    Deck quantities at ``n_p`` points: w = phi_d q (displacement), a = phi_a qdd
+    (acceleration; ``phi_a`` has zero columns for the modes above the EN 1990 cut-off).
+    Extremes keep the first step that reaches them (strict comparisons).
+    """
+
+    phi_d: np.ndarray  # (n_p, n_m)
+    phi_a: np.ndarray  # (n_p, n_m)
+    disp: np.ndarray  # (n_runs, n_p) max |w|, m
+    disp_t: np.ndarray  # (n_runs, n_p) s
+    acc: np.ndarray  # (n_runs, n_p) max |a|, m/s2
+    acc_t: np.ndarray  # (n_runs, n_p) s
+    xmin: np.ndarray  # (n_runs, n_w) N
+    xmin_x: np.ndarray  # (n_runs, n_w) wheel abscissa at the minimum, m
+    xmax: np.ndarray  # (n_runs, n_w) N
+    body: np.ndarray  # (n_runs, n_veh) max |body acceleration|
+    body_t: np.ndarray  # (n_runs, n_veh) s
+    lost: np.ndarray  # (n_runs, n_w) int64: steps separated (total)
+    longest: np.ndarray  # (n_runs, n_w) int64: steps of the longest single separation
+    events: np.ndarray  # (n_runs, n_w) int64: separation events
+    single: np.ndarray  # (n_runs, n_w) int64: separation events one step long
+    run_len: np.ndarray  # (n_w,) int64 scratch: length of the current separation
+    iters: np.ndarray  # (n_runs,) int64: most contact iterations in one step
+
+
+class Initial(NamedTuple):
+    """Initial states of the runs of a batch (one row per run, fields as ``State``)."""
+
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    u: np.ndarray
+    ud: np.ndarray
+    udd: np.ndarray
+    fq_tot: np.ndarray
+    fv_tot: np.ndarray
+    X: np.ndarray
 
 
 # ------------------------------------------------------------------- evaluation kernels
@@ -775,22 +818,72 @@ def state_is_finite(st):
 
 
 @njit(inline="always")
-def record(veh, st, wk, out, n, iters):
-    for j in range(st.q.shape[0]):
-        out.q[n, j] = st.q[j]
-        out.qdd[n, j] = st.qdd[j]
+def record(veh, st, wk, red, r, n, t, speed, out, h, iters):
+    """Fold step ``n`` (time ``t``) into the envelopes of run ``r`` and, when ``h >= 0``,
+    store it in history slot ``h``."""
+    n_m = st.q.shape[0]
+    for p in range(red.phi_d.shape[0]):
+        w = 0.0
+        a = 0.0
+        for j in range(n_m):
+            w += red.phi_d[p, j] * st.q[j]
+            a += red.phi_a[p, j] * st.qdd[j]
+        w = abs(w)
+        a = abs(a)
+        if n == 0 or w > red.disp[r, p]:
+            red.disp[r, p] = w
+            red.disp_t[r, p] = t
+        if n == 0 or a > red.acc[r, p]:
+            red.acc[r, p] = a
+            red.acc_t[r, p] = t
     for i in range(veh.wheel_dof.shape[0]):
-        out.X[n, i] = wk.xout[i]
-        out.contact[n, i] = wk.active[i]
+        x = wk.xout[i]
+        if n == 0 or x < red.xmin[r, i]:
+            red.xmin[r, i] = x
+            red.xmin_x[r, i] = veh.wheel_x0[i] + speed * t
+        if n == 0 or x > red.xmax[r, i]:
+            red.xmax[r, i] = x
+        if wk.active[i] == 0:
+            red.lost[r, i] += 1
+            red.run_len[i] += 1
+            if red.run_len[i] > red.longest[r, i]:
+                red.longest[r, i] = red.run_len[i]
+        elif red.run_len[i] > 0:
+            close_separation(red, r, i)
     for b in range(veh.body_dof.shape[0]):
         d = veh.body_dof[b]
-        out.body_acc[n, b] = st.udd[d] if d >= 0 else 0.0
-    out.iters[n] = iters
+        a = abs(st.udd[d]) if d >= 0 else 0.0
+        if n == 0 or a > red.body[r, b]:
+            red.body[r, b] = a
+            red.body_t[r, b] = t
+    if iters > red.iters[r]:
+        red.iters[r] = iters
+    if h >= 0:
+        for j in range(n_m):
+            out.q[h, n, j] = st.q[j]
+            out.qdd[h, n, j] = st.qdd[j]
+        for i in range(veh.wheel_dof.shape[0]):
+            out.X[h, n, i] = wk.xout[i]
+            out.contact[h, n, i] = wk.active[i]
+        for b in range(veh.body_dof.shape[0]):
+            d = veh.body_dof[b]
+            out.body_acc[h, n, b] = st.udd[d] if d >= 0 else 0.0
+        out.iters[h, n] = iters
+
+
+@njit(inline="always")
+def close_separation(red, r, i):
+    """A separation of wheel ``i`` ended (or the run did): count the event."""
+    red.events[r, i] += 1
+    if red.run_len[i] == 1:
+        red.single[r, i] += 1
+    red.run_len[i] = 0
 
 
 @njit
-def time_loop(br, veh, pr, prm, st, bk, wk, out):
-    """Integrate ``prm.n_steps`` steps from the state ``st`` (recorded as step 0).
+def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
+    """Integrate ``prm.n_steps`` steps from the state ``st`` (recorded as step 0),
+    reducing the envelopes of run ``r`` (and storing history slot ``h`` if >= 0).
 
     A step whose contact problem fails is retried as 2, 4, ... substeps (up to
     ``prm.max_sub`` halvings).  Returns (status, step index reached).
@@ -798,9 +891,10 @@ def time_loop(br, veh, pr, prm, st, bk, wk, out):
     n_w = veh.wheel_dof.shape[0]
     for i in range(n_w):
         wk.xout[i] = st.X[i]
+        red.run_len[i] = 0
     contact_search(br, veh, pr, 0.0, prm.speed, wk)  # on-bridge flags at t = 0
-    record(veh, st, wk, out, 0, 0)
     dt = prm.dt
+    record(veh, st, wk, red, r, 0, 0.0, prm.speed, out, h, 0)
     for n in range(prm.n_steps):
         copy_state(st, bk)
         for i in range(n_w):
@@ -816,12 +910,13 @@ def time_loop(br, veh, pr, prm, st, bk, wk, out):
                 wk.active[i] = wk.act0[i]
                 wk.onb[i] = wk.onb0[i]
             sub = 1 << level
-            h = dt / sub
+            h_sub = dt / sub
             iters = 0
             for k in range(sub):
                 for i in range(n_w):
                     wk.was_active[i] = wk.active[i]
-                status, it = hht_step(br, veh, pr, prm, st, wk, n * dt + (k + 1) * h, h, level)
+                status, it = hht_step(br, veh, pr, prm, st, wk, n * dt + (k + 1) * h_sub,
+                                      h_sub, level)
                 iters += it
                 if status != OK:
                     break
@@ -829,5 +924,75 @@ def time_loop(br, veh, pr, prm, st, bk, wk, out):
             return status, n + 1
         if not state_is_finite(st):
             return NON_FINITE, n + 1
-        record(veh, st, wk, out, n + 1, iters)
+        record(veh, st, wk, red, r, n + 1, float(n + 1) * dt, prm.speed, out, h, iters)
+    for i in range(n_w):
+        if red.run_len[i] > 0:
+            close_separation(red, r, i)
     return OK, prm.n_steps
+
+
+@njit
+def reset_work(wk):
+    """Put a workspace back in its initial state (all wheels active, zeros elsewhere)."""
+    wk.phi[:, :] = 0.0
+    wk.dphi[:, :] = 0.0
+    wk.d2phi[:, :] = 0.0
+    wk.onb[:] = 0
+    wk.rr[:, :] = 0.0
+    wk.S[:, :] = 0.0
+    wk.L[:, :] = 0.0
+    wk.idx[:] = 0
+    wk.rhs[:] = 0.0
+    wk.sol[:] = 0.0
+    wk.gstar[:] = 0.0
+    wk.X[:] = 0.0
+    wk.active[:] = 1
+    wk.was_active[:] = 1
+    wk.yq[:] = 0.0
+    wk.yv[:] = 0.0
+    wk.rq[:] = 0.0
+    wk.rv[:] = 0.0
+    wk.fq[:] = 0.0
+    wk.phil[:] = 0.0
+    wk.hq[:] = 0.0
+    wk.hv[:] = 0.0
+    wk.ones[:] = 1.0
+    wk.khat[:] = 0.0
+    wk.xout[:] = 0.0
+    wk.vq[:] = 0.0
+    wk.vv[:] = 0.0
+    wk.av[:] = 0.0
+    wk.act0[:] = 0
+    wk.J[:, :] = 0.0
+    wk.first[:] = 0
+    wk.onb_prev[:] = 0
+    wk.onb0[:] = 0
+
+
+@njit
+def run_batch(br, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, slots, status,
+              reached):
+    """Run one packed model at every speed of ``speeds`` (m/s), one run after the other.
+
+    Run ``r`` starts from row ``r`` of ``init``, integrates ``n_steps[r]`` steps at
+    ``speeds[r]`` and folds its envelopes into row ``r`` of ``red``; when
+    ``slots[r] >= 0`` its raw histories go to that slot of ``out``.  ``status[r]`` and
+    ``reached[r]`` receive the run's status code and the step it reached.  The model,
+    workspaces and outputs are allocated once per batch by the caller.
+    """
+    for r in range(speeds.shape[0]):
+        st.q[:] = init.q[r]
+        st.qd[:] = init.qd[r]
+        st.qdd[:] = init.qdd[r]
+        st.u[:] = init.u[r]
+        st.ud[:] = init.ud[r]
+        st.udd[:] = init.udd[r]
+        st.fq_tot[:] = init.fq_tot[r]
+        st.fv_tot[:] = init.fv_tot[r]
+        st.X[:] = init.X[r]
+        reset_work(wk)
+        p = Params(prm.dt, prm.alpha, speeds[r], n_steps[r], prm.max_iter, prm.tol_gap,
+                   prm.tol_force, prm.max_sub, prm.contact_model, prm.hertz_g)
+        s, k = time_loop(br, veh, pr, p, st, bk, wk, red, r, out, slots[r])
+        status[r] = s
+        reached[r] = k

@@ -56,6 +56,14 @@ class Packed:
     wheel_positions: np.ndarray  # m behind the first axle, per wheel (dynamic wheels first)
     load_positions: np.ndarray
     vehicle_names: list  # one per reported car body
+    run_length: float = 0.0  # m the first axle travels until the last leaves the bridge
+    free_vibration: float = 0.0  # s simulated after that
+    static_loads: np.ndarray | None = None  # N, static contact force of every wheel
+
+    def n_steps(self, speed: float) -> int:
+        """Time steps of a run at ``speed`` (m/s)."""
+        t_exit = self.run_length / speed
+        return int(math.ceil((t_exit + self.free_vibration) / self.params.dt - 1e-9))
 
 
 def _pack_bridge(bridge: ModalBridge) -> ek.BridgeArrays:
@@ -185,7 +193,8 @@ def pack(
                            / (3.0 * np.cbrt(q0)))
     all_pos = np.concatenate([wpos, lpos])
     last = all_pos.max() if all_pos.size else 0.0
-    t_exit = (bridge.length + settings.approach + last) / speed
+    run_length = bridge.length + settings.approach + last
+    t_exit = run_length / speed
     n_steps = int(math.ceil((t_exit + settings.free_vibration) / settings.dt - 1e-9))
     wheel_load = max(float(np.max(np.abs(veh.gravity), initial=0.0)), 1.0)
     params = ek.Params(
@@ -207,7 +216,8 @@ def pack(
     return Packed(
         bridge=_pack_bridge(bridge), vehicles=veh, profile=pr, params=params,
         n_dof=int(start[-1]), wheel_positions=wpos, load_positions=lpos,
-        vehicle_names=body_names,
+        vehicle_names=body_names, run_length=float(run_length),
+        free_vibration=float(settings.free_vibration), static_loads=_static_loads(veh),
     )
 
 
@@ -259,11 +269,22 @@ def static_wheel_loads(packed: Packed) -> np.ndarray:
 def initial_state(packed: Packed, profile: Profile) -> ek.State:
     """Static equilibrium on the approach track, with velocities and accelerations
     compatible with the rail (the train enters at constant speed)."""
+    init = initial_states(packed, profile, [packed.params.speed])
+    return ek.State(*(np.ascontiguousarray(a[0]) for a in init))
+
+
+def initial_states(packed: Packed, profile: Profile, speeds) -> ek.Initial:
+    """:func:`initial_state` of every speed (m/s), one row per speed.
+
+    The static part (displacements, static contact forces) does not depend on the speed
+    and is solved once; velocities and accelerations are solved per speed.
+    """
     veh = packed.vehicles
+    speeds = np.atleast_1d(np.asarray(speeds, float))
+    n_r = speeds.size
     n_m = packed.bridge.omega.size
     n_v = packed.n_dof
     n_w = veh.wheel_dof.size
-    v = packed.params.speed
     x0 = veh.wheel_x0
     G = np.zeros((n_w, n_v))
     G[np.arange(n_w), veh.wheel_dof] = 1.0
@@ -286,21 +307,25 @@ def initial_state(packed: Packed, profile: Profile) -> ek.State:
             X = X_new
             if done:
                 break
-    ud, _ = _kkt(Md, G, np.zeros(n_v), v * r1) if n_v else (np.zeros(0), None)
-    if n_v:
-        udd, X = _kkt(Md, G, veh.gravity - Cd @ ud - Kd @ u, v * v * r2)
-    else:
-        udd, X = np.zeros(0), np.zeros(0)
-    fv = veh.gravity.copy()
-    np.subtract.at(fv, veh.wheel_dof, X)
-    fq = np.zeros(n_m)
-    st = ek.State(
-        q=np.zeros(n_m), qd=np.zeros(n_m), qdd=np.zeros(n_m),
-        u=np.ascontiguousarray(u), ud=np.ascontiguousarray(ud),
-        udd=np.ascontiguousarray(udd),
-        fq_tot=fq, fv_tot=fv, X=np.ascontiguousarray(X),
+    init = ek.Initial(
+        q=np.zeros((n_r, n_m)), qd=np.zeros((n_r, n_m)), qdd=np.zeros((n_r, n_m)),
+        u=np.zeros((n_r, n_v)), ud=np.zeros((n_r, n_v)), udd=np.zeros((n_r, n_v)),
+        fq_tot=np.zeros((n_r, n_m)), fv_tot=np.zeros((n_r, n_v)), X=np.zeros((n_r, n_w)),
     )
-    return st
+    for r, v in enumerate(speeds):
+        if n_v:
+            ud, _ = _kkt(Md, G, np.zeros(n_v), v * r1)
+            udd, Xr = _kkt(Md, G, veh.gravity - Cd @ ud - Kd @ u, v * v * r2)
+        else:
+            ud, udd, Xr = np.zeros(0), np.zeros(0), np.zeros(0)
+        fv = veh.gravity.copy()
+        np.subtract.at(fv, veh.wheel_dof, Xr)
+        init.u[r] = u
+        init.ud[r] = ud
+        init.udd[r] = udd
+        init.fv_tot[r] = fv
+        init.X[r] = Xr
+    return init
 
 
 def _workspace(n_m, n_v, n_w) -> ek.Work:
@@ -317,31 +342,203 @@ def _workspace(n_m, n_v, n_w) -> ek.Work:
     )
 
 
-def run_kernel(packed: Packed, profile: Profile):
-    """Run the time loop; returns (status, step reached, Output, elapsed seconds)."""
-    st = initial_state(packed, profile)
-    n_m = packed.bridge.omega.size
-    n_v = packed.n_dof
-    n_w = packed.vehicles.wheel_dof.size
-    n = packed.params.n_steps + 1
-    bk = ek.State(*(np.empty_like(a) for a in st))
+def _history_buffers(n_slots, n_t, n_m, n_w, n_b) -> ek.Output:
+    return ek.Output(
+        q=np.full((n_slots, n_t, n_m), np.nan), qdd=np.full((n_slots, n_t, n_m), np.nan),
+        X=np.full((n_slots, n_t, n_w), np.nan), contact=np.zeros((n_slots, n_t, n_w), np.int8),
+        body_acc=np.full((n_slots, n_t, n_b), np.nan),
+        iters=np.zeros((n_slots, n_t), np.int16),
+    )
+
+
+def deck_operators(bridge: ModalBridge, points, settings: SolverSettings):
+    """Mode shapes of the deck line at ``points``: (phi_d, phi_a, cut-off in Hz).
+
+    ``phi_a`` keeps only the modes up to the EN 1990 A2.4.4.2.1 cut-off (the others'
+    columns are zero), so ``phi_a @ qdd`` is the band-limited deck acceleration.
+    """
+    points = np.atleast_1d(np.asarray(points, float))
+    phi_d = np.ascontiguousarray(bridge.output_shapes(points), dtype=np.float64)
+    phi_d = phi_d.reshape(points.size, bridge.n_modes)
+    cutoff = settings.acceleration_cutoff
+    if cutoff is None:
+        cutoff = acceleration_cutoff(bridge.frequencies)
+    keep = np.asarray(bridge.frequencies) <= cutoff + 1e-9
+    phi_a = np.ascontiguousarray(np.where(keep[None, :], phi_d, 0.0))
+    return phi_d, phi_a, float(cutoff)
+
+
+@dataclass
+class BatchResult:
+    """Envelopes (one row per run) and raw histories (per history slot) of a batch."""
+
+    packed: Packed
+    speeds: np.ndarray  # (R,) m/s
+    n_steps: np.ndarray  # (R,)
+    status: np.ndarray  # (R,) int
+    reached: np.ndarray  # (R,) int
+    slots: np.ndarray  # (R,) history slot or -1
+    red: ek.Reduce
+    out: ek.Output
+    phi_d: np.ndarray
+    phi_a: np.ndarray
+    cutoff: float
+    elapsed: float
+
+    @property
+    def static_loads(self) -> np.ndarray:
+        """Q0 of every wheel, dynamic wheels then moving forces (N)."""
+        return np.concatenate([self.packed.static_loads, self.packed.vehicles.load_p])
+
+    @property
+    def wheel_positions(self) -> np.ndarray:
+        return np.concatenate([self.packed.wheel_positions, self.packed.load_positions])
+
+    def message(self, r: int) -> str:
+        status = int(self.status[r])
+        text = STATUS_MESSAGES[status]
+        if status != ek.OK:
+            k = int(self.reached[r])
+            text += f" at t = {k * self.packed.params.dt:.6g} s (step {k})"
+        return text
+
+    def envelopes(self) -> dict[str, np.ndarray]:
+        """Every envelope variable of ``vsi_numba.io.schema`` (rows: runs; NaN for the
+        runs that failed)."""
+        red, pk, dt = self.red, self.packed, self.packed.params.dt
+        n_r = self.speeds.size
+        n_l = pk.load_positions.size
+        loads = pk.vehicles.load_p
+        q0 = self.static_loads
+
+        def with_loads(dyn, value):
+            return np.concatenate([dyn, np.broadcast_to(value, (n_r, n_l))], axis=1)
+
+        xmin = with_loads(red.xmin, loads)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            unloading = (q0[None, :] - xmin) / q0[None, :]
+        data = {
+            "max_deck_displacement": red.disp.copy(),
+            "max_deck_acceleration": red.acc.copy(),
+            "min_contact_force": xmin,
+            "max_contact_force": with_loads(red.xmax, loads),
+            "max_wheel_unloading": unloading,
+            "max_carbody_acceleration": red.body.copy(),
+            "contact_loss_duration": with_loads(red.lost * dt, 0.0),
+            "longest_contact_loss": with_loads(red.longest * dt, 0.0),
+            "contact_loss_events": with_loads(red.events.astype(float), 0.0),
+            "single_step_contact_losses": with_loads(red.single.astype(float), 0.0),
+            "time_of_max_deck_displacement": red.disp_t.copy(),
+            "time_of_max_deck_acceleration": red.acc_t.copy(),
+            # a moving force is at its start position at its (first) minimum, t = 0
+            "position_of_min_contact_force": with_loads(red.xmin_x, pk.vehicles.load_x0),
+            "time_of_max_carbody_acceleration": red.body_t.copy(),
+        }
+        failed = self.status != ek.OK
+        if failed.any():
+            for a in data.values():
+                a[failed] = np.nan
+        return data
+
+    def histories(self, r: int) -> dict[str, np.ndarray]:
+        """Time histories of run ``r`` (which must have a slot): deck at the points,
+        contact forces and flags of every wheel (moving forces included), car bodies."""
+        h = int(self.slots[r])
+        if h < 0:
+            raise ValueError(f"run {r} kept no histories")
+        pk = self.packed
+        n = int(self.n_steps[r]) + 1
+        q, qdd = self.out.q[h, :n], self.out.qdd[h, :n]
+        disp = q @ self.phi_d.T
+        keep = np.any(self.phi_a != 0.0, axis=0)
+        acc = qdd[:, keep] @ self.phi_a[:, keep].T
+        n_l = pk.load_positions.size
+        X = np.concatenate([self.out.X[h, :n], np.broadcast_to(pk.vehicles.load_p, (n, n_l))],
+                           axis=1)
+        contact = np.concatenate([self.out.contact[h, :n], np.ones((n, n_l), np.int8)], axis=1)
+        body = self.out.body_acc[h, :n].copy()
+        if self.status[r] != ek.OK:
+            for a in (disp, acc, X, body):
+                a[...] = np.nan
+        return {"deck_displacement": disp, "deck_acceleration": acc, "contact_force": X,
+                "in_contact": contact, "carbody_acceleration": body}
+
+
+def run_batch(packed: Packed, profile: Profile, speeds, points, settings: SolverSettings,
+              bridge: ModalBridge, keep_histories=None, deck=None) -> BatchResult:
+    """Run one packed model at several speeds (m/s) in one kernel call.
+
+    Parameters
+    ----------
+    packed : Packed
+        From :func:`pack` (any speed: only its speed-independent arrays are used).
+    profile : Profile
+        The irregularity the model was packed with (for the initial states).
+    speeds : array_like
+        Speeds (m/s), one run each.
+    points : array_like
+        Deck output points (m).
+    keep_histories : array_like of bool, optional
+        Per run: keep its raw histories (default: none).
+    deck : tuple, optional
+        ``deck_operators(bridge, points, settings)`` when already computed.
+    """
+    speeds = np.ascontiguousarray(np.atleast_1d(np.asarray(speeds, float)))
+    if np.any(~(speeds > 0)):
+        raise ModelError(f"speed = {speeds[~(speeds > 0)][0]!r} m/s: expected > 0")
+    n_r = speeds.size
+    keep = np.zeros(n_r, bool) if keep_histories is None else np.asarray(keep_histories, bool)
+    n_steps = np.array([packed.n_steps(v) for v in speeds], np.int64)
+    phi_d, phi_a, cutoff = deck if deck is not None else deck_operators(bridge, points,
+                                                                        settings)
+    veh = packed.vehicles
+    n_m, n_v, n_w = packed.bridge.omega.size, packed.n_dof, veh.wheel_dof.size
+    n_b = veh.body_dof.size
+    n_p = phi_d.shape[0]
+    slots = np.full(n_r, -1, np.int64)
+    slots[keep] = np.arange(int(keep.sum()))
+    n_t = int(n_steps[keep].max()) + 1 if keep.any() else 0
+    out = _history_buffers(int(keep.sum()), n_t, n_m, n_w, n_b)
+    z = np.zeros
+    red = ek.Reduce(
+        phi_d=phi_d, phi_a=phi_a,
+        disp=z((n_r, n_p)), disp_t=z((n_r, n_p)), acc=z((n_r, n_p)), acc_t=z((n_r, n_p)),
+        xmin=z((n_r, n_w)), xmin_x=z((n_r, n_w)), xmax=z((n_r, n_w)),
+        body=z((n_r, n_b)), body_t=z((n_r, n_b)),
+        lost=z((n_r, n_w), np.int64), longest=z((n_r, n_w), np.int64),
+        events=z((n_r, n_w), np.int64), single=z((n_r, n_w), np.int64),
+        run_len=z(n_w, np.int64), iters=z(n_r, np.int64),
+    )
+    init = initial_states(packed, profile, speeds)
+    st = ek.State(*(np.empty_like(a[0]) for a in init))
+    bk = ek.State(*(np.empty_like(a[0]) for a in init))
     wk = _workspace(n_m, n_v, n_w)
-    out = ek.Output(
-        q=np.full((n, n_m), np.nan), qdd=np.full((n, n_m), np.nan),
-        X=np.full((n, n_w), np.nan), contact=np.zeros((n, n_w), np.int8),
-        body_acc=np.full((n, packed.vehicles.body_dof.size), np.nan),
-        iters=np.zeros(n, np.int16),
-    )
+    status = np.zeros(n_r, np.int64)
+    reached = np.zeros(n_r, np.int64)
     t0 = _time.perf_counter()
-    status, reached = ek.time_loop(
-        packed.bridge, packed.vehicles, packed.profile, packed.params, st, bk, wk, out
-    )
-    return int(status), int(reached), out, _time.perf_counter() - t0
+    ek.run_batch(packed.bridge, veh, packed.profile, packed.params, speeds, n_steps, init,
+                 st, bk, wk, red, out, slots, status, reached)
+    elapsed = _time.perf_counter() - t0
+    return BatchResult(packed, speeds, n_steps, status, reached, slots, red, out, phi_d,
+                       phi_a, cutoff, elapsed)
 
 
-def _wheel_positions_in_time(packed: Packed, time: np.ndarray) -> np.ndarray:
-    x0 = np.concatenate([packed.vehicles.wheel_x0, packed.vehicles.load_x0])
-    return x0[None, :] + packed.params.speed * time[:, None]
+def run_kernel(packed: Packed, profile: Profile):
+    """Run the time loop at the packed speed, keeping the raw histories.
+
+    Returns (status, step reached, Output of that one run, elapsed seconds).
+    """
+    bridge_points = np.zeros((0, packed.bridge.omega.size))
+    res = _run_packed(packed, profile, bridge_points)
+    out = ek.Output(*(a[0] for a in res.out))
+    return int(res.status[0]), int(res.reached[0]), out, res.elapsed
+
+
+def _run_packed(packed, profile, phi):
+    """One run with histories and given deck operators (no bridge object needed)."""
+    return run_batch(packed, profile, [packed.params.speed], np.zeros(0),
+                     SolverSettings(dt=packed.params.dt), None, keep_histories=[True],
+                     deck=(phi, phi, float("nan")))
 
 
 def simulate(
@@ -379,120 +576,74 @@ def simulate(
     Notes
     -----
     Direct method of Neves et al., Eng. Struct. 69 (2014) 83-89, Eq. (3): HHT-alpha on
-    the coupled system with the contact forces as unknowns of a Schur system.
+    the coupled system with the contact forces as unknowns of a Schur system.  This is
+    the batch kernel (:func:`run_batch`) restricted to one run.
     """
     settings = settings or SolverSettings()
     profile = profile if profile is not None else no_irregularity()
+    points = default_points(bridge, output_points)
+    packed = pack(bridge, train, speed, profile, settings)
+    res = run_batch(packed, profile, [speed], points, settings, bridge,
+                    keep_histories=[save_histories])
+    return to_dataset(bridge, train, res, profile, settings, points, save_histories)
+
+
+def default_points(bridge: ModalBridge, output_points=None) -> np.ndarray:
+    """Deck output points (m): the given ones, else the mid-span of every span."""
     if output_points is None:
         s = np.asarray(bridge.supports, float)
         output_points = 0.5 * (s[:-1] + s[1:])
-    points = np.atleast_1d(np.asarray(output_points, float))
-    packed = pack(bridge, train, speed, profile, settings)
-    status, reached, out, elapsed = run_kernel(packed, profile)
-    return to_dataset(bridge, train, packed, profile, settings, points, status, reached, out,
-                      elapsed, save_histories)
+    return np.atleast_1d(np.asarray(output_points, float))
 
 
-def to_dataset(bridge, train, packed, profile, settings, points, status, reached, out,
-               elapsed, save_histories) -> xr.Dataset:
-    """Histories and envelopes of one run as a Dataset (schema names and attrs)."""
-    dt = settings.dt
-    n = packed.params.n_steps + 1
-    time = np.arange(n) * dt
-    phi_p = bridge.output_shapes(points)  # the deck line (not the rail of a track layer)
-    cutoff = settings.acceleration_cutoff
-    if cutoff is None:
-        cutoff = acceleration_cutoff(bridge.frequencies)
-    keep = bridge.frequencies <= cutoff + 1e-9
-    disp = out.q @ phi_p.T
-    acc = out.qdd[:, keep] @ phi_p[:, keep].T
-    n_lw = packed.load_positions.size
-    X = np.concatenate([out.X, np.broadcast_to(packed.vehicles.load_p, (n, n_lw))], axis=1)
-    contact = np.concatenate([out.contact, np.ones((n, n_lw), np.int8)], axis=1)
-    Q0 = np.concatenate([static_wheel_loads(packed), packed.vehicles.load_p])
-    wheel_pos = np.concatenate([packed.wheel_positions, packed.load_positions])
-    body_acc = out.body_acc
-    if status != ek.OK:
-        for a in (disp, acc, X, body_acc):
-            a[...] = np.nan
-    xw = _wheel_positions_in_time(packed, time)
-
-    def _argmax_time(a):
-        if a.shape[1] == 0 or not np.all(np.isfinite(a)):
-            return np.full(a.shape[1], np.nan)
-        return time[np.argmax(np.abs(a), axis=0)]
-
-    with np.errstate(invalid="ignore", divide="ignore"):
-        unloading = (Q0[None, :] - X) / Q0[None, :]
-    absmax = lambda a: np.max(np.abs(a), axis=0) if a.shape[0] else np.zeros(a.shape[1])  # noqa: E731
-    if X.shape[1] and np.all(np.isfinite(X)):
-        imin = np.argmin(X, axis=0)
-        pos_min = xw[imin, np.arange(X.shape[1])]
-    else:
-        pos_min = np.full(X.shape[1], np.nan)
-    data = {
-        "max_deck_displacement": absmax(disp),
-        "max_deck_acceleration": absmax(acc),
-        "min_contact_force": X.min(axis=0),
-        "max_contact_force": X.max(axis=0),
-        "max_wheel_unloading": unloading.max(axis=0),
-        "max_carbody_acceleration": absmax(body_acc),
-        "contact_loss_duration": (contact[:reached + 1] == 0).sum(axis=0) * dt,
-        "time_of_max_deck_displacement": _argmax_time(disp),
-        "time_of_max_deck_acceleration": _argmax_time(acc),
-        "position_of_min_contact_force": pos_min,
-        "time_of_max_carbody_acceleration": _argmax_time(body_acc),
-    }
-    if status != ek.OK:
-        for k in data:
-            data[k] = np.full_like(np.asarray(data[k], float), np.nan)
+def to_dataset(bridge, train, res: BatchResult, profile, settings, points,
+               save_histories, r: int = 0) -> xr.Dataset:
+    """Histories and envelopes of run ``r`` of a batch as a Dataset (schema names and
+    attrs)."""
     from vsi_numba.io.schema import ENVELOPES, HISTORIES
 
+    packed = res.packed
+    dt = settings.dt
+    status = int(res.status[r])
+    wheel_pos = res.wheel_positions
+    Q0 = res.static_loads
+    n_body = packed.vehicles.body_dof.size
     coords = {
         "point": ("point", points, attrs_for("point")),
         "wheel": ("wheel", np.arange(wheel_pos.size), attrs_for("wheel")),
-        "vehicle": ("vehicle", np.arange(body_acc.shape[1]), attrs_for("vehicle")),
+        "vehicle": ("vehicle", np.arange(n_body), attrs_for("vehicle")),
         "wheel_position": ("wheel", wheel_pos, attrs_for("wheel_position")),
         "static_wheel_load": ("wheel", Q0, attrs_for("static_wheel_load")),
     }
     variables = {
         "vehicle_name": ("vehicle", np.array(packed.vehicle_names, dtype=str),
-                         {"long_name": "vehicle name", "units": "1"}),
+                         attrs_for("vehicle_name")),
     }
-    for name, val in data.items():
-        variables[name] = (ENVELOPES[name][0], np.asarray(val, float), attrs_for(name))
+    for name, val in res.envelopes().items():
+        variables[name] = (ENVELOPES[name][0], np.asarray(val[r], float), attrs_for(name))
     if save_histories:
-        coords["time"] = ("time", time, attrs_for("time"))
-        hist = {
-            "deck_displacement": disp,
-            "deck_acceleration": acc,
-            "contact_force": X,
-            "in_contact": contact,
-            "carbody_acceleration": body_acc,
-        }
-        for name, val in hist.items():
+        n = int(res.n_steps[r]) + 1
+        coords["time"] = ("time", np.arange(n) * dt, attrs_for("time"))
+        for name, val in res.histories(r).items():
             variables[name] = (HISTORIES[name][0], val, attrs_for(name))
     variables["status"] = ((), np.int32(status), attrs_for("status"))
-    variables["max_iterations"] = ((), np.int32(np.abs(out.iters).max(initial=0)),
+    variables["max_iterations"] = ((), np.int32(res.red.iters[r]),
                                    attrs_for("max_iterations"))
     # one constructor call: assigning variables one by one re-aligns the whole
     # dataset each time and cost more than the time loop of a short run
     ds = xr.Dataset(variables, coords=coords)
-    message = STATUS_MESSAGES[status]
-    if status != ek.OK:
-        message += f" at t = {reached * dt:.6g} s (step {reached})"
     ds.attrs.update(
-        status=int(status),
-        message=message,
-        speed=float(packed.params.speed),
-        speed_kmh=float(packed.params.speed * 3.6),
+        status=status,
+        message=res.message(r),
+        speed=float(res.speeds[r]),
+        speed_kmh=float(res.speeds[r] * 3.6),
         train=train.name,
         train_status=train.status,
         dt=float(dt),
         hht_alpha=float(settings.hht_alpha),
-        acceleration_cutoff_hz=float(cutoff),
-        n_steps=int(packed.params.n_steps),
-        kernel_seconds=float(elapsed),
+        acceleration_cutoff_hz=float(res.cutoff),
+        n_steps=int(res.n_steps[r]),
+        kernel_seconds=float(res.elapsed),
         profile=profile.label,
         bridge_description=bridge.description,
     )

@@ -932,6 +932,192 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
 
 
 @njit
+def load_windows(br, veh, speed, dt, n_steps, on, off):
+    """Steps during which each moving force is on the bridge: load ``k`` is on it at the
+    end of steps ``on[k] .. off[k] - 1`` (time ``(n + 1) dt`` at the end of step ``n``).
+
+    Uses the comparison of :func:`assemble_loads` (on iff 0 <= x <= L with
+    x = x0 + v t); x grows monotonically with t, so each window is one interval.
+    """
+    for k in range(veh.load_x0.shape[0]):
+        x0 = veh.load_x0[k]
+        # first step whose end time puts the load at x >= 0, then at x > L
+        n = int(np.floor(-x0 / (speed * dt))) - 2
+        if n < 0:
+            n = 0
+        while n < n_steps and x0 + speed * ((n + 1) * dt) < 0.0:
+            n += 1
+        on[k] = n
+        m = int(np.floor((br.length - x0) / (speed * dt))) - 2
+        if m < n:
+            m = n
+        while m < n_steps and not x0 + speed * ((m + 1) * dt) > br.length:
+            m += 1
+        off[k] = m
+
+
+@njit
+def window_sums(veh, n, on, off, cs, sums):
+    """Phasor sums of the loads on the bridge during step ``n`` (sine modes):
+    ``sums[0, j] + i sums[1, j] = sum_k P_k exp(i (j+1) k1 x0_k)``.
+
+    Returns the next step at which a load enters or leaves the bridge.
+    """
+    n_m = sums.shape[1]
+    for j in range(n_m):
+        sums[0, j] = 0.0
+        sums[1, j] = 0.0
+    nxt = 1 << 62
+    for k in range(veh.load_x0.shape[0]):
+        if on[k] > n:
+            if on[k] < nxt:
+                nxt = on[k]
+            continue
+        if off[k] <= n:
+            continue
+        if off[k] < nxt:
+            nxt = off[k]
+        p = veh.load_p[k]
+        c1 = cs[0, k]
+        s1 = cs[1, k]
+        c = c1
+        s = s1
+        for j in range(n_m):
+            sums[0, j] += p * c
+            sums[1, j] += p * s
+            c, s = c * c1 - s * s1, s * c1 + c * s1
+    return nxt
+
+
+@njit
+def mf_time_loop(br, veh, prm, st, wk, red, r, out, h, on, off, cs, sums):
+    """:func:`time_loop` for a train of moving forces only (no vehicle DOFs, no contact).
+
+    The same HHT-alpha arithmetic per mode as :func:`hht_step` with no wheels, without
+    the work that has nothing to act on: the modes are uncoupled, and only the loads on
+    the bridge are evaluated.  For sine modes (simply supported span) the modal load is
+    sum_k P_k a_j sin((j+1) k1 (x0_k + v t)) = a_j Im(exp(i (j+1) k1 v t) Z_j), with the
+    phasor sums Z_j = sum_k P_k exp(i (j+1) k1 x0_k) over the loads on the bridge
+    rebuilt only when a load enters or leaves it: O(n_m) per step instead of
+    O(n_loads n_m), equal to the direct sum to round-off (a few 1e-14 relative: the
+    phases are products of up to ~1e3 rad).  Other bridges sum the loads directly, in
+    the order of :func:`assemble_loads` (bit for bit the general step's numbers).
+    """
+    alpha = prm.alpha
+    dt = prm.dt
+    beta = 0.25 * (1.0 - alpha) ** 2
+    gamma = 0.5 - alpha
+    a0 = 1.0 / (beta * dt * dt)
+    a1 = gamma / (beta * dt)
+    a2 = 1.0 / (beta * dt)
+    a3 = 0.5 / beta - 1.0
+    cv = (1.0 + alpha) * (1.0 - gamma / beta) - alpha
+    ca = (1.0 + alpha) * dt * (1.0 - 0.5 * gamma / beta)
+    scale = 1.0 + alpha
+    n_m = st.q.shape[0]
+    n_l = veh.load_x0.shape[0]
+    speed = prm.speed
+    cq = wk.hq
+    w2 = wk.rq
+    for j in range(n_m):
+        cq[j] = 2.0 * br.zeta[j] * br.omega[j]
+        w2[j] = br.omega[j] ** 2
+        wk.khat[j] = a0 + scale * (a1 * cq[j] + w2[j])
+    load_windows(br, veh, speed, dt, prm.n_steps, on, off)
+    record(veh, st, wk, red, r, 0, 0.0, speed, out, h, 0)
+    # locals, not tuple fields, inside the step loop: no reference-count traffic
+    q = st.q
+    qd = st.qd
+    qdd = st.qdd
+    fq_tot = st.fq_tot
+    fq = wk.fq
+    khat = wk.khat
+    phi_d = red.phi_d
+    phi_a = red.phi_a
+    disp = red.disp
+    disp_t = red.disp_t
+    acc_env = red.acc
+    acc_t = red.acc_t
+    amp = br.sine_amp
+    load_x0 = veh.load_x0
+    load_p = veh.load_p
+    n_p = phi_d.shape[0]
+    hq = out.q
+    hqdd = out.qdd
+    hit = out.iters
+    first = 0  # loads before ``first`` have left the bridge for good
+    nxt = 0  # next step at which the loads on the bridge change (sine modes)
+    k1 = br.sine_k[0] if br.kind == 1 and n_m > 0 else 0.0
+    if br.kind == 1:
+        for k in range(n_l):
+            cs[0, k] = np.cos(k1 * load_x0[k])
+            cs[1, k] = np.sin(k1 * load_x0[k])
+    for n in range(prm.n_steps):
+        t1 = (n + 1) * dt
+        for j in range(n_m):
+            fq[j] = 0.0
+        if br.kind == 1 and n_m > 0:
+            if n == nxt:
+                nxt = window_sums(veh, n, on, off, cs, sums)
+            ang = k1 * (speed * t1)
+            c1 = np.cos(ang)
+            s1 = np.sin(ang)
+            c = c1
+            s = s1
+            for j in range(n_m):
+                fq[j] = amp[j] * (s * sums[0, j] + c * sums[1, j])
+                c, s = c * c1 - s * s1, s * c1 + c * s1
+        elif br.kind != 0:
+            while first < n_l and off[first] <= n and on[first] <= n:
+                first += 1
+            for k in range(first, n_l):
+                if n < on[k] or n >= off[k]:
+                    continue
+                x = load_x0[k] + speed * t1
+                eval_modes(br, x, wk.phil, wk.yq, wk.vq)
+                p = load_p[k]
+                for j in range(n_m):
+                    fq[j] += p * wk.phil[j]
+        finite = 0.0
+        for j in range(n_m):
+            rj = (scale * fq[j] - alpha * fq_tot[j] + a2 * qd[j] + a3 * qdd[j]
+                  - cq[j] * (cv * qd[j] + ca * qdd[j]) - w2[j] * q[j])
+            dq = rj / khat[j]
+            a = a0 * dq - a2 * qd[j] - a3 * qdd[j]
+            qd[j] = qd[j] + dt * ((1.0 - gamma) * qdd[j] + gamma * a)
+            qdd[j] = a
+            q[j] += dq
+            fq_tot[j] = fq[j]
+            finite += q[j] + qd[j] + qdd[j]
+        if not np.isfinite(finite):
+            return NON_FINITE, n + 1
+        # record (see :func:`record`; no wheels, no car bodies)
+        t = float(n + 1) * dt
+        for p in range(n_p):
+            w = 0.0
+            a = 0.0
+            for j in range(n_m):
+                w += phi_d[p, j] * q[j]
+                a += phi_a[p, j] * qdd[j]
+            w = abs(w)
+            a = abs(a)
+            if w > disp[r, p]:
+                disp[r, p] = w
+                disp_t[r, p] = t
+            if a > acc_env[r, p]:
+                acc_env[r, p] = a
+                acc_t[r, p] = t
+        if h >= 0:
+            for j in range(n_m):
+                hq[h, n + 1, j] = q[j]
+                hqdd[h, n + 1, j] = qdd[j]
+            hit[h, n + 1] = 1
+    if prm.n_steps > 0 and red.iters[r] < 1:
+        red.iters[r] = 1  # the contact "solve" with no wheels: one pass per step
+    return OK, prm.n_steps
+
+
+@njit
 def reset_work(wk):
     """Put a workspace back in its initial state (all wheels active, zeros elsewhere)."""
     wk.phi[:, :] = 0.0
@@ -980,6 +1166,10 @@ def run_batch(br, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, slo
     ``reached[r]`` receive the run's status code and the step it reached.  The model,
     workspaces and outputs are allocated once per batch by the caller.
     """
+    on = np.zeros(veh.load_x0.shape[0], np.int64)
+    off = np.zeros(veh.load_x0.shape[0], np.int64)
+    cs = np.zeros((2, veh.load_x0.shape[0]))
+    sums = np.zeros((2, br.omega.shape[0]))
     for r in range(speeds.shape[0]):
         st.q[:] = init.q[r]
         st.qd[:] = init.qd[r]
@@ -993,6 +1183,9 @@ def run_batch(br, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, slo
         reset_work(wk)
         p = Params(prm.dt, prm.alpha, speeds[r], n_steps[r], prm.max_iter, prm.tol_gap,
                    prm.tol_force, prm.max_sub, prm.contact_model, prm.hertz_g)
-        s, k = time_loop(br, veh, pr, p, st, bk, wk, red, r, out, slots[r])
+        if veh.wheel_dof.shape[0] == 0 and veh.start.shape[0] == 1:
+            s, k = mf_time_loop(br, veh, p, st, wk, red, r, out, slots[r], on, off, cs, sums)
+        else:
+            s, k = time_loop(br, veh, pr, p, st, bk, wk, red, r, out, slots[r])
         status[r] = s
         reached[r] = k

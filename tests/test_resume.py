@@ -1,9 +1,14 @@
-"""No data loss and resume: Ctrl-C, SIGKILL, changed config, read-only output, full disk.
+"""No data loss and resume: Ctrl-C, SIGTERM, SIGKILL (also during the final write),
+changed config, read-only output, full disk.
 
-The sweep runs as a real ``python -m vsi_numba.cli sweep`` subprocess (local spawned worker
-processes, the default backend) in its own process group, so the test can interrupt it
-the way a terminal does (SIGINT to the group) or kill it outright (SIGKILL).  The numba
-cache directory (NUMBA_CACHE_DIR) is inherited by the subprocess and its workers.
+The sweep runs as a real ``python -m vsi_numba.cli sweep`` subprocess (the default
+backend) in its own process group, so the test can interrupt it the way a terminal does
+(SIGINT to the group) or kill it outright (SIGKILL).  The numba cache directory
+(NUMBA_CACHE_DIR) is inherited by the subprocess.
+
+No test races the machine's speed: the sweep is told (``VSI_STUDY_HOLD_AFTER``) to stop
+after a given number of stored batches, or inside the final write, and to announce it
+with a ``.held`` file in its store; the signal is sent only then.
 """
 
 from __future__ import annotations
@@ -25,10 +30,10 @@ from study_trains import TRAINS_TOML
 
 from vsi_numba.config import load_config
 from vsi_numba.io.netcdf import open_results
-from vsi_numba.study.runner import run_study, sweep_command
+from vsi_numba.study.runner import HOLD_ENV, run_study, sweep_command
 from vsi_numba.study.store import CaseStore, store_path
 
-SPEEDS = [60.0 + 10.0 * i for i in range(12)]  # 12 speeds x 2 trains x 2 seeds = 48 cases
+SPEEDS = [60.0 + 10.0 * i for i in range(12)]  # 12 speeds x 2 trains x 2 seeds = 48 runs
 
 
 def write_study(directory: Path, name="study.toml", damping=0.02, histories="first",
@@ -80,35 +85,50 @@ def subprocess_env() -> dict[str, str]:
     return env
 
 
-def start_sweep(config: Path, output: Path, *extra, preexec_fn=None) -> subprocess.Popen:
-    """``python -m vsi_numba.cli sweep`` in a new process group (stderr captured)."""
+def start_sweep(config: Path, output: Path, *extra, preexec_fn=None, hold=None
+                ) -> subprocess.Popen:
+    """``python -m vsi_numba.cli sweep`` in a new process group (stderr captured); with
+    ``hold``, the sweep stops (and waits to be signalled) after that many stored batches
+    (an int) or inside the final write (``"write"``)."""
     cmd = [sys.executable, "-m", "vsi_numba.cli", "sweep", str(config), "-o", str(output),
            *extra]
+    env = subprocess_env()
+    env.pop(HOLD_ENV, None)
+    if hold is not None:
+        env[HOLD_ENV] = str(hold)
     return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True, env=subprocess_env(),
-                            preexec_fn=preexec_fn)
+                            start_new_session=True, env=env, preexec_fn=preexec_fn)
+
+
+def batch_files(output: Path) -> list[Path]:
+    store = store_path(output)
+    return sorted(store.glob("batch_*.npz")) if store.is_dir() else []
 
 
 def n_stored(output: Path) -> int:
-    store = store_path(output)
-    return len(list(store.glob("case_*.nc"))) if store.is_dir() else 0
+    """Runs in the stored batches (a batch file is named ``batch_tTTT_iIII_sAAAA-BBBB``)."""
+    n = 0
+    for p in batch_files(output):
+        a, b = p.stem.rsplit("_s", 1)[1].split("-")
+        n += int(b) - int(a) + 1
+    return n
 
 
-def wait_for_cases(proc: subprocess.Popen, output: Path, n: int, timeout=600.0) -> int:
-    """Poll until ``n`` cases are stored; fail if the sweep ended first."""
+def wait_until_held(proc: subprocess.Popen, output: Path, timeout=600.0) -> None:
+    """Wait for the sweep to announce its hold; fail if it ended first."""
+    marker = store_path(output) / ".held"
     t0 = time.monotonic()
     while time.monotonic() - t0 < timeout:
-        k = n_stored(output)
-        if k >= n:
-            return k
+        if marker.exists():
+            marker.unlink()
+            return
         if proc.poll() is not None:
             out, err = proc.communicate()
-            pytest.fail(f"the sweep ended (rc {proc.returncode}) before {n} cases were "
-                        f"stored:\n{err}")
+            pytest.fail(f"the sweep ended (rc {proc.returncode}) before it held:\n{err}")
         time.sleep(0.02)
     os.killpg(proc.pid, signal.SIGKILL)
     proc.communicate()
-    pytest.fail(f"fewer than {n} cases stored after {timeout} s")
+    pytest.fail(f"the sweep did not hold within {timeout} s")
 
 
 def without_history_line(ds: xr.Dataset) -> xr.Dataset:
@@ -127,37 +147,68 @@ def reference(tmp_path_factory):
 def test_resume__interrupt_and_kill_then_rerun_equals_uninterrupted(tmp_path, reference):
     config = write_study(tmp_path)
     out = tmp_path / "out" / "study.nc"
+    total = 48
 
-    # 1. Ctrl-C (SIGINT to the process group, as a terminal does): exit 130, cases kept
-    proc = start_sweep(config, out)
-    wait_for_cases(proc, out, 1)
+    # 1. Ctrl-C (SIGINT to the process group, as a terminal does): exit 130, batches kept
+    proc = start_sweep(config, out, hold=1)
+    wait_until_held(proc, out)
     os.killpg(proc.pid, signal.SIGINT)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, err
     assert "interrupted" in err and "Traceback" not in err
     k1 = n_stored(out)
-    assert 1 <= k1 < 48 and not out.exists()
+    assert len(batch_files(out)) == 1 and 1 <= k1 < total and not out.exists()
 
-    # 2. SIGKILL of the whole group (no chance to clean up): cases still kept
-    proc = start_sweep(config, out)
-    wait_for_cases(proc, out, k1 + 2)
+    # 2. SIGTERM: handled like Ctrl-C (message, exit 130, batches kept)
+    proc = start_sweep(config, out, hold=1)
+    wait_until_held(proc, out)
+    os.killpg(proc.pid, signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "interrupted" in err and "Traceback" not in err
+    k2 = n_stored(out)
+    assert len(batch_files(out)) == 2 and k1 < k2 < total
+
+    # 3. SIGKILL of the whole group inside the final write (no chance to clean up):
+    #    every batch is kept, no results file, a temp file left in the store
+    proc = start_sweep(config, out, hold="write")
+    wait_until_held(proc, out)
     os.killpg(proc.pid, signal.SIGKILL)
     proc.communicate(timeout=120)
-    k2 = n_stored(out)
-    assert k1 + 2 <= k2 < 48, "the sweep finished before it could be killed"
-    assert not out.exists()
+    assert n_stored(out) == total and not out.exists()
+    assert [p for p in store_path(out).iterdir() if p.name.endswith(".tmp")]
 
-    # 3. re-run the same command: only the missing cases run; same file as uninterrupted
+    # 4. re-run the same command: nothing left to run; the stale temp file is removed and
+    #    the file equals the uninterrupted run's
     proc = start_sweep(config, out)
     _, err = proc.communicate(timeout=900)
     assert proc.returncode == 0, err
-    assert f"{k2} done earlier, {48 - k2} to run" in err
+    assert f"{total} runs: all done earlier" in err
     assert not store_path(out).exists()
     assert not [p for p in out.parent.iterdir() if p.name.endswith(".tmp")]
     with open_results(out) as ds:
         xr.testing.assert_identical(without_history_line(ds.load()),
-                                    without_history_line(reference))
+                                    without_history_line(reference.load()))
         assert "vsi sweep" in ds.attrs["history"]
+
+
+def test_resume__kill_after_batches_then_rerun_runs_the_rest(tmp_path, reference):
+    """SIGKILL with some batches stored: the re-run computes only the missing ones."""
+    config = write_study(tmp_path)
+    out = tmp_path / "study.nc"
+    proc = start_sweep(config, out, hold=3)
+    wait_until_held(proc, out)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.communicate(timeout=120)
+    k = n_stored(out)
+    assert len(batch_files(out)) == 3 and k < 48 and not out.exists()
+    proc = start_sweep(config, out)
+    _, err = proc.communicate(timeout=900)
+    assert proc.returncode == 0, err
+    assert f"{k} done earlier, {48 - k} to run" in err
+    with open_results(out) as ds:
+        xr.testing.assert_identical(without_history_line(ds.load()),
+                                    without_history_line(reference.load()))
 
 
 def test_resume__changed_config_refused_and_store_kept(tmp_path, capsys):
@@ -239,7 +290,7 @@ def test_resume__full_disk_clear_error_cases_kept(tmp_path):
     # the kernels this model needs are compiled (cached) here, not under the size limit
     run_study(config, out, backend="serial", keep_cases=True)
     out.unlink()
-    size = max(p.stat().st_size for p in store_path(out).glob("case_*.nc"))
+    size = max(p.stat().st_size for p in store_path(out).glob("batch_*.npz"))
     # 1. room for the case files but not for the final file: every case is kept
     proc = start_sweep(config, out, "--quiet", preexec_fn=_file_size_limit(size + 1024))
     _, err = proc.communicate(timeout=900)
@@ -253,7 +304,7 @@ def test_resume__full_disk_clear_error_cases_kept(tmp_path):
     proc = start_sweep(config, other, "--quiet", preexec_fn=_file_size_limit(size // 2))
     _, err = proc.communicate(timeout=900)
     assert proc.returncode == 1, err
-    assert "cannot write" in err and "case_s" in err and "re-run the same command" in err
+    assert "cannot write" in err and "batch_t" in err and "re-run the same command" in err
     assert "Traceback" not in err and n_stored(other) == 0
     # 3. with room again the same command completes from the stored cases
     proc = start_sweep(config, out)

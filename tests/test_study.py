@@ -309,12 +309,12 @@ def test_run_study__changed_config_refused(tmp_path):
     out = tmp_path / "s.nc"
     store = store_path(out)
     run_study(cfg, out, backend="serial", keep_cases=True)
-    n = len(list(store.glob("case_*.nc")))
-    assert n == 2
+    n = len(list(store.glob("batch_*.npz")))
+    assert n == 2  # one batch per train (1 speed, 1 realisation)
     changed = write_study(tmp_path, speeds=(150.0,), seeds=(1,), damping=0.03)
     with pytest.raises(StoreMismatchError, match="DIFFERENT configuration"):
         run_study(changed, out, backend="serial")
-    assert len(list(store.glob("case_*.nc"))) == n  # untouched
+    assert len(list(store.glob("batch_*.npz"))) == n  # untouched
     ds = run_study(changed, out, backend="serial", fresh=True)
     assert ds.attrs["config_sha256"] == load_config(changed).sha256
 

@@ -22,9 +22,12 @@ import tempfile
 from collections.abc import Hashable
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import xarray as xr
+
+if TYPE_CHECKING:  # xarray is imported where a Dataset is made (it takes ~1 s to import)
+    import xarray as xr
 
 CONVENTIONS = "CF-1.12"
 HISTORY_ENCODING = {"zlib": True, "complevel": 4, "shuffle": True, "dtype": "float32"}
@@ -85,24 +88,6 @@ def encoding_for(ds: xr.Dataset) -> dict[Hashable, dict]:
     return enc
 
 
-def to_netcdf_bytes(ds: xr.Dataset) -> bytes:
-    """Encode ``ds`` as the bytes of a netCDF-4 file (used to ship results from workers).
-
-    Written through a private temporary file: the in-memory writer of netCDF-C pads every
-    image to a multiple of 64 KiB, several times the size of a small file.  When the
-    temporary directory cannot be written (full, read-only), the in-memory image is used.
-    """
-    ds = ds.drop_encoding()
-    enc = encoding_for(ds)
-    try:
-        with tempfile.TemporaryDirectory(prefix="vsi-case-") as tmp:
-            path = Path(tmp) / "case.nc"
-            ds.to_netcdf(path, engine="netcdf4", format="NETCDF4", encoding=enc)
-            return path.read_bytes()
-    except (OSError, RuntimeError):
-        return bytes(ds.to_netcdf(None, engine="netcdf4", format="NETCDF4", encoding=enc))
-
-
 def _fsync_dir(directory: Path) -> None:
     try:
         fd = os.open(directory, os.O_RDONLY)
@@ -147,6 +132,13 @@ def _replace_atomically(path: Path, write) -> Path:
     return path
 
 
+def write_atomic(path: str | os.PathLike, write) -> Path:
+    """Call ``write(tmp)`` on a temporary file beside ``path``, flush it to disk and
+    rename it over ``path`` (atomic: ``path`` is the old file or the new one, never half
+    of one).  Raises ``OSError``; the temp file is removed and ``path`` left untouched."""
+    return _replace_atomically(Path(path), write)
+
+
 def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
     """Write ``data`` to ``path`` atomically (temp file in the same directory + rename).
 
@@ -182,6 +174,8 @@ def open_results(path: str | os.PathLike) -> xr.Dataset:
     (``with open_results(p) as ds:``) or call ``.load()`` / ``.close()``; the resolved
     configuration is in ``ds.attrs["config_json"]``.
     """
+    import xarray as xr
+
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no results file {path}")

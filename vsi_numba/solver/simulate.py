@@ -12,8 +12,9 @@ import math
 import time as _time
 from dataclasses import dataclass
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import xarray as xr
 
 from vsi_numba.io.schema import attrs_for
 from vsi_numba.kernels import engine as ek
@@ -21,6 +22,9 @@ from vsi_numba.model.bridge import ModalBridge
 from vsi_numba.model.irregularity import Profile, no_irregularity
 from vsi_numba.model.vehicle import Train
 from vsi_numba.solver.settings import CONTACT_MODELS, SolverSettings
+
+if TYPE_CHECKING:  # imported where a Dataset is made: it takes ~1 s to import
+    import xarray as xr
 
 STATUS_MESSAGES = {
     ek.OK: "ok",
@@ -600,6 +604,8 @@ def to_dataset(bridge, train, res: BatchResult, profile, settings, points,
                save_histories, r: int = 0) -> xr.Dataset:
     """Histories and envelopes of run ``r`` of a batch as a Dataset (schema names and
     attrs)."""
+    import xarray as xr
+
     from vsi_numba.io.schema import ENVELOPES, HISTORIES
 
     packed = res.packed

@@ -1,35 +1,37 @@
 """The study runner: speeds x trains x irregularity realisations, resumable, parallel.
 
 Flow of :func:`run_study`
-1. load and resolve the configuration; build the case grid (:mod:`.grid`);
-2. check the output directory is writable and open the case store ``<output>.cases/``
+1. load and resolve the configuration; build the model once (bridge, trains, profiles,
+   deck operators), the run grid (:mod:`.grid`) and its batch plan (:mod:`.batches`);
+2. check the output directory is writable and open the batch store ``<output>.cases/``
    (refused if it belongs to another configuration, see :mod:`.store`);
-3. compile or load the numba kernels in this process (``warm_up``), then run the cases
-   that are not in the store yet on the chosen backend (:mod:`.backends`); each finished
-   case is written to the store at once, atomically;
-4. read every case back from the store, assemble the study dataset (:mod:`.assemble`),
-   write it atomically to the output, and remove the store.
+3. run the batches that are not in the store yet on the chosen backend
+   (:mod:`.backends`); each finished batch is written to the store at once, atomically;
+4. write the results file by slices from the stored batches, one batch in memory at a
+   time (:class:`vsi_numba.io.study_file.StudyFile`), to a temporary file in the store;
+   rename it over the output and remove the store (its lock last).
 
-Because step 4 always reads the stored files, a resumed study and an uninterrupted one
+Because step 4 always reads the stored batches, a resumed study and an uninterrupted one
 give the same file; because every backend runs the same serial kernel on the same inputs,
-serial, process and Dask runs give bit-identical results.
+serial, threaded, process and Dask runs give bit-identical results.
 
 Exit codes of :func:`sweep_command` (``vsi sweep``)
-  0   every case ran and succeeded;
-  1   the results file was written but some cases failed numerically (``status != 0``,
+  0   every run succeeded;
+  1   the results file was written but some runs failed numerically (``status != 0``,
       their outputs are NaN; the count is in the ``n_failed_cases`` attribute), or the run
-      stopped on an error of its own (a case raised, a worker died, the disk is full):
-      then no results file is written, finished cases are kept and a re-run resumes;
-  2   the study cannot run as asked: invalid configuration, a case store of another
+      stopped on an error of its own (a batch raised, a worker died, the disk is full):
+      then no results file is written, finished batches are kept and a re-run resumes;
+  2   the study cannot run as asked: invalid configuration, a store of another
       configuration or in use by another run, an output location that cannot be
       written, bad options;
-  130 interrupted (Ctrl-C); finished cases are kept and a re-run resumes.
+  130 interrupted (Ctrl-C or SIGTERM); finished batches are kept and a re-run resumes.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
+import hashlib
 import json
 import os
 import sys
@@ -40,18 +42,21 @@ from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
-import xarray as xr
 
 from vsi_numba.io.netcdf import (
     CONVENTIONS,
+    _fsync_dir,
     history_line,
-    open_results,
     source_string,
-    to_netcdf_bytes,
-    write_netcdf,
 )
-from vsi_numba.study.assemble import assemble, case_dataset
-from vsi_numba.study.backends import DaskBackend, ProcessBackend, SerialBackend, available_cores
+from vsi_numba.study.backends import (
+    DaskBackend,
+    ProcessBackend,
+    SerialBackend,
+    ThreadBackend,
+    available_cores,
+)
+from vsi_numba.study.batches import Batch, plan_batches, run_batch_task
 from vsi_numba.study.grid import Case, StudyGrid, history_mask, make_grid, profile_range
 from vsi_numba.study.store import (
     CaseStore,
@@ -62,11 +67,15 @@ from vsi_numba.study.store import (
     store_path,
 )
 
-BACKENDS = ("serial", "processes", "dask")
+BACKENDS = ("serial", "threads", "processes", "dask")
+
+#: Environment variable of the tests: hold the study (sleep until interrupted) once this
+#: many batches were stored in this run, so an interruption never races the machine.
+HOLD_ENV = "VSI_STUDY_HOLD_AFTER"
 
 
 class CaseErrors(StudyError):
-    """Some cases raised an exception (not a numerical failure): no results file."""
+    """Some batches raised an exception (not a numerical failure): no results file."""
 
     exit_code = 1
 
@@ -76,7 +85,7 @@ class CaseErrors(StudyError):
 
 @dataclass(frozen=True)
 class StudyModel:
-    """Everything a case needs, rebuilt from the resolved configuration."""
+    """Everything a batch needs, rebuilt from the resolved configuration."""
 
     config: object
     bridge: object
@@ -85,6 +94,8 @@ class StudyModel:
     output_points: np.ndarray
     profiles: dict
     x_range: tuple[float, float]
+    speeds_kmh: np.ndarray
+    deck: tuple  # (phi_d, phi_a, cut-off Hz) at the output points
 
 
 class StudySpec(NamedTuple):
@@ -124,25 +135,38 @@ def _load(config):
     return config
 
 
-@functools.lru_cache(maxsize=4)
+_MODELS: dict = {}
+
+
 def study_model(spec: StudySpec) -> StudyModel:
     """Build (once per process) the bridge, trains and profiles of a configuration."""
-    return _build_model(_load(spec))
+    model = _MODELS.get(spec)
+    if model is None:
+        model = _build_model(_load(spec))
+        if len(_MODELS) >= 4:
+            _MODELS.pop(next(iter(_MODELS)))
+        _MODELS[spec] = model
+    return model
+
+
+def _remember(spec: StudySpec, model: StudyModel) -> None:
+    """Seed the per-process model cache (the parent built the model already)."""
+    _MODELS[spec] = model
 
 
 def _build_model(cfg) -> StudyModel:
+    from vsi_numba.solver.simulate import default_points, deck_operators
+
     bridge = cfg.build_bridge()
     trains = tuple(cfg.trains())
     settings = cfg.solver_settings()
     x_range = profile_range(bridge.length, [t.length for t in trains], settings.approach,
                             settings.free_vibration)
     profiles = dict(cfg.irregularities(*x_range))
-    points = cfg.output_points
-    if points is None:
-        s = np.asarray(bridge.supports, float)
-        points = 0.5 * (s[:-1] + s[1:])
-    return StudyModel(cfg, bridge, trains, settings, np.atleast_1d(np.asarray(points, float)),
-                      profiles, x_range)
+    points = default_points(bridge, cfg.output_points)
+    return StudyModel(cfg, bridge, trains, settings, points, profiles, x_range,
+                      np.asarray(cfg.speeds_kmh, float),
+                      deck_operators(bridge, points, settings))
 
 
 def model_fingerprint(model: StudyModel) -> str:
@@ -192,7 +216,7 @@ def model_fingerprint(model: StudyModel) -> str:
 
 
 def study_grid(model: StudyModel) -> StudyGrid:
-    """Return the case grid of a configuration (deterministic order)."""
+    """Return the run grid of a configuration (deterministic order)."""
     cfg = model.config
     hist = history_mask(cfg.speeds_kmh, bool(cfg.save_time_histories),
                         getattr(cfg, "history_speeds_kmh", None))
@@ -200,31 +224,38 @@ def study_grid(model: StudyModel) -> StudyGrid:
                      hist)
 
 
+def _packed_trains(spec: StudySpec, model: StudyModel) -> list:
+    from vsi_numba.study.batches import _packed_train
+
+    return [_packed_train(spec, i) for i in range(len(model.trains))]
+
+
+def study_plan(spec: StudySpec, model: StudyModel, grid: StudyGrid) -> list[Batch]:
+    """The batch plan of a study (deterministic, see :mod:`.batches`)."""
+    return plan_batches(grid, _packed_trains(spec, model), model.output_points.size)
+
+
+def plan_fingerprint(plan: list[Batch]) -> str:
+    """SHA-256 of the batch keys and their runs (a store is only resumed by its plan)."""
+    text = ";".join(f"{b.key}:{b.histories}" for b in plan)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
 # ---------------------------------------------------------------------------- one case
 
 
-def run_case(config, case: Case) -> xr.Dataset:
-    """Run one case of a study and return its dataset.
+def run_case(config, case: Case):
+    """Run one case of a study and return its dataset (dims ``speed``, ``train``,
+    ``irregularity`` of length 1): the study engine restricted to that run.
 
     Parameters
     ----------
     config : StudySpec, Config, dict or str
-        The resolved configuration: a :class:`StudySpec` (what workers receive: the
-        ``Config.to_json()`` string and the base directory of relative paths), a
-        ``Config``, or the resolved dict / JSON string (relative paths then resolve
-        against the working directory).  The model is rebuilt from it (and cached per
-        process), so the case runs identically in this process, in a worker process or on
-        Dask.
+        The resolved configuration (see :func:`study_spec`).
     case : Case
         From the study grid (:func:`vsi_numba.study.grid.make_grid`).
-
-    Returns
-    -------
-    xarray.Dataset
-        Envelopes, ``status``, ``max_iterations``, ``message`` and, for cases that keep
-        them, time histories; leading dims ``speed``, ``train``, ``irregularity`` of
-        length 1.
     """
+    from vsi_numba.io.schema import DIAGNOSTICS, ENVELOPES, HISTORIES
     from vsi_numba.solver.simulate import simulate
 
     model = study_model(study_spec(config))
@@ -235,12 +266,13 @@ def run_case(config, case: Case) -> xr.Dataset:
     profile = model.profiles[case.irregularity]
     sim = simulate(model.bridge, train, case.speed_m_s, profile, model.settings,
                    output_points=model.output_points, save_histories=case.histories)
-    return case_dataset(sim, case)
-
-
-def run_case_bytes(spec: StudySpec, case: Case) -> bytes:
-    """:func:`run_case` encoded as netCDF bytes (what workers send back to the parent)."""
-    return to_netcdf_bytes(run_case(spec, case))
+    names = [n for n in (*ENVELOPES, *DIAGNOSTICS, *HISTORIES) if n in sim]
+    ds = sim[names].expand_dims(speed=[case.speed_m_s], train=[case.train],
+                                irregularity=[case.irregularity])
+    ds = ds.assign_coords(speed_kmh=("speed", [case.speed_kmh]))
+    ds.attrs = {"case_key": case.key, "status": int(sim.attrs["status"]),
+                "message": str(sim.attrs["message"])}
+    return ds
 
 
 # ---------------------------------------------------------------------------- progress
@@ -284,12 +316,12 @@ class _Progress:
         if self.bar is not None:
             self.bar.stop()
 
-    def advance(self):
+    def advance(self, n: int = 1):
         if self.bar is None:
             return
-        self._n += 1
+        self._n += n
         rate = self._n / max(_time.perf_counter() - self._t0, 1e-9)
-        self.bar.update(self.task, advance=1, rate=f"{rate:.2f} cases/s")
+        self.bar.update(self.task, advance=n, rate=f"{rate:.1f} runs/s")
 
 
 def _say(quiet: bool, message: str) -> None:
@@ -300,28 +332,39 @@ def _say(quiet: bool, message: str) -> None:
 # ---------------------------------------------------------------------------- the study
 
 
-def _choose_backend(backend, workers, scheduler, n_pending):
+def _choose_backend(backend, workers, scheduler, n_pending, scratch):
     if backend is not None and backend not in BACKENDS:
         raise StudyError(f"backend = {backend!r}: expected one of {', '.join(BACKENDS)}")
     if workers is not None and workers < 1:
         raise StudyError(f"workers = {workers}: expected a number of workers >= 1")
     if backend is None:
-        backend = "dask" if (workers is not None or scheduler is not None) else "processes"
+        backend = "dask" if (workers is not None or scheduler is not None) else "threads"
     if backend == "serial":
         return SerialBackend()
-    if backend == "processes":
+    if backend in ("threads", "processes"):
         n = workers if workers is not None else available_cores()
         n = min(n, n_pending)
-        return SerialBackend() if n <= 1 else ProcessBackend(n)
+        if n <= 1:
+            return SerialBackend()
+        return ThreadBackend(n) if backend == "threads" else ProcessBackend(n)
     if scheduler is None and workers is None:
         workers = available_cores()
-    return DaskBackend(n_workers=workers, scheduler=scheduler)
+    return DaskBackend(n_workers=workers, scheduler=scheduler, local_directory=scratch)
 
 
-def _train_info(model: StudyModel) -> dict:
+def trains_info(spec: StudySpec, model: StudyModel) -> dict:
+    """Per-train coordinates and references of the results file."""
     from vsi_numba.solver.simulate import static_deck_envelope
 
+    packed = _packed_trains(spec, model)
     return {
+        "wheel_position": [np.concatenate([p.wheel_positions, p.load_positions])
+                           for p in packed],
+        "static_wheel_load": [np.concatenate([p.static_loads, p.vehicles.load_p])
+                              for p in packed],
+        "vehicle_name": [list(p.vehicle_names) for p in packed],
+        "n_wheel": [p.wheel_positions.size + p.load_positions.size for p in packed],
+        "n_vehicle": [p.vehicles.body_dof.size for p in packed],
         "regular_length": [float(t.regular_length) for t in model.trains],
         "status": [str(t.status) for t in model.trains],
         "max_static_deck_displacement": np.array(
@@ -348,8 +391,6 @@ def track_type_of(cfg) -> str:
             if section == "track" and isinstance(resolved.get("track"), str):
                 value = resolved["track"]
     return "unspecified" if value is None else str(value)
-
-
 
 
 def _global_attrs(model: StudyModel, config_json: str, sha: str, grid: StudyGrid,
@@ -381,20 +422,21 @@ def _global_attrs(model: StudyModel, config_json: str, sha: str, grid: StudyGrid
         "history_speeds_kmh": " ".join(f"{v:g}" for v in grid.speeds_kmh[grid.history_speeds]),
         "dt": float(model.settings.dt),
         "hht_alpha": float(model.settings.hht_alpha),
+        "acceleration_cutoff_hz": float(model.deck[2]),
     }
     if warnings:
         attrs["config_warnings"] = "\n".join(str(w) for w in warnings)
     return attrs
 
 
-def _submission_order(grid: StudyGrid, pending: list[Case], model: StudyModel) -> list[Case]:
-    """Longest cases first (cost ~ run length / speed) for a good load balance."""
-    def cost(case):
-        train = model.trains[case.i_train]
-        run = model.settings.approach + model.bridge.length + train.length
-        return -(run / max(case.speed_m_s, 1e-9) + model.settings.free_vibration)
+@dataclass
+class StudyOutcome:
+    """What a finished study wrote."""
 
-    return sorted(pending, key=lambda c: (cost(c), c.index))
+    path: Path
+    n_runs: int
+    n_failed: int
+    n_batches: int
 
 
 def run_study(
@@ -409,7 +451,7 @@ def run_study(
     keep_cases: bool = False,
     quiet: bool = True,
     command: str | None = None,
-) -> xr.Dataset:
+):
     """Run a study (speeds x trains x irregularity realisations) to one netCDF file.
 
     Parameters
@@ -418,24 +460,25 @@ def run_study(
         TOML file, config dict or loaded ``Config``.
     output : path, optional
         netCDF file to write (default: ``study.output`` of the configuration).  Finished
-        cases are kept in ``<output>.cases/`` until the file is written; running the same
-        study again resumes from there.
+        batches are kept in ``<output>.cases/`` until the file is written; running the
+        same study again resumes from there.
     workers : int, optional
-        With no ``backend``: start a Dask ``LocalCluster`` (127.0.0.1) of this many
-        workers.  With ``backend="processes"``: the number of local processes.
+        With no ``backend``: a Dask ``LocalCluster`` of this many workers (threads of
+        this process: the kernels release the GIL).  With ``backend="threads"`` or
+        ``"processes"``: the number of local threads or spawned processes.
     scheduler : str, optional
         Address of an existing Dask scheduler (``tcp://host:port``).
     progress : bool
         Show a progress bar (on a terminal only).
-    backend : {"serial", "processes", "dask"}, optional
+    backend : {"serial", "threads", "processes", "dask"}, optional
         Default: ``"dask"`` when ``workers`` or ``scheduler`` is given, else
-        ``"processes"`` (one spawned process per core; serial when a single case is left
-        or a single core is available).
+        ``"threads"`` (one thread per core running whole batches; serial when a single
+        batch is left or a single core is available).
     fresh : bool
-        Discard the case store of a previous run of this output, even if it belongs to
-        another configuration.
+        Discard the store of a previous run of this output, even if it belongs to another
+        configuration.
     keep_cases : bool
-        Keep the case store after the file is written.
+        Keep the store after the file is written.
     quiet : bool
         No summary lines on stderr.
     command : str, optional
@@ -444,7 +487,9 @@ def run_study(
     Returns
     -------
     xarray.Dataset
-        The study as written (read back from ``output``, loaded in memory).
+        The results file, opened lazily (:func:`vsi_numba.io.netcdf.open_results`):
+        nothing is read until used; close it (or use it as a context manager) when done.
+        :func:`execute_study` returns the path and counts without opening the file.
 
     Raises
     ------
@@ -453,10 +498,21 @@ def run_study(
     StudyError
         :class:`~vsi_numba.study.store.StoreMismatchError` (the store belongs to another
         configuration), ``OutputNotWritableError``, ``StoreWriteError`` (disk full),
-        :class:`CaseErrors` (some cases raised); ``exc.exit_code`` is the CLI status.
+        :class:`CaseErrors` (some batches raised); ``exc.exit_code`` is the CLI status.
     KeyboardInterrupt
-        Finished cases stay in the store.
+        Finished batches stay in the store.
     """
+    from vsi_numba.io.netcdf import open_results
+
+    outcome = execute_study(config, output, workers, scheduler, progress, backend=backend,
+                            fresh=fresh, keep_cases=keep_cases, quiet=quiet, command=command)
+    return open_results(outcome.path)
+
+
+def execute_study(config, output=None, workers=None, scheduler=None, progress=False, *,
+                  backend=None, fresh=False, keep_cases=False, quiet=True,
+                  command=None) -> StudyOutcome:
+    """:func:`run_study` without opening the result: returns a :class:`StudyOutcome`."""
     cfg = _load(Path(config) if isinstance(config, str) else config)
     spec = study_spec(cfg)
     config_json = spec.config_json
@@ -469,7 +525,9 @@ def run_study(
     if output.exists() and output.is_dir():
         raise OutputNotWritableError(f"the output {output} is a directory")
     model = _build_model(cfg)
+    _remember(spec, model)
     grid = study_grid(model)
+    plan = study_plan(spec, model, grid)
     if command is None:
         source = str(cfg.path) if getattr(cfg, "path", None) else "<mapping>"
         command = (f"vsi_numba.run_study({source!r}, output={str(output)!r}, "
@@ -477,80 +535,175 @@ def run_study(
 
     check_writable(output.parent if str(output.parent) else Path("."), "results file")
     store = CaseStore(store_path(output), sha, config_json, fresh=fresh,
-                      model_sha256=model_fingerprint(model))
+                      model_sha256=model_fingerprint(model),
+                      plan_sha256=plan_fingerprint(plan))
     with store:
         done = store.done()
-        pending = [c for c in grid.cases if c.key not in done]
+        for b in plan:  # a damaged or foreign batch file is found now, not at the end
+            if b.key in done:
+                store.check(b.key)
+        pending = [b for b in plan if b.key not in done]
+        n_runs = len(grid.cases)
+        n_todo = sum(b.n_runs for b in pending)
         n_s, n_t, n_i = grid.shape
         if pending:
-            be = _choose_backend(backend, workers, scheduler, len(pending))
-            _say(quiet, f"{len(grid.cases)} cases ({n_s} speeds x {n_t} trains x {n_i} "
-                        f"irregularities): {len(grid.cases) - len(pending)} done earlier, "
-                        f"{len(pending)} to run ({be.name}"
+            be = _choose_backend(backend, workers, scheduler, len(pending),
+                                 store.path / "dask-scratch")
+            _say(quiet, f"{n_runs} runs in {len(plan)} batches ({n_s} speeds x {n_t} trains "
+                        f"x {n_i} irregularities): {n_runs - n_todo} done earlier, "
+                        f"{n_todo} to run ({be.name}"
                         f"{'' if be.name == 'serial' else f', {workers or be.n_workers} workers'}"
                         ")")
-            from vsi_numba.solver.simulate import warm_up
-
-            warm_up()  # compile or load the kernels here, before any worker starts
-            _run_pending(be, spec, grid, pending, model, store, progress)
+            _run_pending(be, spec, pending, store, progress, n_runs, n_runs - n_todo)
         else:
-            _say(quiet, f"{len(grid.cases)} cases: all done earlier, assembling {output}")
+            _say(quiet, f"{n_runs} runs: all done earlier, writing {output}")
+        n_failed = _write_results(output, store, spec, model, grid, plan, config_json, sha,
+                                  command)
+        if not keep_cases:
+            store.remove()
+    _say(quiet, f"wrote {output}: {n_runs} runs, {n_failed} failed")
+    return StudyOutcome(output, n_runs, n_failed, len(plan))
 
-        cases = [store.load(c.key) for c in grid.cases]
-        status = np.array([int(ds["status"].values.ravel()[0]) for ds in cases])
-        failed = [c.key for c, s in zip(grid.cases, status, strict=True) if s != 0]
-        attrs = _global_attrs(model, config_json, sha, grid, len(failed), failed, command)
-        ds = assemble(grid, cases, _train_info(model), model.bridge.frequencies, attrs)
+
+def _write_results(output: Path, store: CaseStore, spec, model, grid, plan, config_json,
+                   sha, command) -> int:
+    """Stream the stored batches into the results file; returns the failed-run count."""
+    from vsi_numba.io.study_file import StudyFile
+
+    info = trains_info(spec, model)
+    packed = _packed_trains(spec, model)
+    hist_steps = [packed[b.i_train].n_steps(grid.speeds_kmh[s] / 3.6) + 1
+                  for b in plan for s, h in zip(b.speeds, b.histories, strict=True) if h]
+    n_time = max(hist_steps) if hist_steps else None
+    tmp = store.temp_path(output.name)
+    failed: list[str] = []
+    try:
+        f = StudyFile(tmp, grid.speeds_kmh, grid.trains, grid.irregularities,
+                      model.output_points, model.bridge.frequencies,
+                      max(info["n_wheel"], default=0), max(info["n_vehicle"], default=0),
+                      n_time, model.settings.dt, info)
+        hold = _hold_after() == "write"
         try:
-            write_netcdf(ds, output)
-        except OSError as exc:
-            msg = (f"cannot write {output}: {exc.strerror or exc}. The {len(cases)} finished "
-                   f"cases are kept in {store.path}; re-run the same command once fixed.")
-            if isinstance(exc, PermissionError):
-                raise OutputNotWritableError(msg) from exc
-            raise StoreWriteError(msg) from exc
-    if not keep_cases:
-        store.remove()
-    _say(quiet, f"wrote {output}: {len(grid.cases)} cases, {len(failed)} failed")
-    with open_results(output) as result:
-        return result.load()
+            for b in plan:
+                data = store.load(b.key)
+                f.write_batch(b, data, info["n_wheel"][b.i_train], info["n_vehicle"][b.i_train])
+                if hold:
+                    f.nc.sync()
+                    _hold(store)
+                for r, st in enumerate(data["status"]):
+                    if st != 0:
+                        failed.append(Case(0, b.speeds[r], b.i_train, b.i_irregularity, 0.0,
+                                           "", 0, False).key)
+                del data
+            failed.sort()
+            f.close(_global_attrs(model, config_json, sha, grid, len(failed), failed,
+                                  command))
+        except BaseException:
+            f.abort()
+            raise
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, output)
+        _fsync_dir(output.parent)
+    except (OSError, RuntimeError) as exc:
+        tmp.unlink(missing_ok=True)
+        n = len(store.done())
+        msg = (f"cannot write {output}: {getattr(exc, 'strerror', None) or exc}. The {n} "
+               f"finished batches are kept in {store.path}; re-run the same command once "
+               "fixed.")
+        if isinstance(exc, PermissionError):
+            raise OutputNotWritableError(msg) from exc
+        raise StoreWriteError(msg) from exc
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return len(failed)
 
 
-def _run_pending(be, spec, grid, pending, model, store, progress) -> None:
-    errors: list[tuple[Case, BaseException]] = []
-    order = _submission_order(grid, pending, model)
-    with _Progress(progress, len(grid.cases), len(grid.cases) - len(pending), "cases") as bar:
+def _hold_after() -> int | str | None:
+    """The test hook's setting: a number of stored batches, ``"write"`` (inside the final
+    write) or None."""
+    value = os.environ.get(HOLD_ENV, "").strip()
+    if value == "write":
+        return value
+    try:
+        return int(value) if value else None
+    except ValueError:
+        return None
+
+
+def _hold(store: CaseStore) -> None:
+    """Test hook: announce the hold and sleep until interrupted or killed."""
+    (store.path / ".held").write_text(str(os.getpid()))
+    while True:
+        _time.sleep(0.05)
+
+
+def _run_pending(be, spec, pending, store, progress, n_runs, n_done) -> None:
+    errors: list[tuple[Batch, BaseException]] = []
+    order = sorted(pending, key=lambda b: (-b.cost, b.index))
+    hold = _hold_after()
+    stored = 0
+    with _Progress(progress, n_runs, n_done, "runs") as bar:
         with be:
             try:
-                for case, result in be.run(run_case_bytes, spec, order):
+                for batch, result in be.run(run_batch_task, spec, order):
                     if isinstance(result, BaseException):
-                        errors.append((case, result))
+                        errors.append((batch, result))
                     else:
-                        store.write(case.key, result)
-                    bar.advance()
+                        store.write(batch.key, result)
+                        stored += 1
+                    bar.advance(batch.n_runs)
+                    if isinstance(hold, int) and stored >= hold:
+                        _hold(store)
             except BaseException as exc:
                 if isinstance(exc, KeyboardInterrupt | StudyError):
                     raise
                 try:
-                    kept = f"{len(store.done())} finished cases are kept in {store.path}"
+                    kept = f"{len(store.done())} finished batches are kept in {store.path}"
                 except OSError:
-                    kept = f"finished cases are kept in {store.path}"
+                    kept = f"finished batches are kept in {store.path}"
                 raise StudyError(
                     f"the study stopped: {type(exc).__name__}: {exc}. {kept}; re-run the "
                     "same command to resume."
                 ) from exc
     if errors:
-        case, exc = errors[0]
+        batch, exc = errors[0]
         tb = "".join(traceback.format_exception(exc)).rstrip()
         raise CaseErrors(
-            f"{len(errors)} case(s) raised an error, e.g. case {case.key} "
-            f"({case.speed_kmh:g} km/h, {case.train}, irregularity {case.irregularity}):\n"
-            f"{tb}\nNo results file was written; the {len(store.done())} finished cases "
-            f"are kept in {store.path} and a re-run computes only the missing ones."
+            f"{len(errors)} batch(es) raised an error, e.g. batch {batch.key} "
+            f"(train {batch.i_train}, irregularity {batch.i_irregularity}, speeds "
+            f"{batch.speeds[0]}..{batch.speeds[-1]}):\n{tb}\nNo results file was written; "
+            f"the {len(store.done())} finished batches are kept in {store.path} and a "
+            "re-run computes only the missing ones."
         )
 
 
 # ---------------------------------------------------------------------------- the CLI
+
+
+class _sigterm_as_interrupt:  # noqa: N801 - used as a context manager
+    """SIGTERM raises KeyboardInterrupt (in the main thread): a terminated sweep keeps its
+    finished batches and says so, like Ctrl-C."""
+
+    def __enter__(self):
+        import signal
+
+        def handler(signum, frame):
+            raise KeyboardInterrupt
+
+        try:
+            self._old = signal.signal(signal.SIGTERM, handler)
+        except ValueError:  # not the main thread
+            self._old = None
+        return self
+
+    def __exit__(self, *exc):
+        import signal
+
+        if self._old is not None:
+            signal.signal(signal.SIGTERM, self._old)
+        return None
 
 
 def sweep_command(config: Path, output: Path | None, workers: int | None,
@@ -584,20 +737,22 @@ def sweep_command(config: Path, output: Path | None, workers: int | None,
     if fresh:
         parts += ["--fresh"]
     try:
-        ds = run_study(cfg, output, workers=workers, scheduler=scheduler, progress=not quiet,
-                       fresh=fresh, quiet=quiet, command=" ".join(parts))
+        with _sigterm_as_interrupt():
+            outcome = execute_study(cfg, output, workers=workers, scheduler=scheduler,
+                                    progress=not quiet, fresh=fresh, quiet=quiet,
+                                    command=" ".join(parts))
     except ConfigError as exc:
         return fail(f"invalid configuration {config}:\n{exc}", 2)
     except StudyError as exc:
         return fail(str(exc), exc.exit_code)
     except KeyboardInterrupt:
-        return fail("interrupted: the finished cases are kept; re-run the same command to "
-                    "resume", 130)
+        return fail("interrupted: the finished batches are kept; re-run the same command "
+                    "to resume", 130)
     except OSError as exc:  # I/O outside the store/output writes (numba cache, temp files)
         return fail(f"{exc}. Finished cases are kept; re-run the same command to resume.", 1)
-    n_failed = int(ds.attrs.get("n_failed_cases", 0))
+    n_failed = outcome.n_failed
     if n_failed:
-        return fail(f"{n_failed} of {ds.attrs.get('n_cases')} cases failed numerically "
+        return fail(f"{n_failed} of {outcome.n_runs} cases failed numerically "
                     "(status != 0, outputs NaN); see the 'status' and 'message' variables",
                     1)
     return 0

@@ -1,21 +1,26 @@
-"""The case store: one netCDF file per finished case, next to the study output.
+"""The batch store: one file per finished batch, next to the study output.
 
-A study writing ``out.nc`` keeps its finished cases in ``out.nc.cases/``:
+A study writing ``out.nc`` keeps its finished batches in ``out.nc.cases/``:
 
 ``store.json``
     manifest: store format, ``config_sha256`` and the resolved configuration of the study
-    that owns the store, package version, creation time.
-``case_s0003_t001_i002.nc``
-    one finished case (speed index 3, train index 1, irregularity index 2), written by
-    :func:`vsi_numba.io.netcdf.write_bytes_atomic`: a case file exists completely or not
-    at all, whatever happens to the process (Ctrl-C, SIGKILL, power loss after the fsync).
+    that owns the store, the model and batch-plan hashes, package version, creation time.
+``batch_t001_i002_s0010-0019.npz``
+    one finished batch (train 1, realisation 2, speeds 10..19): its envelopes, status and
+    histories as numpy arrays, written by :func:`vsi_numba.io.netcdf.write_atomic`: a
+    batch file exists completely or not at all, whatever happens to the process (Ctrl-C,
+    SIGKILL, power loss after the fsync).
 ``.lock``
-    ``flock``-ed while a run uses the store, so two runs cannot write one store.
+    ``flock``-ed while a run uses the store, so two runs cannot write one store; it is
+    the last thing removed.
+``.*.tmp``
+    files being written (batches, the final results file); left by a killed run, they
+    are removed by the next one.
 
-Resume is "skip every case whose file exists".  A store is only ever reused by a run whose
-configuration has the same SHA-256: anything else is refused with
-:class:`StoreMismatchError` (never silently mixed).  After the final file is written the
-store is removed (its content is all in the final file).
+Resume is "skip every batch whose file exists".  A store is only ever reused by a run
+whose configuration, model data and batch plan are the same: anything else is refused
+with :class:`StoreMismatchError` (never silently mixed).  After the final file is written
+the store is removed (its content is all in the final file).
 """
 
 from __future__ import annotations
@@ -29,14 +34,14 @@ import shutil
 from datetime import UTC, datetime
 from pathlib import Path
 
-import xarray as xr
+import numpy as np
 
-from vsi_numba.io.netcdf import package_version, write_bytes_atomic
+from vsi_numba.io.netcdf import package_version, write_atomic, write_bytes_atomic
 
-STORE_FORMAT = 1
+STORE_FORMAT = 2
 MANIFEST = "store.json"
 LOCK = ".lock"
-_CASE_FILE = re.compile(r"^case_(s\d{4,}_t\d{3,}_i\d{3,})\.nc$")
+_BATCH_FILE = re.compile(r"^batch_(t\d{3,}_i\d{3,}_s\d{4,}-\d{4,})\.npz$")
 
 
 class StudyError(Exception):
@@ -64,7 +69,13 @@ class StoreBusyError(StudyError):
 
 
 class StoreWriteError(StudyError):
-    """Writing a finished case or the final file failed (e.g. disk full)."""
+    """Writing a finished batch or the final file failed (e.g. disk full)."""
+
+    exit_code = 1
+
+
+class CorruptBatchError(StudyError):
+    """A stored batch cannot be read or is not the batch its name says."""
 
     exit_code = 1
 
@@ -98,7 +109,7 @@ def check_writable(directory: Path, what: str) -> None:
 
 
 class CaseStore:
-    """Finished cases of one study, one atomic netCDF file each (see the module notes).
+    """Finished batches of one study, one atomic file each (see the module notes).
 
     Parameters
     ----------
@@ -113,10 +124,11 @@ class CaseStore:
     """
 
     def __init__(self, path, config_sha256: str, config_json: str, fresh: bool = False,
-                 model_sha256: str = ""):
+                 model_sha256: str = "", plan_sha256: str = ""):
         self.path = Path(path)
         self.sha256 = config_sha256
         self.model_sha256 = model_sha256
+        self.plan_sha256 = plan_sha256
         self.config_json = config_json
         self.fresh = fresh
         self._lock_fd: int | None = None
@@ -139,6 +151,7 @@ class CaseStore:
                     "format": STORE_FORMAT,
                     "config_sha256": self.sha256,
                     "model_sha256": self.model_sha256,
+                    "plan_sha256": self.plan_sha256,
                     "package_version": package_version(),
                     "created": datetime.now(UTC).isoformat(timespec="seconds"),
                     "config_json": self.config_json,
@@ -166,42 +179,75 @@ class CaseStore:
         self.close()
 
     def remove(self) -> None:
-        """Delete the store (after its cases went into the final file)."""
+        """Delete the store (after its batches went into the final file); the lock is
+        held until the store is gone, so no other run can adopt it half-removed."""
+        self._clear(keep_lock=True)
+        with contextlib.suppress(OSError):
+            (self.path / LOCK).unlink()
+        with contextlib.suppress(OSError):
+            self.path.rmdir()
         self.close()
-        self._remove_tree()
 
     # -------------------------------------------------------------- content
     def done(self) -> set[str]:
-        """Keys of the finished cases."""
+        """Keys of the finished batches."""
         keys = set()
         for p in self.path.iterdir():
-            m = _CASE_FILE.match(p.name)
+            m = _BATCH_FILE.match(p.name)
             if m:
                 keys.add(m.group(1))
         return keys
 
-    def case_path(self, key: str) -> Path:
-        """File of case ``key``."""
-        return self.path / f"case_{key}.nc"
+    def batch_path(self, key: str) -> Path:
+        """File of batch ``key``."""
+        return self.path / f"batch_{key}.npz"
 
-    def write(self, key: str, data: bytes) -> Path:
-        """Store one finished case (netCDF bytes) atomically."""
-        target = self.case_path(key)
+    def temp_path(self, name: str) -> Path:
+        """A path for a file being written inside the store (removed if left behind)."""
+        return self.path / f".{name}.{os.getpid()}.tmp"
+
+    def write(self, key: str, arrays: dict) -> Path:
+        """Store one finished batch atomically (``arrays``: name -> numpy array)."""
+        target = self.batch_path(key)
+        data = {"batch_key": np.array(key)}
+        data.update({k: v for k, v in arrays.items() if v is not None})
+
+        def write(tmp):
+            with open(tmp, "wb") as f:
+                np.savez(f, **data)
+
         try:
-            return write_bytes_atomic(target, data)
+            return write_atomic(target, write)
         except OSError as exc:
             raise _write_error(exc, target, self) from exc
 
-    def load(self, key: str) -> xr.Dataset:
-        """Read one finished case into memory (the file is closed on return)."""
-        path = self.case_path(key)
+    def check(self, key: str) -> None:
+        """Check that the stored batch ``key`` is readable and is that batch."""
+        path = self.batch_path(key)
         try:
-            with xr.open_dataset(path, engine="netcdf4", decode_timedelta=False) as ds:
-                return ds.load()
-        except OSError as exc:
-            raise StudyError(
-                f"cannot read the stored case {path}: {exc}. Delete this file and re-run "
-                "the same command to compute that case again."
+            with np.load(path, allow_pickle=False) as z:
+                found = str(z["batch_key"])
+        except (OSError, ValueError, KeyError, EOFError) as exc:
+            raise CorruptBatchError(
+                f"the stored batch {path} cannot be read ({type(exc).__name__}: {exc}). "
+                "Delete this file and re-run the same command to compute it again."
+            ) from exc
+        if found != key:
+            raise CorruptBatchError(
+                f"the stored batch {path} holds batch {found!r}, not {key!r} (a file was "
+                "renamed or copied in). Delete it and re-run the same command."
+            )
+
+    def load(self, key: str) -> dict:
+        """Read one finished batch into memory (the file is closed on return)."""
+        path = self.batch_path(key)
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                return {k: z[k] for k in z.files}
+        except (OSError, ValueError, EOFError) as exc:
+            raise CorruptBatchError(
+                f"cannot read the stored batch {path}: {exc}. Delete this file and re-run "
+                "the same command to compute that batch again."
             ) from exc
 
     # -------------------------------------------------------------- helpers
@@ -229,11 +275,17 @@ class CaseStore:
             )
         if info.get("config_sha256") != self.sha256:
             raise StoreMismatchError(
-                f"the case store {self.path} holds {len(self.done())} finished case(s) of a "
+                f"the case store {self.path} holds {len(self.done())} finished batch(es) of a "
                 f"DIFFERENT configuration (sha256 {str(info.get('config_sha256'))[:12]}..., "
                 f"this one is {self.sha256[:12]}...). Results of two configurations are never "
                 "mixed: delete that directory (or re-run with --fresh) to start again, or "
                 "write to another output (-o PATH)."
+            )
+        if info.get("plan_sha256", "") != self.plan_sha256:
+            raise StoreMismatchError(
+                f"the case store {self.path} was cut into batches differently (another "
+                "version of vsi_numba). Results are never mixed: delete that directory (or "
+                "re-run with --fresh) to start again, or write to another output (-o PATH)."
             )
         if info.get("model_sha256", "") != self.model_sha256:
             raise StoreMismatchError(
@@ -276,15 +328,12 @@ class CaseStore:
             else:
                 p.unlink()
 
-    def _remove_tree(self) -> None:
-        self._clear(keep_lock=False)
-        self.path.rmdir()
 
 
 def _write_error(exc: OSError, target: Path, store: CaseStore) -> StudyError:
     n = len(store.done()) if store.path.is_dir() else 0
     keep = (
-        f"The {n} finished case(s) are kept in {store.path}; re-run the same command to "
+        f"The {n} finished batch(es) are kept in {store.path}; re-run the same command to "
         "resume once this is fixed."
     )
     if _is_permission(exc):

@@ -1,0 +1,205 @@
+"""Batches: the unit of work of a study.
+
+A batch is a block of runs that share one packed model: one train on one irregularity
+realisation at a contiguous block of the study's speeds.  The model is packed once per
+process and train, and the whole batch is one call of the numba kernel
+(:func:`vsi_numba.solver.simulate.run_batch`) that loops over its runs and reduces the
+envelopes while it steps; raw time histories are kept only for the runs that ask for
+them.
+
+The batch plan depends on the model alone (never on the number of workers), so a study
+resumed with another backend or worker count finds the same batches in its store.
+Batches are cut so that each holds about :data:`BATCH_SECONDS` of estimated kernel time
+and at most :data:`BATCH_HISTORY_BYTES` of raw histories: small enough to balance two
+or more workers and to bound memory, large enough that the per-batch overhead (a few
+milliseconds) does not matter.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+
+from vsi_numba.io.schema import HISTORIES
+
+#: Estimated kernel seconds per batch (see :func:`run_cost`).
+BATCH_SECONDS = 0.5
+#: Cap on the raw history buffers of one batch (bytes).
+BATCH_HISTORY_BYTES = 64 * 2**20
+
+
+@dataclass(frozen=True)
+class Batch:
+    """Runs of one train on one realisation at a block of speeds.
+
+    Attributes
+    ----------
+    index : int
+        Position in the plan.
+    i_train, i_irregularity : int
+        Indices along the study's ``train`` and ``irregularity`` dimensions.
+    speeds : tuple of int
+        Indices along the ``speed`` dimension (contiguous, ascending).
+    histories : tuple of bool
+        Per run: keep its time histories.
+    cost : float
+        Estimated kernel seconds (scheduling only).
+    """
+
+    index: int
+    i_train: int
+    i_irregularity: int
+    speeds: tuple[int, ...]
+    histories: tuple[bool, ...]
+    cost: float = 0.0
+
+    @property
+    def key(self) -> str:
+        """Name in the store, e.g. ``t001_i002_s0010-0019``."""
+        return (f"t{self.i_train:03d}_i{self.i_irregularity:03d}_"
+                f"s{self.speeds[0]:04d}-{self.speeds[-1]:04d}")
+
+    @property
+    def n_runs(self) -> int:
+        return len(self.speeds)
+
+
+def step_cost(packed, n_points: int) -> float:
+    """Estimated kernel seconds per time step of a packed model.
+
+    Calibrated on this project's benchmarks (2-core Xeon): ~0.01 us per mode and output
+    point for moving forces; ~18 us for an 8-car ICE3 (32 wheels, 80 DOFs, 20 modes).
+    Only the ratios matter: they decide how runs are grouped into batches.
+    """
+    n_m = packed.bridge.omega.size
+    n_w = packed.vehicles.wheel_dof.size
+    n_v = packed.n_dof
+    if n_w == 0 and n_v == 0:
+        return 1e-8 * (3 * n_m + 2 * n_m * n_points)
+    return 1e-6 * (0.5 + 0.4 * n_w + 0.05 * n_v + 0.02 * n_m * (1 + n_points))
+
+
+def history_bytes(packed, n_steps: int) -> int:
+    """Raw history buffer of one run (bytes)."""
+    n_m = packed.bridge.omega.size
+    n_w = packed.vehicles.wheel_dof.size
+    n_b = packed.vehicles.body_dof.size
+    return (n_steps + 1) * (8 * (2 * n_m + n_w + n_b) + n_w + 2)
+
+
+def plan_batches(grid, packed_trains, n_points: int,
+                 batch_seconds: float = BATCH_SECONDS,
+                 history_limit: int = BATCH_HISTORY_BYTES) -> list[Batch]:
+    """Cut the study grid into batches (deterministic; see the module notes).
+
+    Parameters
+    ----------
+    grid : StudyGrid
+    packed_trains : sequence of Packed
+        One packed model per train of the grid (any speed).
+    n_points : int
+        Deck output points (the reductions cost grows with them).
+    """
+    speeds = np.asarray(grid.speeds_kmh, float) / 3.6
+    n_i = len(grid.irregularities)
+    batches: list[Batch] = []
+    for i_t, packed in enumerate(packed_trains):
+        per_step = step_cost(packed, n_points)
+        steps = [packed.n_steps(v) for v in speeds]
+        blocks: list[list[int]] = []
+        block: list[int] = []
+        cost = 0.0
+        hist = 0
+        for i_s, n in enumerate(steps):
+            c = per_step * n
+            h = history_bytes(packed, n) if grid.history_speeds[i_s] else 0
+            if block and (cost + c > batch_seconds or hist + h > history_limit):
+                blocks.append(block)
+                block, cost, hist = [], 0.0, 0
+            block.append(i_s)
+            cost += c
+            hist += h
+        if block:
+            blocks.append(block)
+        for i_i in range(n_i):
+            for b in blocks:
+                batches.append(Batch(
+                    index=len(batches), i_train=i_t, i_irregularity=i_i, speeds=tuple(b),
+                    histories=tuple(bool(grid.history_speeds[s]) for s in b),
+                    cost=float(per_step * sum(steps[s] for s in b)),
+                ))
+    return batches
+
+
+# ------------------------------------------------------------------ running one batch
+
+
+@functools.lru_cache(maxsize=64)
+def _packed_train(spec, i_train: int):
+    """The packed model of train ``i_train`` (once per process), smooth track."""
+    from vsi_numba.model.irregularity import no_irregularity
+    from vsi_numba.solver.simulate import pack
+    from vsi_numba.study.runner import study_model
+
+    model = study_model(spec)
+    train = model.trains[i_train]
+    return pack(model.bridge, train, 1.0, no_irregularity(), model.settings)
+
+
+def packed_for(spec, i_train: int, i_irregularity: int):
+    """Packed model of one train on one realisation, and that realisation's profile."""
+    from vsi_numba.kernels import engine as ek
+    from vsi_numba.study.runner import study_model
+
+    model = study_model(spec)
+    packed = _packed_train(spec, i_train)
+    rid = list(model.profiles)[i_irregularity]
+    profile = model.profiles[rid]
+    pr = ek.ProfileArrays(
+        x0=float(profile.x0), dx=float(profile.dx),
+        coef=np.ascontiguousarray(profile.coef, dtype=np.float64).reshape(-1, 4),
+    )
+    return dataclasses.replace(packed, profile=pr), profile
+
+
+def run_batch_task(spec, batch: Batch) -> dict:
+    """Run one batch; return its results as a dict of numpy arrays (picklable).
+
+    Keys: ``status``, ``max_iterations`` (n_runs,), ``message`` (n_runs,) str, every
+    envelope of :data:`vsi_numba.io.schema.ENVELOPES` (n_runs, n_dim), ``kernel_seconds``
+    and, when some run keeps them, ``hist_runs`` (positions in the batch), ``hist_steps``
+    (time steps + 1 of each) and every history of :data:`~vsi_numba.io.schema.HISTORIES`
+    as float32 (n_hist, n_time, n_dim), NaN-padded (``in_contact``: 1/0, NaN padding).
+    """
+    from vsi_numba.solver.simulate import run_batch
+    from vsi_numba.study.runner import study_model
+
+    model = study_model(spec)
+    packed, profile = packed_for(spec, batch.i_train, batch.i_irregularity)
+    speeds = np.asarray(model.speeds_kmh, float)[list(batch.speeds)] / 3.6
+    res = run_batch(packed, profile, speeds, model.output_points, model.settings,
+                    model.bridge, keep_histories=batch.histories, deck=model.deck)
+    out: dict = {
+        "status": res.status.astype(np.int32),
+        "max_iterations": res.red.iters.astype(np.int32),
+        "message": np.array([res.message(r) for r in range(speeds.size)], dtype=str),
+        "kernel_seconds": np.float64(res.elapsed),
+    }
+    out.update({name: np.ascontiguousarray(v) for name, v in res.envelopes().items()})
+    runs = [r for r in range(speeds.size) if batch.histories[r]]
+    if runs:
+        lengths = np.array([int(res.n_steps[r]) + 1 for r in runs], np.int64)
+        n_t = int(lengths.max())
+        out["hist_runs"] = np.array(runs, np.int64)
+        out["hist_steps"] = lengths
+        for name in HISTORIES:
+            out[name] = None
+        for h, r in enumerate(runs):
+            for name, val in res.histories(r).items():
+                if out[name] is None:
+                    out[name] = np.full((len(runs), n_t, val.shape[1]), np.nan, np.float32)
+                out[name][h, : val.shape[0]] = val
+    return out

@@ -299,10 +299,11 @@ def breakdown(bridge, train, speed, profile, settings, save_histories, repeat=3)
         t1 = time.perf_counter()
         sim.initial_state(packed, profile)
         t2 = time.perf_counter()
-        status, reached, out, kern = sim.run_kernel(packed, profile)
+        res = sim.run_batch(packed, profile, [speed], points, settings, bridge,
+                            keep_histories=[save_histories])
+        kern = res.elapsed
         t3 = time.perf_counter()
-        sim.to_dataset(bridge, train, packed, profile, settings, points, status, reached, out,
-                       kern, save_histories)
+        sim.to_dataset(bridge, train, res, profile, settings, points, save_histories)
         t4 = time.perf_counter()
         parts["pack"].append(t1 - t0)
         parts["initial_state"].append(t2 - t1)

@@ -12,7 +12,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg
 
 RIGID, SINE, HERMITE = 0, 1, 2
 
@@ -232,6 +231,8 @@ def continuous(
     """
     nodes, K, M, fixed, supports = beam_matrices(spans, EI, mass_per_length, elements_per_span)
     free = np.setdiff1d(np.arange(K.shape[0]), fixed)
+    import scipy.linalg  # here, not at import: it takes ~0.3 s to import
+
     lam, vec = scipy.linalg.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)])
     freqs = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
     n = _n_keep(freqs, n_modes, max_frequency)
@@ -504,6 +505,8 @@ def continuous_with_track(
     tm = track_matrices(spans, EI, mass_per_length, elements_per_span, track)
     n = tm.K.shape[0]
     free = np.setdiff1d(np.arange(n), tm.fixed)
+    import scipy.linalg
+
     lam, vec = scipy.linalg.eigh(tm.K[np.ix_(free, free)], tm.M[np.ix_(free, free)],
                                  driver="gvd")  # divide and conquer: every mode is needed
     freqs = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)

@@ -27,7 +27,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import scipy.interpolate
 
 
 @dataclass(frozen=True)
@@ -92,6 +91,8 @@ class Profile:
         Non-uniform samples are first interpolated by a C2 cubic spline and resampled
         at ``dx`` (default: the smallest sample spacing).
         """
+        import scipy.interpolate  # here, not at import: it takes ~0.4 s to import
+
         x = np.asarray(x, float)
         r = np.asarray(r, float)
         if x.ndim != 1 or x.shape != r.shape or x.size < 4:

@@ -673,7 +673,11 @@ def run_study_bench(mode: str = "quick", write: bool = True, report: Path | None
     res.load_end = load1()
     res.details.insert(0, f"RSS sampler cost: at most {100 * overhead:.1f} % of one core "
                           "during a measured command (CPU time of the sampling thread / wall).")
-    if write:
+    if write and only and report is None:
+        # a partial run must not replace the complete section of the shared report
+        echo("[study] partial run (--measure): reports/benchmarks.md left as it is; give "
+             "--report PATH to write this section elsewhere")
+    elif write:
         write_section(Path(report) if report else REPO / "reports" / "benchmarks.md",
                       markdown(res))
         echo("[study] wrote the study section of the report")

@@ -115,8 +115,11 @@ def test_report_written(tmp_path):
     from benchmarks.suite import run_suite
 
     path = tmp_path / "bench.md"
+    study = "<!-- study-benchmark:begin -->\nSTUDY\n<!-- study-benchmark:end -->\n"
+    path.write_text("# old report\n\n" + study)
     suite = run_suite("smoke", write=True, report=path, only=["1"], echo=lambda s: None)
     text = path.read_text()
+    assert "# old report" not in text and text.rstrip().endswith(study.rstrip())
     assert "## Machine" in text and "load average" in text and "numba" in text
     assert "## Case 1" in text and "| case |" in text
     assert suite.agreement["case 1 deflection"] <= TOL

@@ -135,7 +135,10 @@ def run_suite(mode: str = "quick", write: bool = True, report: Path | None = Non
             if C.plot_scaling(c4, plot):
                 suite.plot = plot
         report.parent.mkdir(parents=True, exist_ok=True)
-        report.write_text(markdown(suite))
+        from benchmarks.study import extract_section
+
+        kept = extract_section(report.read_text()) if report.exists() else ""
+        report.write_text(markdown(suite) + ("\n" + kept if kept else ""))
         echo(f"[benchmarks] wrote {report}")
     return suite
 

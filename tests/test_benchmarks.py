@@ -101,7 +101,7 @@ def test_quick_suite_produces_table(capsys):
     every case and prints the summary table; only its correctness part is checked."""
     from benchmarks.__main__ import main
 
-    assert main(["--smoke", "--no-write"]) == 0
+    assert main(["--smoke", "--no-write", "--no-study"]) == 0
     out = capsys.readouterr().out
     assert "speed-up" in out and "status" in out
     for case in ("1", "2", "3", "4"):
@@ -115,8 +115,126 @@ def test_report_written(tmp_path):
     from benchmarks.suite import run_suite
 
     path = tmp_path / "bench.md"
+    study = "<!-- study-benchmark:begin -->\nSTUDY\n<!-- study-benchmark:end -->\n"
+    path.write_text("# old report\n\n" + study)
     suite = run_suite("smoke", write=True, report=path, only=["1"], echo=lambda s: None)
     text = path.read_text()
+    assert "# old report" not in text and text.rstrip().endswith(study.rstrip())
     assert "## Machine" in text and "load average" in text and "numba" in text
     assert "## Case 1" in text and "| case |" in text
     assert suite.agreement["case 1 deflection"] <= TOL
+
+
+# ------------------------------------------------------- study level and yardstick
+
+YARDSTICK_TOL = 1e-9
+
+
+def test_yardstick_agrees_with_engine():
+    """The numpy/scipy yardstick vs ``simulate`` (HHT alpha = 0) on a small HSLM grid.
+
+    Newmark beta = 1/4, gamma = 1/2 on decoupled modal equations IS the trapezoidal rule
+    on u, u', u'', i.e. the bilinear transform of 1/(s^2 + 2 zeta w s + w^2) that
+    ``lfilter`` runs; both start from rest with no load on the span.  The two codes run
+    the same recursion and differ only by round-off (~1e-13 observed), hence 1e-9: far
+    above round-off, far below any modelling difference (a step offset, another
+    integrator, a missing mode or load show up at 1e-4..1).
+    """
+    from benchmarks.yardstick import check_agreement
+
+    agree = check_agreement(("HSLM-A1", "HSLM-A10"), (160.0, 300.0, 420.0))
+    assert agree["displacement"] <= YARDSTICK_TOL, agree
+    assert agree["acceleration"] <= YARDSTICK_TOL, agree
+
+
+def test_yardstick_filter_is_newmark():
+    """One mode: the bilinear filter reproduces an explicit Newmark (1/4, 1/2) loop."""
+    from scipy.signal import bilinear, lfilter
+
+    w, z, dt = 2 * np.pi * 5.0, 0.02, 1e-3
+    f = np.random.default_rng(1).normal(size=400)
+    f[0] = 0.0
+    u, v, a = np.zeros(400), np.zeros(400), np.zeros(400)
+    k_eff = 4 / dt**2 + 2 * z * w * 2 / dt + w * w
+    for n in range(399):
+        rhs = (f[n + 1] + (4 / dt**2 * u[n] + 4 / dt * v[n] + a[n])
+               + 2 * z * w * (2 / dt * u[n] + v[n]))
+        u[n + 1] = rhs / k_eff
+        a[n + 1] = 4 / dt**2 * (u[n + 1] - u[n]) - 4 / dt * v[n] - a[n]
+        v[n + 1] = v[n] + dt / 2 * (a[n] + a[n + 1])
+    den = [1.0, 2 * z * w, w * w]
+    ud = lfilter(*bilinear([1.0], den, fs=1 / dt), f)
+    ad = lfilter(*bilinear([1.0, 0.0, 0.0], den, fs=1 / dt), f)
+    assert np.abs(ud - u).max() <= 1e-12 * np.abs(u).max()
+    assert np.abs(ad - a).max() <= 1e-12 * np.abs(a).max()
+
+
+def test_study_configs_are_valid():
+    """Every config the study benchmark writes passes the package's config loader."""
+    from benchmarks import study as S
+    from vsi_numba.config import load_config
+
+    hslm = S.hslm_config(S.Y.TRAINS, S.Y.SPEEDS_KMH)
+    ice3 = S.ice3_config(range(1, 11), S.Y.SPEEDS_KMH)
+    hist = S.hslm_config(S.Y.TRAINS, S.HIST_SPEEDS, histories=True)
+    assert (S.n_runs(hslm), S.n_runs(ice3), S.n_runs(hist)) == (570, 570, 1140)
+    assert S.n_runs(S.study1_config()) == 627
+    for cfg in (hslm, ice3, hist, S.one_run(hslm), S.one_run(ice3),
+                S.one_run(S.study1_config())):
+        import tomllib
+
+        text = S.to_toml(cfg)
+        assert tomllib.loads(text) == tomllib.loads(S.to_toml(tomllib.loads(text)))
+        load_config(tomllib.loads(text))
+        if cfg is not hslm and cfg is not ice3 and cfg is not hist:
+            assert S.n_runs(cfg) == 1
+
+
+def test_tree_rss_counts_descendants(tmp_path):
+    """The peak RSS of a command includes its children (here a 150 MB grandchild)."""
+    import sys
+
+    from benchmarks.study import MB, run_command
+
+    child = "b = bytearray(150 * 2**20); import time; time.sleep(1.0)"
+    cmd = [sys.executable, "-c",
+           f"import subprocess, sys; subprocess.run([sys.executable, '-c', {child!r}])"]
+    r = run_command(cmd, tmp_path, None)
+    assert r.returncode == 0
+    assert r.max_procs >= 2
+    assert r.peak_rss >= 150 * MB, r
+
+
+def test_study_verdicts_and_section(tmp_path):
+    from benchmarks.study import Measure, extract_section, write_section
+
+    assert Measure("x", "", "", 0.9, "ratio", 1.5, 1.0).verdict == "goal met"
+    assert Measure("x", "", "", 1.2, "ratio", 1.5, 1.0).verdict == "bar met, goal missed"
+    assert Measure("x", "", "", 3.0, "s", 1.5, 1.0).verdict.startswith("MISSED x2.0")
+    assert "EXTRAPOLATED" in Measure("x", "", "", 3.0, "s", 1.5, 1.0,
+                                     extrapolated=True).verdict
+    path = tmp_path / "r.md"
+    path.write_text("# report\n\n## Case 1\n\ntext\n")
+    write_section(path, "<!-- study-benchmark:begin -->\nA\n<!-- study-benchmark:end -->\n")
+    write_section(path, "<!-- study-benchmark:begin -->\nB\n<!-- study-benchmark:end -->\n")
+    text = path.read_text()
+    assert text.startswith("# report") and "## Case 1" in text
+    assert extract_section(text).count("B") == 1 and "\nA\n" not in text
+
+
+def test_study_smoke(tmp_path, capsys):
+    """`python -m benchmarks --study --smoke`: one 1-run `vsi sweep` subprocess, measured
+    (wall, process-tree RSS), checked against the yardstick, written to the report."""
+    from benchmarks.__main__ import main
+
+    report = tmp_path / "bench.md"
+    assert main(["--study", "--smoke", "--report", str(report)]) == 0
+    out = capsys.readouterr().out
+    line = next(x for x in out.splitlines() if x.startswith("a1 "))
+    assert "yardstick" in line and ("met" in line or "MISSED" in line)
+    text = report.read_text()
+    assert "## Study level" in text and "| a1 |" in text and "peak RSS" in text
+    import re
+
+    agree = re.search(r"output agrees with the yardstick to ([0-9.]+e[-+][0-9]+)", text)
+    assert agree and float(agree.group(1)) <= YARDSTICK_TOL

@@ -418,3 +418,170 @@ def test_summary_table__one_row_per_check():
         "Car-body acceleration (comfort)",
     ]
     assert set(table["result"]) <= {"pass", "FAIL", "info", "n/a"}
+
+
+# --- determinant length L_phi (EN 1991-2 Table 6.2 [R]) ---------------------------------
+# Expected values are worked out here from the table: simply supported L_phi = L;
+# continuous n spans L_phi = k * mean(spans), k = 1.2 / 1.3 / 1.4 / 1.5 (n = 2 / 3 / 4 / >= 5),
+# not less than the largest span. phi'' is then recomputed from the Annex C formula.
+# Tolerance rel 1e-12: the same closed forms evaluated twice, only rounding differs.
+
+
+def _phi2(L, n0):
+    """phi'' of EN 1991-2 Annex C [R] for v >= 22 m/s (a = 1), written out independently."""
+    return max(0.56 * math.exp(-((L / 10.0) ** 2))
+               + 0.50 * (n0 * L / 80.0 - 1.0) * math.exp(-((L / 20.0) ** 2)), 0.0)
+
+
+def _lphi_case(kind, spans, **kw):
+    ds = _ds(bridge_kind=kind, spans=spans, bridge_length=float(sum(spans)),
+             frequencies=(5.0, 20.0, 45.0), **kw)
+    return ds, checks.dynamic_amplification(ds)
+
+
+def test_determinant_length__simply_supported_span_is_the_span():
+    ds, out = _lphi_case("simply_supported", [25.0])
+    expected = 25.0  # Table 6.2: L_phi = L
+    assert out.attrs["length"] == pytest.approx(expected, rel=1e-12)
+    assert out.attrs["length_assumed"] == 0 and "simply supported" in out.attrs["length_rule"]
+    assert float(out["phi2"].isel(speed=0)) == pytest.approx(_phi2(expected, 5.0), rel=1e-12)
+
+
+@pytest.mark.parametrize("spans", [[20.0, 25.0], [10.0, 40.0]])
+def test_determinant_length__two_span_continuous_deck(spans):
+    _, out = _lphi_case("continuous", spans)
+    expected = max(1.2 * (spans[0] + spans[1]) / 2.0, max(spans))  # 27 m; 40 m (max span)
+    assert out.attrs["length"] == pytest.approx(expected, rel=1e-12)
+    assert out.attrs["length_assumed"] == 0
+    assert float(out["phi2"].isel(speed=0)) == pytest.approx(_phi2(expected, 5.0), rel=1e-12)
+
+
+def test_determinant_length__three_span_continuous_deck():
+    spans = [15.0, 20.0, 15.0]
+    _, out = _lphi_case("continuous", spans)
+    expected = 1.3 * 50.0 / 3.0  # 21.67 m > largest span 20 m
+    assert expected > 20.0
+    assert out.attrs["length"] == pytest.approx(expected, rel=1e-12)
+    assert "1.3" in out.attrs["length_rule"]
+    assert float(out["phi2"].isel(speed=0)) == pytest.approx(_phi2(expected, 5.0), rel=1e-12)
+
+
+@pytest.mark.parametrize("spans", [[20.0] * 5, [20.0, 25.0, 25.0, 25.0, 25.0, 20.0]])
+def test_determinant_length__five_or_more_span_continuous_deck(spans):
+    _, out = _lphi_case("continuous", spans)
+    expected = 1.5 * sum(spans) / len(spans)  # k = 1.5 for n >= 5: 30 m; 34.5 m
+    assert out.attrs["length"] == pytest.approx(expected, rel=1e-12)
+    assert float(out["phi2"].isel(speed=0)) == pytest.approx(_phi2(expected, 5.0), rel=1e-12)
+
+
+def test_determinant_length__override_wins_over_attribute_and_config():
+    ds = _ds(bridge_kind="continuous", spans=[20.0, 20.0, 20.0], bridge_length=60.0,
+             frequencies=(5.0, 20.0, 45.0))
+    assert checks.determinant_length(ds).value == pytest.approx(1.3 * 20.0, rel=1e-12)
+    ds.attrs["determinant_length"] = 18.0  # what the config may provide later
+    lphi = checks.determinant_length(ds)
+    assert lphi.value == 18.0 and "determinant_length" in lphi.rule and not lphi.assumed
+    out = checks.dynamic_amplification(ds, length=12.5)  # the explicit argument wins
+    assert out.attrs["length"] == 12.5 and "given explicitly" in out.attrs["length_rule"]
+    assert float(out["phi2"].isel(speed=0)) == pytest.approx(_phi2(12.5, 5.0), rel=1e-12)
+    with pytest.raises(ValueError, match="determinant length"):
+        checks.determinant_length(ds, -1.0)
+
+
+def test_determinant_length__rigid_track_imported_and_no_config():
+    ds = _ds(bridge_kind="rigid", spans=[50.0])
+    lphi = checks.determinant_length(ds)
+    assert np.isnan(lphi.value) and "not applicable" in lphi.rule
+    assert checks.dynamic_amplification(ds)["phi2"].isnull().all()
+    lphi = checks.determinant_length(_ds(bridge_kind="modes_file", spans=[20.0, 20.0]))
+    assert lphi.value == pytest.approx(1.2 * 20.0, rel=1e-12)
+    assert lphi.assumed and "ASSUMPTION" in lphi.rule
+    ds = _ds(bridge_length=33.0)
+    ds.attrs["config_json"] = '{"bridge": {"kind": "matrices"}}'  # no spans
+    lphi = checks.determinant_length(ds)
+    assert lphi.value == 33.0 and lphi.assumed and "bridge length" in lphi.rule
+    del ds.attrs["config_json"]
+    assert checks.determinant_length(ds).assumed
+
+
+# --- wheel unloading per train: moving forces vs interaction ----------------------------
+
+
+def _mixed(**kw):
+    """HSLM-A1 with prescribed forces (min = max = Q0, dQ/Q0 = 0) and ICE3 with varying ones."""
+    kw.setdefault("trains", (("HSLM-A1", 18.0, 6, "standard"), ("ICE3", 0.0, 4, "suspect")))
+    ds = _ds(**kw)
+    q0 = ds["static_wheel_load"].copy()
+    q0.loc[{"train": "HSLM-A1"}] = q0.sel(train="HSLM-A1").where(q0.sel(train="HSLM-A1")
+                                                                 .isnull(), 50e3)
+    ds["static_wheel_load"] = q0
+    hslm = {"train": "HSLM-A1"}
+    fixed = q0.sel(train="HSLM-A1").broadcast_like(ds["min_contact_force"].sel(hslm))
+    for name in ("min_contact_force", "max_contact_force"):
+        ds[name].loc[hslm] = fixed.transpose(*ds[name].sel(hslm).dims)
+    ds["max_wheel_unloading"].loc[hslm] = ds["max_wheel_unloading"].sel(hslm) * 0.0
+    ds["contact_loss_duration"].loc[hslm] = ds["contact_loss_duration"].sel(hslm) * 0.0
+    return ds
+
+
+def test_prescribed_wheels__per_train_and_wheel():
+    ds = _mixed()
+    fixed = checks.prescribed_wheels(ds)
+    assert fixed.dims == ("train", "wheel")
+    assert fixed.sel(train="HSLM-A1").values.tolist() == [True] * 6
+    assert fixed.sel(train="ICE3").values.tolist() == [False] * 6  # 4 wheels + NaN padding
+    assert checks.applicable_trains(ds).values.tolist() == [False, True]
+
+
+def test_wheel_unloading__mixed_study_checks_the_interaction_train_only():
+    ds = _mixed()
+    out = checks.wheel_unloading(ds)
+    a = out.attrs
+    assert a["applicable_trains"] == "ICE3" and a["not_applicable_trains"] == "HSLM-A1"
+    assert a["governing_train"] == "ICE3" and a["result"] in ("pass", "FAIL")
+    assert out["value"].sel(train="HSLM-A1").isnull().all()
+    assert out["min_contact_force"].sel(train="HSLM-A1").isnull().all()
+    assert out["contact_loss_duration"].sel(train="HSLM-A1").isnull().all()
+    # the HSLM forces (50 kN) are below every ICE3 force: unmasked they would govern
+    ice3_min = float(ds["min_contact_force"].sel(train="ICE3").min())
+    assert ice3_min > 50e3
+    assert a["min_contact_force"] == pytest.approx(ice3_min, rel=1e-12)  # a pick, not a sum
+    expected = float(ds["max_wheel_unloading"].sel(train="ICE3").max())
+    assert a["value"] == pytest.approx(expected, rel=1e-12)
+
+
+# --- contact loss: total, longest single loss, one-step losses --------------------------
+
+
+def test_wheel_unloading__total_longest_and_one_step_losses_named_apart():
+    ds = _ds(seeds=(1, 2), contact_loss_events=True)
+    where = {"kmh": 300.0, "train": "A"}
+    _set(ds, "contact_loss_duration", 0.05, irregularity=1, wheel=2, **where)
+    _set(ds, "longest_contact_loss", 0.02, irregularity=1, wheel=2, **where)
+    _set(ds, "contact_loss_duration", 0.03, irregularity=2, wheel=1, **where)
+    _set(ds, "longest_contact_loss", 0.03, irregularity=2, wheel=1, **where)
+    _set(ds, "single_step_contact_losses", 3.0, irregularity=1, wheel=2, **where)
+    _set(ds, "single_step_contact_losses", 2.0, irregularity=1, wheel=4, **where)
+    _set(ds, "single_step_contact_losses", 4.0, irregularity=2, wheel=0, **where)
+    out = checks.wheel_unloading(ds, n_boot=0)
+    a = out.attrs
+    assert a["max_time_separated"] == pytest.approx(0.05)  # total, realisation 1
+    assert a["max_contact_loss_duration"] == a["max_time_separated"]  # former name kept
+    assert a["max_longest_contact_loss"] == pytest.approx(0.03)  # single event, realisation 2
+    assert a["longest_contact_loss_source"] == "longest_contact_loss"
+    # one-step losses: summed over wheels per realisation (3 + 2 = 5; 4), worst = 5
+    case = out["single_step_contact_losses"].sel(train="A").isel(speed=2)
+    assert float(case) == 5.0 and a["max_single_step_contact_losses"] == 5.0
+    assert "total time separated" in out["contact_loss_duration"].attrs["long_name"]
+    assert "longest single" in out["longest_contact_loss"].attrs["long_name"]
+
+
+def test_wheel_unloading__without_longest_loss_falls_back_to_total_with_a_label():
+    ds = _ds()
+    _set(ds, "contact_loss_duration", 0.04, kmh=250.0, train="B", wheel=1)
+    out = checks.wheel_unloading(ds, n_boot=0)
+    a = out.attrs
+    assert a["max_longest_contact_loss"] == pytest.approx(0.04)
+    assert "upper bound" in a["longest_contact_loss_source"]
+    assert "upper bound" in out["longest_contact_loss"].attrs["long_name"]
+    assert "max_single_step_contact_losses" not in a

@@ -25,6 +25,9 @@ limits.
 
 from __future__ import annotations
 
+import json
+from typing import NamedTuple
+
 import numpy as np
 import pandas as pd
 import xarray as xr
@@ -66,6 +69,18 @@ COMFORT_CLAUSE = "EN 1990 A2.4.4.3, Table A2.9 [R]"
 DEFAULT_Q = 0.95
 
 _RESULT_NA = "n/a"
+
+#: Clause of the determinant length L_phi.
+DETERMINANT_LENGTH_CLAUSE = "EN 1991-2 6.4.5.3, Table 6.2 [R]"
+
+#: Factor k of L_phi = k L_m for a continuous deck of n spans, EN 1991-2 Table 6.2 [R];
+#: n >= 5 takes :data:`CONTINUOUS_K_MANY`.
+CONTINUOUS_K = {2: 1.2, 3: 1.3, 4: 1.4}
+CONTINUOUS_K_MANY = 1.5
+
+#: Bridge kinds whose mode shapes come from another program (their support layout is
+#: not known here).
+_IMPORTED_KINDS = ("modes_file", "matrices")
 
 
 # --------------------------------------------------------------------------------------
@@ -111,8 +126,8 @@ def irregularity_allowance(speed, length: float, n0: float) -> np.ndarray:
     speed : array_like
         Speed v (m s-1).
     length : float
-        Determinant length L_phi (m); for a simply supported span, the span (EN 1991-2
-        Table 6.2 [R]).
+        Determinant length L_phi (m), EN 1991-2 Table 6.2 [R]; see
+        :func:`determinant_length`.
     n0 : float
         First natural bending frequency of the loaded bridge (Hz).
 
@@ -127,6 +142,157 @@ def irregularity_allowance(speed, length: float, n0: float) -> np.ndarray:
         -((length / 20.0) ** 2)
     )
     return np.maximum(a * bracket, 0.0)
+
+
+class DeterminantLength(NamedTuple):
+    """Determinant length L_phi (m) of a deck and how it was obtained.
+
+    ``value`` is NaN where no L_phi applies (rigid track); ``rule`` says which rule (or
+    assumption) gave it, in words, for the report; ``assumed`` is True when the rule is
+    an assumption rather than a case of EN 1991-2 Table 6.2 [R] or a value given by the
+    user.
+    """
+
+    value: float
+    rule: str
+    assumed: bool
+
+
+def continuous_determinant_length(spans) -> float:
+    """L_phi of a continuous deck of n spans, EN 1991-2 Table 6.2 [R].
+
+    ``L_phi = k L_m``, ``L_m = (L_1 + ... + L_n) / n``, with k = 1.2 (n = 2), 1.3 (n = 3),
+    1.4 (n = 4), 1.5 (n >= 5), but not less than the largest span; one span: L_phi = L.
+
+    Parameters
+    ----------
+    spans : sequence of float
+        Span lengths (m), > 0.
+
+    Returns
+    -------
+    float
+        L_phi (m).
+    """
+    L = np.asarray(spans, float).ravel()
+    if L.size == 0 or not np.all(np.isfinite(L) & (L > 0)):
+        raise ValueError(f"spans = {list(L)}: expected one or more span lengths > 0 m")
+    if L.size == 1:
+        return float(L[0])
+    k = CONTINUOUS_K.get(L.size, CONTINUOUS_K_MANY)
+    return float(max(k * L.mean(), L.max()))
+
+
+def _continuous_rule(spans) -> str:
+    L = np.asarray(spans, float)
+    k = CONTINUOUS_K.get(L.size, CONTINUOUS_K_MANY)
+    value = continuous_determinant_length(L)
+    text = (f"continuous deck of {L.size} spans: L_Φ = k L_m = {k:g} × {L.mean():g} m "
+            f"= {k * L.mean():g} m")
+    if value > k * L.mean():
+        text += f", raised to the largest span {L.max():g} m (L_Φ ≥ max span)"
+    else:
+        text += f" (≥ the largest span {L.max():g} m)"
+    return text
+
+
+def results_config(ds: xr.Dataset) -> dict:
+    """The resolved configuration stored in ``config_json`` (empty dict if none/unreadable)."""
+    try:
+        config = json.loads(str(ds.attrs.get("config_json", "") or "{}"))
+    except ValueError:
+        return {}
+    return config if isinstance(config, dict) else {}
+
+
+def _positive(value) -> float | None:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return None
+    return v if np.isfinite(v) and v > 0 else None
+
+
+def determinant_length(ds: xr.Dataset, override: float | None = None) -> DeterminantLength:
+    """Determinant length L_phi (m) of the deck of a results file, with its rule.
+
+    In order of precedence:
+
+    1. ``override`` (an explicit argument wins over everything);
+    2. the global attribute ``determinant_length`` (m) of the results, then the key
+       ``bridge.determinant_length`` of the stored configuration;
+    3. from the configuration's ``bridge.kind`` and ``bridge.spans``, EN 1991-2
+       Table 6.2 [R]: simply supported span L_phi = L; continuous deck of n spans
+       L_phi = k L_m (:func:`continuous_determinant_length`); rigid track: not applicable
+       (NaN); imported modes or matrices (``modes_file``, ``matrices``): the same rule
+       over the spans given, else the bridge length, flagged as an assumption;
+    4. without a usable configuration, the ``bridge_length`` attribute, flagged as an
+       assumption (right only for a simply supported span).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Results (attributes ``config_json``, ``bridge_length``, ``determinant_length``).
+    override : float, optional
+        L_phi (m) given by the user; must be > 0.
+
+    Returns
+    -------
+    DeterminantLength
+        ``(value, rule, assumed)``; value NaN when nothing gives a length.
+    """
+    if override is not None:
+        value = _positive(override)
+        if value is None:
+            raise ValueError(f"determinant length = {override!r}: expected a length > 0 m")
+        return DeterminantLength(value, f"given explicitly: L_Φ = {value:g} m", False)
+    value = _positive(ds.attrs.get("determinant_length"))
+    if value is not None:
+        return DeterminantLength(value, f"L_Φ = {value:g} m from the results attribute "
+                                        "`determinant_length`", False)
+    bridge = results_config(ds).get("bridge", {})
+    bridge = bridge if isinstance(bridge, dict) else {}
+    value = _positive(bridge.get("determinant_length"))
+    if value is not None:
+        return DeterminantLength(value, f"L_Φ = {value:g} m from the configuration "
+                                        "(bridge.determinant_length)", False)
+    kind = str(bridge.get("kind", ""))
+    spans = bridge.get("spans")
+    try:
+        spans = [float(x) for x in np.atleast_1d(spans)] if spans is not None else None
+        if spans is not None:
+            continuous_determinant_length(spans)  # validates
+    except (TypeError, ValueError):
+        spans = None
+    length = _positive(ds.attrs.get("bridge_length"))
+    if kind == "rigid":
+        return DeterminantLength(np.nan, "not applicable: rigid track, no deck", False)
+    if kind == "simply_supported" and spans:
+        return DeterminantLength(spans[0], f"simply supported span: L_Φ = L = {spans[0]:g} m",
+                                 False)
+    if kind == "continuous" and spans:
+        if len(spans) == 1:
+            return DeterminantLength(spans[0], f"one span: L_Φ = L = {spans[0]:g} m", False)
+        return DeterminantLength(continuous_determinant_length(spans), _continuous_rule(spans),
+                                 False)
+    if kind in _IMPORTED_KINDS and spans:
+        what = (f"one span: L_Φ = L = {spans[0]:g} m" if len(spans) == 1
+                else _continuous_rule(spans))
+        return DeterminantLength(
+            continuous_determinant_length(spans),
+            f"ASSUMPTION — imported deck (bridge.kind = '{kind}', supports not known here), "
+            f"taken as a simply supported or continuous deck over the spans given: {what}",
+            True)
+    if length is not None:
+        why = (f"imported deck (bridge.kind = '{kind}') without bridge.spans"
+               if kind in _IMPORTED_KINDS else
+               "no bridge kind and spans in the results' configuration")
+        return DeterminantLength(
+            length, f"ASSUMPTION — {why}: L_Φ = the bridge length {length:g} m, right only "
+                    "for a simply supported span; give the determinant length for other decks",
+            True)
+    return DeterminantLength(np.nan, "unknown: no configuration, bridge length or "
+                                     "determinant length in the results", True)
 
 
 def resonance_speeds(f: float, D: float, k_max: int = 4) -> pd.DataFrame:
@@ -362,9 +528,9 @@ def dynamic_amplification(
     ds : xarray.Dataset
         Results with ``max_deck_displacement`` and ``max_static_deck_displacement``.
     length : float, optional
-        Determinant length L_phi (m) for phi''; default the ``bridge_length`` attribute
-        (right for a simply supported span, EN 1991-2 Table 6.2 [R]; give it for
-        continuous decks).
+        Determinant length L_phi (m) for phi''; wins over everything. Default: from the
+        results (:func:`determinant_length`: the ``determinant_length`` attribute, else
+        EN 1991-2 Table 6.2 [R] from the configuration's bridge kind and spans).
     q : float
         Fractile used only when the file has random realisations and no deterministic
         track (phi'_dyn then includes the irregularity effect, see ``basis``).
@@ -379,7 +545,8 @@ def dynamic_amplification(
         ``design_factor(speed, train)`` = 1 + phi'_dyn + phi''/2, the factor of
         EN 1991-2 eq. (6.16)/(6.17) [R] applied to the real train or HSLM to compare with
         Phi x LM71 (information, no limit). Attributes ``phi2_max``, ``design_factor_max``,
-        ``length``, ``n0`` and ``basis``.
+        ``length`` (L_phi, m), ``length_rule`` (how L_phi was obtained),
+        ``length_assumed`` (1 when that is an assumption), ``n0`` and ``basis``.
     """
     ds = prepare(ds)
     require(ds, ["max_deck_displacement", "max_static_deck_displacement"],
@@ -411,7 +578,8 @@ def dynamic_amplification(
                 units="1", long_name="dynamic increment of the deck maximum displacement"),
         }
     )
-    L = float(ds.attrs.get("bridge_length", np.nan)) if length is None else float(length)
+    lphi = determinant_length(ds, length)
+    L = lphi.value
     f = bridge_frequencies(ds)
     n0 = float(f[0]) if f.size else np.nan
     if np.isfinite(L) and L > 0 and np.isfinite(n0):
@@ -426,6 +594,9 @@ def dynamic_amplification(
     extra = {
         "basis": basis,
         "length": L,
+        "length_rule": lphi.rule,
+        "length_assumed": int(lphi.assumed),
+        "length_clause": DETERMINANT_LENGTH_CLAUSE,
         "n0": n0,
         "phi2_max": float(phi2.max()) if bool(phi2.notnull().any()) else np.nan,
         "design_factor_max": float(nanmax(out["design_factor"], ["speed", "train"])),
@@ -440,11 +611,19 @@ def wheel_unloading(
 ) -> xr.Dataset:
     """Wheel unloading dQ/Q0 against 0.6 (EN 14363 practice [R]) and contact loss.
 
+    Wheels whose contact forces are prescribed (moving forces: min and max contact force
+    equal in every case, see :func:`prescribed_wheels`) cannot unload or lose contact:
+    they are left out, per train and wheel, so a study mixing HSLM moving forces with an
+    interaction model of a real train checks the interaction train only.
+
     Parameters
     ----------
     ds : xarray.Dataset
         Results with ``max_wheel_unloading(speed, train, irregularity, wheel)``; uses
-        ``min_contact_force``, ``contact_loss_duration``, ``contact_loss_count`` when present.
+        ``min_contact_force``, ``max_contact_force``, ``contact_loss_duration`` (total
+        time separated, s), ``longest_contact_loss`` (longest single separation, s),
+        ``single_step_contact_losses`` (separations lasting exactly one time step) and
+        ``contact_loss_count`` when present.
     limit : float
         Admissible dQ/Q0.
     q : float
@@ -453,28 +632,49 @@ def wheel_unloading(
     Returns
     -------
     xarray.Dataset
-        ``value(speed, train)``: max over wheels of dQ/Q0, design value over realisations;
-        ``wheel_unloading(speed, train, wheel)`` (per wheel, design value);
+        ``value(speed, train)``: max over wheels of dQ/Q0, design value over realisations
+        (NaN for trains with prescribed forces); ``wheel_unloading(speed, train, wheel)``
+        (per wheel, design value); ``applicable(train)`` (bool);
         ``min_contact_force(speed, train)`` (N, min over wheels, lower fractile);
-        ``contact_loss_duration(speed, train)`` (s, longest over wheels, worst
-        realisation); ``contact_loss_count(speed, train)`` (events summed over wheels,
-        worst realisation); ``wheels_losing_contact(speed, train)``; the statistics of
-        ``value``; summary attrs plus ``governing_wheel``, ``min_contact_force``
-        (smallest over all cases, N), ``max_contact_loss_duration`` (s) and
-        ``max_contact_loss_count``. When the contact forces never vary (moving-force
-        model) the result is "n/a" and the attribute ``note`` says why.
+        ``contact_loss_duration(speed, train)`` (s, the largest over wheels of the TOTAL
+        time a wheel is separated, worst realisation); ``longest_contact_loss(speed,
+        train)`` (s, the longest single separation, worst realisation; when the file has
+        no ``longest_contact_loss`` it is the total time separated, an upper bound, and
+        the attribute ``longest_contact_loss_source`` says so);
+        ``single_step_contact_losses(speed, train)`` (one-step separations summed over
+        wheels, worst realisation: a flag of possible spurious ringing of the contact);
+        ``contact_loss_count(speed, train)`` (events summed over wheels, worst
+        realisation); ``wheels_losing_contact(speed, train)``; the statistics of ``value``;
+        summary attrs plus ``governing_wheel``, ``min_contact_force`` (smallest over all
+        cases, N), ``max_time_separated`` (s, total; alias ``max_contact_loss_duration``),
+        ``max_longest_contact_loss`` (s), ``max_single_step_contact_losses``,
+        ``max_contact_loss_count``, ``applicable_trains`` and ``not_applicable_trains``
+        (comma-separated names). When no train has varying contact forces the result is
+        "n/a" and the attribute ``note`` says why.
     """
     ds = prepare(ds)
     require(ds, ["max_wheel_unloading"], "the wheel unloading check")
-    dq = ds["max_wheel_unloading"]
+    fixed = prescribed_wheels(ds)  # (train, wheel)
+    applicable = applicable_trains(ds, fixed)
+
+    def free(name):
+        """``ds[name]`` with the wheels of prescribed force masked out."""
+        return ds[name].where(~fixed)
+
+    dq = free("max_wheel_unloading")
     out = design_value(nanmax(dq, "wheel"), q=q, limit=limit, n_boot=n_boot, seed=seed)
     out["value"].attrs.update(units="1", long_name="maximum wheel unloading dQ/Q0")
     per_wheel = design_value(dq, q=q, n_boot=0)["value"]
     out["wheel_unloading"] = per_wheel.transpose("speed", "train", "wheel").assign_attrs(
         units="1", long_name="wheel unloading dQ/Q0 per wheel (design value)")
-    extra = {}
+    out["applicable"] = applicable.assign_attrs(
+        long_name="wheel unloading applies (contact forces not prescribed)")
+    names = [str(t) for t in ds["train"].values]
+    yes = [t for t, a in zip(names, applicable.values, strict=True) if a]
+    no = [t for t, a in zip(names, applicable.values, strict=True) if not a]
+    extra = {"applicable_trains": ", ".join(yes), "not_applicable_trains": ", ".join(no)}
     if "min_contact_force" in ds:
-        qmin = nanmin(ds["min_contact_force"], "wheel")
+        qmin = nanmin(free("min_contact_force"), "wheel")
         out["min_contact_force"] = design_value(qmin, q=1.0 - q, n_boot=0)["value"].assign_attrs(
             units="N", long_name="minimum wheel-rail contact force (design value)")
         worst = nanargmax_case(-out["min_contact_force"])
@@ -482,23 +682,48 @@ def wheel_unloading(
                                       float(out["min_contact_force"].sel(
                                           speed=worst["speed"], train=worst["train"])))
     if "contact_loss_duration" in ds:
-        dur = nanmax(nanmax(ds["contact_loss_duration"], "wheel"), "irregularity")
+        total = free("contact_loss_duration")
+        dur = nanmax(nanmax(total, "wheel"), "irregularity")
         out["contact_loss_duration"] = dur.assign_attrs(
-            units="s", long_name="longest contact loss of a wheel (worst realisation)")
-        lost = nanmax((ds["contact_loss_duration"] > 0).where(
-            ds["contact_loss_duration"].notnull()).sum("wheel", min_count=1), "irregularity")
+            units="s", long_name="total time separated from the rail, largest over wheels "
+                                 "(worst realisation)")
+        lost = nanmax((total > 0).where(total.notnull()).sum("wheel", min_count=1),
+                      "irregularity")
         out["wheels_losing_contact"] = lost.assign_attrs(
             units="1", long_name="number of wheels losing contact (worst realisation)")
-        extra["max_contact_loss_duration"] = float(nanmax(dur, ["speed", "train"]))
+        extra["max_time_separated"] = float(nanmax(dur, ["speed", "train"]))
+        extra["max_contact_loss_duration"] = extra["max_time_separated"]  # former name
+    if "longest_contact_loss" in ds or "contact_loss_duration" in ds:
+        if "longest_contact_loss" in ds:
+            source = "longest_contact_loss"
+            longest = nanmax(nanmax(free("longest_contact_loss"), "wheel"), "irregularity")
+            long_name = "longest single loss of contact of a wheel (worst realisation)"
+        else:
+            source = ("contact_loss_duration: the file has no longest_contact_loss; this is "
+                      "the total time separated, an upper bound of the longest single loss")
+            longest = out["contact_loss_duration"]
+            long_name = ("total time separated (the longest single loss of contact is not "
+                         "in the file; this is an upper bound of it)")
+        out["longest_contact_loss"] = longest.copy().assign_attrs(
+            units="s", long_name=long_name, source=source)
+        extra["max_longest_contact_loss"] = float(nanmax(longest, ["speed", "train"]))
+        extra["longest_contact_loss_source"] = source
+    if "single_step_contact_losses" in ds:
+        one = nanmax(free("single_step_contact_losses").astype(float).sum("wheel", min_count=1),
+                     "irregularity")
+        out["single_step_contact_losses"] = one.assign_attrs(
+            units="1", long_name="losses of contact lasting exactly one time step, all "
+                                 "wheels (worst realisation): possible spurious ringing")
+        extra["max_single_step_contact_losses"] = float(nanmax(one, ["speed", "train"]))
     if "contact_loss_count" in ds:
-        cnt = nanmax(ds["contact_loss_count"].astype(float).sum("wheel", min_count=1),
+        cnt = nanmax(free("contact_loss_count").astype(float).sum("wheel", min_count=1),
                      "irregularity")
         out["contact_loss_count"] = cnt.assign_attrs(
             units="1", long_name="contact-loss events, all wheels (worst realisation)")
         extra["max_contact_loss_count"] = float(nanmax(cnt, ["speed", "train"]))
     out = _summarise(out, "Wheel unloading ΔQ/Q₀", WHEEL_UNLOADING_CLAUSE, "1", limit,
                      extra={**extra, "basis": out.attrs["basis"]})
-    if _prescribed_contact_forces(ds):
+    if not yes:
         out.attrs.update(result=_RESULT_NA, value=np.nan, margin=np.nan, utilisation=np.nan,
                          governing_train="", governing_speed=np.nan, governing_speed_kmh=np.nan,
                          note="the contact forces never change (moving-force model): wheel "
@@ -513,20 +738,72 @@ def wheel_unloading(
     return out
 
 
-def _prescribed_contact_forces(ds: xr.Dataset) -> bool:
-    """Tell whether min and max contact force coincide for every wheel and case.
+def prescribed_wheels(ds: xr.Dataset) -> xr.DataArray:
+    """Wheels whose contact force is prescribed: True per (train, wheel).
 
-    They do when the forces are prescribed, as in a moving-force model, so unloading and
-    contact loss cannot occur.
+    A wheel's force is prescribed, as in a moving-force model, when its minimum and
+    maximum contact force coincide (to 1e-9 relative) in every case where it has a
+    value; such a wheel cannot unload or lose contact. Wheels a train does not have (NaN
+    padding) are False. Without ``min_contact_force`` and ``max_contact_force`` every
+    wheel is False (nothing tells them apart).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Results (any layout :func:`~vsi_numba.analysis.dataset.prepare` accepts).
+
+    Returns
+    -------
+    xarray.DataArray
+        bool, dims ``(train, wheel)``.
     """
+    ds = prepare(ds)
     if "min_contact_force" not in ds or "max_contact_force" not in ds:
-        return False
+        n_wheel = ds.sizes.get("wheel", 0)
+        coords = {"train": ds["train"].values}
+        if "wheel" in ds.coords:
+            coords["wheel"] = ds["wheel"].values
+        return xr.DataArray(np.zeros((ds.sizes["train"], n_wheel), bool),
+                            dims=("train", "wheel"), coords=coords)
     hi, lo = ds["max_contact_force"], ds["min_contact_force"]
     finite = hi.notnull() & lo.notnull()
-    if not bool(finite.any()):
-        return False
-    spread = abs(hi - lo).where(finite, 0.0)
-    return bool((spread <= 1e-9 * abs(hi).where(finite, 0.0)).all())
+    same = abs(hi - lo) <= 1e-9 * abs(hi)
+    case_dims = ["speed", "irregularity"]
+    fixed = (same | ~finite).all(case_dims) & finite.any(case_dims)
+    return fixed.transpose("train", "wheel")
+
+
+def applicable_trains(ds: xr.Dataset, fixed: xr.DataArray | None = None) -> xr.DataArray:
+    """Trains to which wheel unloading applies: True per train.
+
+    A train qualifies when at least one of its wheels has a contact force that is not
+    prescribed (:func:`prescribed_wheels`) and has a value in some case.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Results.
+    fixed : xarray.DataArray, optional
+        :func:`prescribed_wheels` of ``ds`` if already computed.
+
+    Returns
+    -------
+    xarray.DataArray
+        bool, dim ``train``.
+    """
+    ds = prepare(ds)
+    if fixed is None:
+        fixed = prescribed_wheels(ds)
+    if "max_wheel_unloading" in ds:
+        present = ds["max_wheel_unloading"].notnull().any(["speed", "irregularity"])
+    else:
+        present = xr.ones_like(fixed, dtype=bool)
+    return (present & ~fixed).any("wheel")
+
+
+def _prescribed_contact_forces(ds: xr.Dataset) -> bool:
+    """True when no train of ``ds`` has a varying contact force (all moving forces)."""
+    return not bool(applicable_trains(ds).any())
 
 
 def comfort(
@@ -607,8 +884,12 @@ SUMMARY_COLUMNS = ["check", "value", "units", "limit", "margin", "utilisation", 
 
 
 def run_checks(ds: xr.Dataset, q: float = DEFAULT_Q, comfort_level_required: str = "very good",
-               n_boot: int = 2000, seed: int = 0) -> dict[str, xr.Dataset | str]:
+               n_boot: int = 2000, seed: int = 0, length: float | None = None
+               ) -> dict[str, xr.Dataset | str]:
     """Every check that the variables of ``ds`` allow.
+
+    ``length`` is the determinant length L_phi (m) given by the user (see
+    :func:`dynamic_amplification`).
 
     Returns
     -------
@@ -622,7 +903,7 @@ def run_checks(ds: xr.Dataset, q: float = DEFAULT_Q, comfort_level_required: str
         "deck_acceleration": lambda: deck_acceleration_check(ds, q=q, n_boot=n_boot,
                                                              seed=seed),
         "deck_displacement": lambda: max_deck_displacement(ds, q=q),
-        "dynamic_amplification": lambda: dynamic_amplification(ds, q=q),
+        "dynamic_amplification": lambda: dynamic_amplification(ds, length=length, q=q),
         "wheel_unloading": lambda: wheel_unloading(ds, q=q, n_boot=n_boot, seed=seed),
         "comfort": lambda: comfort(ds, comfort_level_required, q=q, n_boot=n_boot, seed=seed),
     }

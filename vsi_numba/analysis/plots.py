@@ -65,12 +65,15 @@ def _marker(ds) -> dict:
 
 
 def _lines(ax, ds, check: xr.Dataset, var: str = "value", scale: float = 1.0,
-           band: bool = True):
-    """One line per train of ``check[var](speed, train)`` against km/h, CI band if any."""
+           band: bool = True, trains=None):
+    """One line per train of ``check[var](speed, train)`` against km/h, CI band if any.
+
+    ``trains``: the trains to draw (default all); colours stay those of the whole study.
+    """
     colors = train_colors(ds["train"].values)
     x = ds["speed_kmh"].values
     handles = []
-    for train in ds["train"].values:
+    for train in (ds["train"].values if trains is None else trains):
         name = str(train)
         y = check[var].sel(train=train).values * scale
         (h,) = ax.plot(x, y, color=colors[name], linewidth=1.3, label=name, **_marker(ds))
@@ -206,10 +209,18 @@ def plot_wheel_unloading(ds: xr.Dataset, wu: xr.Dataset) -> Figure:
     ds = prepare(ds)
     has_force = "min_contact_force" in wu
     fig, axes = _figure(2 if has_force else 1, 6.0 if has_force else HEIGHT)
+    trains = list(ds["train"].values)
+    if "applicable" in wu:  # trains with prescribed forces (moving forces) are left out
+        trains = [t for t in trains if bool(wu["applicable"].sel(train=t))]
+    skipped = wu.attrs.get("not_applicable_trains", "")
+    if len(skipped) > 70:
+        names = skipped.split(", ")
+        skipped = f"{len(names)} trains ({names[0]} … {names[-1]})"
     handles = []
     if has_force:
         ax = axes[0]
-        handles = _lines(ax, ds, wu, "min_contact_force", scale=1e-3, band=False)
+        handles = _lines(ax, ds, wu, "min_contact_force", scale=1e-3, band=False,
+                         trains=trains)
         ax.axhline(0.0, color=LIMIT_COLOR, linestyle="--", linewidth=1.0)
         _label(ax, 0.0, "contact loss (Q = 0)", LIMIT_COLOR)
         lo, hi = ax.get_ylim()
@@ -217,7 +228,7 @@ def plot_wheel_unloading(ds: xr.Dataset, wu: xr.Dataset) -> Figure:
         ax.set_ylabel("Min. contact force [kN]", fontsize=9)
         ax.set_title("Wheel–rail contact (per axle)", fontsize=10)
     ax = axes[-1]
-    h2 = _lines(ax, ds, wu)
+    h2 = _lines(ax, ds, wu, trains=trains)
     handles = handles or h2
     a = wu.attrs
     lim = _limit(ax, a["limit"], f"limit ΔQ/Q₀ = {a['limit']:g} (EN 14363 practice)")
@@ -226,6 +237,9 @@ def plot_wheel_unloading(ds: xr.Dataset, wu: xr.Dataset) -> Figure:
     ax.set_ylabel("Wheel unloading ΔQ/Q₀ [–]", fontsize=9)
     if not has_force:
         ax.set_title("Wheel unloading", fontsize=10)
+    if skipped:
+        axes[0].set_title(axes[0].get_title() + f"\nnot applicable (prescribed moving forces): "
+                          f"{skipped}", fontsize=9)
     _legend(fig, axes[0], [*handles, lim])
     return fig
 
@@ -258,20 +272,72 @@ def plot_time_history(
     ds: xr.Dataset, train, speed: float, irregularity: int, point: float,
     wheel: int | None = None, limit: float | None = None,
 ) -> Figure:
-    """Time histories of one case.
+    """Time histories of one stored case.
 
     Deck displacement and acceleration at ``point`` (and the contact force of ``wheel``)
-    against time.
+    against time; see :func:`plot_case_history`.
     """
     ds = prepare(ds)
     case = ds.sel(train=train, speed=speed, irregularity=irregularity)
-    panels = [n for n in ("deck_displacement", "deck_acceleration") if n in case]
+    q0 = None
+    if wheel is not None and "static_wheel_load" in ds:
+        q0 = float(ds["static_wheel_load"].sel(train=train, wheel=wheel))
+    return plot_case_history(case, case_title(train, float(case["speed_kmh"]), irregularity,
+                                              point), point=point, wheel=wheel, limit=limit,
+                             q0=q0)
+
+
+def case_title(train, speed_kmh: float, irregularity: int, point: float | None = None) -> str:
+    """Two-line title naming a case: train, speed, deck point, track."""
+    irr = "deterministic track" if int(irregularity) == -1 else f"irregularity seed {irregularity}"
+    name = str(train) if len(str(train)) <= 60 else str(train)[:57] + "…"
+    where = f"deck point x = {point:g} m, " if point is not None else ""
+    return f"{name} at {speed_kmh:.0f} km/h\n{where}{irr}"
+
+
+def plot_case_history(
+    case: xr.Dataset, title: str, point: float | None = None, wheel: int | None = None,
+    limit: float | None = None, q0: float | None = None, min_position: float | None = None,
+    bridge_length: float | None = None, speed: float | None = None,
+) -> Figure:
+    """Time histories of one case (stored or re-run).
+
+    Parameters
+    ----------
+    case : xarray.Dataset
+        One case: ``deck_displacement``/``deck_acceleration`` on ``(time, point)``,
+        ``contact_force`` on ``(time, wheel)`` (any of them may be missing).
+    title : str
+        Figure title.
+    point : float, optional
+        Deck point (m) of the deck panels; None: no deck panels.
+    wheel : int, optional
+        Wheel (axle) of the contact-force panel; None: no contact panel.
+    limit : float, optional
+        Deck acceleration limit (m s-2), drawn as ±limit.
+    q0 : float, optional
+        Static wheel load (N), drawn as a reference line.
+    min_position : float, optional
+        Position along the track (m) of the wheel at its minimum contact force (the
+        envelope ``position_of_min_contact_force``): the minimum is marked and labelled
+        with it.
+    bridge_length, speed : float, optional
+        Deck length (m) and speed (m s-1): with ``min_position``, the time the wheel is on
+        the deck (x from 0 to L) is shaded, from x(t) = x_min + v (t - t_min).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    panels = []
+    if point is not None:
+        panels += [n for n in ("deck_displacement", "deck_acceleration") if n in case]
     if wheel is not None and wheel >= 0 and "contact_force" in case:
         panels.append("contact_force")
-    fig = new_figure(2.1 * len(panels) + 0.8)
-    axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
-    t = case["time"].values
-    for ax, name in zip(axes, panels, strict=True):
+    fig = new_figure(2.1 * max(len(panels), 1) + 0.8)
+    axes = fig.subplots(max(len(panels), 1), 1, sharex=True, squeeze=False)[:, 0]
+    t = np.asarray(case["time"].values, float)
+    for ax, name in zip(axes, panels, strict=False):
         ax.grid(True, color="0.85", linewidth=0.6)
         ax.tick_params(labelsize=8)
         if name == "deck_displacement":
@@ -289,17 +355,38 @@ def plot_time_history(
                 ax.set_ylim(-m, m)
             ax.set_ylabel("Deck accel. [m/s²]\n(+ down)", fontsize=9)
         else:
-            y = case[name].sel(wheel=wheel).values * 1e-3
+            y = np.asarray(case[name].sel(wheel=wheel).values, float) * 1e-3
             ax.plot(t, y, color="C2", linewidth=0.8)
-            if "static_wheel_load" in ds:
-                q0 = float(ds["static_wheel_load"].sel(train=train, wheel=wheel)) * 1e-3
-                ax.axhline(q0, color="0.4", linestyle=":", linewidth=1.0)
-                _label(ax, q0, f"Q₀ = {q0:.0f} kN", "0.3")
+            if q0 is not None and np.isfinite(q0):
+                ax.axhline(q0 * 1e-3, color="0.4", linestyle=":", linewidth=1.0)
+                _label(ax, q0 * 1e-3, f"Q₀ = {q0 * 1e-3:.0f} kN", "0.3")
             ax.axhline(0.0, color=LIMIT_COLOR, linestyle="--", linewidth=1.0)
+            if min_position is not None and np.isfinite(min_position) and np.isfinite(y).any():
+                _mark_minimum(ax, t, y, float(min_position), bridge_length, speed)
             ax.set_ylabel(f"Contact force\naxle {wheel} [kN]", fontsize=9)
     axes[-1].set_xlabel("Time [s]", fontsize=9)
-    kmh = float(case["speed_kmh"])
-    irr = "deterministic track" if int(irregularity) == -1 else f"irregularity seed {irregularity}"
-    name = str(train) if len(str(train)) <= 60 else str(train)[:57] + "…"
-    fig.suptitle(f"{name} at {kmh:.0f} km/h\ndeck point x = {point:g} m, {irr}", fontsize=10)
+    fig.suptitle(title, fontsize=10)
     return fig
+
+
+def _mark_minimum(ax, t, y, x_min: float, length, speed):
+    """Star at the minimum contact force, labelled with the wheel's track position."""
+    k = int(np.nanargmin(y))
+    t_min, q_min = t[k], y[k]
+    if length is not None and speed is not None and np.isfinite(length) and speed > 0:
+        t_on = t_min - x_min / speed
+        t_off = t_min + (float(length) - x_min) / speed
+        ax.axvspan(t_on, t_off, color="0.5", alpha=0.12, linewidth=0, zorder=0,
+                   label="axle on the deck")
+        tr = blended_transform_factory(ax.transData, ax.transAxes)
+        ax.text(0.5 * (t_on + t_off), 0.97, "axle on the deck", transform=tr, ha="center",
+                va="top", fontsize=7, color="0.3")
+    ax.plot([t_min], [q_min], marker="*", markersize=11, color="gold", markeredgecolor="black",
+            markeredgewidth=0.6, zorder=7, linestyle="none")
+    lo, hi = ax.get_xlim()
+    right = t_min > 0.5 * (lo + hi)
+    ax.annotate(f"min {q_min:.1f} kN\nat x = {x_min:.2f} m", (t_min, q_min),
+                xytext=(-30 if right else 30, 12), textcoords="offset points",
+                ha="right" if right else "left", va="bottom", fontsize=7.5, zorder=8,
+                bbox={"boxstyle": "round,pad=0.25", "fc": "white", "ec": "0.5", "alpha": 0.95},
+                arrowprops={"arrowstyle": "-", "color": "0.4", "linewidth": 0.8})

@@ -2,9 +2,11 @@
 
 :func:`write_report` runs every check of :mod:`vsi_numba.analysis.checks` that the file
 allows, draws the figures of :mod:`vsi_numba.analysis.plots` and writes ``report.md``
-(plus ``summary.csv``) into one directory. :func:`report_command` is the CLI entry: it
-returns an exit code and prints a one-line reason instead of a traceback for missing,
-unreadable or incomplete files.
+(plus ``summary.csv``) into one directory. The time-history figures show the governing
+cases of the deck acceleration and wheel unloading checks; a case whose history the file
+does not hold is re-run from the file's ``config_json`` (:mod:`.recompute`).
+:func:`report_command` is the CLI entry: it returns an exit code and prints a one-line
+reason instead of a traceback for missing, unreadable or incomplete files.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from vsi_numba.analysis.dataset import (
     track_type,
     track_type_assumed,
 )
+from vsi_numba.analysis.recompute import CaseRunner, RecomputeError
 from vsi_numba.analysis.statistics import wilks_sample_size
 
 #: Variables without which no report is written.
@@ -38,7 +41,10 @@ REQUIRED_VARIABLES = ("max_deck_acceleration", "max_deck_displacement")
 
 #: Every figure the report may write.
 FIGURE_NAMES = ("deck_acceleration.png", "dynamic_amplification.png", "wheel_unloading.png",
-                "comfort.png", "time_history.png")
+                "comfort.png", "time_history.png", "wheel_unloading_history.png")
+
+#: Rows of the table of one-step contact losses.
+MAX_ONE_STEP_ROWS = 15
 
 #: Train data statuses that get a loud warning (see data/trains.toml status_values).
 WARN_STATUSES = {
@@ -122,13 +128,21 @@ def _flagged_trains(ds: xr.Dataset) -> list[str]:
             if str(s) in WARN_STATUSES]
 
 
-def _bridge(ds: xr.Dataset) -> list[str]:
+def _bridge(ds: xr.Dataset, lphi: chk.DeterminantLength | None = None) -> list[str]:
     a = ds.attrs
     f = bridge_frequencies(ds)
     out = ["## Bridge", ""]
     out.append(f"- Description: {a.get('bridge_description', '–')}")
     if "bridge_length" in a:
         out.append(f"- Length: {float(a['bridge_length']):g} m")
+    if lphi is not None:
+        value = (f"**{lphi.value:g} m**" if np.isfinite(lphi.value) else "not applicable")
+        out.append(f"- Determinant length L_Φ ({chk.DETERMINANT_LENGTH_CLAUSE}, for φ''): "
+                   f"{value}; {lphi.rule}.")
+        if lphi.assumed:
+            out.append("\n> **Note:** L_Φ rests on an assumption (above): φ'' and the design "
+                       "factor depend on it. Give the determinant length explicitly "
+                       "(`determinant_length`) if the deck is not as assumed.\n")
     track = track_type(ds)
     limit = chk.DECK_ACCELERATION_LIMITS.get(track)
     out.append(f"- Track: {track}"
@@ -192,25 +206,17 @@ def _summary(results: dict, table: pd.DataFrame, pts: np.ndarray) -> list[str]:
         a = dyn.attrs
         out.append(f"- φ'dyn = max|y_dyn| / max|y_stat| − 1 of the deck maximum displacement, "
                    f"static response of the same model; basis: {a['basis']}. "
-                   f"φ'' (EN 1991-2 Annex C [R]) with L_Φ = {a['length']:g} m, "
-                   f"n₀ = {a['n0']:.3g} Hz: max {_fmt(a['phi2_max'])}. "
+                   f"φ'' (EN 1991-2 Annex C [R]) with L_Φ = {a['length']:g} m "
+                   f"({a.get('length_rule', '')}"
+                   f"{'' if a.get('length_assumed') else ', ' + chk.DETERMINANT_LENGTH_CLAUSE}"
+                   f"), n₀ = {a['n0']:.3g} Hz: max {_fmt(a['phi2_max'])}. "
                    "The design factor 1 + φ'dyn + φ''/2 is information for the comparison "
                    "with Φ × LM71 (EN 1991-2 6.4.6.5(3) [R]), not a pass/fail check.")
     wu = results.get("wheel_unloading")
     if not isinstance(wu, str) and wu is not None and "note" in wu.attrs:
         out.append(f"- Wheel unloading: not applicable, {wu.attrs['note']}.")
     elif not isinstance(wu, str) and wu is not None:
-        a = wu.attrs
-        txt = f"- Wheel unloading: governing axle {a['governing_wheel']}"
-        if "min_contact_force" in a:
-            txt += f"; smallest contact force {_fmt(a['min_contact_force'], 'N')}"
-        if "max_contact_loss_duration" in a:
-            d = a["max_contact_loss_duration"]
-            txt += ("; no loss of contact" if np.isfinite(d) and d == 0 else
-                    f"; longest loss of contact {_fmt(d, 's')}"
-                    + (f" ({a['max_contact_loss_count']:.0f} events in the worst case)"
-                       if "max_contact_loss_count" in a else ""))
-        out.append(txt + ".")
+        out.append(_wheel_unloading_line(wu.attrs))
     cf = results.get("comfort")
     if not isinstance(cf, str) and cf is not None and "note" in cf.attrs:
         out.append(f"- Comfort: not applicable, {cf.attrs['note']}.")
@@ -224,6 +230,71 @@ def _summary(results: dict, table: pd.DataFrame, pts: np.ndarray) -> list[str]:
                if isinstance(why, str)]
     if missing:
         out += ["", "Checks not made:", *missing]
+    return out + [""]
+
+
+def _wheel_unloading_line(a: dict) -> str:
+    """Summary bullet of the wheel unloading check, contact losses named for what they are."""
+    txt = "- Wheel unloading"
+    if a.get("not_applicable_trains"):
+        txt += (f" (checked for {a['applicable_trains']}; **not applicable** to "
+                f"{a['not_applicable_trains']}: prescribed contact forces, moving-force "
+                "model — no ΔQ/Q₀ and no contact loss)")
+    txt += f": governing axle {a['governing_wheel']}"
+    if "min_contact_force" in a:
+        txt += f"; smallest contact force {_fmt(a['min_contact_force'], 'N')}"
+    total = a.get("max_time_separated")
+    if total is not None and np.isfinite(total) and total == 0:
+        txt += "; no loss of contact"
+    elif total is not None:
+        source = a.get("longest_contact_loss_source", "")
+        if source == "longest_contact_loss":
+            txt += (f"; longest single loss of contact {_fmt(a['max_longest_contact_loss'], 's')}"
+                    f", total time separated (one wheel, one case) up to {_fmt(total, 's')}")
+        else:
+            txt += (f"; total time separated (one wheel, one case) up to {_fmt(total, 's')} — "
+                    "the longest single loss of contact is not in the file (at most this)")
+        if "max_contact_loss_count" in a:
+            txt += f" ({a['max_contact_loss_count']:.0f} events in the worst case)"
+    if "max_single_step_contact_losses" in a:
+        n = a["max_single_step_contact_losses"]
+        txt += ("; no one-step losses of contact" if np.isfinite(n) and n == 0 else
+                f"; up to {n:.0f} one-step losses of contact in a case (see "
+                "[One-step contact losses](#one-step-contact-losses))")
+    return txt + "."
+
+
+def _one_step_losses(results: dict) -> list[str]:
+    """Table of the cases with losses of contact lasting a single time step.
+
+    A separation that lasts exactly one step is often numerical ringing of the contact
+    (too large a dt, an undamped high mode) rather than a real loss of contact.
+    """
+    wu = results.get("wheel_unloading")
+    if wu is None or isinstance(wu, str) or "single_step_contact_losses" not in wu:
+        return []
+    n = wu["single_step_contact_losses"]  # (speed, train)
+    out = ["## One-step contact losses", ""]
+    flagged = n.where(n > 0).to_series().dropna().sort_values(ascending=False)
+    if flagged.empty:
+        return out + ["No loss of contact lasted a single time step in any case.", ""]
+    total = wu.get("contact_loss_count")
+    rows = []
+    for (speed, train), count in flagged.iloc[:MAX_ONE_STEP_ROWS].items():
+        events = "–"
+        if total is not None:
+            events = _fmt(float(total.sel(speed=speed, train=train)))
+        rows.append([str(train), f"{float(wu['speed_kmh'].sel(speed=speed)):.0f}",
+                     f"{count:.0f}", events])
+    out.append(f"{flagged.size} case{'s' if flagged.size != 1 else ''} (train, speed) had "
+               "losses of contact lasting exactly one time step. **Possible spurious "
+               "ringing of the contact**: check such cases with a smaller dt (and HHT-α "
+               "damping of the high modes) before trusting their contact-loss figures.")
+    out.append("")
+    out += _table(["Train", "Speed [km/h]", "One-step losses (all wheels, worst realisation)",
+                   "All contact-loss events"], rows)
+    if flagged.size > MAX_ONE_STEP_ROWS:
+        out.append(f"\n… and {flagged.size - MAX_ONE_STEP_ROWS} more cases.")
     return out + [""]
 
 
@@ -267,7 +338,7 @@ def _deck_end_note(ds: xr.Dataset, reach: float = 1.0) -> list[str]:
             f"idealisation of the transition: {advice}", ""]
 
 
-def _trains(ds: xr.Dataset) -> list[str]:
+def _trains(ds: xr.Dataset, applicable=None) -> list[str]:
     out = ["## Trains", ""]
     f = bridge_frequencies(ds)
     lo, hi = float(ds["speed_kmh"].min()), float(ds["speed_kmh"].max())
@@ -289,16 +360,22 @@ def _trains(ds: xr.Dataset) -> list[str]:
             (f"**{v:.0f}**" if lo <= v <= hi else f"{v:.0f}") for v in res["speed_kmh"]
         ) or "–"
         shown = f"**{status.upper()}**" if status in WARN_STATUSES else status
+        if applicable is None:
+            contact = "–"
+        elif bool(applicable.sel(train=train)):
+            contact = "interaction"
+        else:
+            contact = "prescribed (moving forces): ΔQ/Q₀ n/a"
         rows.append([name, shown, "–" if not np.isfinite(D) or D <= 0 else f"{D:g}",
-                     axles, weight, vres])
+                     axles, weight, contact, vres])
         if status in WARN_STATUSES:
             warnings.append(f"> ⚠ **WARNING — train {name} has data status "
                             f"'{status.upper()}'** ({WARN_STATUSES[status]}). Its results "
                             "are not fit for design decisions until the vehicle data are "
                             "confirmed against the primary source.")
     out += _table(["Train", "Data status", "D [m]", "Axles", "Σ static axle loads",
-                   "Resonance speeds f₁D/i, i = 1..4 [km/h] (bold: in the analysed range)"],
-                  rows)
+                   "Contact forces",
+                   "Resonance speeds f₁D/i, i = 1..4 [km/h] (bold: in the analysed range)"], rows)
     if warnings:
         out += [""] + [w + "\n" for w in warnings]
     return out + [""]
@@ -394,38 +471,161 @@ def _statistics(results: dict, ds: xr.Dataset) -> list[str]:
 # --------------------------------------------------------------------------------------
 
 
-def _history_case(ds: xr.Dataset, results: dict):
-    """(train, speed, irregularity, point, wheel, note) for the time-history figure."""
+def _irr_text(irr) -> str:
+    return "deterministic track" if int(irr) == DETERMINISTIC else f"irregularity seed {irr}"
+
+
+class _Histories:
+    """Time histories of single cases: from the file when stored, else re-run.
+
+    ``get`` returns ``(case, how)`` with ``case`` a Dataset on ``time`` (and ``point``,
+    ``wheel``) and ``how`` = "stored" or "recomputed", or ``(None, reason)``.
+    """
+
+    def __init__(self, ds: xr.Dataset, runner: CaseRunner | None):
+        self.ds = ds
+        self.runner = runner
+        self.runs: dict = {}
+
+    def stored(self, train, speed, irr, name: str, **where) -> bool:
+        ds = self.ds
+        if "time" not in ds.dims or name not in ds:
+            return False
+        return bool(ds[name].sel(train=train, speed=speed, irregularity=irr, **where)
+                    .notnull().any())
+
+    def get(self, train, speed, irr, needs: dict):
+        if all(self.stored(train, speed, irr, name, **where) for name, where in needs.items()):
+            return self.ds.sel(train=train, speed=speed, irregularity=irr), "stored"
+        if self.runner is None:
+            return None, "re-running cases is switched off"
+        key = (str(train), float(speed), int(irr))
+        if key not in self.runs:
+            try:
+                self.runs[key] = (self.runner.run(train, speed, irr), "recomputed")
+            except RecomputeError as exc:
+                self.runs[key] = (None, str(exc))
+            except Exception as exc:  # noqa: BLE001 - a figure must not stop the report
+                first = str(exc).splitlines()[0] if str(exc) else ""
+                self.runs[key] = (None, f"the re-run raised {type(exc).__name__}: {first}")
+        return self.runs[key]
+
+
+def _recompute_note(case, ds, name, envelope, where: dict, train, speed, irr, units,
+                    lowest=False) -> str:
+    """Say that a case was re-run and compare its extreme with the stored envelope."""
+    y = np.asarray(case[name].sel(**where).values, float)
+    got = np.nanmin(y) if lowest else np.nanmax(np.abs(y))
+    ref = float(ds[envelope].sel(train=train, speed=speed, irregularity=irr, **where))
+    text = (" No history was stored for this case: it was re-run from the file's "
+            f"configuration (config_json); re-run {'minimum' if lowest else 'peak'} "
+            f"{_fmt(got, units)}, stored envelope {_fmt(ref, units)}")
+    if np.isfinite(ref) and not np.isclose(got, ref, rtol=1e-6, atol=0.0):
+        text += (" — **they differ: the model or the code changed since the study was run; "
+                 "the figure may not show the stored case**")
+    return text + "."
+
+
+def _deck_history(ds, results, hist: _Histories, applicable):
+    """(figure, caption) of the governing deck acceleration case, or (None, reason)."""
     acc = results.get("deck_acceleration")
-    if "time" not in ds.dims or "deck_acceleration" not in ds or isinstance(acc, str):
-        return None
+    if acc is None or isinstance(acc, str) or not acc.attrs.get("governing_train"):
+        return None, ""
     a = acc.attrs
-    if not a.get("governing_train"):
-        return None
     train, speed, point = a["governing_train"], a["governing_speed"], a["governing_point"]
     irr = a.get("governing_irregularity", DETERMINISTIC)
-    hist = ds["deck_acceleration"].sel(train=train, point=point)
-    stored = hist.notnull().any("time")  # (speed, irregularity)
-    note = ""
-    if not bool(stored.sel(speed=speed, irregularity=irr)):
-        peak = ds["max_deck_acceleration"].sel(train=train, point=point).where(stored)
-        alt = nanargmax_case(peak)
-        if alt is None:
-            return None
-        speed, irr = alt["speed"], alt["irregularity"]
-        note = (" No history was stored for the governing case; shown: the stored case of "
-                "the governing train with the largest peak.")
     wheel = None
-    if "max_wheel_unloading" in ds and "contact_force" in ds:
+    if (applicable is not None and bool(applicable.sel(train=train))
+            and "max_wheel_unloading" in ds):
         w = nanargmax_case(ds["max_wheel_unloading"].sel(train=train, speed=speed,
                                                          irregularity=irr))
         wheel = None if w is None else int(w["wheel"])
-    return train, speed, irr, point, wheel, note
+    needs = {"deck_acceleration": {"point": point}}
+    if wheel is not None:
+        needs["contact_force"] = {"wheel": wheel}
+    case, how = hist.get(train, speed, irr, needs)
+    note, fallback = "", case is None
+    if case is None:
+        reason = how
+        if "time" not in ds.dims or "deck_acceleration" not in ds:
+            return None, (f"the file holds no time histories and the governing case could "
+                          f"not be re-run ({reason})")
+        stored = ds["deck_acceleration"].sel(train=train, point=point).notnull().any("time")
+        peak = ds["max_deck_acceleration"].sel(train=train, point=point).where(stored)
+        alt = nanargmax_case(peak)
+        if alt is None:
+            return None, (f"no history of train {train} is stored and the governing case "
+                          f"could not be re-run ({reason})")
+        speed, irr = alt["speed"], alt["irregularity"]
+        case = ds.sel(train=train, speed=speed, irregularity=irr)
+        if wheel is not None and not hist.stored(train, speed, irr, "contact_force",
+                                                 wheel=wheel):
+            wheel = None
+        note = (" No history was stored for the governing case and it could not be re-run "
+                f"({reason}); shown: the stored case of the governing train with the "
+                "largest peak.")
+    elif how == "recomputed":
+        note = _recompute_note(case, ds, "deck_acceleration", "max_deck_acceleration",
+                               {"point": point}, train, speed, irr, "m s-2")
+    kmh = float(ds["speed_kmh"].sel(speed=speed))
+    q0 = (float(ds["static_wheel_load"].sel(train=train, wheel=wheel))
+          if wheel is not None and "static_wheel_load" in ds else None)
+    fig = plots.plot_case_history(case, plots.case_title(train, kmh, irr, point), point=point,
+                                  wheel=wheel, limit=a["limit"], q0=q0)
+    role = "governing train" if fallback else "governing case"
+    caption = (f"Time histories of {train} at {kmh:.0f} km/h ({_irr_text(irr)}), "
+               f"the {role} of the deck acceleration check, at x = {point:g} m"
+               + (f", contact force of axle {wheel} (largest unloading)" if wheel is not None
+                  else "") + "." + note)
+    return fig, caption
 
 
-def _figures(ds: xr.Dataset, results: dict, outdir: Path) -> list[tuple[str, str]]:
-    """Write the PNGs; return (file name, caption) pairs."""
-    made = []
+def _wheel_history(ds, results, hist: _Histories):
+    """(figure, caption) of the governing wheel unloading case, or (None, reason)."""
+    wu = results.get("wheel_unloading")
+    if wu is None or isinstance(wu, str) or not wu.attrs.get("governing_train"):
+        return None, ""
+    a = wu.attrs
+    train, speed, wheel = a["governing_train"], a["governing_speed"], a["governing_wheel"]
+    irr = a.get("governing_irregularity", DETERMINISTIC)
+    if wheel < 0:
+        return None, ""
+    case, how = hist.get(train, speed, irr, {"contact_force": {"wheel": wheel}})
+    kmh = float(ds["speed_kmh"].sel(speed=speed))
+    if case is None:
+        return None, (f"the governing case of the wheel unloading check ({train}, "
+                      f"{kmh:.0f} km/h) has no stored history and could not be re-run "
+                      f"({how})")
+    sel = {"train": train, "speed": speed, "irregularity": irr, "wheel": wheel}
+    pos = (float(ds["position_of_min_contact_force"].sel(sel))
+           if "position_of_min_contact_force" in ds else np.nan)
+    q0 = (float(ds["static_wheel_load"].sel(train=train, wheel=wheel))
+          if "static_wheel_load" in ds else None)
+    length = float(ds.attrs["bridge_length"]) if "bridge_length" in ds.attrs else None
+    dq = float(ds["max_wheel_unloading"].sel(sel))
+    fig = plots.plot_case_history(
+        case, plots.case_title(train, kmh, irr) + f", axle {wheel}", wheel=wheel, q0=q0,
+        min_position=pos if np.isfinite(pos) else None, bridge_length=length,
+        speed=float(speed))
+    caption = (f"Contact force of axle {wheel} of {train} at {kmh:.0f} km/h "
+               f"({_irr_text(irr)}), the governing case of the wheel unloading check "
+               f"(ΔQ/Q₀ = {dq:.3f} in this realisation)")
+    if np.isfinite(pos):
+        caption += (f"; ★ minimum contact force, with the axle at x = {pos:.2f} m along the "
+                    "track (position_of_min_contact_force"
+                    + (f"; the deck spans 0–{length:g} m, shaded while the axle is on it"
+                       if length is not None else "") + ")")
+    caption += "."
+    if how == "recomputed":
+        caption += _recompute_note(case, ds, "contact_force", "min_contact_force",
+                                   {"wheel": wheel}, train, speed, irr, "N", lowest=True)
+    return fig, caption
+
+
+def _figures(ds: xr.Dataset, results: dict, outdir: Path,
+             runner: CaseRunner | None = None) -> tuple[list[tuple[str, str]], list[str]]:
+    """Write the PNGs; return (file name, caption) pairs and notes on figures not drawn."""
+    made, notes = [], []
 
     def put(fig, name, caption):
         plots.save(fig, outdir / name)
@@ -443,26 +643,32 @@ def _figures(ds: xr.Dataset, results: dict, outdir: Path) -> list[tuple[str, str
             "Dynamic increment φ'dyn of the deck maximum displacement against speed; "
             "dotted: φ''/2 (EN 1991-2 Annex C [R]).")
     wu = results.get("wheel_unloading")
+    applicable = None
+    if not isinstance(wu, str) and wu is not None:
+        applicable = wu["applicable"]
     if not isinstance(wu, str) and "note" not in wu.attrs:
+        skipped = wu.attrs.get("not_applicable_trains", "")
         put(plots.plot_wheel_unloading(ds, wu), "wheel_unloading.png",
             "Minimum wheel–rail contact force and wheel unloading ΔQ/Q₀ (max over axles) "
-            "against speed, with the 0.6 limit (EN 14363 practice [R]).")
+            "against speed, with the 0.6 limit (EN 14363 practice [R])"
+            + (f"; not drawn: {skipped} (prescribed moving forces, not applicable)"
+               if skipped else "") + ".")
     cf = results.get("comfort")
     if not isinstance(cf, str) and bool(cf["value"].notnull().any()):
         put(plots.plot_comfort(ds, cf), "comfort.png",
             "Vertical car-body acceleration (max over vehicles) against speed with the "
             "levels of comfort of EN 1990 Table A2.9 [R].")
-    case = _history_case(ds, results)
-    if case is not None:
-        train, speed, irr, point, wheel, note = case
-        fig = plots.plot_time_history(ds, train, speed, irr, point, wheel,
-                                      limit=acc.attrs["limit"])
-        put(fig, "time_history.png",
-            f"Time histories of {train} at {float(ds['speed_kmh'].sel(speed=speed)):.0f} km/h "
-            f"(governing case of the deck acceleration) at x = {point:g} m"
-            + (f", contact force of axle {wheel} (largest unloading)" if wheel is not None
-               else "") + "." + note)
-    return made
+    hist = _Histories(ds, runner)
+    for name, make in (("time_history.png", lambda: _deck_history(ds, results, hist,
+                                                                  applicable)),
+                       ("wheel_unloading_history.png", lambda: _wheel_history(ds, results,
+                                                                              hist))):
+        fig, caption = make()
+        if fig is not None:
+            put(fig, name, caption)
+        elif caption:
+            notes.append(f"- Not drawn: {caption}.")
+    return made, notes
 
 
 # --------------------------------------------------------------------------------------
@@ -473,7 +679,8 @@ def _figures(ds: xr.Dataset, results: dict, outdir: Path) -> list[tuple[str, str
 def write_report(
     ds: xr.Dataset, outdir: Path | str, *, q: float = chk.DEFAULT_Q,
     comfort_level: str = "very good", n_boot: int = 2000, seed: int = 0,
-    source_path: Path | str | None = None,
+    source_path: Path | str | None = None, determinant_length: float | None = None,
+    recompute: bool = True, config_dir: Path | str | None = None,
 ) -> Path:
     """Write ``report.md``, ``summary.csv`` and the PNG figures into ``outdir``.
 
@@ -491,6 +698,17 @@ def write_report(
         Bootstrap settings of the realisation statistics.
     source_path : path, optional
         The results file, named in the provenance.
+    determinant_length : float, optional
+        L_phi (m) for phi''; wins over the file's attribute and the EN 1991-2 Table 6.2
+        [R] rule (:func:`vsi_numba.analysis.checks.determinant_length`).
+    recompute : bool
+        Re-run a governing case whose time history the file does not hold, from the
+        file's ``config_json`` (:mod:`vsi_numba.analysis.recompute`), for the
+        time-history figures.
+    config_dir : path, optional
+        Directory the stored configuration's relative paths (train file, profile)
+        resolve against; default: tried from the results file's directory upwards, then
+        the working directory.
 
     Returns
     -------
@@ -508,11 +726,16 @@ def write_report(
     outdir.mkdir(parents=True, exist_ok=True)
     for name in FIGURE_NAMES:  # no stale figure of an earlier report may stay behind
         (outdir / name).unlink(missing_ok=True)
+    lphi = chk.determinant_length(ds, determinant_length)
     results = chk.run_checks(ds, q=q, comfort_level_required=comfort_level, n_boot=n_boot,
-                             seed=seed)
+                             seed=seed, length=determinant_length)
     table = chk.summary_table(results)
     table.to_csv(outdir / "summary.csv", index=False)
-    figures = _figures(ds, results, outdir)
+    runner = (CaseRunner(ds, base_dir=config_dir, source_path=source_path) if recompute
+              else None)
+    figures, figure_notes = _figures(ds, results, outdir, runner)
+    wu = results.get("wheel_unloading")
+    applicable = None if wu is None or isinstance(wu, str) else wu["applicable"]
 
     title = ds.attrs.get("title") or "vsi_numba results"
     lines = [f"# {title}", "",
@@ -523,15 +746,18 @@ def write_report(
         lines += [f"> ⚠ **WARNING: results for train(s) {', '.join(flagged)} rest on vehicle "
                   "data of doubtful status — see [Trains](#trains).**", ""]
     lines += _provenance(ds, Path(source_path) if source_path else None)
-    lines += _bridge(ds)
+    lines += _bridge(ds, lphi)
     lines += _summary(results, table, np.asarray(ds["point"].values, float))
     lines += _deck_end_note(ds)
-    lines += _trains(ds)
+    lines += _one_step_losses(results)
+    lines += _trains(ds, applicable)
     lines += _cases(ds)
     lines += _statistics(results, ds)
     lines += ["## Figures", ""]
     for i, (name, caption) in enumerate(figures, 1):
         lines += [f"![Figure {i}]({name})", "", f"*Figure {i}: {caption}*", ""]
+    if figure_notes:
+        lines += [*figure_notes, ""]
     path = outdir / "report.md"
     path.write_text("\n".join(lines), encoding="utf-8")
     return path

@@ -29,6 +29,9 @@ def synthetic_results(
     n_time: int = 400,
     scatter: float = 0.1,
     seed: int = 1,
+    bridge_kind: str = "simply_supported",
+    spans=None,
+    contact_loss_events: bool = False,
 ) -> xr.Dataset:
     """Build a results Dataset with every declared variable.
 
@@ -57,6 +60,13 @@ def synthetic_results(
         Coefficient of variation of the lognormal scatter between realisations.
     seed : int
         Random seed of the scatter.
+    bridge_kind : str
+        ``bridge.kind`` written into ``config_json``.
+    spans : sequence of float, optional
+        ``bridge.spans`` written into ``config_json``; default ``[bridge_length]``.
+    contact_loss_events : bool
+        Add ``longest_contact_loss`` (s, longest single separation: here the total) and
+        ``single_step_contact_losses`` (0) per wheel.
 
     Returns
     -------
@@ -165,7 +175,13 @@ def synthetic_results(
     ds["train_regular_length"].attrs.update(units="m", long_name="regular coach length D")
     ds["train_status"].attrs.update(long_name="train data status")
     ds["contact_loss_count"].attrs.update(units="1", long_name="number of contact losses")
-    config = {"title": "synthetic", "bridge": {"spans": [bridge_length]}}
+    if contact_loss_events:
+        ds["longest_contact_loss"] = ds["contact_loss_duration"].copy().assign_attrs(
+            units="s", long_name="longest single separation of the wheel from the rail")
+        ds["single_step_contact_losses"] = (ds["contact_loss_count"] * 0.0).assign_attrs(
+            units="1", long_name="separations lasting exactly one time step")
+    spans = [float(bridge_length)] if spans is None else [float(x) for x in spans]
+    config = {"title": "synthetic", "bridge": {"kind": bridge_kind, "spans": spans}}
     ds.attrs.update(
         title="Synthetic results (vsi_numba.analysis.synthetic)",
         history="synthetic_results()",

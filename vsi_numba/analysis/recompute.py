@@ -1,0 +1,137 @@
+"""Re-run one case of a results file from the configuration it stores.
+
+A study keeps time histories only for some speeds (``history_speeds_kmh``); the report
+still wants the history of the governing case. The file's ``config_json`` holds the
+resolved configuration, so the model can be rebuilt and that one case simulated again
+(milliseconds to seconds). The model is rebuilt as the study runner builds it: the
+bridge, trains and solver settings of the configuration, the irregularity profiles drawn
+over the same track range (:func:`vsi_numba.study.grid.profile_range`, so a seed gives
+the same realisation), and the file's own output points.
+
+Relative paths in the configuration (train file, profile file, imported modes) resolve
+against a base directory: the one given, else the first of the results file's directory
+and its parents (up to three levels) and the working directory where the configuration
+loads.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from vsi_numba.analysis.dataset import DETERMINISTIC
+
+
+class RecomputeError(RuntimeError):
+    """The case cannot be re-run from the results file (the message says why)."""
+
+
+def _candidates(base_dir, source_path) -> list[Path]:
+    dirs: list[Path] = []
+    if base_dir is not None:
+        dirs.append(Path(base_dir))
+    if source_path is not None:
+        here = Path(source_path).resolve().parent
+        dirs += [here, *list(here.parents)[:3]]
+    dirs.append(Path.cwd())
+    seen, out = set(), []
+    for d in dirs:
+        if d not in seen:
+            seen.add(d)
+            out.append(d)
+    return out
+
+
+class CaseRunner:
+    """Rebuilds the model of a results file once and re-runs cases of it.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Results with the ``config_json`` attribute and a ``point`` coordinate.
+    base_dir : path, optional
+        Directory the configuration's relative paths resolve against.
+    source_path : path, optional
+        The results file (its directory and parents are tried as base directories).
+    """
+
+    def __init__(self, ds: xr.Dataset, base_dir=None, source_path=None):
+        self.config_json = str(ds.attrs.get("config_json", "") or "")
+        self.points = np.atleast_1d(np.asarray(ds["point"].values, float))
+        self.dirs = _candidates(base_dir, source_path)
+        self._model = None
+
+    def model(self):
+        """(bridge, trains by name, settings, profiles by realisation id); built once."""
+        if self._model is not None:
+            return self._model
+        if not self.config_json:
+            raise RecomputeError("the file carries no config_json")
+        try:
+            data = json.loads(self.config_json)
+        except ValueError as exc:
+            raise RecomputeError(f"config_json is not JSON ({exc})") from None
+        from vsi_numba.config import ConfigError, load_config
+
+        first = None
+        cfg = None
+        for d in self.dirs:
+            try:
+                cfg = load_config(data, base_dir=d)
+                break
+            except ConfigError as exc:
+                first = first or str(exc).strip().splitlines()[0]
+        if cfg is None:
+            raise RecomputeError(f"its configuration does not load ({first})")
+        from vsi_numba.study.grid import profile_range
+
+        bridge = cfg.build_bridge()
+        trains = {t.name: t for t in cfg.trains()}
+        settings = cfg.solver_settings()
+        x_range = profile_range(bridge.length, [t.length for t in trains.values()],
+                                settings.approach, settings.free_vibration)
+        profiles = dict(cfg.irregularities(*x_range))
+        self._model = (bridge, trains, settings, profiles)
+        return self._model
+
+    def run(self, train: str, speed: float, irregularity: int = DETERMINISTIC) -> xr.Dataset:
+        """Simulate one case with time histories.
+
+        Parameters
+        ----------
+        train : str
+            Train name, as in the file's ``train`` coordinate.
+        speed : float
+            Speed (m s-1).
+        irregularity : int
+            Realisation id (seed; -1 = deterministic track).
+
+        Returns
+        -------
+        xarray.Dataset
+            The output of :func:`vsi_numba.solver.simulate.simulate` (dims ``time``,
+            ``point``, ``wheel``, ``vehicle``) at the file's output points.
+
+        Raises
+        ------
+        RecomputeError
+            Configuration missing or not loadable, train or realisation not in it, or the
+            re-run failed numerically.
+        """
+        bridge, trains, settings, profiles = self.model()
+        if str(train) not in trains:
+            raise RecomputeError(f"train {train!r} is not in the stored configuration "
+                                 f"({', '.join(trains)})")
+        if int(irregularity) not in profiles:
+            raise RecomputeError(f"irregularity realisation {irregularity} is not in the "
+                                 f"stored configuration ({', '.join(map(str, profiles))})")
+        from vsi_numba.solver.simulate import simulate
+
+        sim = simulate(bridge, trains[str(train)], float(speed), profiles[int(irregularity)],
+                       settings, output_points=self.points, save_histories=True)
+        if int(sim.attrs.get("status", 0)) != 0:
+            raise RecomputeError(f"the re-run failed: {sim.attrs.get('message', '')}")
+        return sim

@@ -100,8 +100,31 @@ def profile(
 
 
 def main():  # pragma: no cover - console entry
-    app()
+    """Console entry: run the command, then leave without the interpreter's teardown.
+
+    Every command has written and closed its files (and stopped its workers) when it
+    returns; what is left is finalising numba/LLVM and the imported libraries, ~0.3-0.4 s
+    of nothing a user waits for.  The standard streams are flushed first.
+    """
+    import os
+    import sys
+
+    code = 0
+    try:
+        app()
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+        if not isinstance(exc.code, int | None):
+            print(exc.code, file=sys.stderr)
+    except KeyboardInterrupt:
+        code = 130
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(code)
 
 
 if __name__ == "__main__":  # pragma: no cover
-    app()
+    main()

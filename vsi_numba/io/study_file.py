@@ -11,7 +11,8 @@ the study.  The layout (names, dims, attributes, encodings) is the one
 * envelopes (float64) and ``status`` / ``max_iterations`` (int32) on the study axes;
 * time histories as float32, zlib level 4 with shuffle, one chunk per run (at most 4096
   steps long); ``in_contact`` as float32 (1, 0, NaN where the train has no such wheel or
-  the run no such step);
+  the run no such step); ``contact_force`` and ``in_contact`` are NaN for moving forces
+  (their force is the prescribed ``static_wheel_load``, not a result);
 * per-train coordinates ``wheel_position``, ``static_wheel_load``, ``vehicle_name``;
   wheels and vehicles a train does not have are NaN / empty.
 """
@@ -138,8 +139,8 @@ class StudyFile:
                 attrs = attrs_for(name)
                 if name == "in_contact":
                     attrs = {**attrs, "flag_values": np.array([0.0, 1.0], np.float32),
-                             "comment": "NaN where the train has no such wheel or the run no "
-                             "such step"}
+                             "comment": "NaN where the train has no such wheel (or the wheel "
+                             "is a prescribed moving force) or the run no such step"}
                 kw = {}
                 if 0 not in [sizes[d] for d in full]:
                     kw["chunksizes"] = chunks
@@ -191,11 +192,10 @@ class StudyFile:
                                            strict=True)):
                 s = s0 + int(r)
                 n = int(n)
-                for name, (dims, *_rest) in HISTORIES.items():
-                    width = {"point": self.sizes["point"], "wheel": n_wheel,
-                             "vehicle": n_vehicle}[dims[1]]
-                    block = data[name][h, :n, :width]
-                    self.vars[name][s, i_t, i_i, :n, :width] = block.astype(np.float32)
+                for name in HISTORIES:
+                    block = data[name][h, :n]
+                    if block.shape[1]:  # moving forces only: no contact histories
+                        self.vars[name][s, i_t, i_i, :n, : block.shape[1]] = block
 
     def close(self, attrs: dict) -> None:
         """Write the global attributes and close the file."""

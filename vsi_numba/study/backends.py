@@ -138,7 +138,9 @@ class ThreadBackend:
         tasks = list(tasks)
         for t in tasks:
             todo.put(t)
-        done: queue.Queue = queue.Queue()
+        # at most one finished result per thread waits for the parent: memory stays at
+        # n_workers batches in flight + n_workers waiting, whatever the study size
+        done: queue.Queue = queue.Queue(maxsize=self.n_workers)
         stop = self._stop
 
         def work():
@@ -151,7 +153,12 @@ class ThreadBackend:
                     result = fn(spec, task)
                 except BaseException as exc:  # noqa: BLE001 - reported per task
                     result = exc
-                done.put((task, result))
+                while not stop.is_set():
+                    try:
+                        done.put((task, result), timeout=0.2)
+                        break
+                    except queue.Full:
+                        continue
 
         threads = [threading.Thread(target=work, daemon=True, name=f"vsi-batch-{i}")
                    for i in range(min(self.n_workers, len(tasks)))]

@@ -191,6 +191,9 @@ def run_batch_task(spec, batch: Batch) -> dict:
     out.update({name: np.ascontiguousarray(v) for name, v in res.envelopes().items()})
     runs = [r for r in range(speeds.size) if batch.histories[r]]
     if runs:
+        # histories of the dynamic wheels only: a moving force's "contact force" is its
+        # constant load (static_wheel_load), not a result; the file leaves it NaN
+        n_dyn = packed.vehicles.wheel_dof.size
         lengths = np.array([int(res.n_steps[r]) + 1 for r in runs], np.int64)
         n_t = int(lengths.max())
         out["hist_runs"] = np.array(runs, np.int64)
@@ -199,6 +202,8 @@ def run_batch_task(spec, batch: Batch) -> dict:
             out[name] = None
         for h, r in enumerate(runs):
             for name, val in res.histories(r).items():
+                if name in ("contact_force", "in_contact"):
+                    val = val[:, :n_dyn]
                 if out[name] is None:
                     out[name] = np.full((len(runs), n_t, val.shape[1]), np.nan, np.float32)
                 out[name][h, : val.shape[0]] = val

@@ -436,7 +436,13 @@ class Bench:
         self.rows: list[list[str]] = []  # details of the measured commands
         self.sampler_cpu: list[float] = []  # sampler CPU / wall per measured command
 
-    def command(self, config: Path, out: Path, workers: int | None = None) -> list[str]:
+    def command(self, config: Path, out: Path, workers: int | None = None,
+                backend: str | None = None) -> list[str]:
+        if backend is not None:  # the Python API (the CLI has no backend option)
+            code = ("from vsi_numba.study.runner import execute_study; "
+                    f"execute_study({str(config)!r}, {str(out)!r}, workers={workers!r}, "
+                    f"backend={backend!r}, quiet=True)")
+            return [sys.executable, "-c", code]
         cmd = [sys.executable, "-m", "vsi_numba.cli", "sweep", str(config), "-o", str(out)]
         if workers:
             cmd += ["--workers", str(workers)]
@@ -447,14 +453,14 @@ class Bench:
         path.write_text(to_toml(cfg))
         return path
 
-    def run(self, config: Path, workers: int | None = None, keep: bool = False
-            ) -> tuple[CommandRun, Path, float]:
+    def run(self, config: Path, workers: int | None = None, keep: bool = False,
+            backend: str | None = None) -> tuple[CommandRun, Path, float]:
         """One command; returns the run, the output path and its size (bytes).  The output
         is deleted unless ``keep``."""
         self.k += 1
         out = self.tmp / f"out{self.k}" / "results.nc"
         out.parent.mkdir()
-        r = run_command(self.command(config, out, workers), self.tmp, self.env,
+        r = run_command(self.command(config, out, workers, backend), self.tmp, self.env,
                         rss_limit=self.rss_limit)
         if r.aborted or r.returncode not in (0, 1) or not out.exists():
             raise RuntimeError(f"`vsi sweep {config.name}` failed (exit {r.returncode}"
@@ -465,17 +471,19 @@ class Bench:
         return r, out, size
 
     def repeated(self, label: str, config: Path, grid: str, repeat: int,
-                 workers: int | None = None, warm: Path | None = None, keep: bool = False):
+                 workers: int | None = None, warm: Path | None = None, keep: bool = False,
+                 backend: str | None = None):
         """Warm-up on ``warm`` (a 1-run config), then ``repeat`` runs of ``config``;
         returns (median wall, median peak RSS, runs, last output, size) and records the
         details row."""
         if warm is not None and self.plan.warm_up:
-            w, _, _ = self.run(warm, workers)
+            w, _, _ = self.run(warm, workers, backend=backend)
             self.echo(f"[study]   warm-up ({label}, 1 run) {w.wall:.1f} s")
         runs, out, size = [], None, float("nan")
         load0 = load1()
         for i in range(max(repeat, 1)):
-            r, out, size = self.run(config, workers, keep=keep and i == repeat - 1)
+            r, out, size = self.run(config, workers, keep=keep and i == repeat - 1,
+                                    backend=backend)
             runs.append(r)
             self.echo(f"[study]   {label}: {r.wall:.2f} s, peak RSS {r.peak_rss / MB:,.0f} MB "
                       f"({r.max_procs} processes, {r.samples} samples)")
@@ -638,8 +646,32 @@ def _measure_e(b: Bench, res: StudyResult):
                            f"{k[0] * 1e3:.2f} ms x runs.")
 
 
+def _measure_f(b: Bench, res: StudyResult):
+    """Local parallelism: threads of one process (the default) vs a process pool fed with
+    the same batches, 2 workers each, on study 1 and the HSLM sweep."""
+    p = b.plan
+    cases = [("study 1", STUDY1, one_run(study1_config()),
+              f"{n_runs(study1_config())} runs (study 1)")]
+    cfg = hslm_config(p.trains, p.speeds)
+    cases.append(("HSLM sweep", b.write(cfg, "hslm_f"), one_run(cfg),
+                  _grid(p.trains, p.speeds)))
+    for k, (name, path, warm_cfg, grid) in enumerate(cases, start=1):
+        warm = b.write(warm_cfg, f"f_{name.replace(' ', '_')}_1run")
+        walls = {}
+        for backend in ("threads", "processes"):
+            walls[backend], rss, *_ = b.repeated(f"f. {name}, {backend} (2)", path, grid,
+                                                 b.plan.repeat_other, workers=2, warm=warm,
+                                                 backend=backend)
+        ratio = walls["processes"] / walls["threads"]
+        res.measures.append(Measure(
+            f"f{k}", f"{name}: process pool / threads (2 workers each)", grid,
+            ratio, "ratio", None, None,
+            f"{fmt_s(walls['processes'])} / {fmt_s(walls['threads'])}; the faster is the "
+            "default" + (" (threads)" if ratio >= 1 else " (processes: change the default!)")))
+
+
 MEASURES = (("a", _measure_a), ("b", _measure_b), ("c", _measure_c), ("d", _measure_d),
-            ("e", _measure_e))
+            ("e", _measure_e), ("f", _measure_f))
 
 
 def run_study_bench(mode: str = "quick", write: bool = True, report: Path | None = None,
@@ -652,7 +684,8 @@ def run_study_bench(mode: str = "quick", write: bool = True, report: Path | None
                       load_start=load1())
     t0 = time.perf_counter()
     skip = {"a": False, "b": not plan.study1, "c": not plan.ice3_seeds,
-            "d": not plan.hist_pilots and not plan.hist_full, "e": not plan.scaling}
+            "d": not plan.hist_pilots and not plan.hist_full, "e": not plan.scaling,
+            "f": not plan.study1}
     with tempfile.TemporaryDirectory(prefix="vsi_study_bench_") as tmp:
         bench = Bench(plan, Path(tmp), echo)
         bench.rows = res.commands

@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 import time as _time
 from dataclasses import dataclass
-
 from typing import TYPE_CHECKING
 
 import numpy as np

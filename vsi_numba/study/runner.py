@@ -30,7 +30,6 @@ Exit codes of :func:`sweep_command` (``vsi sweep``)
 from __future__ import annotations
 
 import dataclasses
-import functools
 import hashlib
 import json
 import os
@@ -155,7 +154,7 @@ def _remember(spec: StudySpec, model: StudyModel) -> None:
 
 
 def _build_model(cfg) -> StudyModel:
-    from vsi_numba.solver.simulate import default_points, deck_operators
+    from vsi_numba.solver.simulate import deck_operators, default_points
 
     bridge = cfg.build_bridge()
     trains = tuple(cfg.trains())

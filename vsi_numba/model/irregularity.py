@@ -103,6 +103,7 @@ class Profile:
             raise ValueError("profile x must be strictly increasing")
         h = np.diff(x)
         uniform = np.allclose(h, h[0], rtol=1e-9, atol=0.0)
+        given = dx is not None
         if dx is None:
             dx = float(h.min())
         if not uniform or abs(dx - h[0]) > 1e-9 * dx:
@@ -115,7 +116,9 @@ class Profile:
         spl = scipy.interpolate.CubicSpline(xu, ru, bc_type="natural")
         # scipy stores c[m, k] for (x - x_k)^(3 - m); reorder to ascending powers.
         coef = np.ascontiguousarray(spl.c[::-1].T)
-        return cls(x0=float(xu[0]), dx=float(xu[1] - xu[0]), coef=coef, label=label)
+        # the grid step: the one given (exact), else that of the first interval
+        step = float(dx) if given else float(xu[1] - xu[0])
+        return cls(x0=float(xu[0]), dx=step, coef=coef, label=label)
 
     @classmethod
     def from_function(
@@ -517,6 +520,11 @@ def _check_band(wavelength_min: float, wavelength_max: float) -> None:
         )
 
 
+#: Default period (m) of a random profile: a realisation is the same function of x for
+#: every range up to this length (see :func:`psd_realisation`).
+PSD_PERIOD = 8192.0
+
+
 def psd_realisation(
     spectrum: str | Spectrum,
     wavelength_min: float,
@@ -546,9 +554,10 @@ def psd_realisation(
         Largest sample spacing (m); default ``wavelength_min / 20``.  The spacing used
         divides the period exactly, so it may be slightly smaller.
     n_waves : int, optional
-        Number of cosine components in the band.  Default: enough for a period of at
-        least ``max(x_stop - x_start, 20 wavelength_max)``, i.e. at least 20 components in
-        the lowest octave.  A value whose period is shorter than the run is refused.
+        Number of cosine components in the band.  Default: a period of
+        :data:`PSD_PERIOD` m (at least ``20 wavelength_max``, i.e. at least 20 components
+        in the lowest octave), longer only when the range is longer than that.  A value
+        whose period is shorter than the range is refused.
 
     Returns
     -------
@@ -561,13 +570,20 @@ def psd_realisation(
 
     Notes
     -----
-    Shinozuka-Jan form ``r(x) = sum_k a_k cos(Omega_k (x - x_start) + phi_k)`` with
+    Shinozuka-Jan form ``r(x) = sum_k a_k cos(Omega_k x + phi_k)`` with
     ``Omega_k = k dOmega`` (``dOmega = 2 pi / period``), ``phi_k ~ U[0, 2 pi)`` drawn in
     ascending ``k`` from ``default_rng(seed)``, and ``a_k = sqrt(2 int S dOmega)`` over the
     part of the bin ``[Omega_k -/+ dOmega/2]`` inside the band (exact integral of the
     analytic PSD).  The ensemble variance is therefore exactly ``int S dOmega`` over the
     band, and so is the sample variance over one full period (Parseval).  Evaluated on
-    the uniform grid by one inverse real FFT.
+    the uniform grid ``x_j = j dx`` (anchored at x = 0) by one inverse real FFT over the
+    period, then read at the indices of the range (modulo the period).
+
+    The realisation is a function of x alone given (spectrum, band, seed, dx): the
+    phases refer to x = 0 and the period does not depend on the range, so the same seed
+    is the same track under the same x whatever range a study asks for (whichever trains,
+    speeds or bridge variants it holds), as long as the range is shorter than
+    :data:`PSD_PERIOD`.
     """
     spec = get_spectrum(spectrum)
     _check_band(wavelength_min, wavelength_max)
@@ -584,7 +600,9 @@ def psd_realisation(
     run = x_stop - x_start
     per_wave = 1.0 / wavelength_min - 1.0 / wavelength_max  # 1/m: waves in band per metre
     if n_waves is None:
-        period = max(run, 20.0 * wavelength_max)
+        period = max(PSD_PERIOD, 20.0 * wavelength_max)
+        while period < run:
+            period *= 2.0
     else:
         if int(n_waves) < 1:
             raise ValueError(f"n_waves must be >= 1, got {n_waves!r}")
@@ -614,11 +632,10 @@ def psd_realisation(
     spectrum_c = amplitude * np.exp(1j * phase)
     # irfft(c, n)[j] = (1/n) (c_0 + 2 Re sum_k c_k e^{2 pi i k j/n}) for c_0 = c_{n/2} = 0
     r = 0.5 * n_fft * np.fft.irfft(spectrum_c, n_fft)
-    m = int(np.ceil(run / dx_used - 1e-9))
-    if m + 1 > n_fft:  # run == period: wrap around for the closing sample
-        r = np.concatenate([r, r[: m + 1 - n_fft]])
-    x = x_start + dx_used * np.arange(m + 1)
-    return x, r[: m + 1], float(period)
+    j0 = int(np.floor(x_start / dx_used + 1e-9))
+    j1 = max(int(np.ceil(x_stop / dx_used - 1e-9)), j0 + 3)
+    j = np.arange(j0, j1 + 1)
+    return j * dx_used, r[j % n_fft], float(period)
 
 
 def psd_profile(
@@ -648,8 +665,9 @@ def psd_profile(
     x, r, period = psd_realisation(
         spec, wavelength_min, wavelength_max, seed, x_start, x_stop, dx, n_waves
     )
+    n_fft = int(round(period / (x[1] - x[0])))
     label = (
         f"psd {spec.name} band=[{wavelength_min:g}, {wavelength_max:g}] m seed={seed} "
         f"x=[{x_start:g}, {x_stop:g}] m period={period:.6g} m"
     )
-    return Profile.from_samples(x, r, label=label)
+    return Profile.from_samples(x, r, label=label, dx=period / n_fft)

@@ -171,7 +171,7 @@ class ThreadBackend:
                     break
                 except queue.Empty:
                     if not any(th.is_alive() for th in threads) and done.empty():
-                        raise RuntimeError("the worker threads stopped unexpectedly")
+                        raise RuntimeError("the worker threads stopped unexpectedly") from None
             yield item
 
 

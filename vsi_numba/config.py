@@ -105,6 +105,22 @@ MAX_MODES = 1000  # cap on bridge.n_modes
 MAX_ELEMENTS = 1000  # cap on spans * elements_per_span (the eigenproblem runs at load time)
 MAX_USER_DOFS = 200  # cap on the size of a user vehicle
 MAX_VEHICLES = 500  # cap on explicit vehicles
+DT_ERROR = 0.25  # dt * f above this (fewer than 4 steps per period): error
+MAX_STEPS = 50_000_000  # time steps of the slowest run: above this the run is refused
+MAX_HISTORY_BYTES = 2 * 1024**3  # time histories of one run kept in memory: at most 2 GiB
+MAX_PROFILE_SAMPLES = 20_000_000  # samples of one irregularity profile (its FFT included)
+MAX_STATIC_DEFLECTION = 1.0 / 50.0  # static deck deflection / span: above this, error
+MAX_HERTZ_PENETRATION = 0.010  # m, static Hertz penetration of a wheel: above this, error
+MAX_PROFILE_AMPLITUDE = 0.050  # m, |r| of a profile: above this, error
+LONG_TRAIN = 1000.0  # m, a longer train gets a warning
+
+#: Keys that accept a result the checks below refuse (never listed in hints).
+SOLVER_OVERRIDES = {
+    "allow_coarse_dt": "fewer than 4 time steps per period of a retained frequency",
+    "allow_large_problem": "runs or profiles beyond the memory/time budget",
+    "allow_implausible": "implausible physical input (deflection, penetration, profile "
+                         "amplitude, vehicle stiffness)",
+}
 
 
 class ConfigError(ValueError):
@@ -241,6 +257,7 @@ class _Checker:
     def __init__(self):
         self.errors: list[str] = []
         self.warnings: list[str] = []
+        self.records: list[dict] = []  # one per warning: message, kind, keys
 
     # -- reporting
     def error(self, path: str, value, expected: str) -> _Sentinel:
@@ -250,15 +267,20 @@ class _Checker:
             self.errors.append(f"{path} = {_show(value)}: expected {expected}")
         return _BAD
 
-    def warn(self, message: str) -> None:
+    def warn(self, message: str, kind: str = "input", keys=()) -> None:
+        """Record a warning; ``kind`` is "resolution" for a time-step resolution warning
+        (checks computed under it are not reliable), else "input" or "plausibility"."""
         self.warnings.append(message)
+        self.records.append({"message": message, "kind": kind, "keys": list(keys)})
 
     # -- tables
-    def table(self, data, path: str, allowed, *, elsewhere=None, ignored=None, what=""):
+    def table(self, data, path: str, allowed, *, elsewhere=None, ignored=None, what="",
+              hidden=()):
         """Check that ``data`` is a table and report unknown keys (with did-you-mean).
 
         ``elsewhere`` maps keys valid for another kind to a hint; ``ignored`` maps keys
-        that are legal but unused here to a reason (warning, not error).
+        that are legal but unused here to a reason (warning, not error); ``hidden`` keys
+        (overrides) are accepted but not listed in the hints.
         """
         if not isinstance(data, Mapping):
             return self.error(path, data, f"a table{what}")
@@ -266,7 +288,7 @@ class _Checker:
             if not isinstance(key, str):
                 self.error(_join(path, key), value, "string keys only")
                 continue
-            if key in allowed:
+            if key in allowed or key in hidden:
                 continue
             kp = _join(path, key)
             if ignored and key in ignored:
@@ -1336,9 +1358,13 @@ _SOLVER_FIELDS = {
 def _solver_section(chk, d) -> dict | _Sentinel:
     if d is _MISSING:
         d = {}
-    if chk.table(d, "solver", set(_SOLVER_FIELDS), what=" [solver] (dt, hht_alpha, ...)") is _BAD:
+    if chk.table(d, "solver", set(_SOLVER_FIELDS), what=" [solver] (dt, hht_alpha, ...)",
+                 hidden=SOLVER_OVERRIDES) is _BAD:
         return _BAD
     vals = chk.numbers(d, "solver", _SOLVER_FIELDS)
+    for key in SOLVER_OVERRIDES:
+        if key in d:
+            vals[key] = chk.boolean(d, "solver", key, False)
     if not _ok(*vals.values()):
         return _BAD
     vals["hht_alpha"] = max(vals["hht_alpha"], -1.0 / 3.0)
@@ -1372,6 +1398,16 @@ _SPEED = _Num("a speed > 0 km/h (at most 1000)", gt=0, le=1000)
 def _speed_grid(start, stop, step) -> np.ndarray:
     n = int(math.floor((stop - start) / step + 1e-9))
     return np.round(start + step * np.arange(n + 1), 9)
+
+
+def _line_speed_grid(line: float) -> list[float]:
+    """Speeds (km/h) of a study given its line speed: 5 km/h steps up to 1.2 x line."""
+    stop = 1.2 * line
+    start = 140.0 if stop >= 140.0 else 5.0
+    grid = _speed_grid(start, stop, 5.0)
+    if grid[-1] < stop - 1e-9:
+        grid = np.append(grid, round(stop, 9))
+    return grid.tolist()
 
 
 def _study_section(chk, d, default_output: str, base_dir: Path) -> dict | _Sentinel:
@@ -1410,15 +1446,16 @@ def _study_section(chk, d, default_output: str, base_dir: Path) -> dict | _Senti
                 speeds = [speeds]
             if isinstance(speeds, list) and len(set(speeds)) != len(speeds):
                 speeds = chk.error("study.speeds_kmh", raw, "distinct speeds")
+        if line is not None and line is not _BAD and isinstance(speeds, list) and (
+                speeds != _line_speed_grid(line)):  # the resolved config has both: equal
+            line = chk.error("study.line_speed_kmh", d["line_speed_kmh"],
+                             "either study.speeds_kmh or study.line_speed_kmh, not both "
+                             "(line_speed_kmh only builds the speed grid when speeds_kmh "
+                             "is absent and would be ignored; remove one of the two keys)")
     elif line is None:
         chk.error("study.speeds_kmh", _MISSING, expected + " (or give study.line_speed_kmh)")
     elif line is not _BAD:
-        stop = 1.2 * line
-        start = 140.0 if stop >= 140.0 else 5.0
-        grid = _speed_grid(start, stop, 5.0)
-        if grid[-1] < stop - 1e-9:
-            grid = np.append(grid, round(stop, 9))
-        speeds = grid.tolist()
+        speeds = _line_speed_grid(line)
     output = chk.string(d, path, "output", "a path to a netCDF file ending in .nc",
                         default=default_output)
     out_full = _BAD
@@ -1478,6 +1515,10 @@ class Config:
         self.path: Path | None = path
         self.base_dir: Path = base_dir
         self.warnings: list[str] = list(warnings)
+        #: the warnings as records {"message", "kind", "keys"}; kind "resolution" marks a
+        #: time-step resolution warning (the results' checks are then not reliable)
+        self.warning_records: list[dict] = [
+            {"message": w, "kind": "input", "keys": []} for w in self.warnings]
         self._resolved = resolved
         self._bridge = bridge
         self._train = train
@@ -1564,7 +1605,8 @@ class Config:
         if contact["model"] != "rigid":
             extra = {"contact_model": contact["model"],
                      "hertz_coefficient": contact["hertz_coefficient"]}
-        return SolverSettings(**self._solver, **extra)
+        fields = {k: v for k, v in self._solver.items() if k not in SOLVER_OVERRIDES}
+        return SolverSettings(**fields, **extra)
 
     # -- study
     @property
@@ -1633,14 +1675,25 @@ def _read_toml(path: Path) -> tuple[dict | None, list[str]]:
                       "a UTF-8 TOML configuration file"]
     try:
         return tomllib.loads(text), []
-    except tomllib.TOMLDecodeError as exc:
-        hint = "" if path.suffix.lower() == ".toml" else " (is this a TOML file?)"
-        msg = " ".join(str(exc).split())
-        if "(at end of document)" in msg:  # tomllib gives no line/column there
-            lines = text.split("\n")
-            msg = msg.replace("(at end of document)", f"(at end of document, line {len(lines)}, "
-                                                      f"column {len(lines[-1]) + 1})")
-        return None, [f"{path}: TOML syntax error: {msg}; expected valid TOML{hint}"]
+    except RecursionError:
+        return None, [f"{path}: nested too deeply (arrays or inline tables); expected a "
+                      "TOML configuration file"]
+    except ValueError as exc:
+        if isinstance(exc, tomllib.TOMLDecodeError):
+            return _syntax_error(path, text, exc)
+        msg = " ".join(str(exc).split())  # e.g. an integer of thousands of digits
+        return None, [f"{path}: value not readable ({msg}); expected a TOML configuration "
+                      "file with numbers of ordinary size"]
+
+
+def _syntax_error(path: Path, text: str, exc) -> tuple[None, list[str]]:
+    hint = "" if path.suffix.lower() == ".toml" else " (is this a TOML file?)"
+    msg = " ".join(str(exc).split())
+    if "(at end of document)" in msg:  # tomllib gives no line/column there
+        lines = text.split("\n")
+        msg = msg.replace("(at end of document)", f"(at end of document, line {len(lines)}, "
+                                                  f"column {len(lines[-1]) + 1})")
+    return None, [f"{path}: TOML syntax error: {msg}; expected valid TOML{hint}"]
 
 
 def load_config(path_or_mapping, base_dir=None) -> Config:
@@ -1723,6 +1776,9 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
         raise ConfigError(sorted(chk.errors, key=rank), source=source)
 
     _physics_warnings(chk, bridge, train, irr, solver, study, contact)
+    _plausibility(chk, bridge, train, irr, solver, study, contact)
+    if chk.errors:  # checks of the whole model (time step, budget, plausibility)
+        raise ConfigError(chk.errors, source=source)
     resolved = {
         "title": title if title is not None else default_title,
         "bridge": bridge.resolved,
@@ -1732,10 +1788,12 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
         "contact": contact,
         "study": {k: v for k, v in study.items() if not k.startswith("_")},
     }
-    return Config(
+    cfg = Config(
         title=resolved["title"], path=path, base_dir=base, resolved=resolved, bridge=bridge,
         train=train, irregularity=irr, solver=solver, study=study, warnings=chk.warnings,
     )
+    cfg.warning_records = [dict(r) for r in chk.records]
+    return cfg
 
 
 def _check_file_coverage(chk, irr, x_start, x_stop):
@@ -1766,8 +1824,8 @@ def _hertz_warning(chk, train, dt, g):
         chk.warn(
             f"solver.dt = {dt:g} s: dt x f = {dt * f_max:.3g} for the wheel on the Hertz "
             f"contact spring ({f_max:.4g} Hz, {where}, at the mean static wheel load); above "
-            f"{DT_RESOLUTION} it is under-resolved; use dt <= {DT_RESOLUTION / f_max:.3g} s"
-        )
+            f"{DT_RESOLUTION} it is under-resolved; use dt <= {DT_RESOLUTION / f_max:.3g} s",
+            "resolution", ["solver.dt", "contact.hertz_coefficient"])
 
 
 def _physics_warnings(chk, bridge, train, irr, solver, study, contact):
@@ -1778,13 +1836,36 @@ def _physics_warnings(chk, bridge, train, irr, solver, study, contact):
     model = bridge.model
     if model is not None and model.n_modes:
         fmax = float(model.frequencies[-1])
-        if dt * fmax > DT_RESOLUTION:
+        # the modes that enter the checks: those up to the deck-acceleration cut-off
+        freqs = np.asarray(model.frequencies, float)
+        f_cut = solver["acceleration_cutoff"]
+        if f_cut is None:
+            f_cut = max(30.0, 1.5 * freqs[0], freqs[2] if freqs.size >= 3 else 0.0)
+        f_chk = float(freqs[freqs <= f_cut * (1 + 1e-9)].max(initial=freqs[0]))
+        if dt * f_chk > DT_ERROR and not solver.get("allow_coarse_dt"):
+            chk.errors.append(
+                f"solver.dt = {dt:g}: expected a time step giving at least "
+                f"{1 / DT_ERROR:.0f} steps per period of the highest retained bridge mode "
+                f"within the checks' cut-off ({f_chk:.4g} Hz; cut-off {f_cut:.4g} Hz): "
+                f"dt x f = {dt * f_chk:.3g} > {DT_ERROR}; use dt <= "
+                f"{DT_RESOLUTION / f_chk:.3g} s (10 steps per period), or set "
+                "solver.allow_coarse_dt = true to run anyway (the checks are then marked "
+                "not reliable)")
+        elif dt * fmax > DT_RESOLUTION:
             chk.warn(
                 f"solver.dt = {dt:g} s: dt x f = {dt * fmax:.3g} for the highest retained "
                 f"bridge mode ({fmax:.4g} Hz); above {DT_RESOLUTION} (fewer than "
                 f"{1 / DT_RESOLUTION:.0f} steps per period) that mode is under-resolved and "
-                f"damped numerically; use dt <= {DT_RESOLUTION / fmax:.3g} s or fewer modes"
-            )
+                f"damped numerically; use dt <= {DT_RESOLUTION / fmax:.3g} s or fewer modes",
+                # only the modes within the cut-off make the checks unreliable
+                "resolution" if dt * f_chk > DT_RESOLUTION else "input",
+                ["solver.dt", "bridge.n_modes"])
+            if dt * f_chk > DT_RESOLUTION and f_chk < fmax:
+                chk.warn(
+                    f"solver.dt = {dt:g} s: dt x f = {dt * f_chk:.3g} for the highest "
+                    f"retained mode within the checks' cut-off ({f_chk:.4g} Hz); the "
+                    "deck accelerations are under-resolved", "resolution",
+                    ["solver.dt", "bridge.n_modes"])
         allf = bridge.all_frequencies
         if allf is not None and allf.size:
             f1 = float(allf[0])
@@ -1811,12 +1892,20 @@ def _physics_warnings(chk, bridge, train, irr, solver, study, contact):
                     continue
                 if f.size:
                     fv = max(fv, float(f.max()))
-        if dt * fv > DT_RESOLUTION:
+        if dt * fv > DT_ERROR and not solver.get("allow_coarse_dt"):
+            chk.errors.append(
+                f"solver.dt = {dt:g}: expected a time step giving at least "
+                f"{1 / DT_ERROR:.0f} steps per period of the highest vehicle frequency of "
+                f"train '{tr.name}' ({fv:.4g} Hz, wheels held): dt x f = {dt * fv:.3g} > "
+                f"{DT_ERROR}; use dt <= {DT_RESOLUTION / fv:.3g} s, or set "
+                "solver.allow_coarse_dt = true to run anyway (the results are then marked "
+                "not reliable)")
+        elif dt * fv > DT_RESOLUTION:
             chk.warn(
                 f"solver.dt = {dt:g} s: dt x f = {dt * fv:.3g} for the highest vehicle "
                 f"frequency of train '{tr.name}' ({fv:.4g} Hz, wheels held); above "
-                f"{DT_RESOLUTION} it is under-resolved; use dt <= {DT_RESOLUTION / fv:.3g} s"
-            )
+                f"{DT_RESOLUTION} it is under-resolved; use dt <= {DT_RESOLUTION / fv:.3g} s",
+                "resolution", ["solver.dt", "train"])
     r = irr.resolved
     shortest = []
     if r["kind"] == "psd":
@@ -1832,13 +1921,27 @@ def _physics_warnings(chk, bridge, train, irr, solver, study, contact):
             chk.warn(
                 f"{key} = {lam:g} m is crossed in {steps:.3g} time steps at "
                 f"{vmax * 3.6:g} km/h (dt = {dt:g} s); fewer than {STEPS_PER_WAVELENGTH} "
-                "steps per wavelength under-resolve the excitation (reduce solver.dt)"
-            )
+                "steps per wavelength under-resolve the excitation (reduce solver.dt)",
+                "resolution", ["solver.dt", key, "study.speeds_kmh"])
+    amps = []
     if r["kind"] in ("cosine", "step"):
-        amp = abs(r.get("depth", r.get("height", 0.0)))
-        if amp > 0.05:
-            chk.warn(f"irregularity: |{'depth' if 'depth' in r else 'height'}| = {amp:g} m is "
-                     "more than 50 mm; irregularities are in metres (was mm intended?)")
+        key = "depth" if "depth" in r else "height"
+        amps.append((f"irregularity.{key}", abs(r.get(key, 0.0))))
+    for i, dfc in enumerate(r.get("defects", [])):
+        key = "depth" if dfc["kind"] == "cosine" else "height"
+        amps.append((f"irregularity.defects[{i}].{key}", abs(dfc.get(key, 0.0))))
+    if irr.file_profile is not None and irr.file_profile.coef.size:
+        amps.append(("irregularity.path", float(np.max(np.abs(irr.file_profile.coef[:, 0])))))
+    for key, amp in amps:
+        if amp > MAX_PROFILE_AMPLITUDE and not solver.get("allow_implausible"):
+            chk.errors.append(
+                f"{key}: |r| = {amp:g} m: expected a track irregularity within "
+                f"+-{MAX_PROFILE_AMPLITUDE * 1e3:g} mm (irregularities are in metres: was mm "
+                "intended?); set solver.allow_implausible = true to run it anyway")
+        elif amp > MAX_PROFILE_AMPLITUDE:
+            chk.warn(f"{key}: |r| = {amp:g} m is more than "
+                     f"{MAX_PROFILE_AMPLITUDE * 1e3:g} mm; irregularities are in metres (was "
+                     "mm intended?)", "plausibility", [key])
     prof = irr.file_profile
     if prof is not None and bridge.length is not None and train.trains:
         tl = max(t.length for t in train.trains)
@@ -1857,12 +1960,152 @@ def _physics_warnings(chk, bridge, train, irr, solver, study, contact):
                      "steps; check the time step")
 
 
+def _refuse(chk, solver, override: str, message: str) -> None:
+    """An error unless ``solver.<override> = true`` (then a warning)."""
+    if solver.get(override):
+        chk.warn(f"{message} (accepted: solver.{override} = true)", "plausibility")
+    else:
+        chk.errors.append(f"{message}; set solver.{override} = true to run it anyway")
+
+
+def _train_loads(tr):
+    """Axle positions (m behind the first axle) and static loads (N) of a train: each
+    vehicle's weight shared equally by its wheels, plus its moving forces."""
+    xs, qs = [], []
+    for v, off in zip(tr.vehicles, tr.offsets, strict=True):
+        if v.n_wheels and v.total_weight > 0:
+            share = (v.total_weight - float(np.sum(v.loads))) / v.n_wheels
+            xs.append(off + np.asarray(v.wheel_positions, float))
+            qs.append(np.full(v.n_wheels, max(share, 0.0)))
+        if np.size(v.loads):
+            xs.append(off + np.asarray(v.load_positions, float))
+            qs.append(np.asarray(v.loads, float))
+    if not xs:
+        return np.zeros(0), np.zeros(0)
+    return np.concatenate(xs), np.concatenate(qs)
+
+
+def _plausibility(chk, bridge, train, irr, solver, study, contact):
+    """Errors for input that cannot be meant (each names its keys and the override key)
+    and for runs beyond the memory/time budget; warnings for the unusual."""
+    model = bridge.model
+    spans = np.atleast_1d(np.asarray(bridge.resolved.get("spans", [bridge.length or 0.0]),
+                                     float))
+    dt = solver["dt"]
+    trains = list(train.trains)
+    # -- static deflection of the deck under each train
+    if model is not None and model.n_modes and trains and spans.size and spans.max() > 0:
+        limit = MAX_STATIC_DEFLECTION * float(spans.max())
+        pts = np.linspace(0.0, model.length, 41)
+        phi_p = model.output_shapes(pts)  # (points, modes)
+        for tr in trains:
+            x, q = _train_loads(tr)
+            if not x.size:
+                continue
+            step = max(model.length / 200.0, 0.05)
+            reach = model.length + float(x.max())
+            n_f = min(reach / step + 2, max(200_000 // x.size, 2))  # keep it cheap
+            fronts = np.linspace(0.0, reach, int(n_f))
+            xx = fronts[:, None] - x[None, :]
+            on = (xx >= 0.0) & (xx <= model.length)
+            xx = np.where(on, xx, 0.0)
+            phi_k = model.shapes(xx.ravel()).reshape(xx.shape + (model.n_modes,))
+            phi_k = phi_k * on[..., None]
+            modal = np.einsum("fkj,k->fj", phi_k, q) / model.omega**2
+            w = float(np.max(np.abs(modal @ phi_p.T))) if modal.size else 0.0
+            if not np.isfinite(w) or w > limit:
+                _refuse(chk, solver, "allow_implausible",
+                        f"train '{tr.name}' on the deck: static deflection {w:.3g} m > "
+                        f"span/{1 / MAX_STATIC_DEFLECTION:.0f} = {limit:.3g} m (check "
+                        "bridge.EI, bridge.mass_per_length, bridge.spans and the train's "
+                        "loads/masses: units N, kg, N m^2?)")
+    # -- Hertz static penetration
+    if contact["model"] != "rigid":
+        g = contact["hertz_coefficient"]
+        for tr in trains:
+            x, q = _train_loads(tr)
+            if q.size and q.max() > 0:
+                pen = g * float(q.max()) ** (2.0 / 3.0)
+                if pen > MAX_HERTZ_PENETRATION:
+                    _refuse(chk, solver, "allow_implausible",
+                            f"contact.hertz_coefficient = {g:g}: static Hertz penetration "
+                            f"{pen * 1e3:.3g} mm under the heaviest wheel of train "
+                            f"'{tr.name}' ({float(q.max()):.4g} N) > "
+                            f"{MAX_HERTZ_PENETRATION * 1e3:g} mm (G is in m N^-2/3, about "
+                            "4e-8 for a wheel on a rail)")
+    # -- vehicle stiffness
+    for tr in trains:
+        for v in tr.vehicles:
+            if v.n_dof == 0:
+                continue
+            k = np.asarray(v.K, float)
+            ks = 0.5 * (k + k.T)
+            try:
+                lam = np.linalg.eigvalsh(ks)
+            except np.linalg.LinAlgError:
+                continue
+            scale = max(float(np.max(np.abs(lam))), 1e-300)
+            if lam.size and lam.min() < -1e-9 * scale:
+                _refuse(chk, solver, "allow_implausible",
+                        f"train '{tr.name}', vehicle '{v.name}': the stiffness matrix K is "
+                        f"not positive semi-definite (eigenvalue {lam.min():.4g} N/m; check "
+                        "the signs of train.vehicles[].K or the spring stiffnesses)")
+    # -- long trains
+    for tr in trains:
+        if tr.length > LONG_TRAIN:
+            chk.warn(f"train '{tr.name}' is {tr.length:.4g} m long (more than "
+                     f"{LONG_TRAIN:g} m): check the vehicle offsets", "plausibility",
+                     ["train.vehicles[].offset"])
+    # -- budget: time steps, histories, profile samples
+    if model is None or not trains:
+        return
+    length = max(t.length for t in trains)
+    vmin = min(study["speeds_kmh"]) / 3.6
+    steps = ((solver["approach"] + model.length + length) / vmin
+             + solver["free_vibration"]) / dt
+    keys = ("solver.dt, study.speeds_kmh (slowest), solver.free_vibration, "
+            "solver.approach, the train length (vehicle offsets)")
+    if steps > MAX_STEPS:
+        _refuse(chk, solver, "allow_large_problem",
+                f"the slowest run needs {steps:.3g} time steps, more than the budget of "
+                f"{MAX_STEPS:.3g}; check {keys}")
+    elif study["save_time_histories"]:
+        n_w = max(t.n_wheels + t.n_loads for t in trains)
+        n_b = max(len(t.vehicles) for t in trains)
+        nbytes = steps * 8.0 * (2 * model.n_modes + 2 * n_w + n_b)
+        if nbytes > MAX_HISTORY_BYTES:
+            _refuse(chk, solver, "allow_large_problem",
+                    f"the time histories of the slowest run need about {nbytes / 2**30:.3g} "
+                    f"GiB in memory ({steps:.3g} steps), more than the budget of "
+                    f"{MAX_HISTORY_BYTES / 2**30:g} GiB; set study.save_time_histories = "
+                    f"false or study.history_speeds_kmh, or check {keys}")
+    r = irr.resolved
+    if r["kind"] == "psd":
+        from vsi_numba.study.grid import profile_range
+
+        x0, x1 = profile_range(model.length, [t.length for t in trains],
+                               solver["approach"], solver["free_vibration"])
+        dx = r.get("dx") or r["wavelength_min"] / 20.0
+        n = max(x1 - x0, 20.0 * r["wavelength_max"]) / dx
+        if n > MAX_PROFILE_SAMPLES:
+            _refuse(chk, solver, "allow_large_problem",
+                    f"irregularity: each random profile needs {n:.3g} samples, more than "
+                    f"the budget of {MAX_PROFILE_SAMPLES:.3g} (track length {x1 - x0:.4g} m "
+                    f"and 20 x irregularity.wavelength_max = {20 * r['wavelength_max']:g} m "
+                    f"at irregularity.dx = {dx:g} m, default wavelength_min / 20); check "
+                    "irregularity.wavelength_min, wavelength_max, dx, solver.free_vibration "
+                    "and the train length")
+
+
 def load_config_for_cli(path, console) -> Config | None:
     """``load_config`` for a command: on a config error print every message on
     ``console`` (a rich Console) and return None (the command then exits with 2)."""
     try:
         return load_config(path)
     except ConfigError as exc:
-        console.print(f"[bold red]error[/]: {path}: invalid configuration", highlight=False)
+        from rich.markup import escape
+
+        console.print(f"[bold red]error[/]: {escape(str(path))}: invalid configuration",
+                      highlight=False)
         console.print(str(exc), highlight=False, markup=False)
         return None

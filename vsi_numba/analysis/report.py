@@ -11,6 +11,7 @@ reason instead of a traceback for missing, unreadable or incomplete files.
 
 from __future__ import annotations
 
+import json
 import sys
 from datetime import UTC, datetime
 from importlib import metadata
@@ -81,7 +82,53 @@ def _fmt(value, units: str = "", digits: int = 3) -> str:
 
 
 def _result(text: str) -> str:
-    return {"FAIL": "**FAIL**", "pass": "pass"}.get(text, text)
+    return {"FAIL": "**FAIL**", "pass": "pass", NOT_RELIABLE: f"**{NOT_RELIABLE}**",
+            f"FAIL ({NOT_RELIABLE})": f"**FAIL ({NOT_RELIABLE})**"}.get(text, text)
+
+
+#: Result of a check computed under a time-step resolution warning (never "pass").
+NOT_RELIABLE = "not reliable"
+
+
+def stored_warnings(ds: xr.Dataset) -> list[dict]:
+    """The configuration warnings a results file carries, as records {"message", "kind",
+    "keys"}: from ``warnings_json``, else one record per line of ``config_warnings``
+    (kind "resolution" when the line is a time-step resolution warning)."""
+    raw = ds.attrs.get("warnings_json")
+    if raw:
+        try:
+            recs = json.loads(str(raw))
+            if isinstance(recs, list):
+                return [r for r in recs if isinstance(r, dict) and "message" in r]
+        except ValueError:
+            pass
+    text = str(ds.attrs.get("config_warnings", "") or "")
+    return [{"message": line, "keys": [],
+             "kind": "resolution" if ("under-resolve" in line and "solver.dt" in line)
+             else "input"} for line in text.splitlines() if line.strip()]
+
+
+def mark_unreliable(table: pd.DataFrame, records: list[dict]) -> pd.DataFrame:
+    """Checks computed under a resolution warning: "pass" becomes "not reliable", "FAIL"
+    becomes "FAIL (not reliable)"."""
+    if not any(r.get("kind") == "resolution" for r in records):
+        return table
+    table = table.copy()
+    table["result"] = table["result"].replace(
+        {"pass": NOT_RELIABLE, "FAIL": f"FAIL ({NOT_RELIABLE})"})
+    return table
+
+
+def _warnings_block(records: list[dict]) -> list[str]:
+    if not records:
+        return []
+    out = ["## Warnings of the configuration", ""]
+    if any(r.get("kind") == "resolution" for r in records):
+        out += [f"> ⚠ **The time step under-resolves the model (see below): the checks are "
+                f"marked \"{NOT_RELIABLE}\", not pass.** Re-run with the time step the "
+                "warning gives.", ""]
+    out += [f"- {r['message']}" for r in records]
+    return out + [""]
 
 
 def _table(header: list[str], rows: list[list[str]]) -> list[str]:
@@ -729,7 +776,8 @@ def write_report(
     lphi = chk.determinant_length(ds, determinant_length)
     results = chk.run_checks(ds, q=q, comfort_level_required=comfort_level, n_boot=n_boot,
                              seed=seed, length=determinant_length)
-    table = chk.summary_table(results)
+    records = stored_warnings(ds)
+    table = mark_unreliable(chk.summary_table(results), records)
     table.to_csv(outdir / "summary.csv", index=False)
     runner = (CaseRunner(ds, base_dir=config_dir, source_path=source_path) if recompute
               else None)
@@ -741,6 +789,7 @@ def write_report(
     lines = [f"# {title}", "",
              "Railway vehicle–bridge interaction: dynamic checks of the results "
              + (f"`{Path(source_path).name}`." if source_path else "in memory."), ""]
+    lines += _warnings_block(records)
     flagged = _flagged_trains(ds)
     if flagged:
         lines += [f"> ⚠ **WARNING: results for train(s) {', '.join(flagged)} rest on vehicle "
@@ -804,6 +853,18 @@ def report_command(results: Path, outdir: Path | None = None) -> int:
         except ResultsError as exc:
             _error(f"'{results}' is not a usable results file: {exc}")
             return 2
+        if "status" in prepared and prepared["status"].size and bool(
+                (prepared["status"].values != 0).all()):
+            n = int(prepared["status"].size)
+            msgs = (sorted({str(m) for m in np.ravel(prepared["message"].values)})
+                    if "message" in prepared else [])
+            _error(f"'{results}': every case ({n}) failed numerically (status != 0, "
+                   "outputs NaN): there is nothing to check"
+                   + (f"; e.g. {msgs[0]}" if msgs else "") + ". Fix the run (see the "
+                   "warnings and README 'When things go wrong') and run it again")
+            return 1
+        for r in stored_warnings(prepared):
+            _error(f"warning: {r['message']}")
         if outdir is None:
             outdir = results.with_name(f"{results.stem}_report")
         try:

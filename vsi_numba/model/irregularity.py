@@ -107,6 +107,8 @@ class Profile:
         if dx is None:
             dx = float(h.min())
         if not uniform or abs(dx - h[0]) > 1e-9 * dx:
+            _check_samples((x[-1] - x[0]) / dx, dx, "the resampled profile (dx = the "
+                           "smallest sample spacing unless irregularity.dx is given)")
             spl = scipy.interpolate.CubicSpline(x, r, bc_type="natural")
             n = int(np.floor((x[-1] - x[0]) / dx + 1e-9))
             xu = x[0] + dx * np.arange(n + 1)
@@ -126,9 +128,25 @@ class Profile:
         dx: float, label: str,
     ) -> Profile:
         """Sample ``func`` on ``[x_start, x_stop]`` at spacing ``dx`` and spline it."""
+        _check_samples((x_stop - x_start) / dx, dx, label)
         n = max(int(np.ceil((x_stop - x_start) / dx)), 3)
         x = x_start + dx * np.arange(n + 1)
         return cls.from_samples(x, func(x), label=label)
+
+
+#: Samples one profile may have (its FFT included): beyond this it is refused before any
+#: allocation (about 160 MB per array of float64).
+MAX_SAMPLES = 20_000_000
+
+
+def _check_samples(n: float, dx: float, what: str) -> None:
+    """Refuse a profile of more than :data:`MAX_SAMPLES` samples (a MemoryError later)."""
+    if not n <= MAX_SAMPLES:
+        raise ValueError(
+            f"{what}: {n:.3g} samples at dx = {dx:.3g} m, more than the budget of "
+            f"{MAX_SAMPLES:.3g}; give a coarser sample spacing (irregularity.dx) or a "
+            "shorter track (solver.free_vibration, train length, irregularity."
+            "wavelength_max)")
 
 
 def no_irregularity() -> Profile:
@@ -613,6 +631,8 @@ def psd_realisation(
                 f"({run:.6g} m): the profile would repeat; use n_waves >= "
                 f"{int(np.ceil(run * per_wave))}"
             )
+    _check_samples(period / dx, dx, "the random profile (period max(track length, 20 x "
+                   "irregularity.wavelength_max))")
     n_fft = int(np.ceil(period / dx - 1e-9))
     n_fft += n_fft % 2  # even length for irfft
     dx_used = period / n_fft

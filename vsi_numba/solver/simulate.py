@@ -522,8 +522,36 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     ek.run_batch(packed.bridge, veh, packed.profile, packed.params, speeds, n_steps, init,
                  st, bk, wk, red, out, slots, status, reached)
     elapsed = _time.perf_counter() - t0
+    _flag_non_finite(status, reached, n_steps, slots, red, out)
     return BatchResult(packed, speeds, n_steps, status, reached, slots, red, out, phi_d,
                        phi_a, cutoff, elapsed)
+
+
+#: Largest magnitude a result may have: histories are stored as float32.
+_STORABLE = float(np.finfo(np.float32).max)
+
+
+def _flag_non_finite(status, reached, n_steps, slots, red, out) -> None:
+    """Flag ``non_finite_state`` for the runs the kernel passed as ok whose envelopes or
+    histories are not finite or beyond the float32 range of the results file (the
+    kernel's check covers the state, not the outputs derived from it, e.g. the deck
+    response to a 1e300 N force)."""
+    envelopes = (red.disp, red.acc, red.xmin, red.xmax, red.body)
+    for r in np.flatnonzero(status == ek.OK):
+        bad = any(not np.all(np.abs(a[r]) <= _STORABLE) for a in envelopes)
+        step = int(n_steps[r])
+        h = int(slots[r])
+        if h >= 0:
+            n = step + 1
+            rows = np.zeros(n, bool)
+            for a in (out.q, out.qdd, out.X, out.body_acc):
+                v = a[h, :n].reshape(n, -1)
+                rows |= ~np.all(np.abs(v) <= _STORABLE, axis=1)
+            if rows.any():
+                bad, step = True, int(np.argmax(rows))
+        if bad:
+            status[r] = ek.NON_FINITE
+            reached[r] = step
 
 
 def run_kernel(packed: Packed, profile: Profile):

@@ -33,6 +33,7 @@ import dataclasses
 import hashlib
 import json
 import os
+import re
 import sys
 import time as _time
 import traceback
@@ -425,7 +426,18 @@ def _global_attrs(model: StudyModel, config_json: str, sha: str, grid: StudyGrid
     }
     if warnings:
         attrs["config_warnings"] = "\n".join(str(w) for w in warnings)
+    attrs["warnings_json"] = warnings_json(cfg)
     return attrs
+
+
+def warnings_json(cfg) -> str:
+    """The configuration's warnings as a JSON list of {"message", "kind", "keys"} (kind
+    "resolution": the checks computed from the results are not reliable)."""
+    records = getattr(cfg, "warning_records", None)
+    if records is None:
+        records = [{"message": str(w), "kind": "input", "keys": []}
+                   for w in getattr(cfg, "warnings", []) or []]
+    return json.dumps(records, ensure_ascii=False)
 
 
 @dataclass
@@ -681,6 +693,12 @@ def _run_pending(be, spec, pending, store, progress, n_runs, n_done) -> None:
 # ---------------------------------------------------------------------------- the CLI
 
 
+#: A Dask scheduler address: scheme://host:port or host:port (inproc:// as is).
+_SCHEDULER_ADDRESS = re.compile(
+    r"^(?:(?:tcp|tls|ucx|ws|wss)://(?:\[[0-9A-Fa-f:.]+\]|[^\s/:\[\]]+):\d{1,5}/?"
+    r"|(?:\[[0-9A-Fa-f:.]+\]|[^\s/:\[\]]+):\d{1,5}|inproc://\S+)$")
+
+
 class _sigterm_as_interrupt:  # noqa: N801 - used as a context manager
     """SIGTERM raises KeyboardInterrupt (in the main thread): a terminated sweep keeps its
     finished batches and says so, like Ctrl-C."""
@@ -717,12 +735,23 @@ def sweep_command(config: Path, output: Path | None, workers: int | None,
     if workers is not None and scheduler is not None:
         return fail("give --workers (local Dask cluster) or --scheduler (existing cluster), "
                     "not both", 2)
+    if workers is not None and workers < 1:
+        return fail(f"--workers {workers}: expected a number of workers >= 1", 2)
+    if scheduler is not None and not _SCHEDULER_ADDRESS.match(scheduler):
+        return fail(f"--scheduler {scheduler!r}: expected the address of a Dask scheduler, "
+                    "tcp://HOST:PORT (or HOST:PORT)", 2)
     try:
         cfg = load_config(Path(config))
     except ConfigError as exc:
         return fail(f"invalid configuration {config}:\n{exc}", 2)
     except OSError as exc:
         return fail(f"cannot read {config}: {exc.strerror or exc}", 2)
+    from vsi_numba.solver.run import output_problem
+
+    problem = output_problem(config, Path(output) if output is not None
+                             else Path(cfg.output_path))
+    if problem is not None:
+        return fail(problem, 2)
     if not quiet:
         for w in getattr(cfg, "warnings", []) or []:
             print(f"warning: {w}", file=sys.stderr)

@@ -1,0 +1,299 @@
+"""Hostile input: silently wrong results, implausible or huge input, CLI and report edges.
+
+Each test fails on the code before the fix: a coarse time step passed as "pass", inf
+outputs with status ok, MemoryError/RecursionError instead of a config error, rich
+markup printed literally or crashing on a path, the input overwritten by its output,
+an all-failed file reported as "x = nan".
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+from typer.testing import CliRunner
+
+from vsi_numba.cli import app
+from vsi_numba.config import ConfigError, load_config
+
+# a 25 m beam: f1 = 4.78 Hz, 3 modes up to 43 Hz
+BASE = {
+    "title": "hostile",
+    "bridge": {"kind": "simply_supported", "spans": [25.0], "EI": 8.323e9,
+               "mass_per_length": 2303.0, "n_modes": 1},
+    "train": {"vehicles": [{"kind": "sprung_mass", "mass": 5750.0, "stiffness": 1.595e6}]},
+    "solver": {"dt": 2e-3, "free_vibration": 0.1},
+    "study": {"speeds_kmh": [100.0], "output": "out.nc"},
+}
+
+
+def cfg(**changes) -> dict:
+    """BASE with ``section.key`` (dots) set; a value of ... deletes the key."""
+    data = copy.deepcopy(BASE)
+    for path, value in changes.items():
+        *head, last = path.split("__")
+        node = data
+        for k in head:
+            node = node.setdefault(k, {})
+        if value is ...:
+            node.pop(last, None)
+        else:
+            node[last] = value
+    return data
+
+
+def errors_of(data, **kw) -> list[str]:
+    with pytest.raises(ConfigError) as info:
+        load_config(data, **kw)
+    return info.value.errors
+
+
+def to_toml(data: dict) -> str:
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_config_fuzz import to_toml as write
+
+    return write(data)
+
+
+@pytest.fixture
+def runner():
+    return CliRunner()
+
+
+# ------------------------------------------------------------------ time step resolution
+
+
+def test_hostile__coarse_dt_is_an_error_naming_the_override():
+    errs = errors_of(cfg(solver__dt=0.5))  # the deck (4.78 Hz) and the vehicle (2.65 Hz)
+    assert len(errs) == 2 and "vehicle frequency" in errs[1]
+    assert errs[0].startswith("solver.dt = 0.5: expected a time step giving at least 4 steps")
+    assert "solver.allow_coarse_dt = true" in errs[0]
+    c = load_config(cfg(solver__dt=0.5, solver__allow_coarse_dt=True))
+    kinds = {r["kind"] for r in c.warning_records}
+    assert "resolution" in kinds
+    assert c.solver_settings().dt == 0.5  # the override is not a solver setting
+
+
+def test_hostile__override_keys_stay_out_of_hints_and_hash():
+    plain = load_config(cfg())
+    assert "allow_coarse_dt" not in plain.to_json()
+    errs = errors_of(cfg(solver__zzz=1))
+    assert "allow_" not in errs[0]
+    errs = errors_of(cfg(solver__allow_coarse_dt="yes"))
+    assert errs == ['solver.allow_coarse_dt = "yes": expected true or false']
+
+
+def test_hostile__warnings_travel_with_the_results_and_checks_are_not_reliable(
+        tmp_path, runner, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    # dt x f1 = 0.06 x 4.78 = 0.29: accepted only with the override
+    data = cfg(solver__dt=0.06, solver__allow_coarse_dt=True)
+    (tmp_path / "c.toml").write_text(to_toml(data))
+    res = runner.invoke(app, ["run", "c.toml", "-o", "run.nc", "-q"])
+    assert res.exit_code == 0, res.output
+    with xr.open_dataset(tmp_path / "run.nc") as ds:
+        recs = json.loads(ds.attrs["warnings_json"])
+        assert any(r["kind"] == "resolution" for r in recs)
+        assert "under-resolved" in ds.attrs["config_warnings"]
+    res = runner.invoke(app, ["report", "run.nc", "-o", "rep"])
+    assert res.exit_code == 0, res.output
+    table = (tmp_path / "rep" / "summary.csv").read_text()
+    assert ",pass," not in table and "not reliable" in table
+    md = (tmp_path / "rep" / "report.md").read_text()
+    assert md.index("## Warnings of the configuration") < md.index("## Summary of checks")
+    # a sweep file carries them too
+    res = runner.invoke(app, ["sweep", "c.toml", "-o", "sweep.nc", "-q"])
+    assert res.exit_code == 0, res.output
+    with xr.open_dataset(tmp_path / "sweep.nc") as ds:
+        assert any(r["kind"] == "resolution" for r in json.loads(ds.attrs["warnings_json"]))
+
+
+# ------------------------------------------------------------------ non-finite outputs
+
+
+def test_hostile__huge_force_is_non_finite_state_not_ok():
+    import vsi_numba as vsi
+    from vsi_numba.model import bridge, vehicle
+    from vsi_numba.solver.settings import SolverSettings
+
+    beam = bridge.simply_supported(25.0, EI=8.323e9, mass_per_length=2303.0, n_modes=1)
+    train = vehicle.Train("huge", (vehicle.moving_force(1e300),), (0.0,))
+    ds = vsi.simulate(beam, train, speed=100 / 3.6,
+                      settings=SolverSettings(dt=2e-3, free_vibration=0.1))
+    assert ds.attrs["status"] == 3
+    assert ds.attrs["message"].startswith("non-finite")
+
+
+# ------------------------------------------------------------------ plausibility
+
+
+def test_hostile__implausible_input_is_refused_naming_keys_and_override():
+    force = {"vehicles": [{"kind": "force", "load": 1e300}]}
+    errs = errors_of(cfg(train=force))
+    assert "static deflection" in errs[0] and "bridge.EI" in errs[0]
+    assert "solver.allow_implausible = true" in errs[0]
+    errs = errors_of(cfg(contact={"model": "hertz", "hertz_coefficient": 1e-3}))
+    assert any("Hertz penetration" in e and "contact.hertz_coefficient" in e for e in errs)
+    user = {"vehicles": [{"kind": "user", "M": [[1000.0, 0.0], [0.0, 50.0]],
+                          "C": [[0.0, 0.0], [0.0, 0.0]],
+                          "K": [[1e6, 2e6], [2e6, 1e6]], "wheel_dofs": [1],
+                          "wheel_positions": [0.0], "body_dof": 0,
+                          "gravity": [9810.0, 490.5]}]}
+    errs = errors_of(cfg(train=user))
+    assert any("not positive semi-definite" in e for e in errs)
+    dip = {"kind": "cosine", "depth": 0.2, "wavelength": 5.0, "position": 5.0}
+    errs = errors_of(cfg(irregularity=dip))
+    assert errs[0].startswith("irregularity.depth: |r| = 0.2 m")
+    ok = load_config(cfg(irregularity=dip, solver__allow_implausible=True))
+    assert any("more than 50 mm" in w for w in ok.warnings)
+
+
+def test_hostile__line_speed_next_to_speeds_is_an_error():
+    errs = errors_of(cfg(study__line_speed_kmh=300.0))
+    assert errs[0].startswith("study.line_speed_kmh = 300.0: expected either "
+                              "study.speeds_kmh or study.line_speed_kmh")
+    # the resolved config of a line-speed study keeps both keys, and reloads
+    c = load_config(cfg(study__speeds_kmh=..., study__line_speed_kmh=160.0))
+    assert load_config(c.resolved()).speeds_kmh.tolist() == c.speeds_kmh.tolist()
+
+
+# ------------------------------------------------------------------ sizes and parsing
+
+
+@pytest.mark.parametrize("changes, key", [
+    ({"train": {"vehicles": [{"kind": "force", "load": 1e5},
+                             {"kind": "force", "load": 1e5, "offset": 1e12}]}},
+     "time steps"),
+    ({"solver__free_vibration": 1e6}, "time steps"),
+    ({"study__speeds_kmh": [1e-6]}, "time steps"),
+    ({"irregularity": {"kind": "psd", "spectrum": "german_low", "wavelength_min": 3.0,
+                       "wavelength_max": 1e6, "seeds": [1]}}, "samples"),
+    ({"irregularity": {"kind": "psd", "spectrum": "german_low", "wavelength_min": 3.0,
+                       "wavelength_max": 60.0, "dx": 1e-7, "seeds": [1]}}, "samples"),
+])
+def test_hostile__huge_sizes_are_refused_before_allocating(changes, key):
+    errs = errors_of(cfg(**{k: v for k, v in changes.items()}))
+    assert any(key in e and "budget" in e and "solver.allow_large_problem" in e
+               for e in errs), errs
+
+
+def test_hostile__profile_file_with_tiny_spacing(tmp_path):
+    x = np.concatenate([np.arange(-60.0, 80.0, 1.0), [79.0 + 1e-9]])
+    x.sort()
+    lines = "x,r\n" + "\n".join(f"{v:.12f},0.0" for v in x)
+    (tmp_path / "p.csv").write_text(lines)
+    errs = errors_of(cfg(irregularity={"kind": "file", "path": "p.csv"}), base_dir=tmp_path)
+    assert errs[0].startswith('irregularity.path = "p.csv": expected a readable profile')
+    assert "budget" in errs[0] and "irregularity.dx" in errs[0]
+
+
+def test_hostile__deep_nesting_and_huge_integers(tmp_path):
+    deep = tmp_path / "deep.toml"
+    deep.write_text("x = " + "[" * 5000 + "]" * 5000 + "\n")
+    errs = errors_of(deep)
+    assert "nested too deeply" in errs[0]
+    big = tmp_path / "big.toml"
+    big.write_text("x = " + "9" * 5000 + "\n")
+    errs = errors_of(big)
+    assert "value not readable" in errs[0]
+
+
+# ------------------------------------------------------------------ CLI
+
+
+def test_hostile__run_prints_errors_without_literal_markup(tmp_path, runner, monkeypatch):
+    import vsi_numba.solver.run as run_mod
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "c.toml").write_text(to_toml(cfg()))
+
+    def boom(*a, **k):
+        raise ValueError("bad value [x]")
+
+    monkeypatch.setattr(run_mod, "run_config", boom)
+    res = runner.invoke(app, ["run", "c.toml", "-o", "o.nc"])
+    assert res.exit_code == 2
+    assert "[bold red]" not in res.output and "error: bad value [x]" in res.output
+
+
+def test_hostile__paths_with_brackets_print_literally(tmp_path, runner):
+    d = tmp_path / "a["  # the path holds "[/]": rich markup would raise MarkupError
+    d.mkdir()
+    bad = d / "]x[red].toml"
+    bad.write_text("title = 1\n")
+    res = runner.invoke(app, ["run", str(bad)])
+    assert res.exit_code == 2, repr(res.exception)
+    first = " ".join(res.output.split("invalid configuration")[0].split())
+    assert first == f"error: {bad}:"
+
+
+@pytest.mark.parametrize("command", ["run", "sweep"])
+def test_hostile__output_may_not_be_the_input(tmp_path, runner, monkeypatch, command):
+    monkeypatch.chdir(tmp_path)
+    text = to_toml(cfg())
+    (tmp_path / "c.toml").write_text(text)
+    res = runner.invoke(app, [command, "c.toml", "-o", "c.toml"])
+    assert res.exit_code == 2
+    assert "refusing to overwrite the input" in " ".join(res.output.split())
+    assert (tmp_path / "c.toml").read_text() == text
+    assert not (tmp_path / "c.toml.cases").exists()
+
+
+@pytest.mark.parametrize("command", ["run", "sweep"])
+def test_hostile__unwritable_output_checked_before_computing(tmp_path, runner, monkeypatch,
+                                                               command):
+    import vsi_numba.solver.run as run_mod
+    import vsi_numba.study.runner as study_mod
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "c.toml").write_text(to_toml(cfg()))
+    (tmp_path / "file").write_text("a file, not a directory")
+
+    def never(*a, **k):
+        raise AssertionError("computed before checking the output")
+
+    monkeypatch.setattr(run_mod, "run_config", never)
+    monkeypatch.setattr(study_mod, "execute_study", never)
+    res = runner.invoke(app, [command, "c.toml", "-o", str(tmp_path / "file" / "o.nc")])
+    assert res.exit_code == 2, res.output
+    assert "cannot write the results file" in " ".join(res.output.split())
+
+
+@pytest.mark.parametrize("option", [["--workers", "0"], ["--workers", "-1"],
+                                    ["--scheduler", "notaurl"]])
+def test_hostile__bad_sweep_options(tmp_path, runner, monkeypatch, option):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "c.toml").write_text(to_toml(cfg()))
+    res = runner.invoke(app, ["sweep", "c.toml", "-o", "o.nc", *option])
+    assert res.exit_code == 2
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith(f"error: {option[0]}"), res.output
+    assert not (tmp_path / "o.nc.cases").exists()
+
+
+# ------------------------------------------------------------------ report
+
+
+def test_hostile__report_single_case_and_all_failed(tmp_path, runner, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "c.toml").write_text(to_toml(cfg()))
+    res = runner.invoke(app, ["sweep", "c.toml", "-o", "one.nc", "-q"])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["report", "one.nc", "-o", "rep"])
+    assert res.exit_code == 0, res.output
+    with xr.open_dataset(tmp_path / "one.nc") as ds:
+        bad = ds.load()
+    bad["status"][...] = 3
+    for name in ("max_deck_displacement", "max_deck_acceleration", "min_contact_force"):
+        bad[name][...] = np.nan
+    bad.to_netcdf(tmp_path / "failed.nc")
+    res = runner.invoke(app, ["report", "failed.nc", "-o", "rep2"])
+    assert res.exit_code == 1
+    assert "every case (1) failed numerically" in res.output
+    assert not (tmp_path / "rep2" / "report.md").exists()

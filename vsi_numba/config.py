@@ -470,7 +470,7 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
     allowed_all = {
         "kind", "spans", "EI", "mass_per_length", "damping_ratio", "n_modes",
         "max_frequency", "elements_per_span", "output_points", "file", *_IMPORT_KEYS,
-        "track", "track_type",
+        "track", "track_type", "deck_type", "additional_damping",
     }
     if not isinstance(d, Mapping):
         return chk.error(path, d, "a table [bridge] with kind, spans, EI, mass_per_length")
@@ -536,12 +536,20 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
         res.update(EI=ei, mass_per_length=mass)
     if kind != "rigid":
         damping = 0.0
-        if "damping_ratio" in d:
+        if d.get("damping_ratio") == EN_DAMPING:
+            damping = _en_damping(chk, d, kind, spans, res)
+        elif "damping_ratio" in d:
             damping = chk.number_list(
                 d["damping_ratio"], "bridge.damping_ratio",
                 _Num("a damping ratio 0 <= zeta < 1", ge=0, lt=1), scalar_ok=True,
-                expected="a damping ratio 0 <= zeta < 1, or a list with one per mode",
+                expected="a damping ratio 0 <= zeta < 1, a list with one per mode, or "
+                         f"'{EN_DAMPING}' (Table 6.6 with bridge.deck_type)",
             )
+        if "deck_type" in d and d.get("damping_ratio") != EN_DAMPING:
+            chk.error("bridge.deck_type", d["deck_type"], "only with damping_ratio = "
+                      f"'{EN_DAMPING}' (the Table 6.6 lower bound of that deck type)")
+        if "additional_damping" in d:
+            _additional_damping(chk, d, kind, spans, res)
         n_spec = _Num(f"an integer number of modes 1 <= n_modes <= {MAX_MODES}", ge=1,
                       le=MAX_MODES, integer=True, default=None)
         n_modes = chk.get_number(d, path, "n_modes", n_spec)
@@ -644,6 +652,52 @@ _TRACK_FIELDS = {
 }
 MAX_TRACK_DOFS = 4000  # deck + rail + sleepers (dense eigensolution at load time)
 FLEXIBILITY_WARNING = 0.95  # share of the static rail flexibility kept by the modes
+
+
+EN_DAMPING = "EN1991-2"
+
+
+def _span_for_damping(kind, spans):
+    """The span L of EN 1991-2 Table 6.6 and §6.4.6.3.1: the span of a simply supported
+    deck, the mean span of a continuous one [R]."""
+    return float(np.mean(spans))
+
+
+def _en_damping(chk, d, kind, spans, res):
+    """``damping_ratio = 'EN1991-2'``: the Table 6.6 lower bound of ``deck_type``."""
+    from vsi_numba import en1991
+
+    deck = chk.choice(d, "bridge", "deck_type", tuple(en1991.DECK_TYPES))
+    if kind not in ("simply_supported", "continuous"):
+        return chk.error("bridge.damping_ratio", EN_DAMPING, "a number for bridge.kind = "
+                         f"'{kind}' (Table 6.6 is for simply supported and continuous decks)")
+    if not _ok(deck) or not isinstance(spans, list):
+        return _BAD
+    span = _span_for_damping(kind, spans)
+    zeta = en1991.damping_lower_bound(deck, span)
+    res["damping_rule"] = (f"EN 1991-2 Table 6.6, {deck.replace('_', ' ')}, L = {span:g} m: "
+                           f"zeta = {100 * zeta:.4g} %")
+    res["deck_type"] = deck
+    return zeta
+
+
+def _additional_damping(chk, d, kind, spans, res):
+    """``additional_damping = true``: EN 1991-2 §6.4.6.3.1 for moving-force trains."""
+    from vsi_numba import en1991
+
+    on = chk.boolean(d, "bridge", "additional_damping", False)
+    if not _ok(on) or not on:
+        return
+    if kind not in ("simply_supported", "continuous"):
+        chk.error("bridge.additional_damping", True, "false for bridge.kind = "
+                  f"'{kind}' (the rule is for simply supported and continuous decks)")
+        return
+    if isinstance(spans, list):
+        span = _span_for_damping(kind, spans)
+        res["additional_damping"] = en1991.additional_damping(span)
+        res["additional_damping_rule"] = (
+            f"EN 1991-2 6.4.6.3.1, L = {span:g} m: dzeta = "
+            f"{100 * res['additional_damping']:.4g} % added for moving-force trains only")
 
 
 def _track_section(chk, t, spans):
@@ -1413,7 +1467,7 @@ def _line_speed_grid(line: float) -> list[float]:
 def _study_section(chk, d, default_output: str, base_dir: Path) -> dict | _Sentinel:
     path = "study"
     allowed = {"speeds_kmh", "output", "save_time_histories", "line_speed_kmh",
-               "history_speeds_kmh"}
+               "history_speeds_kmh", "vary", "vary_together", "mass_bounds"}
     if d is _MISSING:
         return chk.error(path, _MISSING, "a table [study] with speeds_kmh (km/h) or "
                                          "line_speed_kmh")
@@ -1484,11 +1538,178 @@ def _study_section(chk, d, default_output: str, base_dir: Path) -> dict | _Senti
                               "one of the speeds of study.speeds_kmh")
                     hist = _BAD
                     break
-    if not _ok(line, speeds, output, save, hist, out_full):
+    axes = _vary_axes(chk, d)
+    if not _ok(line, speeds, output, save, hist, out_full, axes):
         return _BAD
+    vary = {k: d[k] for k in ("vary", "vary_together", "mass_bounds") if k in d}
     return _drop_none({"speeds_kmh": speeds, "line_speed_kmh": line, "output": output,
                        "save_time_histories": save, "history_speeds_kmh": hist,
-                       "_output_path": out_full})
+                       "_output_path": out_full, "_axes": axes or None, **vary})
+
+
+# --------------------------------------------------------------------------------- variants
+
+MAX_VARIANTS = 5000  # cap on the bridge/track/contact variants of one study
+_KEY_PATH = re.compile(r"^[A-Za-z_]\w*(\[\d+\])?(\.[A-Za-z_]\w*(\[\d+\])?)+$")
+_VARY_SECTIONS = ("bridge", "train", "irregularity", "solver", "contact")
+#: The variant coordinate of ``study.mass_bounds`` (factors on bridge.mass_per_length).
+MASS_FACTOR = "mass_factor"
+
+
+def _vary_axes(chk, d):
+    """``study.vary``, ``study.vary_together`` and ``study.mass_bounds`` as a list of
+    axes; an axis is a list of (key path, values) varied together (zipped); the study
+    runs every combination of the axes (their cartesian product)."""
+    axes = []
+
+    def values(path, v):
+        if not isinstance(v, list) or not v:
+            return chk.error(path, v, "a non-empty list of values, one per variant")
+        return v
+
+    def key_path(path, key):
+        ok = isinstance(key, str) and _KEY_PATH.match(key) and key.split(".")[0].split("[")[
+            0] in _VARY_SECTIONS
+        if not ok:
+            return chk.error(path, key, "a key path like \"bridge.mass_per_length\" in "
+                             + ", ".join(f"[{s}]" for s in _VARY_SECTIONS))
+        return key
+
+    if "vary" in d:
+        if not isinstance(d["vary"], Mapping) or not d["vary"]:
+            return chk.error("study.vary", d["vary"], "a table of key paths, each with a list "
+                             "of values, e.g. \"bridge.EI\" = [7e10, 8e10]")
+        for key, v in d["vary"].items():
+            k = key_path(f"study.vary[{_key(key)}]", key)
+            vals = values(f"study.vary[{_key(key)}]", v)
+            if _ok(k, vals):
+                axes.append([(k, vals)])
+    if "vary_together" in d:
+        groups = d["vary_together"]
+        if isinstance(groups, Mapping):
+            groups = [groups]
+        if not isinstance(groups, list) or not groups:
+            return chk.error("study.vary_together", groups, "tables ([[study.vary_together]])"
+                             " of key paths whose value lists are varied together")
+        for i, g in enumerate(groups):
+            p = f"study.vary_together[{i}]"
+            if not isinstance(g, Mapping) or not g:
+                chk.error(p, g, "a table of key paths, each with a list of values")
+                continue
+            axis = []
+            for key, v in g.items():
+                k = key_path(f"{p}[{_key(key)}]", key)
+                vals = values(f"{p}[{_key(key)}]", v)
+                if _ok(k, vals):
+                    axis.append((k, vals))
+            n = {len(v) for _, v in axis}
+            if len(n) > 1:
+                chk.error(p, {k: len(v) for k, v in axis}, "value lists of one length (they "
+                          "are varied together)")
+            elif axis:
+                axes.append(axis)
+    if "mass_bounds" in d:
+        f = chk.number_list(d["mass_bounds"], "study.mass_bounds",
+                            _Num("a factor on bridge.mass_per_length > 0", gt=0),
+                            expected="factors on bridge.mass_per_length, e.g. [0.9, 1.1] "
+                                     "(EN 1991-2 6.4.6.3.2: lower and upper bound)",
+                            min_len=1)
+        if _ok(f):
+            axes.append([(MASS_FACTOR, f)])
+    paths = [k for axis in axes for k, _ in axis]
+    dup = {k for k in paths if paths.count(k) > 1}
+    if dup:
+        return chk.error("study.vary", sorted(dup), "each key path varied once")
+    n = int(np.prod([len(axis[0][1]) for axis in axes])) if axes else 0
+    if n > MAX_VARIANTS:
+        return chk.error("study.vary", f"{n} variants", f"at most {MAX_VARIANTS} variants")
+    return axes
+
+
+def _set_path(data: dict, key_path: str, value) -> None:
+    """Set ``value`` at ``key_path`` ("bridge.track.pad_stiffness", "train.vehicles[0].mass")
+    in a nested mapping, creating missing tables; raises KeyError naming what is missing."""
+    parts = key_path.split(".")
+    node = data
+    for i, part in enumerate(parts):
+        m = re.match(r"^(\w+)(?:\[(\d+)\])?$", part)
+        name, index = m.group(1), m.group(2)
+        last = i == len(parts) - 1
+        if index is None:
+            if last:
+                node[name] = value
+                return
+            if name not in node:
+                node[name] = {}
+            if not isinstance(node[name], dict):
+                raise KeyError(f"{'.'.join(parts[: i + 1])} is not a table")
+            node = node[name]
+        else:
+            seq = node.get(name)
+            if not isinstance(seq, list) or int(index) >= len(seq):
+                raise KeyError(f"{'.'.join(parts[:i])}{'.' if i else ''}{name} has no item "
+                               f"[{index}]")
+            if last:
+                seq[int(index)] = value
+                return
+            node = seq[int(index)]
+
+
+def variant_labels(axes) -> list[dict]:
+    """Every combination of the axes: one ``{key path: value}`` per variant (the last
+    axis varies fastest)."""
+    import itertools
+
+    labels = []
+    for combo in itertools.product(*[range(len(axis[0][1])) for axis in axes]):
+        lab = {}
+        for axis, j in zip(axes, combo, strict=True):
+            for k, vals in axis:
+                lab[k] = vals[j]
+        labels.append(lab)
+    return labels
+
+
+def _build_variants(data, axes, path, base, source):
+    """Validate every variant (the config with its key paths set); all errors at once."""
+    import copy
+
+    out, errors = [], []
+    for n, lab in enumerate(variant_labels(axes)):
+        vdata = copy.deepcopy(dict(data))
+        study = dict(vdata.get("study", {}))
+        for k in ("vary", "vary_together", "mass_bounds"):
+            study.pop(k, None)
+        vdata["study"] = study
+        where = ", ".join(f"{k} = {_show(v, 30)}" for k, v in lab.items())
+        try:
+            for k, v in lab.items():
+                if k == MASS_FACTOR:
+                    m = vdata.get("bridge", {}).get("mass_per_length")
+                    if not (_is_number(m) or (isinstance(m, list) and all(map(_is_number, m)))):
+                        raise KeyError("study.mass_bounds needs a numeric "
+                                       "bridge.mass_per_length")
+                    _set_path(vdata, "bridge.mass_per_length",
+                              [x * v for x in m] if isinstance(m, list) else m * v)
+                else:
+                    _set_path(vdata, k, v)
+            out.append((lab, _validate(vdata, path, base, source)))
+        except KeyError as exc:
+            errors.append(f"study.vary (variant {n}: {where}): key path not found: "
+                          f"{exc.args[0]}")
+        except ConfigError as exc:
+            for msg in exc.errors:
+                errors.append(f"study.vary (variant {n}: {where}): {msg}")
+    if errors:
+        # the same problem in every variant is said once
+        seen, unique = set(), []
+        for e in errors:
+            key = e.split("): ", 1)[-1]
+            if key not in seen:
+                seen.add(key)
+                unique.append(e)
+        raise ConfigError(unique, source=source)
+    return out
 
 
 # --------------------------------------------------------------------------------- config
@@ -1525,6 +1746,8 @@ class Config:
         self._irr = irregularity
         self._solver = solver
         self._study = study
+        #: ``[(labels, Config)]``: the variants of ``study.vary`` (empty: none)
+        self.variants: list = []
 
     def __repr__(self) -> str:
         """Title and hash."""
@@ -1558,6 +1781,24 @@ class Config:
     def trains(self) -> list[_veh.Train]:
         """Return the trains: one per preset, or one built from explicit vehicles."""
         return list(self._train.trains)
+
+    @property
+    def additional_damping(self) -> float:
+        """EN 1991-2 6.4.6.3.1 additional damping (fraction) for moving-force trains
+        (0 unless ``bridge.additional_damping = true`` and L < 30 m)."""
+        return float(self._resolved["bridge"].get("additional_damping", 0.0))
+
+    def bridge_for(self, train) -> _bridge.ModalBridge:
+        """The bridge a train runs on: :meth:`build_bridge`, with the additional damping
+        of ``bridge.additional_damping`` added to every mode when ``train`` is moving
+        forces only (never for interaction models, which carry that interaction)."""
+        bridge = self.build_bridge()
+        extra = self.additional_damping
+        if extra and all(v.n_dof == 0 for v in train.vehicles):
+            import dataclasses
+
+            return dataclasses.replace(bridge, damping=np.asarray(bridge.damping) + extra)
+        return bridge
 
     def irregularities(self, x_start: float, x_stop: float) -> list[tuple[int, Any]]:
         """Track profiles over ``[x_start, x_stop]`` (m) as ``(realisation id, Profile)``.
@@ -1736,7 +1977,11 @@ def load_config(path_or_mapping, base_dir=None) -> Config:
         base = path.parent if path is not None else Path.cwd()
     else:
         base = Path(base_dir).expanduser().resolve()
-    return _validate(data, path, base, source)
+    cfg = _validate(data, path, base, source)
+    axes = cfg._study.get("_axes")
+    if axes:
+        cfg.variants = _build_variants(data, axes, path, base, source)
+    return cfg
 
 
 def _validate(data, path: Path | None, base: Path, source: str) -> Config:

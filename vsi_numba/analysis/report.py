@@ -847,6 +847,21 @@ def report_command(results: Path, outdir: Path | None = None) -> int:
                f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})")
         return 2
     with ds:
+        if "variant" in ds.dims:  # a parametric study: the report over the variants
+            from vsi_numba.analysis.variants import write_variants_report
+
+            if outdir is None:
+                outdir = results.with_name(f"{results.stem}_report")
+            try:
+                path = write_variants_report(ds.load(), outdir, source_path=results)
+            except ResultsError as exc:
+                _error(f"'{results}': {exc}")
+                return 2
+            except OSError as exc:
+                _error(f"cannot write the report to '{outdir}': {exc}")
+                return 1
+            print(f"report written to {path}")
+            return 0
         try:
             prepared = prepare(ds)
             require(prepared, REQUIRED_VARIABLES, "the report")

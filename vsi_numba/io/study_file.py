@@ -33,10 +33,6 @@ _COORDS = {
 }
 
 
-def _coordinates_attr(dims) -> str:
-    """CF ``coordinates`` attribute of a variable: the auxiliary coordinates it spans."""
-    return " ".join(n for n, d in _COORDS.items() if set(d) <= set(dims))
-
 
 def _put_attrs(var, attrs: dict) -> None:
     for k, v in attrs.items():
@@ -54,38 +50,59 @@ class StudyFile:
         File to create (a temporary path: the caller renames it into place).
     speeds_kmh, trains, irregularities : sequences
         The study axes.
-    points : ndarray
-        Deck output points (m).
-    frequencies : ndarray
-        Bridge natural frequencies (Hz).
+    points : list of ndarray
+        Deck output points (m), one array per variant (one in all without variants).
+    frequencies : list of ndarray
+        Bridge natural frequencies (Hz), one array per variant.
     n_wheel, n_vehicle : int
         Largest wheel and vehicle counts over the trains.
     n_time : int or None
         Time steps + 1 of the longest run that keeps histories (None: no histories).
     dt : float
         Time step (s).
-    trains_info : dict
-        ``wheel_position`` and ``static_wheel_load`` (lists per train, N and m),
-        ``vehicle_name`` (lists per train), ``regular_length``, ``status``,
+    trains_info : list of dict
+        Per variant: ``wheel_position`` and ``static_wheel_load`` (lists per train, m and
+        N), ``vehicle_name`` (lists per train), ``regular_length``, ``status``,
         ``max_static_deck_displacement`` (n_train, n_point).
+    variants : dict, optional
+        A study of variants: ``coords`` maps a coordinate name to ``(values, attrs)``
+        (one value per variant), ``bridge_length`` and ``acceleration_cutoff`` (one per
+        variant), ``config_json`` (the resolved configuration of each variant).
     """
 
     def __init__(self, path, speeds_kmh, trains, irregularities, points, frequencies,
-                 n_wheel, n_vehicle, n_time, dt, trains_info):
+                 n_wheel, n_vehicle, n_time, dt, trains_info, variants=None):
         import netCDF4
 
         self.nc = netCDF4.Dataset(path, "w", format="NETCDF4")
         nc = self.nc
+        # auxiliary coordinates (name -> dims) named in the variables' ``coordinates``
+        self.aux = dict(_COORDS)
+        if variants is not None:
+            self.aux = {"speed_kmh": ("speed",),
+                        **{k: ("variant",) for k in variants["coords"]},
+                        **{k: ("variant", *d) for k, d in _COORDS.items() if k != "speed_kmh"}}
+            if not all(np.array_equal(points[0], p) for p in points):
+                self.aux["point_position"] = ("variant", "point")
         speeds_kmh = np.asarray(speeds_kmh, float)
         n_s, n_t, n_i = speeds_kmh.size, len(trains), len(irregularities)
-        self.shape = (n_s, n_t, n_i)
-        sizes = {"speed": n_s, "train": n_t, "irregularity": n_i, "point": len(points),
-                 "wheel": n_wheel, "vehicle": n_vehicle, "mode": len(frequencies)}
+        self.lead = ("variant",) if variants is not None else ()
+        self.case_dims = (*self.lead, *CASE_DIMS)
+        n_v = len(points)
+        shared_points = all(np.array_equal(points[0], p) for p in points)
+        n_p = max(len(p) for p in points)
+        n_m = max(len(f) for f in frequencies)
+        sizes = {"speed": n_s, "train": n_t, "irregularity": n_i, "point": n_p,
+                 "wheel": n_wheel, "vehicle": n_vehicle, "mode": n_m}
+        if variants is not None:
+            sizes = {"variant": n_v, **sizes}
         if n_time is not None:
             sizes["time"] = n_time
         self.sizes = sizes
+        self.n_points = [len(p) for p in points]
         for dim, size in sizes.items():
             nc.createDimension(dim, size)
+        lead = self.lead
 
         def coord(name, dims, values, dtype, attrs):
             var = nc.createVariable(name, dtype, dims)
@@ -93,47 +110,88 @@ class StudyFile:
             _put_attrs(var, attrs)
             return var
 
+        def per_variant(arrays, width, fill=np.nan):
+            """Stack one array per variant (padded), or the single one without variants."""
+            out = np.full((n_v, *width), fill, dtype=object if fill == "" else float)
+            for k, a in enumerate(arrays):
+                a = np.asarray(a, dtype=out.dtype)
+                out[(k, *[slice(0, s) for s in a.shape])] = a
+            return out if variants is not None else out[0]
+
+        if variants is not None:
+            coord("variant", ("variant",), np.arange(n_v, dtype=np.int64), "i8",
+                  {"units": "1", "long_name": "bridge variant of the study (study.vary)"})
+            for name, (values, attrs) in variants["coords"].items():
+                values = np.asarray(values)
+                kind = str if values.dtype.kind in "OUS" else "f8"
+                coord(name, ("variant",), values.astype(object) if kind is str else values,
+                      kind, attrs)
+            self._float("bridge_length", ("variant",), {
+                "units": "m", "long_name": "length of the bridge of the variant"})[...] = \
+                np.asarray(variants["bridge_length"], float)
+            self._float("acceleration_cutoff", ("variant",), {
+                "units": "Hz", "long_name": "highest frequency of the modes in the deck "
+                "acceleration (EN 1990 A2.4.4.2.1)"})[...] = np.asarray(
+                    variants["acceleration_cutoff"], float)
+            cj = nc.createVariable("variant_config_json", str, ("variant",))
+            cj[...] = np.array(list(variants["config_json"]), dtype=object)
+            _put_attrs(cj, {"units": "1", "long_name": "resolved configuration of the "
+                            "variant (JSON): runs it alone"})
         coord("speed", ("speed",), speeds_kmh / 3.6, "f8", attrs_for("speed"))
         coord("speed_kmh", ("speed",), speeds_kmh, "f8", attrs_for("speed_kmh"))
         coord("train", ("train",), np.array(list(trains), dtype=object), str,
               attrs_for("train"))
         coord("irregularity", ("irregularity",), np.asarray(irregularities, np.int64), "i8",
               attrs_for("irregularity"))
-        coord("point", ("point",), np.asarray(points, float), "f8", attrs_for("point"))
+        if shared_points:
+            coord("point", ("point",), np.asarray(points[0], float), "f8", attrs_for("point"))
+        else:  # the points move with the spans: an index, and their x per variant
+            coord("point", ("point",), np.arange(n_p, dtype=np.int64), "i8",
+                  {"units": "1", "long_name": "output point index (x: point_position)"})
+            self._float("point_position", (*lead, "point"), attrs_for("point"))[...] = \
+                per_variant(points, (n_p,))
         coord("wheel", ("wheel",), np.arange(n_wheel, dtype=np.int64), "i8",
               attrs_for("wheel"))
         coord("vehicle", ("vehicle",), np.arange(n_vehicle, dtype=np.int64), "i8",
               attrs_for("vehicle"))
-        coord("mode", ("mode",), np.arange(1, len(frequencies) + 1, dtype=np.int64), "i8",
+        coord("mode", ("mode",), np.arange(1, n_m + 1, dtype=np.int64), "i8",
               attrs_for("mode"))
         if n_time is not None:
             coord("time", ("time",), np.arange(n_time) * dt, "f8", attrs_for("time"))
 
-        wp = np.full((n_t, n_wheel), np.nan)
-        q0 = np.full((n_t, n_wheel), np.nan)
-        names = np.full((n_t, n_vehicle), "", dtype=object)
-        for t in range(n_t):
-            a, b = trains_info["wheel_position"][t], trains_info["static_wheel_load"][t]
-            wp[t, : len(a)] = a
-            q0[t, : len(b)] = b
-            v = list(trains_info["vehicle_name"][t])
-            names[t, : len(v)] = v
-        self._float("wheel_position", ("train", "wheel"), attrs_for("wheel_position"))[...] = wp
-        self._float("static_wheel_load", ("train", "wheel"),
-                    attrs_for("static_wheel_load"))[...] = q0
-        coord("vehicle_name", ("train", "vehicle"), names, str, attrs_for("vehicle_name"))
+        wps, q0s, names = [], [], []
+        for info in trains_info:
+            wp = np.full((n_t, n_wheel), np.nan)
+            q0 = np.full((n_t, n_wheel), np.nan)
+            nm = np.full((n_t, n_vehicle), "", dtype=object)
+            for t in range(n_t):
+                a, b = info["wheel_position"][t], info["static_wheel_load"][t]
+                wp[t, : len(a)] = a
+                q0[t, : len(b)] = b
+                v = list(info["vehicle_name"][t])
+                nm[t, : len(v)] = v
+            wps.append(wp)
+            q0s.append(q0)
+            names.append(nm)
+        self._float("wheel_position", (*lead, "train", "wheel"),
+                    attrs_for("wheel_position"))[...] = per_variant(wps, (n_t, n_wheel))
+        self._float("static_wheel_load", (*lead, "train", "wheel"),
+                    attrs_for("static_wheel_load"))[...] = per_variant(q0s, (n_t, n_wheel))
+        coord("vehicle_name", (*lead, "train", "vehicle"),
+              per_variant(names, (n_t, n_vehicle), fill=""), str, attrs_for("vehicle_name"))
 
+        case = self.case_dims
         self.vars = {}
         for name, (dims, *_rest) in ENVELOPES.items():
-            self.vars[name] = self._float(name, (*CASE_DIMS, *dims), attrs_for(name))
+            self.vars[name] = self._float(name, (*case, *dims), attrs_for(name))
         for name in DIAGNOSTICS:
-            var = nc.createVariable(name, "i4", CASE_DIMS)
-            _put_attrs(var, {**attrs_for(name), "coordinates": _coordinates_attr(CASE_DIMS)})
+            var = nc.createVariable(name, "i4", case)
+            _put_attrs(var, {**attrs_for(name), "coordinates": self._coords_attr(case)})
             self.vars[name] = var
         if n_time is not None:
             for name, (dims, *_rest) in HISTORIES.items():
-                full = (*CASE_DIMS, *dims)
-                chunks = tuple(1 if d in CASE_DIMS else
+                full = (*case, *dims)
+                chunks = tuple(1 if d in case else
                                max(1, min(sizes[d], MAX_TIME_CHUNK)) if d == "time" else
                                max(1, sizes[d]) for d in full)
                 attrs = attrs_for(name)
@@ -146,28 +204,34 @@ class StudyFile:
                     kw["chunksizes"] = chunks
                 var = nc.createVariable(name, "f4", full, zlib=True, complevel=4,
                                         shuffle=True, fill_value=np.float32(np.nan), **kw)
-                _put_attrs(var, {**attrs, "coordinates": _coordinates_attr(full)})
+                _put_attrs(var, {**attrs, "coordinates": self._coords_attr(full)})
                 self.vars[name] = var
-        msg = nc.createVariable("message", str, CASE_DIMS)
+        msg = nc.createVariable("message", str, case)
         _put_attrs(msg, {"long_name": "analysis status message", "units": "1",
-                         "coordinates": _coordinates_attr(CASE_DIMS)})
+                         "coordinates": self._coords_attr(case)})
         self.vars["message"] = msg
-        self._float("max_static_deck_displacement", ("train", "point"), {
+        self._float("max_static_deck_displacement", (*lead, "train", "point"), {
             "units": "m", "long_name": "maximum static deck displacement as the train's "
             "static axle loads cross the bridge (reference of phi'_dyn)", "positive": "down",
-        })[...] = np.asarray(trains_info["max_static_deck_displacement"], float)
+        })[...] = per_variant([i["max_static_deck_displacement"] for i in trains_info],
+                              (n_t, n_p))
+        info = trains_info[0]
         self._float("train_regular_length", ("train",), {
             "units": "m", "long_name": "regular coach length D of the train (0: none)",
-        })[...] = np.asarray(trains_info["regular_length"], float)
+        })[...] = np.asarray(info["regular_length"], float)
         status = nc.createVariable("train_status", str, ("train",))
-        status[...] = np.array([str(s) for s in trains_info["status"]], dtype=object)
+        status[...] = np.array([str(s) for s in info["status"]], dtype=object)
         _put_attrs(status, {"units": "1", "long_name": "data status of the train model"})
-        self._float("frequency", ("mode",), attrs_for("frequency"))[...] = np.asarray(
-            frequencies, float)
+        self._float("frequency", (*lead, "mode"), attrs_for("frequency"))[...] = per_variant(
+            frequencies, (n_m,))
+
+    def _coords_attr(self, dims) -> str:
+        """CF ``coordinates`` attribute: the auxiliary coordinates a variable spans."""
+        return " ".join(n for n, d in self.aux.items() if set(d) <= set(dims))
 
     def _float(self, name, dims, attrs):
         var = self.nc.createVariable(name, "f8", dims, fill_value=np.nan)
-        coords = _coordinates_attr(dims) if name not in _COORDS else ""
+        coords = self._coords_attr(dims) if name not in self.aux else ""
         _put_attrs(var, {**attrs, **({"coordinates": coords} if coords else {})})
         return var
 
@@ -179,13 +243,15 @@ class StudyFile:
         s0, s1 = batch.speeds[0], batch.speeds[-1] + 1
         if list(batch.speeds) != list(range(s0, s1)):
             raise ValueError(f"batch {batch.key}: speeds are not contiguous")
+        v = (batch.variant,) if self.lead else ()
+        n_p = self.n_points[batch.variant or 0]
         for name, (dims, *_rest) in ENVELOPES.items():
-            width = {"point": self.sizes["point"], "wheel": n_wheel,
-                     "vehicle": n_vehicle}[dims[0]]
-            self.vars[name][s0:s1, i_t, i_i, :width] = data[name][:, :width]
+            width = {"point": n_p, "wheel": n_wheel, "vehicle": n_vehicle}[dims[0]]
+            self.vars[name][(*v, slice(s0, s1), i_t, i_i, slice(0, width))] = \
+                data[name][:, :width]
         for name in DIAGNOSTICS:
-            self.vars[name][s0:s1, i_t, i_i] = data[name].astype(np.int32)
-        self.vars["message"][s0:s1, i_t, i_i] = np.array(
+            self.vars[name][(*v, slice(s0, s1), i_t, i_i)] = data[name].astype(np.int32)
+        self.vars["message"][(*v, slice(s0, s1), i_t, i_i)] = np.array(
             [str(m) for m in data["message"]], dtype=object)
         if "hist_runs" in data and "time" in self.sizes:
             for h, (r, n) in enumerate(zip(data["hist_runs"], data["hist_steps"],
@@ -195,7 +261,8 @@ class StudyFile:
                 for name in HISTORIES:
                     block = data[name][h, :n]
                     if block.shape[1]:  # moving forces only: no contact histories
-                        self.vars[name][s, i_t, i_i, :n, : block.shape[1]] = block
+                        self.vars[name][(*v, s, i_t, i_i, slice(0, n),
+                                         slice(0, block.shape[1]))] = block
 
     def close(self, attrs: dict) -> None:
         """Write the global attributes and close the file."""

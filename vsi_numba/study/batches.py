@@ -55,11 +55,13 @@ class Batch:
     speeds: tuple[int, ...]
     histories: tuple[bool, ...]
     cost: float = 0.0
+    variant: int | None = None  # index along ``variant`` (None: a study without variants)
 
     @property
     def key(self) -> str:
-        """Name in the store, e.g. ``t001_i002_s0010-0019``."""
-        return (f"t{self.i_train:03d}_i{self.i_irregularity:03d}_"
+        """Name in the store, e.g. ``t001_i002_s0010-0019`` (``v0003_...`` for variants)."""
+        v = "" if self.variant is None else f"v{self.variant:04d}_"
+        return (f"{v}t{self.i_train:03d}_i{self.i_irregularity:03d}_"
                 f"s{self.speeds[0]:04d}-{self.speeds[-1]:04d}")
 
     @property
@@ -92,7 +94,8 @@ def history_bytes(packed, n_steps: int) -> int:
 
 def plan_batches(grid, packed_trains, n_points: int,
                  batch_seconds: float = BATCH_SECONDS,
-                 history_limit: int = BATCH_HISTORY_BYTES) -> list[Batch]:
+                 history_limit: int = BATCH_HISTORY_BYTES, variant: int | None = None,
+                 start: int = 0) -> list[Batch]:
     """Cut the study grid into batches (deterministic; see the module notes).
 
     Parameters
@@ -127,9 +130,9 @@ def plan_batches(grid, packed_trains, n_points: int,
         for i_i in range(n_i):
             for b in blocks:
                 batches.append(Batch(
-                    index=len(batches), i_train=i_t, i_irregularity=i_i, speeds=tuple(b),
-                    histories=tuple(bool(grid.history_speeds[s]) for s in b),
-                    cost=float(per_step * sum(steps[s] for s in b)),
+                    index=start + len(batches), i_train=i_t, i_irregularity=i_i,
+                    speeds=tuple(b), histories=tuple(bool(grid.history_speeds[s]) for s in b),
+                    cost=float(per_step * sum(steps[s] for s in b)), variant=variant,
                 ))
     return batches
 
@@ -137,16 +140,25 @@ def plan_batches(grid, packed_trains, n_points: int,
 # ------------------------------------------------------------------ running one batch
 
 
-@functools.lru_cache(maxsize=64)
+@functools.lru_cache(maxsize=256)
 def _packed_train(spec, i_train: int):
-    """The packed model of train ``i_train`` (once per process), smooth track."""
+    """The packed model of train ``i_train`` (once per process), smooth track; the
+    bridge carries the EN 1991-2 additional damping when the train is moving forces."""
     from vsi_numba.model.irregularity import no_irregularity
     from vsi_numba.solver.simulate import pack
     from vsi_numba.study.runner import study_model
 
     model = study_model(spec)
     train = model.trains[i_train]
-    return pack(model.bridge, train, 1.0, no_irregularity(), model.settings)
+    bridge = model.config.bridge_for(train)
+    return pack(bridge, train, 1.0, no_irregularity(), model.settings)
+
+
+def _spec_of(spec, batch):
+    """The spec of a batch: one spec, or one per variant (a tuple of specs)."""
+    if batch.variant is None or hasattr(spec, "config_json"):
+        return spec
+    return spec[batch.variant]
 
 
 def packed_for(spec, i_train: int, i_irregularity: int):
@@ -177,6 +189,7 @@ def run_batch_task(spec, batch: Batch) -> dict:
     from vsi_numba.solver.simulate import run_batch
     from vsi_numba.study.runner import study_model
 
+    spec = _spec_of(spec, batch)
     model = study_model(spec)
     packed, profile = packed_for(spec, batch.i_train, batch.i_irregularity)
     speeds = np.asarray(model.speeds_kmh, float)[list(batch.speeds)] / 3.6

@@ -230,9 +230,46 @@ def _packed_trains(spec: StudySpec, model: StudyModel) -> list:
     return [_packed_train(spec, i) for i in range(len(model.trains))]
 
 
-def study_plan(spec: StudySpec, model: StudyModel, grid: StudyGrid) -> list[Batch]:
+def study_plan(spec: StudySpec, model: StudyModel, grid: StudyGrid,
+               variant: int | None = None, start: int = 0) -> list[Batch]:
     """The batch plan of a study (deterministic, see :mod:`.batches`)."""
-    return plan_batches(grid, _packed_trains(spec, model), model.output_points.size)
+    return plan_batches(grid, _packed_trains(spec, model), model.output_points.size,
+                        variant=variant, start=start)
+
+
+def coordinate_name(key_path: str) -> str:
+    """netCDF name of the variant coordinate of a varied key path
+    (``bridge.track.pad_stiffness`` -> ``bridge_track_pad_stiffness``)."""
+    import re
+
+    return re.sub(r"[^A-Za-z0-9_]+", "_", key_path).strip("_")
+
+
+#: Units of the usual varied keys (the variant coordinates' ``units``).
+VARY_UNITS = {"EI": "N m2", "mass_per_length": "kg m-1", "damping_ratio": "1", "spans": "m",
+              "hertz_coefficient": "m N-2/3", "pad_stiffness": "N m-1",
+              "ballast_stiffness": "N m-1", "rail_EI": "N m2", "mass_factor": "1",
+              "dt": "s", "hht_alpha": "1", "n_modes": "1"}
+
+
+def variant_coords(labels: list[dict]) -> dict:
+    """The ``variant`` coordinates of a study: one per varied key path."""
+    from vsi_numba.config import MASS_FACTOR
+
+    coords = {}
+    for key in labels[0]:
+        values = [lab[key] for lab in labels]
+        numeric = all(isinstance(v, int | float) and not isinstance(v, bool) for v in values)
+        leaf = key.split(".")[-1].split("[")[0]
+        attrs = {"units": VARY_UNITS.get(leaf, "1"), "key_path": key,
+                 "long_name": (f"varied configuration key {key}" if key != MASS_FACTOR else
+                               "factor on bridge.mass_per_length (study.mass_bounds)")}
+        if numeric:
+            coords[coordinate_name(key)] = (np.asarray(values, float), attrs)
+        else:
+            coords[coordinate_name(key)] = (np.array([json.dumps(v) for v in values],
+                                                     dtype=object), attrs)
+    return coords
 
 
 def plan_fingerprint(plan: list[Batch]) -> str:
@@ -535,80 +572,113 @@ def execute_study(config, output=None, workers=None, scheduler=None, progress=Fa
     output = Path(output)
     if output.exists() and output.is_dir():
         raise OutputNotWritableError(f"the output {output} is a directory")
-    model = _build_model(cfg)
-    _remember(spec, model)
+    variants = list(getattr(cfg, "variants", []) or [])
+    vcfgs = [v for _, v in variants] or [cfg]
+    specs = [study_spec(c) for c in vcfgs] if variants else [spec]
+    models = []
+    for sp, c in zip(specs, vcfgs, strict=True):
+        m = _build_model(c)
+        _remember(sp, m)
+        models.append(m)
+    model = models[0]
     grid = study_grid(model)
-    plan = study_plan(spec, model, grid)
+    for k, m in enumerate(models[1:], start=1):
+        if [t.name for t in m.trains] != list(grid.trains) or list(m.profiles) != list(
+                grid.irregularities):
+            raise StudyError(f"variant {k} ({variants[k][0]}) changes the trains or the "
+                             "irregularity realisations: vary the bridge, track, contact "
+                             "or vehicle data, not the study's axes")
+    plan: list[Batch] = []
+    for k, (sp, m) in enumerate(zip(specs, models, strict=True)):
+        plan += study_plan(sp, m, grid, variant=k if variants else None, start=len(plan))
+    task_spec = tuple(specs) if variants else spec
     if command is None:
         source = str(cfg.path) if getattr(cfg, "path", None) else "<mapping>"
         command = (f"vsi_numba.run_study({source!r}, output={str(output)!r}, "
                    f"workers={workers!r}, scheduler={scheduler!r}, backend={backend!r})")
 
     check_writable(output.parent if str(output.parent) else Path("."), "results file")
+    model_sha = (model_fingerprint(model) if not variants else hashlib.sha256(
+        "".join(model_fingerprint(m) for m in models).encode()).hexdigest())
     store = CaseStore(store_path(output), sha, config_json, fresh=fresh,
-                      model_sha256=model_fingerprint(model),
-                      plan_sha256=plan_fingerprint(plan))
+                      model_sha256=model_sha, plan_sha256=plan_fingerprint(plan))
     with store:
         done = store.done()
         for b in plan:  # a damaged or foreign batch file is found now, not at the end
             if b.key in done:
                 store.check(b.key)
         pending = [b for b in plan if b.key not in done]
-        n_runs = len(grid.cases)
+        n_runs = len(grid.cases) * len(models)
         n_todo = sum(b.n_runs for b in pending)
         n_s, n_t, n_i = grid.shape
         if pending:
             be = _choose_backend(backend, workers, scheduler, len(pending),
                                  store.path / "dask-scratch")
-            _say(quiet, f"{n_runs} runs in {len(plan)} batches ({n_s} speeds x {n_t} trains "
-                        f"x {n_i} irregularities): {n_runs - n_todo} done earlier, "
+            nv = f"{len(models)} variants x " if variants else ""
+            _say(quiet, f"{n_runs} runs in {len(plan)} batches ({nv}{n_s} speeds x {n_t} "
+                        f"trains x {n_i} irregularities): {n_runs - n_todo} done earlier, "
                         f"{n_todo} to run ({be.name}"
                         f"{'' if be.name == 'serial' else f', {workers or be.n_workers} workers'}"
                         ")")
-            _run_pending(be, spec, pending, store, progress, n_runs, n_runs - n_todo)
+            _run_pending(be, task_spec, pending, store, progress, n_runs, n_runs - n_todo)
         else:
             _say(quiet, f"{n_runs} runs: all done earlier, writing {output}")
-        n_failed = _write_results(output, store, spec, model, grid, plan, config_json, sha,
-                                  command)
+        n_failed = _write_results(output, store, specs, models, grid, plan, config_json, sha,
+                                  command, [lab for lab, _ in variants] or None)
         if not keep_cases:
             store.remove()
     _say(quiet, f"wrote {output}: {n_runs} runs, {n_failed} failed")
     return StudyOutcome(output, n_runs, n_failed, len(plan))
 
 
-def _write_results(output: Path, store: CaseStore, spec, model, grid, plan, config_json,
-                   sha, command) -> int:
+def _write_results(output: Path, store: CaseStore, specs, models, grid, plan, config_json,
+                   sha, command, labels=None) -> int:
     """Stream the stored batches into the results file; returns the failed-run count."""
     from vsi_numba.io.study_file import StudyFile
 
-    info = trains_info(spec, model)
-    packed = _packed_trains(spec, model)
-    hist_steps = [packed[b.i_train].n_steps(grid.speeds_kmh[s] / 3.6) + 1
+    infos = [trains_info(sp, m) for sp, m in zip(specs, models, strict=True)]
+    packed = [_packed_trains(sp, m) for sp, m in zip(specs, models, strict=True)]
+    hist_steps = [packed[b.variant or 0][b.i_train].n_steps(grid.speeds_kmh[s] / 3.6) + 1
                   for b in plan for s, h in zip(b.speeds, b.histories, strict=True) if h]
     n_time = max(hist_steps) if hist_steps else None
+    model = models[0]
+    variants = None
+    if labels is not None:
+        variants = {"coords": variant_coords(labels),
+                    "bridge_length": [m.bridge.length for m in models],
+                    "acceleration_cutoff": [m.deck[2] for m in models],
+                    "config_json": [sp.config_json for sp in specs]}
+    n_wheel = max(max(i["n_wheel"], default=0) for i in infos)
+    n_vehicle = max(max(i["n_vehicle"], default=0) for i in infos)
     tmp = store.temp_path(output.name)
     failed: list[str] = []
     try:
         f = StudyFile(tmp, grid.speeds_kmh, grid.trains, grid.irregularities,
-                      model.output_points, model.bridge.frequencies,
-                      max(info["n_wheel"], default=0), max(info["n_vehicle"], default=0),
-                      n_time, model.settings.dt, info)
+                      [m.output_points for m in models], [m.bridge.frequencies for m in models],
+                      n_wheel, n_vehicle, n_time, model.settings.dt, infos, variants)
         hold = _hold_after() == "write"
         try:
             for b in plan:
                 data = store.load(b.key)
+                info = infos[b.variant or 0]
                 f.write_batch(b, data, info["n_wheel"][b.i_train], info["n_vehicle"][b.i_train])
                 if hold:
                     f.nc.sync()
                     _hold(store)
                 for r, st in enumerate(data["status"]):
                     if st != 0:
-                        failed.append(Case(0, b.speeds[r], b.i_train, b.i_irregularity, 0.0,
-                                           "", 0, False).key)
+                        key = Case(0, b.speeds[r], b.i_train, b.i_irregularity, 0.0, "", 0,
+                                   False).key
+                        failed.append(key if b.variant is None else f"v{b.variant:04d}_{key}")
                 del data
             failed.sort()
-            f.close(_global_attrs(model, config_json, sha, grid, len(failed), failed,
-                                  command))
+            attrs = _global_attrs(model, config_json, sha, grid, len(failed), failed, command)
+            if labels is not None:
+                attrs["n_cases"] = len(grid.cases) * len(models)
+                attrs["n_variants"] = len(models)
+                attrs["varied_keys"] = " ".join(labels[0])
+            _bridge_rules(attrs, model.config)
+            f.close(attrs)
         except BaseException:
             f.abort()
             raise
@@ -629,6 +699,15 @@ def _write_results(output: Path, store: CaseStore, spec, model, grid, plan, conf
         tmp.unlink(missing_ok=True)
         raise
     return len(failed)
+
+
+def _bridge_rules(attrs: dict, cfg) -> None:
+    """The EN 1991-2 damping rules a config applied, as attributes of the results."""
+    resolved = cfg.resolved() if hasattr(cfg, "resolved") else {}
+    bridge = resolved.get("bridge", {}) if isinstance(resolved, dict) else {}
+    for key in ("damping_rule", "additional_damping_rule"):
+        if bridge.get(key):
+            attrs[key] = str(bridge[key])
 
 
 def _hold_after() -> int | str | None:

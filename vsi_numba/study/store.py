@@ -41,7 +41,7 @@ from vsi_numba.io.netcdf import package_version, write_atomic, write_bytes_atomi
 STORE_FORMAT = 2
 MANIFEST = "store.json"
 LOCK = ".lock"
-_BATCH_FILE = re.compile(r"^batch_(t\d{3,}_i\d{3,}_s\d{4,}-\d{4,})\.npz$")
+_BATCH_FILE = re.compile(r"^batch_((?:v\d{4,}_)?t\d{3,}_i\d{3,}_s\d{4,}-\d{4,})\.npz$")
 
 
 class StudyError(Exception):

@@ -1,0 +1,240 @@
+"""Results of parametric studies (``study.vary``): one variant at a time, tables and
+design charts over the variants.
+
+A study of variants has a leading ``variant`` dimension, a coordinate per varied key
+(``bridge_EI``, ``mass_factor``, ...) and per-variant data (``frequency``,
+``bridge_length``, ``point_position`` when the points move with the spans,
+``variant_config_json``).  :func:`variant_view` turns one variant back into the layout of
+a study without variants, so every check of :mod:`vsi_numba.analysis.checks` applies.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from vsi_numba.analysis import checks as chk
+from vsi_numba.analysis.dataset import track_type
+
+#: Per-variant variables that become attributes of a variant's view.
+_PER_VARIANT = ("bridge_length", "acceleration_cutoff", "variant_config_json")
+
+
+def has_variants(ds: xr.Dataset) -> bool:
+    """True for the results of a study of variants."""
+    return "variant" in ds.dims
+
+
+def varied_coords(ds: xr.Dataset) -> list[str]:
+    """Names of the coordinates that label the variants (one per varied key)."""
+    return [n for n, c in ds.coords.items() if c.dims == ("variant",) and n != "variant"]
+
+
+def variant_label(ds: xr.Dataset, k: int) -> str:
+    """``"bridge.EI = 7e+10, mass_factor = 0.9"`` for variant ``k``."""
+    parts = []
+    for n in varied_coords(ds):
+        key = ds[n].attrs.get("key_path", n)
+        v = ds[n].values[k]
+        parts.append(f"{key} = {v:.6g}" if isinstance(v, float | np.floating) else
+                     f"{key} = {v}")
+    return ", ".join(parts)
+
+
+def variant_view(ds: xr.Dataset, k: int) -> xr.Dataset:
+    """Variant ``k`` in the layout of a study without variants.
+
+    ``point`` gets the variant's positions (m) when they move with the spans, the modes
+    and points it does not have are dropped, and ``bridge_length``,
+    ``acceleration_cutoff_hz`` and ``config_json`` become the variant's.
+    """
+    v = ds.isel(variant=k)
+    attrs = dict(ds.attrs)
+    if "bridge_length" in v:
+        attrs["bridge_length"] = float(v["bridge_length"])
+    if "acceleration_cutoff" in v:
+        attrs["acceleration_cutoff_hz"] = float(v["acceleration_cutoff"])
+    if "variant_config_json" in v:
+        attrs["config_json"] = str(v["variant_config_json"].values)
+    attrs["variant"] = int(k)
+    attrs["variant_label"] = variant_label(ds, k)
+    v = v.drop_vars([n for n in (*_PER_VARIANT, *varied_coords(ds), "variant") if n in v.variables])
+    if "point_position" in v.variables:
+        pos = np.asarray(v["point_position"].values, float)
+        keep = np.isfinite(pos)
+        v = v.isel(point=np.flatnonzero(keep)).drop_vars("point_position")
+        v = v.assign_coords(point=("point", pos[keep], chk_attrs_point(ds)))
+    if "frequency" in v:
+        f = np.asarray(v["frequency"].values, float)
+        v = v.isel(mode=np.flatnonzero(np.isfinite(f)))
+    v.attrs = attrs
+    return v
+
+
+def chk_attrs_point(ds: xr.Dataset) -> dict:
+    a = dict(ds["point_position"].attrs) if "point_position" in ds else {}
+    return {"units": a.get("units", "m"), "long_name": a.get("long_name", "output point")}
+
+
+def peak_deck_acceleration(ds: xr.Dataset) -> xr.DataArray:
+    """Peak deck acceleration per (variant, speed) (m s-2): the maximum over trains,
+    realisations and the deck (the whole-deck envelope when the file has it, else the
+    output points)."""
+    a = ds["max_deck_acceleration"].max(["train", "irregularity", "point"])
+    if "max_deck_acceleration_deck" in ds:
+        a = np.fmax(a, ds["max_deck_acceleration_deck"].max(["train", "irregularity"]))
+    return a
+
+
+def variant_table(ds: xr.Dataset, q: float = chk.DEFAULT_Q) -> pd.DataFrame:
+    """One row per variant: its varied values, the governing deck-acceleration value,
+    limit, result, governing train and speed, and phi'_dyn."""
+    rows = []
+    for k in range(ds.sizes["variant"]):
+        v = variant_view(ds, k)
+        row = {n: ds[n].values[k] for n in varied_coords(ds)}
+        row["f1_hz"] = float(v["frequency"].values[0]) if v.sizes.get("mode") else np.nan
+        try:
+            acc = chk.deck_acceleration_check(v, q=q, n_boot=200)
+            row.update(deck_acceleration=acc.attrs["value"], limit=acc.attrs["limit"],
+                       result=acc.attrs["result"], governing_train=acc.attrs[
+                           "governing_train"], governing_speed_kmh=acc.attrs[
+                           "governing_speed_kmh"])
+        except chk.ResultsError as exc:  # e.g. every run of the variant failed
+            row.update(deck_acceleration=np.nan, limit=np.nan, result=f"n/a ({exc})")
+        try:
+            dyn = chk.dynamic_amplification(v)
+            row["phi_dyn"] = dyn.attrs.get("value", np.nan)
+        except (chk.ResultsError, KeyError):
+            row["phi_dyn"] = np.nan
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def governing_variant(ds: xr.Dataset) -> int:
+    """The variant with the highest peak deck acceleration."""
+    a = peak_deck_acceleration(ds).max("speed")
+    return int(np.nanargmax(a.values))
+
+
+def design_charts(ds: xr.Dataset, path, x_key: str | None = None):
+    """Heat maps of the peak deck acceleration over (a varied key x speed), one panel per
+    combination of the other varied keys, with the limit's contour; saved to ``path``.
+
+    Returns the figure's caption.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    keys = varied_coords(ds)
+    numeric = [n for n in keys if ds[n].dtype.kind == "f"]
+    x_key = x_key or (numeric[0] if numeric else None)
+    peak = peak_deck_acceleration(ds)
+    limit = chk.DECK_ACCELERATION_LIMITS.get(track_type(ds), 3.5)
+    speeds = ds["speed_kmh"].values
+    others = [n for n in keys if n != x_key]
+    if x_key is None:  # no numeric key: the variant index
+        groups = {(): list(range(ds.sizes["variant"]))}
+        xs_all = np.arange(ds.sizes["variant"], dtype=float)
+    else:
+        groups: dict = {}
+        for k in range(ds.sizes["variant"]):
+            groups.setdefault(tuple(ds[n].values[k] for n in others), []).append(k)
+        xs_all = ds[x_key].values
+    panels = list(groups.items())[:9]
+    n = len(panels)
+    cols = min(n, 3)
+    rows = int(np.ceil(n / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.0 * rows), squeeze=False,
+                             constrained_layout=True)
+    vmax = float(np.nanmax(peak.values)) if np.isfinite(peak.values).any() else 1.0
+    mesh = None
+    for ax, (other_vals, ks) in zip(axes.flat, panels, strict=False):
+        ks = sorted(ks, key=lambda k: xs_all[k])
+        x = np.asarray([xs_all[k] for k in ks], float)
+        z = np.asarray(peak.isel(variant=ks).transpose("speed", "variant").values, float)
+        if x.size >= 2:
+            mesh = ax.pcolormesh(x, speeds, z, shading="nearest", cmap="viridis", vmin=0,
+                                 vmax=vmax)
+            if np.nanmin(z) < limit < np.nanmax(z):
+                cs = ax.contour(x, speeds, z, levels=[limit], colors="red", linewidths=1.5)
+                ax.clabel(cs, fmt={limit: f"{limit:g} m/s²"}, fontsize=8)
+        else:
+            ax.plot(z[:, 0], speeds)
+        xlabel = (ds[x_key].attrs.get("key_path", x_key) + f" [{ds[x_key].attrs.get('units')}]"
+                  if x_key else "variant")
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel("speed [km/h]")
+        title = ", ".join(f"{ds[o].attrs.get('key_path', o)} = {val:.4g}"
+                          if isinstance(val, float | np.floating) else f"{o} = {val}"
+                          for o, val in zip(others, other_vals, strict=True))
+        ax.set_title(title or "peak deck acceleration", fontsize=9)
+    for ax in list(axes.flat)[n:]:
+        ax.set_visible(False)
+    if mesh is not None:
+        fig.colorbar(mesh, ax=axes, label="peak deck acceleration [m/s²]")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return (f"Design chart: peak deck acceleration (max over trains, realisations and the "
+            f"deck) over {ds[x_key].attrs.get('key_path', x_key) if x_key else 'variant'} "
+            f"and speed; red: the {limit:g} m/s² limit ({track_type(ds)} track)"
+            + (f"; one panel per {', '.join(ds[o].attrs.get('key_path', o) for o in others)}"
+               if others else "") + (f" (first {len(panels)} of {len(groups)})"
+                                     if len(groups) > len(panels) else "") + ".")
+
+
+def write_variants_report(ds: xr.Dataset, outdir, source_path=None, **kwargs):
+    """The report of a study of variants: the table over variants, the envelope with the
+    governing variant named, the design chart, and the full report of the governing
+    variant in ``governing_variant/``."""
+    from pathlib import Path
+
+    from vsi_numba.analysis.report import write_report
+
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    table = variant_table(ds)
+    table.to_csv(outdir / "variants.csv", index=False)
+    gov = governing_variant(ds)
+    sub = write_report(variant_view(ds, gov), outdir / "governing_variant",
+                       source_path=source_path, **kwargs)
+    caption = design_charts(ds, outdir / "design_chart.png")
+    title = ds.attrs.get("title") or "vsi_numba study of variants"
+    n_fail = int((table["result"].astype(str) == "FAIL").sum())
+    lines = [f"# {title}", "",
+             f"A study of {ds.sizes['variant']} variants ({ds.attrs.get('varied_keys', '')}),"
+             f" {ds.sizes['speed']} speeds x {ds.sizes['train']} trains x "
+             f"{ds.sizes['irregularity']} track realisations"
+             + (f": `{Path(source_path).name}`." if source_path else "."), ""]
+    for key in ("damping_rule", "additional_damping_rule"):
+        if ds.attrs.get(key):
+            lines += [f"- {ds.attrs[key]} (base configuration)"]
+    a = peak_deck_acceleration(ds)
+    g = a.isel(variant=gov)
+    v_gov = float(ds["speed_kmh"].values[int(np.nanargmax(g.values))])
+    lines += ["", "## Envelope over the variants", "",
+              f"- **Governing variant {gov}** ({variant_label(ds, gov)}): peak deck "
+              f"acceleration **{float(g.max()):.3g} m/s²** at {v_gov:g} km/h; its full "
+              f"report: [governing_variant/report.md](governing_variant/{sub.name}).",
+              f"- Variants that FAIL the deck-acceleration check: **{n_fail}** of "
+              f"{len(table)}.", "", "## Per variant", ""]
+    show = table.copy()
+    for col in show.columns:
+        if show[col].dtype.kind == "f":
+            show[col] = show[col].map(lambda x: f"{x:.4g}")
+    lines += ["| variant | " + " | ".join(show.columns) + " |",
+              "|---|" + "---|" * len(show.columns)]
+    for k, row in show.iterrows():
+        lines.append(f"| {k} | " + " | ".join(str(v) for v in row.values) + " |")
+    lines += ["", "## Design chart", "", "![Design chart](design_chart.png)", "",
+              f"*{caption}*", ""]
+    path = outdir / "report.md"
+    path.write_text("\n".join(lines), encoding="utf-8")
+    (outdir / "variants.json").write_text(json.dumps(
+        {"governing_variant": gov, "label": variant_label(ds, gov)}, indent=1))
+    return path

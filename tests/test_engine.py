@@ -294,16 +294,22 @@ def test_failure__huge_profile_step_is_survived_or_flagged():
         assert ds.attrs["message"] != "ok"
 
 
-def test_failure__absurd_dt_warns_with_the_ratio():
-    from vsi_numba.config import load_config
+def test_failure__absurd_dt_refused_or_warned_with_the_ratio():
+    """dt = 0.2 s on a 43 Hz mode: refused (naming solver.dt and the ratio) unless the
+    user overrides it; then a warning with the ratio."""
+    from vsi_numba.config import ConfigError, load_config
 
-    cfg = load_config({
+    data = {
         "bridge": {"kind": "simply_supported", "spans": [25.0], "EI": 8.323e9,
                    "mass_per_length": 2303.0, "n_modes": 3},
         "train": {"vehicles": [{"kind": "sprung_mass", "mass": 5750.0,
                                 "stiffness": 1.595e6}]},
         "solver": {"dt": 0.2},
         "study": {"speeds_kmh": [100.0]},
-    })
+    }
+    with pytest.raises(ConfigError, match=r"solver.dt = 0.2.*8\.6"):
+        load_config(data)
+    data["solver"]["allow_coarse_dt"] = True
+    cfg = load_config(data)
     [w] = [w for w in cfg.warnings if "bridge mode" in w]
     assert "solver.dt" in w and "8.6" in w  # dt x f3 = 0.2 s x 43 Hz = 8.6

@@ -1568,6 +1568,8 @@ def _vary_axes(chk, d):
         return v
 
     def key_path(path, key):
+        if key == "label":  # names the variants (a coordinate), sets no key
+            return key
         ok = isinstance(key, str) and _KEY_PATH.match(key) and key.split(".")[0].split("[")[
             0] in _VARY_SECTIONS
         if not ok:
@@ -1684,6 +1686,8 @@ def _build_variants(data, axes, path, base, source):
         where = ", ".join(f"{k} = {_show(v, 30)}" for k, v in lab.items())
         try:
             for k, v in lab.items():
+                if k == "label":
+                    continue
                 if k == MASS_FACTOR:
                     m = vdata.get("bridge", {}).get("mass_per_length")
                     if not (_is_number(m) or (isinstance(m, list) and all(map(_is_number, m)))):
@@ -2243,9 +2247,19 @@ def _plausibility(chk, bridge, train, irr, solver, study, contact):
         limit = MAX_STATIC_DEFLECTION * float(spans.max())
         pts = np.linspace(0.0, model.length, 41)
         phi_p = model.output_shapes(pts)  # (points, modes)
+        # upper bound first: the heaviest bridge-length of axles at the most flexible
+        # point, W max_x sum_j phi_j(x)^2 / w_j^2; the influence lines only when it exceeds
+        # the limit (the bound is cheap; the exact pass costs ~50 ms per train)
+        flex = float(np.max(np.sum(model.shapes(pts) ** 2 / model.omega**2, axis=1)))
         for tr in trains:
             x, q = _train_loads(tr)
             if not x.size:
+                continue
+            order = np.argsort(x)
+            xs, cq = x[order], np.concatenate([[0.0], np.cumsum(np.abs(q[order]))])
+            j = np.searchsorted(xs, xs + model.length, side="right")
+            heaviest = float(np.max(cq[j] - cq[np.arange(xs.size)]))
+            if np.isfinite(flex) and heaviest * flex <= limit:
                 continue
             step = max(model.length / 200.0, 0.05)
             reach = model.length + float(x.max())

@@ -137,7 +137,10 @@ def design_charts(ds: xr.Dataset, path, x_key: str | None = None):
     peak = peak_deck_acceleration(ds)
     limit = chk.DECK_ACCELERATION_LIMITS.get(track_type(ds), 3.5)
     speeds = ds["speed_kmh"].values
-    others = [n for n in keys if n != x_key]
+    # with a label (study.vary_together), its groups are the panels: the other keys of
+    # the group are functions of x and the label
+    others = ["label"] if "label" in keys and x_key != "label" else \
+        [n for n in keys if n != x_key]
     if x_key is None:  # no numeric key: the variant index
         groups = {(): list(range(ds.sizes["variant"]))}
         xs_all = np.arange(ds.sizes["variant"], dtype=float)

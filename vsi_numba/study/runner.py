@@ -259,7 +259,14 @@ def variant_coords(labels: list[dict]) -> dict:
     coords = {}
     for key in labels[0]:
         values = [lab[key] for lab in labels]
+        if all(isinstance(v, list) and len(v) == 1 for v in values):
+            values = [v[0] for v in values]  # e.g. the one span of a simply supported deck
         numeric = all(isinstance(v, int | float) and not isinstance(v, bool) for v in values)
+        if key == "label":
+            coords["label"] = (np.array([str(v) for v in values], dtype=object),
+                               {"units": "1", "long_name": "label of the variant "
+                                "(study.vary_together label)"})
+            continue
         leaf = key.split(".")[-1].split("[")[0]
         attrs = {"units": VARY_UNITS.get(leaf, "1"), "key_path": key,
                  "long_name": (f"varied configuration key {key}" if key != MASS_FACTOR else

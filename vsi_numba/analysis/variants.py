@@ -20,7 +20,8 @@ from vsi_numba.analysis import checks as chk
 from vsi_numba.analysis.dataset import track_type
 
 #: Per-variant variables that become attributes of a variant's view.
-_PER_VARIANT = ("bridge_length", "acceleration_cutoff", "variant_config_json")
+_PER_VARIANT = ("bridge_length", "acceleration_cutoff", "variant_config_json",
+                "damping_ratio", "additional_damping", "damping_rule")
 
 
 def has_variants(ds: xr.Dataset) -> bool:
@@ -59,6 +60,11 @@ def variant_view(ds: xr.Dataset, k: int) -> xr.Dataset:
         attrs["acceleration_cutoff_hz"] = float(v["acceleration_cutoff"])
     if "variant_config_json" in v:
         attrs["config_json"] = str(v["variant_config_json"].values)
+    if "damping_rule" in v and str(v["damping_rule"].values):
+        rules = str(v["damping_rule"].values).split(" ; ")
+        attrs["damping_rule"] = rules[0]
+        if len(rules) > 1:
+            attrs["additional_damping_rule"] = rules[1]
     attrs["variant"] = int(k)
     attrs["variant_label"] = variant_label(ds, k)
     v = v.drop_vars([n for n in (*_PER_VARIANT, *varied_coords(ds), "variant") if n in v.variables])
@@ -97,6 +103,10 @@ def variant_table(ds: xr.Dataset, q: float = chk.DEFAULT_Q) -> pd.DataFrame:
         v = variant_view(ds, k)
         row = {n: ds[n].values[k] for n in varied_coords(ds)}
         row["f1_hz"] = float(v["frequency"].values[0]) if v.sizes.get("mode") else np.nan
+        if "damping_ratio" in ds:
+            row["zeta_pct"] = 100 * float(ds["damping_ratio"].values[k, 0])
+        if "additional_damping" in ds and float(ds["additional_damping"].values[k]):
+            row["dzeta_mf_pct"] = 100 * float(ds["additional_damping"].values[k])
         try:
             acc = chk.deck_acceleration_check(v, q=q, n_boot=200)
             row.update(deck_acceleration=acc.attrs["value"], limit=acc.attrs["limit"],
@@ -155,7 +165,9 @@ def design_charts(ds: xr.Dataset, path, x_key: str | None = None):
     rows = int(np.ceil(n / cols))
     fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.0 * rows), squeeze=False,
                              constrained_layout=True)
+    # the colours resolve the range around the limit; above 3x the limit they saturate
     vmax = float(np.nanmax(peak.values)) if np.isfinite(peak.values).any() else 1.0
+    vmax = min(vmax, 3.0 * limit)
     mesh = None
     for ax, (other_vals, ks) in zip(axes.flat, panels, strict=False):
         ks = sorted(ks, key=lambda k: xs_all[k])
@@ -180,7 +192,7 @@ def design_charts(ds: xr.Dataset, path, x_key: str | None = None):
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
     if mesh is not None:
-        fig.colorbar(mesh, ax=axes, label="peak deck acceleration [m/s²]")
+        fig.colorbar(mesh, ax=axes, label="peak deck acceleration [m/s²]", extend="max")
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return (f"Design chart: peak deck acceleration (max over trains, realisations and the "
@@ -216,7 +228,10 @@ def write_variants_report(ds: xr.Dataset, outdir, source_path=None, **kwargs):
              + (f": `{Path(source_path).name}`." if source_path else "."), ""]
     for key in ("damping_rule", "additional_damping_rule"):
         if ds.attrs.get(key):
-            lines += [f"- {ds.attrs[key]} (base configuration)"]
+            lines += [f"- {ds.attrs[key]}"]
+    if "damping_rule" in ds and any(str(r) for r in ds["damping_rule"].values):
+        lines += [f"- Damping per variant (columns zeta_pct, dzeta_mf_pct): e.g. variant 0: "
+                  f"{ds['damping_rule'].values[0]}"]
     a = peak_deck_acceleration(ds)
     g = a.isel(variant=gov)
     v_gov = float(ds["speed_kmh"].values[int(np.nanargmax(g.values))])

@@ -133,6 +133,19 @@ class StudyFile:
                 "units": "Hz", "long_name": "highest frequency of the modes in the deck "
                 "acceleration (EN 1990 A2.4.4.2.1)"})[...] = np.asarray(
                     variants["acceleration_cutoff"], float)
+            n_m0 = max(len(f) for f in frequencies)
+            self._float("damping_ratio", ("variant", "mode"), {
+                "units": "1", "long_name": "modal damping ratio of the variant (interaction "
+                "models; moving forces add additional_damping)"})[...] = per_variant(
+                    variants["damping"], (n_m0,))
+            self._float("additional_damping", ("variant",), {
+                "units": "1", "long_name": "EN 1991-2 6.4.6.3.1 additional damping of the "
+                "moving-force trains"})[...] = np.asarray(variants["additional_damping"],
+                                                          float)
+            rule = nc.createVariable("damping_rule", str, ("variant",))
+            rule[...] = np.array(list(variants["damping_rule"]), dtype=object)
+            _put_attrs(rule, {"units": "1", "long_name": "EN 1991-2 damping rules applied "
+                              "to the variant (empty: damping as given)"})
             cj = nc.createVariable("variant_config_json", str, ("variant",))
             cj[...] = np.array(list(variants["config_json"]), dtype=object)
             _put_attrs(cj, {"units": "1", "long_name": "resolved configuration of the "

@@ -651,10 +651,16 @@ def _write_results(output: Path, store: CaseStore, specs, models, grid, plan, co
     model = models[0]
     variants = None
     if labels is not None:
+        rules = [m.config.resolved().get("bridge", {}) for m in models]
         variants = {"coords": variant_coords(labels),
                     "bridge_length": [m.bridge.length for m in models],
                     "acceleration_cutoff": [m.deck[2] for m in models],
-                    "config_json": [sp.config_json for sp in specs]}
+                    "config_json": [sp.config_json for sp in specs],
+                    "damping": [m.bridge.damping for m in models],
+                    "additional_damping": [m.config.additional_damping for m in models],
+                    "damping_rule": [" ; ".join(r[k] for k in ("damping_rule",
+                                                               "additional_damping_rule")
+                                                if r.get(k)) for r in rules]}
     n_wheel = max(max(i["n_wheel"], default=0) for i in infos)
     n_vehicle = max(max(i["n_vehicle"], default=0) for i in infos)
     tmp = store.temp_path(output.name)
@@ -684,7 +690,8 @@ def _write_results(output: Path, store: CaseStore, specs, models, grid, plan, co
                 attrs["n_cases"] = len(grid.cases) * len(models)
                 attrs["n_variants"] = len(models)
                 attrs["varied_keys"] = " ".join(labels[0])
-            _bridge_rules(attrs, model.config)
+            if labels is None:  # per variant otherwise (damping_rule(variant))
+                _bridge_rules(attrs, model.config)
             f.close(attrs)
         except BaseException:
             f.abort()

@@ -168,3 +168,26 @@ def test_en1991__damping_rules_in_a_study(tmp_path):
     with run_study(cfg, tmp_path / "en.nc", backend="serial") as ds:
         assert "Table 6.6" in ds.attrs["damping_rule"]
         assert "moving-force trains only" in ds.attrs["additional_damping_rule"]
+
+
+def test_refine_resonance__adds_f1_d_over_i(tmp_path):
+    """study.refine_resonance adds v_i = 3.6 f1 D / i (and +-1 km/h) of every train with a
+    regular coach length D, inside the speed range; f1 of the sine mode written here."""
+    cfg = _write(tmp_path / "res.toml", extra="refine_resonance = true\n")
+    cfg.write_text(cfg.read_text().replace("speeds_kmh = [180.0, 260.0, 340.0]",
+                                           "speeds_kmh = { start = 140.0, stop = 420.0, "
+                                           "step = 20.0 }"))
+    c = load_config(cfg)
+    f1 = np.pi / 2 / 12.0**2 * np.sqrt(6.0e9 / 12000.0)
+    speeds = c.speeds_kmh
+    added = 0
+    for train in c.trains():  # HSLM-A1 (D = 18 m), HSLM-A3 (D = 20 m)
+        for i in (1, 2, 3):
+            v = 3.6 * f1 * train.regular_length / i
+            if 140.0 <= v <= 420.0:
+                added += 1
+                # listed to 0.1 km/h, with neighbours 1 km/h either side
+                for dv in (-1.0, 0.0, 1.0):
+                    assert np.min(np.abs(speeds - (v + dv))) <= 0.05 + 1e-9
+    assert added >= 2 and np.all(np.diff(speeds) > 0)
+    assert speeds.size == 15 + 3 * added

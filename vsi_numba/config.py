@@ -1467,7 +1467,8 @@ def _line_speed_grid(line: float) -> list[float]:
 def _study_section(chk, d, default_output: str, base_dir: Path) -> dict | _Sentinel:
     path = "study"
     allowed = {"speeds_kmh", "output", "save_time_histories", "line_speed_kmh",
-               "history_speeds_kmh", "vary", "vary_together", "mass_bounds"}
+               "history_speeds_kmh", "vary", "vary_together", "mass_bounds",
+               "refine_resonance"}
     if d is _MISSING:
         return chk.error(path, _MISSING, "a table [study] with speeds_kmh (km/h) or "
                                          "line_speed_kmh")
@@ -1539,9 +1540,12 @@ def _study_section(chk, d, default_output: str, base_dir: Path) -> dict | _Senti
                     hist = _BAD
                     break
     axes = _vary_axes(chk, d)
-    if not _ok(line, speeds, output, save, hist, out_full, axes):
+    refine = chk.boolean(d, path, "refine_resonance", False)
+    if not _ok(line, speeds, output, save, hist, out_full, axes, refine):
         return _BAD
     vary = {k: d[k] for k in ("vary", "vary_together", "mass_bounds") if k in d}
+    if refine:
+        vary["refine_resonance"] = True
     return _drop_none({"speeds_kmh": speeds, "line_speed_kmh": line, "output": output,
                        "save_time_histories": save, "history_speeds_kmh": hist,
                        "_output_path": out_full, "_axes": axes or None, **vary})
@@ -1672,7 +1676,7 @@ def variant_labels(axes) -> list[dict]:
     return labels
 
 
-def _build_variants(data, axes, path, base, source):
+def _build_variants(data, axes, path, base, source, base_speeds):
     """Validate every variant (the config with its key paths set); all errors at once."""
     import copy
 
@@ -1680,8 +1684,11 @@ def _build_variants(data, axes, path, base, source):
     for n, lab in enumerate(variant_labels(axes)):
         vdata = copy.deepcopy(dict(data))
         study = dict(vdata.get("study", {}))
-        for k in ("vary", "vary_together", "mass_bounds"):
+        for k in ("vary", "vary_together", "mass_bounds", "refine_resonance"):
             study.pop(k, None)
+        # one speed axis for every variant: the base configuration's (refined) speeds
+        study.pop("line_speed_kmh", None)
+        study["speeds_kmh"] = list(base_speeds)
         vdata["study"] = study
         where = ", ".join(f"{k} = {_show(v, 30)}" for k, v in lab.items())
         try:
@@ -1984,8 +1991,38 @@ def load_config(path_or_mapping, base_dir=None) -> Config:
     cfg = _validate(data, path, base, source)
     axes = cfg._study.get("_axes")
     if axes:
-        cfg.variants = _build_variants(data, axes, path, base, source)
+        cfg.variants = _build_variants(data, axes, path, base, source,
+                                       cfg._study["speeds_kmh"])
     return cfg
+
+
+#: Orders i of the resonance speeds v_i = f1 D / i that study.refine_resonance adds.
+RESONANCE_ORDERS = (1, 2, 3)
+
+
+def _refine_resonance(study, bridge, train):
+    """``study.refine_resonance``: add the resonance speeds v_i = 3.6 f1 D / i (km/h,
+    i = 1, 2, 3; EN 1991-2 6.4.6.2 [R]) of every train with a regular coach length D, and
+    v_i +- 1 km/h, inside the study's speed range (0.1 km/h resolution)."""
+    from vsi_numba.en1991 import resonance_speeds_kmh
+
+    speeds = list(study["speeds_kmh"])
+    if bridge.model is None or not bridge.model.n_modes or not speeds:
+        return
+    lo, hi = min(speeds), max(speeds)
+    f1 = float(bridge.model.frequencies[0])
+    extra = []
+    for tr in train.trains:
+        d = float(getattr(tr, "regular_length", 0.0) or 0.0)
+        if d > 0:
+            for v in resonance_speeds_kmh(f1, d, RESONANCE_ORDERS):
+                extra += [round(v + dv, 1) for dv in (-1.0, 0.0, 1.0)]
+    merged = sorted(set(speeds) | {v for v in extra if lo <= v <= hi})
+    out = []
+    for v in merged:  # drop near-duplicates of listed speeds
+        if not out or v - out[-1] > 1e-6:
+            out.append(v)
+    study["speeds_kmh"] = out
 
 
 def _validate(data, path: Path | None, base: Path, source: str) -> Config:
@@ -2024,6 +2061,8 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
 
         raise ConfigError(sorted(chk.errors, key=rank), source=source)
 
+    if study.get("refine_resonance"):
+        _refine_resonance(study, bridge, train)
     _physics_warnings(chk, bridge, train, irr, solver, study, contact)
     _plausibility(chk, bridge, train, irr, solver, study, contact)
     if chk.errors:  # checks of the whole model (time step, budget, plausibility)

@@ -8,7 +8,9 @@ the study.  The layout (names, dims, attributes, encodings) is the one
 
 * dims ``speed``, ``train``, ``irregularity`` (the study axes), ``point``, ``wheel``,
   ``vehicle``, ``mode`` and, when some run keeps them, ``time``;
-* envelopes (float64) and ``status`` / ``max_iterations`` (int32) on the study axes;
+* envelopes (float64) and ``status`` / ``max_iterations`` (int32) on the study axes
+  (envelopes with one more dim ``point``, ``wheel`` or ``vehicle``, or none: the
+  whole-deck acceleration envelope is one value per case);
 * time histories as float32, zlib level 4 with shuffle, one chunk per run (at most 4096
   steps long); ``in_contact`` as float32 (1, 0, NaN where the train has no such wheel or
   the run no such step); ``contact_force`` and ``in_contact`` are NaN for moving forces
@@ -180,6 +182,9 @@ class StudyFile:
         if list(batch.speeds) != list(range(s0, s1)):
             raise ValueError(f"batch {batch.key}: speeds are not contiguous")
         for name, (dims, *_rest) in ENVELOPES.items():
+            if not dims:  # one value per case
+                self.vars[name][s0:s1, i_t, i_i] = np.asarray(data[name], float)
+                continue
             width = {"point": self.sizes["point"], "wheel": n_wheel,
                      "vehicle": n_vehicle}[dims[0]]
             self.vars[name][s0:s1, i_t, i_i, :width] = data[name][:, :width]

@@ -447,9 +447,15 @@ def deck_acceleration_check(
     Parameters
     ----------
     ds : xarray.Dataset
-        Results with ``max_deck_acceleration(speed, train, irregularity, point)`` (m s-2).
-        The solver band-limits it to the modes up to the cut-off
-        ``max(30 Hz, 1.5 f1, f3)`` (:func:`frequency_cutoff`), as the clause requires.
+        Results with ``max_deck_acceleration(speed, train, irregularity, point)`` (m s-2)
+        and, from the solver, the whole-deck envelope
+        ``max_deck_acceleration_whole_deck(speed, train, irregularity)`` with its
+        ``position_of_max_deck_acceleration_whole_deck`` (m): the maximum over a grid
+        along every span plus the output points, so the check does not depend on where
+        the output points are.  Files without it are checked at the output points only
+        (attribute ``whole_deck`` = 0).  The solver band-limits both to the modes up to
+        the cut-off ``max(30 Hz, 1.5 f1, f3)`` (:func:`frequency_cutoff`), as the clause
+        requires.
     limit : float, optional
         Limit (m s-2). Default from the ``track_type`` attribute: 3.5 ballasted, 5.0
         direct fastening (:data:`DECK_ACCELERATION_LIMITS`; 5.0 is [R]); a file that does
@@ -463,12 +469,17 @@ def deck_acceleration_check(
     Returns
     -------
     xarray.Dataset
-        ``value(speed, train)``: max over points of the peak acceleration, design value
-        over realisations (:func:`design_value`); ``point_of_max(speed, train)``;
-        ``margin``, ``utilisation``, ``passed``; the realisation statistics; summary attrs
-        (module docstring) plus ``track_type``, ``frequency_cutoff`` (Hz, NaN without
-        ``frequency``), ``highest_frequency`` (highest mode in the model) and
-        ``governing_point`` (m).
+        ``value(speed, train)``: max over the deck (whole-deck envelope and output
+        points) of the peak acceleration, design value over realisations
+        (:func:`design_value`); ``point_of_max(speed, train)`` (m: the deck abscissa of
+        the peak, grid point or output point); ``margin``, ``utilisation``, ``passed``;
+        the realisation statistics; summary attrs (module docstring) plus
+        ``track_type``, ``frequency_cutoff`` (Hz, NaN without ``frequency``),
+        ``highest_frequency`` (highest mode in the model), ``governing_point`` (m, the x
+        of the governing peak), ``governing_output_point`` (m, the output point with the
+        largest peak in the governing case: where the histories are),
+        ``value_at_output_points`` (m s-2, the max over the output points in the
+        governing case) and ``whole_deck`` (1 if the whole-deck envelope was used).
 
     Raises
     ------
@@ -487,13 +498,29 @@ def deck_acceleration_check(
         limit = DECK_ACCELERATION_LIMITS[track]
     limit = float(limit)
     acc = ds["max_deck_acceleration"]
-    peak = nanmax(acc, "point").assign_attrs(units="m s-2")
+    at_points = nanmax(acc, "point")
+    whole = ("max_deck_acceleration_whole_deck" in ds
+             and bool(ds["max_deck_acceleration_whole_deck"].notnull().any()))
+    peak = at_points
+    if whole:
+        peak = np.fmax(at_points, ds["max_deck_acceleration_whole_deck"])
+    peak = peak.assign_attrs(units="m s-2")
     out = design_value(peak, q=q, limit=limit, n_boot=n_boot, seed=seed)
     out["value"].attrs.update(units="m s-2",
                               long_name="peak vertical deck acceleration (design value)")
     worst = nanmax(acc, "irregularity")
-    out["point_of_max"] = worst.fillna(-np.inf).idxmax("point").where(worst.notnull().any(
-        "point")).assign_attrs(units="m", long_name="deck point of the peak acceleration")
+    out_point = worst.fillna(-np.inf).idxmax("point").where(worst.notnull().any("point"))
+    point_of_max = out_point
+    if whole:
+        wd = ds["max_deck_acceleration_whole_deck"]
+        i_wd = wd.fillna(-np.inf).argmax("irregularity")
+        wd_worst = wd.isel(irregularity=i_wd)
+        wd_x = ds["position_of_max_deck_acceleration_whole_deck"].isel(irregularity=i_wd)
+        better = wd_worst.fillna(-np.inf) >= nanmax(worst, "point").fillna(-np.inf)
+        point_of_max = xr.where(better & wd_worst.notnull(), wd_x, out_point)
+        point_of_max = point_of_max.drop_vars("irregularity", errors="ignore")
+    out["point_of_max"] = point_of_max.assign_attrs(
+        units="m", long_name="deck abscissa of the peak acceleration")
     f = bridge_frequencies(ds)
     extra = {
         "track_type": track,
@@ -501,15 +528,21 @@ def deck_acceleration_check(
         "frequency_cutoff": frequency_cutoff(f) if f.size else np.nan,
         "highest_frequency": float(f[-1]) if f.size else np.nan,
         "basis": out.attrs["basis"],
+        "whole_deck": int(whole),
     }
     out = _summarise(out, "Peak deck acceleration", DECK_ACCELERATION_CLAUSE, "m s-2", limit,
                      extra=extra)
     if out.attrs["governing_train"]:
         t, v = out.attrs["governing_train"], out.attrs["governing_speed"]
         out.attrs["governing_point"] = float(out["point_of_max"].sel(train=t, speed=v))
+        out.attrs["governing_output_point"] = float(out_point.sel(train=t, speed=v))
+        out.attrs["value_at_output_points"] = float(nanmax(worst.sel(train=t, speed=v),
+                                                           "point"))
         out.attrs["governing_irregularity"] = _case_realisation(peak, t, v)
     else:
         out.attrs["governing_point"] = np.nan
+        out.attrs["governing_output_point"] = np.nan
+        out.attrs["value_at_output_points"] = np.nan
     return out
 
 
@@ -830,8 +863,10 @@ def comfort(
         ``level(speed, train)`` (str: the best level attained, or "not acceptable");
         ``margin``/``utilisation``/``passed`` against the required level; statistics;
         summary attrs plus ``required_level`` and ``level`` (attained in the governing
-        case). All NaN (result "n/a", attribute ``note``) for a moving-force model (no
-        car bodies).
+        case), and, when the results have ``position_of_max_carbody_acceleration``,
+        ``governing_vehicle`` (name) and ``governing_position`` (m ahead of that body's
+        centre of gravity: the comfort point of the governing peak). All NaN (result
+        "n/a", attribute ``note``) for a moving-force model (no car bodies).
     """
     ds = prepare(ds)
     require(ds, ["max_carbody_acceleration"], "the comfort check")
@@ -846,6 +881,18 @@ def comfort(
     out = _summarise(out, "Car-body acceleration (comfort)", COMFORT_CLAUSE, "m s-2", limit,
                      extra={"required_level": required, "basis": out.attrs["basis"]})
     out.attrs["level"] = comfort_level(out.attrs["value"])
+    if out.attrs["governing_train"] and "position_of_max_carbody_acceleration" in ds:
+        t, v = out.attrs["governing_train"], out.attrs["governing_speed"]
+        irr = _case_realisation(bv, t, v)
+        case = ds["max_carbody_acceleration"].sel(train=t, speed=v, irregularity=irr)
+        if bool(case.notnull().any()):
+            k = int(case.fillna(-np.inf).argmax("vehicle"))
+            pos = ds["position_of_max_carbody_acceleration"].sel(train=t, speed=v,
+                                                                 irregularity=irr)
+            out.attrs["governing_position"] = float(pos.isel(vehicle=k))
+            name = (ds["vehicle_name"].sel(train=t).isel(vehicle=k).values
+                    if "vehicle_name" in ds and "train" in ds["vehicle_name"].dims else k)
+            out.attrs["governing_vehicle"] = str(name)
     if ds.sizes.get("vehicle", 0) == 0 or not bool(out["value"].notnull().any()):
         out.attrs["note"] = "no car-body accelerations in the results (moving-force model)"
     return out

@@ -239,12 +239,22 @@ def _summary(results: dict, table: pd.DataFrame, pts: np.ndarray) -> list[str]:
     if not isinstance(acc, str) and acc is not None:
         a = acc.attrs
         shown = ", ".join(f"{x:g}" for x in pts[:8]) + (" …" if pts.size > 8 else "")
-        out.append(f"- Deck acceleration: max over the {pts.size} output point"
-                   f"{'s' if pts.size != 1 else ''} (x = {shown} m); governing point "
-                   f"x = {a['governing_point']:g} m. Over realisations: {a['basis']}."
-                   + (" Track type not stated in the file: ballasted (3.5 m/s²) assumed."
-                      if a.get("track_type_assumed") else ""))
-        if pts.size < 3:
+        assumed = (" Track type not stated in the file: ballasted (3.5 m/s²) assumed."
+                   if a.get("track_type_assumed") else "")
+        if a.get("whole_deck"):
+            out.append(f"- Deck acceleration: max over the whole deck (a grid along every "
+                       f"span plus the {pts.size} output point{'s' if pts.size != 1 else ''}"
+                       f", x = {shown} m); governing x = {a['governing_point']:g} m "
+                       f"(max at the output points in that case: "
+                       f"{_fmt(a.get('value_at_output_points', np.nan))} m/s², at x = "
+                       f"{_fmt(a.get('governing_output_point', np.nan))} m). Over "
+                       f"realisations: {a['basis']}.{assumed}")
+        else:
+            out.append(f"- Deck acceleration: max over the {pts.size} output point"
+                       f"{'s' if pts.size != 1 else ''} (x = {shown} m); governing point "
+                       f"x = {a['governing_point']:g} m. Over realisations: {a['basis']}."
+                       + assumed)
+        if pts.size < 3 and not a.get("whole_deck"):
             out.append("  **Few output points:** peaks of the higher modes (within the "
                        "cut-off) may lie between them; add output points along the deck "
                        "(e.g. every L/8) for the acceleration check.")
@@ -269,8 +279,17 @@ def _summary(results: dict, table: pd.DataFrame, pts: np.ndarray) -> list[str]:
         out.append(f"- Comfort: not applicable, {cf.attrs['note']}.")
     elif not isinstance(cf, str) and cf is not None:
         a = cf.attrs
-        out.append(f"- Comfort: required level **{a['required_level']}**; level reached in "
-                   f"the governing case: {a['level']}.")
+        where = ""
+        if "governing_position" in a:
+            d = float(a["governing_position"])
+            side = ("at the centre of gravity" if abs(d) < 1e-9 else
+                    f"{abs(d):g} m {'ahead of' if d > 0 else 'behind'} the centre of gravity"
+                    " (over a suspension pivot)")
+            where = f" The peak is in vehicle {a.get('governing_vehicle', '')}, {side}."
+        out.append(f"- Comfort: car-body acceleration at the centre of gravity and over each "
+                   f"bogie pivot (the largest inside the coach between the pivots); required "
+                   f"level **{a['required_level']}**; level reached in the governing case: "
+                   f"{a['level']}.{where}")
     out.append("- Limits and clauses tagged [R] are recalled from the standard, not re-read: "
                "check them against the primary text before relying on them.")
     missing = [f"- {name.replace('_', ' ')}: {why}" for name, why in results.items()
@@ -579,7 +598,9 @@ def _deck_history(ds, results, hist: _Histories, applicable):
     if acc is None or isinstance(acc, str) or not acc.attrs.get("governing_train"):
         return None, ""
     a = acc.attrs
-    train, speed, point = a["governing_train"], a["governing_speed"], a["governing_point"]
+    train, speed = a["governing_train"], a["governing_speed"]
+    # histories are stored at the output points only: show the one with the largest peak
+    point = a.get("governing_output_point", a["governing_point"])
     irr = a.get("governing_irregularity", DETERMINISTIC)
     wheel = None
     if (applicable is not None and bool(applicable.sel(train=train))

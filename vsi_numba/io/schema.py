@@ -1,7 +1,8 @@
 """Output variables, declared once: name -> (dims, units, long_name, extra attrs).
 
 Single runs carry the time histories on dims (time, point | wheel | vehicle) and the
-envelopes without ``time``.  Studies add the leading dims ``speed``, ``train`` and
+envelopes without ``time`` (on point | wheel | vehicle, or none: the whole-deck
+envelopes are one value per case).  Studies add the leading dims ``speed``, ``train`` and
 ``irregularity`` to every variable (see ``vsi_numba.study``).
 
 Signs: deck displacement/acceleration and vehicle accelerations are positive DOWN;
@@ -55,7 +56,15 @@ ENVELOPES = {
         {"cell_methods": "time: maximum"},
     ),
     "max_carbody_acceleration": (
-        ("vehicle",), "m s-2", "maximum absolute vertical car-body acceleration",
+        ("vehicle",), "m s-2",
+        "maximum absolute vertical car-body acceleration over the comfort points (centre "
+        "of gravity and over each suspension pivot)",
+        {"cell_methods": "time: maximum"},
+    ),
+    "max_deck_acceleration_whole_deck": (
+        (), "m s-2",
+        "maximum absolute vertical deck acceleration over the whole deck (grid of every "
+        "span plus the output points), modes up to the EN 1990 A2 cut-off",
         {"cell_methods": "time: maximum"},
     ),
     "contact_loss_duration": (
@@ -85,6 +94,18 @@ ENVELOPES = {
     ),
     "time_of_max_carbody_acceleration": (
         ("vehicle",), "s", "time of the maximum absolute car-body acceleration", {},
+    ),
+    "position_of_max_carbody_acceleration": (
+        ("vehicle",), "m",
+        "comfort point of the maximum car-body acceleration: distance ahead of the body's "
+        "centre of gravity (positive towards the front, 0 = centre)", {},
+    ),
+    "time_of_max_deck_acceleration_whole_deck": (
+        (), "s", "time of the maximum absolute deck acceleration over the whole deck", {},
+    ),
+    "position_of_max_deck_acceleration_whole_deck": (
+        (), "m", "deck abscissa of the maximum absolute deck acceleration over the whole "
+        "deck (distance from the left end of the bridge)", {},
     ),
 }
 

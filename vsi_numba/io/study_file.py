@@ -8,7 +8,9 @@ the study.  The layout (names, dims, attributes, encodings) is the one
 
 * dims ``speed``, ``train``, ``irregularity`` (the study axes), ``point``, ``wheel``,
   ``vehicle``, ``mode`` and, when some run keeps them, ``time``;
-* envelopes (float64) and ``status`` / ``max_iterations`` (int32) on the study axes;
+* envelopes (float64) and ``status`` / ``max_iterations`` (int32) on the study axes
+  (envelopes with one more dim ``point``, ``wheel`` or ``vehicle``, or none: the
+  whole-deck acceleration envelope is one value per case);
 * time histories as float32, zlib level 4 with shuffle, one chunk per run (at most 4096
   steps long); ``in_contact`` as float32 (1, 0, NaN where the train has no such wheel or
   the run no such step); ``contact_force`` and ``in_contact`` are NaN for moving forces
@@ -259,6 +261,9 @@ class StudyFile:
         v = (batch.variant,) if self.lead else ()
         n_p = self.n_points[batch.variant or 0]
         for name, (dims, *_rest) in ENVELOPES.items():
+            if not dims:  # one value per case
+                self.vars[name][(*v, slice(s0, s1), i_t, i_i)] = np.asarray(data[name], float)
+                continue
             width = {"point": n_p, "wheel": n_wheel, "vehicle": n_vehicle}[dims[0]]
             self.vars[name][(*v, slice(s0, s1), i_t, i_i, slice(0, width))] = \
                 data[name][:, :width]

@@ -62,9 +62,16 @@ class VehicleArrays(NamedTuple):
     wheel_x0: np.ndarray  # (n_w,) wheel abscissa at t = 0, m
     wheel_massless: np.ndarray  # (n_w,) 1 if the wheel DOF has no mass
     wheel_compliance: np.ndarray  # (n_w,) m/N, linearised Hertz spring 1/k_H (model 2)
-    body_dof: np.ndarray  # (n_veh,) global DOF of the car body (-1: none)
+    body_dof: np.ndarray  # (n_b,) global DOF of each reported car body's bounce (-1: none)
     load_x0: np.ndarray  # (n_l,) point-load abscissa at t = 0, m
     load_p: np.ndarray  # (n_l,) N
+    # comfort points of the car bodies (CSR): body b has the points
+    # body_pt_start[b] .. body_pt_start[b + 1] - 1, each at body_pt_d (m ahead of the centre
+    # of gravity) with acceleration udd[body_dof[b]] + body_pt_d * udd[body_pt_pitch]
+    # (pitch positive nose down; body_pt_pitch = -1: bounce only)
+    body_pt_start: np.ndarray = np.zeros(1, np.int64)  # (n_b + 1,)
+    body_pt_pitch: np.ndarray = np.zeros(0, np.int64)  # (n_pt,) global pitch DOF or -1
+    body_pt_d: np.ndarray = np.zeros(0)  # (n_pt,) m ahead of the centre of gravity
 
 
 class ProfileArrays(NamedTuple):
@@ -149,6 +156,8 @@ class Output(NamedTuple):
     contact: np.ndarray  # (n_slots, n_steps + 1, n_w) int8
     body_acc: np.ndarray  # (n_slots, n_steps + 1, n_veh)
     iters: np.ndarray  # (n_slots, n_steps + 1) int16
+    # pitch acceleration of each reported body (0 without a pitch DOF), rad/s2
+    body_pitch: np.ndarray = np.zeros((0, 0, 0))  # (n_slots, n_steps + 1, n_veh)
 
 
 class Reduce(NamedTuple):
@@ -156,7 +165,12 @@ class Reduce(NamedTuple):
 
     Deck quantities at ``n_p`` points: w = phi_d q (displacement), a = phi_a qdd
     (acceleration; ``phi_a`` has zero columns for the modes above the EN 1990 cut-off).
-    Extremes keep the first step that reaches them (strict comparisons).
+    The whole-deck acceleration is a = phi_g^T qdd[:n_ka] on a grid of ``n_g`` points
+    (``phi_g`` holds the first ``n_ka`` modes, transposed, band-limited like ``phi_a``),
+    reduced to one maximum per run.  Car bodies: the largest |acceleration| over the
+    comfort points of each body (``VehicleArrays.body_pt_*``).
+    Extremes keep the first step (and the first point) that reaches them (strict
+    comparisons).
     """
 
     phi_d: np.ndarray  # (n_p, n_m)
@@ -170,12 +184,20 @@ class Reduce(NamedTuple):
     xmax: np.ndarray  # (n_runs, n_w) N
     body: np.ndarray  # (n_runs, n_veh) max |body acceleration|
     body_t: np.ndarray  # (n_runs, n_veh) s
+    body_x: np.ndarray  # (n_runs, n_veh) comfort point of the maximum, m ahead of the CG
     lost: np.ndarray  # (n_runs, n_w) int64: steps separated (total)
     longest: np.ndarray  # (n_runs, n_w) int64: steps of the longest single separation
     events: np.ndarray  # (n_runs, n_w) int64: separation events
     single: np.ndarray  # (n_runs, n_w) int64: separation events one step long
     run_len: np.ndarray  # (n_w,) int64 scratch: length of the current separation
     iters: np.ndarray  # (n_runs,) int64: most contact iterations in one step
+    phi_g: np.ndarray  # (n_ka, n_g) band-limited mode shapes on the deck grid, transposed
+    phi_gmax: np.ndarray  # (n_ka,) max_p |phi_g[j, p]| (1 + 1e-12): a step whose bound
+    #                       sum_j phi_gmax_j |qdd_j| <= the envelope cannot raise it
+    gacc: np.ndarray  # (n_runs,) max over the grid and time of |a|, m/s2
+    gacc_t: np.ndarray  # (n_runs,) s
+    gacc_i: np.ndarray  # (n_runs,) int64: grid point of the maximum
+    gwork: np.ndarray  # (n_g,) scratch: accelerations on the grid
 
 
 class Initial(NamedTuple):
@@ -850,12 +872,35 @@ def record(veh, st, wk, red, r, n, t, speed, out, h, iters):
                 red.longest[r, i] = red.run_len[i]
         elif red.run_len[i] > 0:
             close_separation(red, r, i)
+    n_g = red.gwork.shape[0]
+    bound = 0.0
+    for j in range(red.phi_g.shape[0]):
+        bound += red.phi_gmax[j] * abs(st.qdd[j])
+    if n_g > 0 and (n == 0 or bound > red.gacc[r]):
+        g = red.gwork
+        for p in range(n_g):
+            g[p] = 0.0
+        for j in range(red.phi_g.shape[0]):
+            aj = st.qdd[j]
+            for p in range(n_g):
+                g[p] += red.phi_g[j, p] * aj
+        for p in range(n_g):
+            a = abs(g[p])
+            if (n == 0 and p == 0) or a > red.gacc[r]:
+                red.gacc[r] = a
+                red.gacc_t[r] = t
+                red.gacc_i[r] = p
     for b in range(veh.body_dof.shape[0]):
         d = veh.body_dof[b]
-        a = abs(st.udd[d]) if d >= 0 else 0.0
-        if n == 0 or a > red.body[r, b]:
-            red.body[r, b] = a
-            red.body_t[r, b] = t
+        a0 = st.udd[d] if d >= 0 else 0.0
+        k0 = veh.body_pt_start[b]
+        for k in range(k0, veh.body_pt_start[b + 1]):
+            th = veh.body_pt_pitch[k]
+            a = abs(a0 + veh.body_pt_d[k] * st.udd[th]) if th >= 0 else abs(a0)
+            if (n == 0 and k == k0) or a > red.body[r, b]:
+                red.body[r, b] = a
+                red.body_t[r, b] = t
+                red.body_x[r, b] = veh.body_pt_d[k]
     if iters > red.iters[r]:
         red.iters[r] = iters
     if h >= 0:
@@ -868,6 +913,11 @@ def record(veh, st, wk, red, r, n, t, speed, out, h, iters):
         for b in range(veh.body_dof.shape[0]):
             d = veh.body_dof[b]
             out.body_acc[h, n, b] = st.udd[d] if d >= 0 else 0.0
+            pa = 0.0
+            for k in range(veh.body_pt_start[b], veh.body_pt_start[b + 1]):
+                if veh.body_pt_pitch[k] >= 0:
+                    pa = st.udd[veh.body_pt_pitch[k]]
+            out.body_pitch[h, n, b] = pa
         out.iters[h, n] = iters
 
 
@@ -1042,6 +1092,14 @@ def mf_time_loop(br, veh, prm, st, wk, red, r, out, h, on, off, cs, sums):
     load_x0 = veh.load_x0
     load_p = veh.load_p
     n_p = phi_d.shape[0]
+    phi_g = red.phi_g
+    phi_gmax = red.phi_gmax
+    n_ka = phi_g.shape[0]
+    gw = red.gwork
+    n_g = gw.shape[0]
+    gacc = red.gacc
+    gacc_t = red.gacc_t
+    gacc_i = red.gacc_i
     hq = out.q
     hqdd = out.qdd
     hit = out.iters
@@ -1107,6 +1165,31 @@ def mf_time_loop(br, veh, prm, st, wk, red, r, out, h, on, off, cs, sums):
             if a > acc_env[r, p]:
                 acc_env[r, p] = a
                 acc_t[r, p] = t
+        # whole-deck grid, only when the bound sum_j max|phi_j| |qdd_j| could raise the
+        # envelope (exact: the skipped steps cannot); mode-outer sums, then the maximum
+        bound = 0.0
+        for j in range(n_ka):
+            bound += phi_gmax[j] * abs(qdd[j])
+        if n_g > 0 and bound > gacc[r]:
+            aj = qdd[0]
+            for p in range(n_g):
+                gw[p] = phi_g[0, p] * aj
+            for j in range(1, n_ka):
+                aj = qdd[j]
+                for p in range(n_g):
+                    gw[p] += phi_g[j, p] * aj
+            m = 0.0
+            for p in range(n_g):
+                a = abs(gw[p])
+                if a > m:
+                    m = a
+            if m > gacc[r]:
+                for p in range(n_g):
+                    if abs(gw[p]) == m:
+                        gacc[r] = m
+                        gacc_t[r] = t
+                        gacc_i[r] = p
+                        break
         if h >= 0:
             for j in range(n_m):
                 hq[h, n + 1, j] = q[j]

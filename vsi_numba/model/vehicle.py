@@ -50,6 +50,14 @@ class Vehicle:
         and magnitude (N, positive down).
     dof_names : tuple of str
         One label per DOF.
+    comfort_points : tuple
+        Where passenger comfort is evaluated on each reported car body (``body_dofs``
+        order): per body a tuple of ``(pitch_dof, d)`` pairs, the point ``d`` metres ahead
+        of the body's centre of gravity with vertical acceleration
+        ``u''[body] + d * u''[pitch_dof]`` (pitch positive nose down; ``pitch_dof = -1``:
+        bounce only).  Empty (the default, e.g. a sprung mass or a user vehicle): the
+        centre of gravity only.  :class:`MultibodyBuilder` puts them at the centre and over
+        every pivot of the body's suspension (see :meth:`MultibodyBuilder.build`).
     """
 
     name: str
@@ -65,6 +73,7 @@ class Vehicle:
     loads: np.ndarray = field(default_factory=lambda: np.zeros(0))
     dof_names: tuple[str, ...] = ()
     status: str = ""
+    comfort_points: tuple = ()
 
     def __post_init__(self):
         n = np.asarray(self.M).shape[0] if np.asarray(self.M).size else 0
@@ -92,6 +101,20 @@ class Vehicle:
             raise ValueError(f"vehicle {self.name!r}: negative mass on the diagonal of M")
         if not self.dof_names:
             object.__setattr__(self, "dof_names", tuple(f"dof{i}" for i in range(n)))
+        if self.comfort_points and len(self.comfort_points) != len(self.body_dofs):
+            raise ValueError(f"vehicle {self.name!r}: one tuple of comfort points per car "
+                             "body is needed")
+        for pts in self.comfort_points:
+            for th, d in pts:
+                if not -1 <= int(th) < n or not np.isfinite(d):
+                    raise ValueError(f"vehicle {self.name!r}: bad comfort point ({th}, {d})")
+
+    def body_comfort_points(self, k: int) -> tuple[tuple[int, float], ...]:
+        """Comfort points ``(pitch_dof, d)`` of reported body ``k`` (default: its centre
+        of gravity, ``((-1, 0.0),)``)."""
+        if self.comfort_points and self.comfort_points[k]:
+            return tuple((int(th), float(d)) for th, d in self.comfort_points[k])
+        return ((-1, 0.0),)
 
     @property
     def body_dofs(self) -> tuple[int, ...]:
@@ -191,8 +214,27 @@ class MultibodyBuilder:
                 raise ValueError(f"connect: unknown body {body!r}")
         self._springs.append(((upper, lower, float(position)), float(stiffness), float(damping)))
 
+    def _comfort_points(self, body: str) -> tuple[tuple[int, float], ...]:
+        """Centre, then every point where a spring-dashpot attaches to ``body`` (its
+        pivots), front to back, as ``(pitch_dof, metres ahead of the CG)``."""
+        _, th, pcg = self._bodies[body]
+        if th < 0:
+            return ((-1, 0.0),)
+        pivots = sorted({round(pos, 9) for (up, low, pos), _k, _c in self._springs
+                         if body in (up, low)})
+        return ((th, 0.0), *((th, pcg - p) for p in pivots if abs(pcg - p) > 1e-9))
+
     def build(self, body: str | list[str] | None = None, status: str = "") -> Vehicle:
-        """The assembled vehicle; ``body`` names the car body (or bodies) to report."""
+        """The assembled vehicle; ``body`` names the car body (or bodies) to report.
+
+        Comfort (EN 1990 A2.4.4.3: the vertical acceleration *inside* the coach) is
+        evaluated at each reported body's centre of gravity and over every pivot of its
+        suspension (the secondary suspension over the bogie centres of a railway car).
+        The acceleration of a rigid body, bounce plus pitch, is linear in the position
+        along it, so the largest over the length between the pivots is at one of them; the
+        car ends beyond the pivots are not in the vehicle data, so they are not
+        evaluated (they would extrapolate the pitch further).
+        """
         n = len(self._masses)
         M = np.diag(self._masses)
         K = np.zeros((n, n))
@@ -217,6 +259,7 @@ class MultibodyBuilder:
             extra_body_dofs=tuple(self._bodies[b][0] for b in bodies[1:]),
             dof_names=tuple(self._names),
             status=status,
+            comfort_points=tuple(self._comfort_points(b) for b in bodies),
         )
 
 

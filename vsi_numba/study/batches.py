@@ -89,7 +89,7 @@ def history_bytes(packed, n_steps: int) -> int:
     n_m = packed.bridge.omega.size
     n_w = packed.vehicles.wheel_dof.size
     n_b = packed.vehicles.body_dof.size
-    return (n_steps + 1) * (8 * (2 * n_m + n_w + n_b) + n_w + 2)
+    return (n_steps + 1) * (8 * (2 * n_m + n_w + 2 * n_b) + n_w + 2)
 
 
 def plan_batches(grid, packed_trains, n_points: int,

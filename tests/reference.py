@@ -1034,3 +1034,226 @@ def free_vibration_fit(t, y, freqs) -> float:
     A = np.column_stack(cols)
     coef, *_ = np.linalg.lstsq(A, y, rcond=None)
     return float(np.linalg.norm(y - A @ coef) / np.linalg.norm(y - y.mean()))
+
+
+# =============================================================================
+# Quarter car behind moving forces on a flexible SS beam, unilateral contact
+# (event-driven, plastic impacts)
+# =============================================================================
+
+
+@dataclass
+class FlexibleEventDriven:
+    """Event-driven quarter car on a simply supported beam (flat rail), led by moving
+    forces, with unilateral contact and plastic impacts.  See
+    :func:`quarter_car_flexible_event_driven`."""
+
+    body_mass: float
+    stiffness: float
+    damping: float
+    wheel_mass: float
+    L: float
+    EI: float
+    m: float
+    zeta: float
+    n_modes: int
+    speed: float
+    x_start: float
+    force_x_start: np.ndarray
+    force_p: np.ndarray
+    events: list[ContactEvent] = field(default_factory=list)
+    pieces: _Piecewise = field(default_factory=_Piecewise)
+
+    def __post_init__(self):
+        self.omega = ss_omega(self.L, self.EI, self.m, self.n_modes)
+        self._k = np.pi * np.arange(1, self.n_modes + 1) / self.L
+        self._amp = np.sqrt(2.0 / (self.m * self.L))
+
+    def shapes(self, x, side=0.0):
+        """phi, phi' at x (zero off the span; ``side`` = +-1 picks the limit at an end)."""
+        xe = x + side * 1e-12
+        if 0.0 <= xe <= self.L:
+            return self._amp * np.sin(self._k * x), self._amp * self._k * np.cos(self._k * x)
+        z = np.zeros(self.n_modes)
+        return z, z
+
+    def _load(self, t):
+        f = np.zeros(self.n_modes)
+        for x0, p in zip(self.force_x_start, self.force_p, strict=True):
+            x = x0 + self.speed * t
+            if 0.0 <= x <= self.L:
+                f += p * self._amp * np.sin(self._k * x)
+        return f
+
+    def _beam_free(self, t, q, qd):
+        return -2 * self.zeta * self.omega * qd - self.omega**2 * q + self._load(t)
+
+    def _contact(self, t, s):
+        """Contact phase, s = [z, z', q, q']: (derivative, contact force P)."""
+        n, v, mw = self.n_modes, self.speed, self.wheel_mass
+        q, qd = s[2:2 + n], s[2 + n:]
+        phi, dphi = self.shapes(self.x_start + v * t)
+        y = phi @ q
+        yd = phi @ qd + v * (dphi @ q)
+        conv = 2 * v * (dphi @ qd) - v * v * ((self._k**2 * phi) @ q)
+        fs = self.stiffness * (s[0] - y) + self.damping * (s[1] - yd)
+        rhs = self._beam_free(t, q, qd) + phi * (mw * GRAVITY + fs - mw * conv)
+        qdd = rhs - phi * (mw * (phi @ rhs)) / (1.0 + mw * (phi @ phi))
+        P = mw * GRAVITY + fs - mw * (phi @ qdd + conv)
+        out = np.concatenate([[s[1], GRAVITY - fs / self.body_mass], qd, qdd])
+        return out, P
+
+    def _flight(self, t, s):
+        """Flight phase, s = [z, z', y, y', q, q']."""
+        n = self.n_modes
+        q, qd = s[4:4 + n], s[4 + n:]
+        fs = self.stiffness * (s[0] - s[2]) + self.damping * (s[1] - s[3])
+        return np.concatenate([[s[1], GRAVITY - fs / self.body_mass, s[3],
+                                GRAVITY + fs / self.wheel_mass], qd,
+                               self._beam_free(t, q, qd)])
+
+    def _rail(self, t, q, qd, side=0.0):
+        phi, dphi = self.shapes(self.x_start + self.speed * t, side)
+        return phi @ q, phi @ qd + self.speed * (dphi @ q), phi
+
+    def evaluate(self, t) -> dict[str, np.ndarray]:
+        """in_contact (0/1), contact_force, wheel_displacement at times ``t``."""
+        t = np.atleast_1d(np.asarray(t, float))
+        out = {k: np.zeros(t.size) for k in ("in_contact", "contact_force",
+                                              "wheel_displacement")}
+        n = self.n_modes
+        for i, ti in enumerate(t):
+            j = self.pieces.index(ti)
+            s = self.pieces.sols[j](ti)
+            if self.pieces.tags[j] == "contact":
+                out["in_contact"][i] = 1.0
+                out["contact_force"][i] = self._contact(ti, s)[1]
+                out["wheel_displacement"][i] = self._rail(ti, s[2:2 + n], s[2 + n:])[0]
+            else:
+                out["wheel_displacement"][i] = s[2]
+        return out
+
+    def losses(self) -> list[tuple[float, float]]:
+        """(detachment time, reattachment time) of every loss of contact (s)."""
+        out, t0 = [], None
+        for e in self.events:
+            if e.kind == "detach":
+                t0 = e.t
+            elif t0 is not None:
+                out.append((t0, e.t))
+                t0 = None
+        return out
+
+
+def quarter_car_flexible_event_driven(
+    body_mass, stiffness, damping, wheel_mass, L, EI, m, speed, n_modes, t_end,
+    x_start, force_x_start=(), force_p=(), zeta=0.0, rtol=1e-10, atol=1e-13,
+    max_events=100,
+) -> FlexibleEventDriven:
+    """Quarter car (wheel mass > 0) crossing a simply supported beam behind moving forces,
+    with unilateral contact and plastic impacts, event by event.
+
+    Notes
+    -----
+    * Contact phase: the wheel follows the rail ``y = phi(x) q`` (flat rail), equations
+      of :class:`BeamCrossing` plus the modal load of the forces; lift-off when the
+      contact force P crosses zero downwards.
+    * Flight phase: wheel ``m_w y'' = m_w g + F_s``, beam loaded by the forces only;
+      landing when the gap ``phi q - y`` returns to zero.
+    * Landing: plastic impact of the wheel on the beam modes (unit modal masses),
+      impulse ``P = (y'- - rail'-) / (1/m_w + phi.phi) >= 0``, ``y' -= P/m_w``,
+      ``q' += phi P``.
+    * Crossing an end of the span in contact: the rail velocity jumps (from 0 to
+      ``v phi'(0) q`` at the entry, from ``v phi'(L) q`` to 0 at the exit).  The impulse
+      that would keep the wheel on the rail is ``m_w (y'- - rail'+)`` (phi = 0 at the
+      supports); if it is tensile the wheel leaves the rail with its velocity
+      (unilateral impact: it can only push), else it is applied (plastic).
+    """
+    if wheel_mass <= 0:
+        raise ValueError("the event-driven reference needs a wheel mass > 0")
+    sol = FlexibleEventDriven(body_mass, stiffness, damping, wheel_mass, L, EI, m, zeta,
+                              n_modes, speed, x_start, np.asarray(force_x_start, float),
+                              np.asarray(force_p, float))
+    n = n_modes
+    marks = [0.0, L]
+    ts = {(xm - x_start) / speed for xm in marks}
+    for x0 in sol.force_x_start:
+        ts |= {(xm - x0) / speed for xm in marks}
+    breaks = [tb for tb in sorted(ts) if 0.0 < tb < t_end] + [t_end]
+    wheel_breaks = {(xm - x_start) / speed for xm in marks}
+    state = np.zeros(2 + 2 * n)
+    state[0] = body_mass * GRAVITY / stiffness
+    phase, t, n_ev = "contact", 0.0, 0
+
+    def lift(tt, s):
+        return sol._contact(tt, s)[1]
+
+    lift.terminal, lift.direction = True, -1
+
+    def land(tt, s):
+        return sol._rail(tt, s[4:4 + n], s[4 + n:])[0] - s[2]
+
+    land.terminal, land.direction = True, -1
+
+    def to_flight(tt, s):
+        y, yd, _ = sol._rail(tt, s[2:2 + n], s[2 + n:], -1.0)
+        return np.concatenate([s[:2], [y, yd], s[2:]])
+
+    while t < t_end - 1e-15:
+        tb = next(b for b in breaks if b > t + 1e-15)
+        if phase == "contact":
+            if lift(t, state) < 0.0:
+                sol.events.append(ContactEvent("detach", t, x_start + speed * t))
+                n_ev += 1
+                state, phase = to_flight(t, state), "flight"
+                continue
+            r = scipy.integrate.solve_ivp(lambda tt, s: sol._contact(tt, s)[0], (t, tb),
+                                          state, method="DOP853", rtol=rtol, atol=atol,
+                                          dense_output=True, events=lift)
+            sol.pieces.add(t, r.t[-1], r.sol, "contact")
+            if r.status == 1:
+                te = float(r.t_events[0][0])
+                sol.events.append(ContactEvent("detach", te, x_start + speed * te))
+                n_ev += 1
+                state, phase, t = to_flight(te, r.y_events[0][0]), "flight", te
+                continue
+            state, t = r.y[:, -1], tb
+            if any(abs(t - w) < 1e-12 for w in wheel_breaks):
+                q, qd = state[2:2 + n], state[2 + n:]
+                _, yd_before, _ = sol._rail(t, q, qd, -1.0)
+                _, yd_after, _ = sol._rail(t, q, qd, +1.0)
+                if wheel_mass * (yd_before - yd_after) < 0.0:  # tensile: the wheel leaves
+                    sol.events.append(ContactEvent("detach", t, x_start + speed * t))
+                    n_ev += 1
+                    s = np.concatenate([state[:2], [sol._rail(t, q, qd)[0], yd_before],
+                                        state[2:]])
+                    state, phase = s, "flight"
+        else:
+            t_skip = min(t + 1e-7, tb)
+            r0 = scipy.integrate.solve_ivp(sol._flight, (t, t_skip), state, method="DOP853",
+                                           rtol=rtol, atol=atol, dense_output=True)
+            sol.pieces.add(t, t_skip, r0.sol, "flight")
+            state, t = r0.y[:, -1], t_skip
+            if t >= tb - 1e-15:
+                continue
+            r = scipy.integrate.solve_ivp(sol._flight, (t, tb), state, method="DOP853",
+                                          rtol=rtol, atol=atol, dense_output=True,
+                                          events=land)
+            sol.pieces.add(t, r.t[-1], r.sol, "flight")
+            if r.status == 1:
+                te = float(r.t_events[0][0])
+                se = r.y_events[0][0]
+                q, qd = se[4:4 + n], se[4 + n:].copy()
+                _, rd, phi = sol._rail(te, q, qd)
+                P = (se[3] - rd) / (1.0 / wheel_mass + phi @ phi)
+                sol.events.append(ContactEvent("attach", te, x_start + speed * te,
+                                               -P / wheel_mass))
+                n_ev += 1
+                qd += phi * P
+                state = np.concatenate([se[:2], q, qd])
+                phase, t = "contact", te
+            else:
+                state, t = r.y[:, -1], tb
+        if n_ev > max_events:
+            raise RuntimeError("too many contact events (chattering?)")
+    return sol

@@ -131,6 +131,12 @@ class Work(NamedTuple):
     first: np.ndarray  # (n_w,) int: envelope of the active Schur block
     onb_prev: np.ndarray  # (n_w,) int: on-bridge flags at the start of the step
     onb0: np.ndarray  # (n_w,) int: on-bridge flags at t_n, kept for step retries
+    cand: np.ndarray  # (n_w,) int: wheels of the impact / acceleration LCP
+    lq: np.ndarray  # (n_w,) LCP vector q, per wheel
+    lz: np.ndarray  # (n_w,) LCP unknown z (impulse, N s, or contact force, N)
+    lw: np.ndarray  # (n_w,) LCP complement w (separation velocity or acceleration)
+    lin: np.ndarray  # (n_w,) int: LCP set (1: z free, w = 0)
+    impulse: np.ndarray  # (n_w,) compressive impact impulse of the step, N s (diagnostic)
 
 
 class State(NamedTuple):
@@ -548,17 +554,118 @@ def solve_hertz(veh, wk, scale, g_hertz, max_iter, tol_force):
 
 # ---------------------------------------------------------------------------- impacts
 
+# Murty's least-index rule after this many block-pivoting sweeps of :func:`solve_lcp`
+# (block pivoting is fast but may cycle; the least-index rule terminates for any
+# P-matrix, and S = G M^-1 G^T is symmetric positive definite).
+LCP_BLOCK_SWEEPS = 4
+# Share of the step's contact impulse dt X_i that an impact may take back from a wheel
+# in contact through the step (see :func:`impact_allowance`).
+IMPULSE_ALLOWANCE = 1.0
+
 
 @njit
-def project_velocities(br, veh, wk, st, speed):
-    """Plastic impact: make the velocities of every active wheel compatible with the rail.
+def solve_lcp(veh, wk, m, max_iter, tol_z, tol_w):
+    """The small LCP of the wheels ``wk.cand[0:m]`` (ascending) on the matrix ``wk.S``.
 
-    Solves G M^-1 G^T L = rdot_rel - G udot and updates udot += M^-1 G^T L (design note
-    1.4), with rdot_rel = v (r' + sum_j phi_j' q_j) the convective rail velocity.  Massless
-    wheels take no impulse: their velocity is set to the rail's afterwards.
+    Finds z >= 0 with w = S z + q >= 0 and z_i w_i = 0 (q in ``wk.lq``, per wheel), by
+    principal pivoting: solve S_AA z_A = -q_A on the set A (skyline Cholesky, see
+    :func:`skyline_cholesky_solve`), move a wheel with z_i < -tol_z out of A and one with
+    w_i < -tol_w into it; block sweeps first, then Murty's least-index rule (finite for
+    a positive definite S).  ``wk.lin`` holds the initial set (1 = in A) and the final
+    one; ``wk.lz`` receives z (0 off A), ``wk.lw`` w (0 on A).
+    Returns (status, iterations): OK, SINGULAR_IMPACT or NOT_CONVERGED.
+    """
+    for it in range(1, max_iter + 1):
+        na = 0
+        for a in range(m):
+            i = wk.cand[a]
+            wk.lz[i] = 0.0
+            if wk.lin[i] == 1:
+                wk.idx[na] = i
+                wk.rhs[na] = -wk.lq[i]
+                na += 1
+        if na > 0:
+            contact_profile(veh, wk, na)
+            if skyline_cholesky_solve(wk.S, wk.idx, na, wk.first, wk.L, wk.rhs,
+                                      wk.sol) != 0:
+                return SINGULAR_IMPACT, it
+            for a in range(na):
+                wk.lz[wk.idx[a]] = wk.sol[a]
+        n_bad = 0
+        for a in range(m):
+            i = wk.cand[a]
+            if wk.lin[i] == 1:
+                wk.lw[i] = 0.0
+                bad = wk.lz[i] < -tol_z
+            else:
+                w = wk.lq[i]
+                for b in range(na):
+                    w += wk.S[i, wk.idx[b]] * wk.sol[b]
+                wk.lw[i] = w
+                bad = w < -tol_w
+            if bad:
+                n_bad += 1
+                if it <= LCP_BLOCK_SWEEPS or n_bad == 1:
+                    wk.lin[i] = 1 - wk.lin[i]  # block sweep: flip all; Murty: the first
+        if n_bad == 0:
+            for a in range(m):
+                i = wk.cand[a]
+                if wk.lz[i] < 0.0:
+                    wk.lz[i] = 0.0
+            return OK, it
+    return NOT_CONVERGED, max_iter
+
+
+@njit(inline="always")
+def crosses_deck_end(br, veh, t0, t1, speed):
+    """True if a wheel passes an end of the deck in (t0, t1]: on the bridge (0 <= x <= L,
+    as :func:`eval_modes`) at one of the two times and not at the other."""
+    if br.kind == 0:
+        return False
+    for i in range(veh.wheel_dof.shape[0]):
+        x0 = veh.wheel_x0[i] + speed * t0
+        x1 = veh.wheel_x0[i] + speed * t1
+        if (x0 < 0.0 <= x1) or (x0 <= br.length < x1):
+            return True
+    return False
+
+
+@njit(inline="always")
+def impact_allowance(wk, st, i, dt, alpha):
+    """Tensile impulse (N s) the impact may apply to wheel ``i``: the compressive impulse
+    that its contact force transmitted in the step, dt ((1 + alpha) X_{n+1} - alpha X_n),
+    so that the wheel's net contact impulse over the step stays compressive (Moreau's
+    impulse form of the unilateral law).  That covers a wheel that stayed on the same
+    rail (an impact elsewhere must not tear it off for less than a step) and a landing
+    wheel (the displacement constraint of the landing step overshoots the velocity:
+    the projection takes the overshoot back).  0 for a wheel in contact that crosses a
+    deck end: the rail's velocity jumps at the end of the step, after the step's force
+    was spent on the other rail, and the impact may only push."""
+    if wk.was_active[i] == 1 and wk.onb[i] != wk.onb_prev[i]:
+        return 0.0
+    p = dt * ((1.0 + alpha) * wk.xout[i] - alpha * st.X[i])
+    return IMPULSE_ALLOWANCE * p if p > 0.0 else 0.0
+
+
+@njit
+def project_velocities(br, veh, wk, st, speed, dt, alpha, max_iter, tol_force, tol_gap):
+    """Plastic unilateral impact: make the velocities of the wheels in contact compatible
+    with the rail, with compressive impulses only.
+
+    Design note 1.4: with the pre-impact separation velocity q = rdot_rel - G udot
+    (rdot_rel = v (r' + sum_j phi_j' q_j) the convective rail velocity) and the
+    compressive impulses P (udot += -M^-1 G^T P), the post-impact separation velocity is
+    w = q + G M^-1 G^T P.  The LCP  P_i + b_i >= 0, w_i >= 0, (P_i + b_i) w_i = 0  over
+    the active massive wheels (:func:`solve_lcp`, shifted by the allowance b of
+    :func:`impact_allowance`) gives P; a wheel left separating (w_i > tol) is released
+    (``wk.active[i] = 0``), whatever its gap.  ``wk.impulse`` receives P (N s).
+    Massless wheels take no impulse: their velocity is set to the rail's afterwards.
+    Returns a status code.
     """
     n_w = veh.wheel_dof.shape[0]
     n_m = st.q.shape[0]
+    tol_z = tol_force * dt
+    tol_w = tol_gap / dt
     build_schur(veh, wk, wk.ones, veh.M_inv)
     m = 0
     for i in range(n_w):
@@ -568,24 +675,41 @@ def project_velocities(br, veh, wk, st, speed):
             for j in range(n_m):
                 g -= wk.phi[i, j] * st.qd[j]
                 rd += speed * wk.dphi[i, j] * st.q[j]
-            wk.idx[m] = i
-            wk.rhs[m] = rd - g
+            wk.cand[m] = i
+            wk.lq[i] = rd - g
+            wk.lin[i] = 1
             m += 1
     if m > 0:
-        contact_profile(veh, wk, m)
-        if skyline_cholesky_solve(wk.S, wk.idx, m, wk.first, wk.L, wk.rhs, wk.sol) != 0:
-            return SINGULAR_IMPACT
+        # shift P = z - b: w = S z + (q - S b)
         for a in range(m):
-            i = wk.idx[a]
-            lam = wk.sol[a]
+            i = wk.cand[a]
+            s = wk.lq[i]
+            for c in range(m):
+                k = wk.cand[c]
+                bk = impact_allowance(wk, st, k, dt, alpha)
+                if bk != 0.0:
+                    s -= wk.S[i, k] * bk
+            wk.lq[i] = s
+        status, _ = solve_lcp(veh, wk, m, max_iter, tol_z, tol_w)
+        if status != OK:
+            return status
+        for a in range(m):
+            i = wk.cand[a]
+            p = wk.lz[i] - impact_allowance(wk, st, i, dt, alpha)
+            wk.impulse[i] = p
             b = veh.wheel_veh[i]
             s0 = veh.start[b]
             n = veh.start[b + 1] - s0
             c = veh.wheel_dof[i] - s0
-            for r in range(n):
-                st.ud[s0 + r] += veh.M_inv[b, r, c] * lam
-            for j in range(n_m):
-                st.qd[j] -= wk.phi[i, j] * lam
+            if p != 0.0:
+                for r in range(n):
+                    st.ud[s0 + r] -= veh.M_inv[b, r, c] * p
+                for j in range(n_m):
+                    st.qd[j] += wk.phi[i, j] * p
+        for a in range(m):
+            i = wk.cand[a]
+            if wk.lin[i] == 0 and wk.lw[i] > tol_w:
+                wk.active[i] = 0  # separating: released
     for i in range(n_w):
         if wk.active[i] == 1 and veh.wheel_massless[i] == 1:
             rd = speed * wk.rr[i, 1]
@@ -596,20 +720,30 @@ def project_velocities(br, veh, wk, st, speed):
 
 
 @njit
-def consistent_accelerations(br, veh, wk, st, speed, scale):
-    """Accelerations and contact forces consistent with equilibrium and the constraints.
+def consistent_accelerations(br, veh, wk, st, speed, scale, dt, max_iter, tol_force,
+                             tol_gap):
+    """Accelerations and contact forces consistent with equilibrium and the unilateral
+    constraints.
 
-    Solves M a = h - scale B^T X with G a = c, where ``wk.hq``/``wk.hv`` hold h (the
-    HHT-weighted residual without contact forces) and
+    Solves M a = h - scale B^T X with, for the active wheels, the relative acceleration
+    w = c - G a >= 0, X >= 0, X_i w_i = 0 (an LCP, :func:`solve_lcp`), where
+    ``wk.hq``/``wk.hv`` hold h (the HHT-weighted residual without contact forces) and
     c_i = v^2 (r'' + sum phi'' q) + 2 v sum phi' qdot is the rail acceleration that is
-    not carried by qddot.  Massless active wheels carry X_i = h_i / scale.
+    not carried by qddot; G a = G a0 - scale S X with a0 = M^-1 h, so
+    w / scale = S X + (c - G a0) / scale.  A wheel whose force would be tensile is
+    released (``wk.active[i] = 0``).  Massless active wheels carry X_i = h_i / scale,
+    or are released if that is tensile.  Returns a status code.
     """
     n_w = veh.wheel_dof.shape[0]
     n_m = st.q.shape[0]
+    tol_w = tol_gap / (dt * dt * scale)
     for i in range(n_w):
         wk.X[i] = 0.0
         if wk.active[i] == 1 and veh.wheel_massless[i] == 1:
             xi = wk.hv[veh.wheel_dof[i]] / scale
+            if xi < -tol_force:
+                wk.active[i] = 0  # the suspension pulls the contact point off the rail
+                continue
             wk.X[i] = xi
             for j in range(n_m):
                 wk.hq[j] += scale * wk.phi[i, j] * xi
@@ -628,16 +762,21 @@ def consistent_accelerations(br, veh, wk, st, speed, scale):
                 ga -= wk.phi[i, j] * st.qdd[j]
                 c += (speed * speed * wk.d2phi[i, j] * st.q[j]
                       + 2.0 * speed * wk.dphi[i, j] * st.qd[j])
-            wk.idx[m] = i
-            wk.rhs[m] = (ga - c) / scale
+            wk.cand[m] = i
+            wk.lq[i] = (c - ga) / scale
+            wk.lin[i] = 1
             m += 1
     if m > 0:
-        contact_profile(veh, wk, m)
-        if skyline_cholesky_solve(wk.S, wk.idx, m, wk.first, wk.L, wk.rhs, wk.sol) != 0:
-            return SINGULAR_IMPACT
+        status, _ = solve_lcp(veh, wk, m, max_iter, tol_force, tol_w)
+        if status != OK:
+            return status
         for a in range(m):
-            i = wk.idx[a]
-            xi = wk.sol[a]
+            i = wk.cand[a]
+            xi = wk.lz[i]
+            if xi == 0.0:
+                if wk.lin[i] == 0 and wk.lw[i] > tol_w:
+                    wk.active[i] = 0  # accelerating away from the rail: released
+                continue
             wk.X[i] = xi
             b = veh.wheel_veh[i]
             s0 = veh.start[b]
@@ -776,14 +915,17 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
     landing = False
     if prm.contact_model == 0:  # compliant (Hertz) contact takes them without impulse
         for i in range(n_w):
+            wk.impulse[i] = 0.0
             if wk.active[i] == 1 and (wk.was_active[i] == 0 or wk.onb[i] != wk.onb_prev[i]):
                 landing = True
     if landing:
-        # A landing is a plastic impact (design note 1.4): make the velocities
-        # compatible with the rail, then the accelerations consistent with the
-        # HHT equilibrium  M a1 + (1+alpha) B^T X1 = h.  h of the completed step is
-        # h_step = M a1 + (1+alpha) B^T X_step; the velocity jump dv changes it by
-        # -(1+alpha) C dv.
+        # A landing is a plastic, unilateral impact (design note 1.4): make the
+        # velocities compatible with the rail with compressive impulses only (an LCP:
+        # a wheel whose rail moves away is released, whatever its gap), then the
+        # accelerations consistent with the HHT equilibrium  M a1 + (1+alpha) B^T X1 = h
+        # and X1 >= 0 (a wheel whose force would be tensile is released too).  h of
+        # the completed step is h_step = M a1 + (1+alpha) B^T X_step; the velocity jump
+        # dv changes it by -(1+alpha) C dv.
         for j in range(n_m):
             wk.vq[j] = st.qd[j]
             wk.hq[j] = st.qdd[j]
@@ -796,7 +938,8 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
             wk.hv[veh.wheel_dof[i]] += scale * xi
             for j in range(n_m):
                 wk.hq[j] -= scale * wk.phi[i, j] * xi
-        s = project_velocities(br, veh, wk, st, speed)
+        s = project_velocities(br, veh, wk, st, speed, dt, alpha, prm.max_iter,
+                               prm.tol_force, prm.tol_gap)
         if s != OK:
             return s, iters
         for j in range(n_m):
@@ -805,13 +948,16 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
         for k in range(n_v):
             wk.vv[k] = st.ud[k] - wk.vv[k]
         block_matvec(veh, veh.C, wk.vv, wk.hv, True, -scale)
-        s = consistent_accelerations(br, veh, wk, st, speed, scale)
+        s = consistent_accelerations(br, veh, wk, st, speed, scale, dt, prm.max_iter,
+                                     prm.tol_force, prm.tol_gap)
         if s != OK:
             return s, iters
         for i in range(n_w):
-            if wk.active[i] == 0 and veh.wheel_massless[i] == 1:
-                d = veh.wheel_dof[i]
-                st.udd[d] = wk.av[d]
+            if wk.active[i] == 0:
+                wk.xout[i] = 0.0  # released in the impact: separated at t_{n+1}
+                if veh.wheel_massless[i] == 1:
+                    d = veh.wheel_dof[i]
+                    st.udd[d] = wk.av[d]
     update_force_totals(br, veh, wk, st)
     return OK, iters
 
@@ -951,8 +1097,15 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
             wk.was_active[i] = wk.active[i]
             wk.act0[i] = wk.active[i]  # the set at t_n, for retries
             wk.onb0[i] = wk.onb[i]
-        status, iters = hht_step(br, veh, pr, prm, st, wk, (n + 1) * dt, dt, 0)
         level = 0
+        if prm.contact_model == 0 and crosses_deck_end(br, veh, n * dt, (n + 1) * dt,
+                                                       prm.speed):
+            # a wheel meets the velocity jump of the rail at a deck end in this step:
+            # take it in the finest substeps, so that where the event falls on the time
+            # grid hardly matters (design note 1.4)
+            status, iters, level = NOT_CONVERGED, 0, prm.max_sub - 1
+        else:
+            status, iters = hht_step(br, veh, pr, prm, st, wk, (n + 1) * dt, dt, 0)
         while status != OK and level < prm.max_sub:
             level += 1
             copy_state(bk, st)
@@ -1236,6 +1389,12 @@ def reset_work(wk):
     wk.first[:] = 0
     wk.onb_prev[:] = 0
     wk.onb0[:] = 0
+    wk.cand[:] = 0
+    wk.lq[:] = 0.0
+    wk.lz[:] = 0.0
+    wk.lw[:] = 0.0
+    wk.lin[:] = 0
+    wk.impulse[:] = 0.0
 
 
 @njit

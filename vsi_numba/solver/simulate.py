@@ -350,6 +350,8 @@ def _workspace(n_m, n_v, n_w) -> ek.Work:
         hv=z(n_v), ones=np.ones(n_m), khat=z(n_m), xout=z(n_w), vq=z(n_m), vv=z(n_v),
         av=z(n_v), act0=z(n_w, np.int64), J=z((n_w, n_w)),
         first=z(n_w, np.int64), onb_prev=z(n_w, np.int64), onb0=z(n_w, np.int64),
+        cand=z(n_w, np.int64), lq=z(n_w), lz=z(n_w), lw=z(n_w), lin=z(n_w, np.int64),
+        impulse=z(n_w),
     )
 
 

@@ -48,6 +48,7 @@ from benchmarks import yardstick as Y
 from benchmarks.cases import fmt_s, md_table
 from benchmarks.timing import REPO, load1, machine_info, user_env
 
+STUDY3 = REPO / "studies" / "hslm_catalogue" / "study.toml"
 STUDY1 = REPO / "studies" / "hslm_psc_25m" / "study.toml"
 BEGIN = "<!-- study-benchmark:begin -->"
 END = "<!-- study-benchmark:end -->"
@@ -670,8 +671,21 @@ def _measure_f(b: Bench, res: StudyResult):
             "default" + (" (threads)" if ratio >= 1 else " (processes: change the default!)")))
 
 
+def _measure_g(b: Bench, res: StudyResult):
+    """The bundled design catalogue (studies/hslm_catalogue): 91 bridge variants x 10 HSLM
+    trains x 57 speeds = 51,870 runs, whole command."""
+    warm = b.write(one_run(hslm_config(("HSLM-A1",), (420.0,))), "g_1run")
+    grid = "91 variants (13 spans x 7 f1) x 10 HSLM x 57 speeds = 51,870 runs"
+    wall, rss, *_ = b.repeated("g. vsi sweep studies/hslm_catalogue/study.toml", STUDY3, grid,
+                               1, warm=warm)
+    res.measures.append(Measure("g1", "catalogue study (`vsi sweep studies/hslm_catalogue/"
+                                "study.toml`): wall", grid, wall, "s", 600.0, None))
+    res.measures.append(Measure("g2", "catalogue study: peak RSS (process tree)", grid, rss,
+                                "bytes", 1024 * MB, None))
+
+
 MEASURES = (("a", _measure_a), ("b", _measure_b), ("c", _measure_c), ("d", _measure_d),
-            ("e", _measure_e), ("f", _measure_f))
+            ("e", _measure_e), ("f", _measure_f), ("g", _measure_g))
 
 
 def run_study_bench(mode: str = "quick", write: bool = True, report: Path | None = None,
@@ -685,7 +699,7 @@ def run_study_bench(mode: str = "quick", write: bool = True, report: Path | None
     t0 = time.perf_counter()
     skip = {"a": False, "b": not plan.study1, "c": not plan.ice3_seeds,
             "d": not plan.hist_pilots and not plan.hist_full, "e": not plan.scaling,
-            "f": not plan.study1}
+            "f": not plan.study1, "g": not plan.study1}
     with tempfile.TemporaryDirectory(prefix="vsi_study_bench_") as tmp:
         bench = Bench(plan, Path(tmp), echo)
         bench.rows = res.commands

@@ -357,7 +357,7 @@ class Measure:
         if self.goal is not None and self.value <= self.goal:
             return "goal met" + tag
         if self.value <= self.bar:
-            return "bar met, goal missed" + tag
+            return ("bar met, goal missed" if self.goal is not None else "met") + tag
         return f"MISSED x{self.value / self.bar:.1f} over the bar" + tag
 
     def fmt(self, v) -> str:

@@ -297,3 +297,50 @@ def test_hostile__report_single_case_and_all_failed(tmp_path, runner, monkeypatc
     assert res.exit_code == 1
     assert "every case (1) failed numerically" in res.output
     assert not (tmp_path / "rep2" / "report.md").exists()
+
+
+def test_hostile__utf8_bom_is_named(tmp_path):
+    """A byte-order mark is named as such, not "Invalid statement (line 1, column 1)"."""
+    path = tmp_path / "bom.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + to_toml(BASE).encode())
+    with pytest.raises(ConfigError, match="byte-order mark"):
+        load_config(path)
+
+
+def test_hostile__tiny_span_blames_the_span_not_ei():
+    msgs = errors_of(cfg(bridge__spans=[1e-6]))
+    assert any(m.startswith("bridge.spans") for m in msgs), msgs
+    assert not any(m.startswith("bridge.EI") for m in msgs), msgs
+
+
+@pytest.mark.parametrize("levels", [15, 30])
+def test_hostile__max_subdivisions_up_to_30_run(levels):
+    """dt / 2^30 next to a massless contact point is badly scaled, not singular: every
+    documented max_subdivisions runs (the sprung mass crosses the beam normally)."""
+    from vsi_numba.model import bridge as br
+    from vsi_numba.model import vehicle as vh
+    from vsi_numba.solver.settings import SolverSettings
+    from vsi_numba.solver.simulate import simulate
+
+    beam = br.simply_supported(10.0, 2e9, 1e4, n_modes=2)
+    train = vh.Train("sm", (vh.sprung_mass(5000.0, 1e7, 1e4, 0.0),), (0.0,))
+    s = SolverSettings(dt=2e-3, approach=1.0, free_vibration=0.0, max_subdivisions=levels)
+    ds = simulate(beam, train, 30.0, settings=s, save_histories=False)
+    assert ds.attrs["status"] == 0, ds.attrs["message"]
+
+
+def test_hostile__unreachable_scheduler_leaves_no_store(tmp_path, monkeypatch):
+    """A study that stored nothing (here: the scheduler cannot be reached) removes the
+    store it created."""
+    from vsi_numba.study import backends
+    from vsi_numba.study.runner import run_study
+    from vsi_numba.study.store import store_path
+
+    def refuse(self):
+        raise OSError("Timed out trying to connect to tcp://127.0.0.1:9")
+
+    monkeypatch.setattr(backends.DaskBackend, "__enter__", refuse)
+    out = tmp_path / "out.nc"
+    with pytest.raises(OSError, match="Timed out"):
+        run_study(cfg(), out, scheduler="tcp://127.0.0.1:9")
+    assert not store_path(out).exists() and not out.exists()

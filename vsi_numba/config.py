@@ -852,6 +852,10 @@ def _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes, fmax,
     return out
 
 
+#: Shortest span (m) named as the cause when a deck gives no finite frequencies.
+MIN_SPAN = 1.0
+
+
 def _flexible_bridge(chk, spec, spans, ei, mass, n_modes, fmax, eps, solver_cutoff):
     """Build the modes now (cheap; the checks and warnings need the frequencies)."""
     length = spec.length
@@ -869,6 +873,10 @@ def _flexible_bridge(chk, spec, spans, ei, mass, n_modes, fmax, eps, solver_cuto
                 full = _bridge.continuous(spans, ei, mass, None, np.inf, 0.0, eps)
                 allf = full.frequencies
             if not (allf.size and np.all(np.isfinite(allf)) and allf[0] > 0):
+                if min(spans) < MIN_SPAN:  # the span, not EI, is what is off
+                    return chk.error("bridge.spans", spans, f"spans of a railway bridge >= "
+                                     f"{MIN_SPAN:g} m (with EI and mass_per_length they "
+                                     "give no finite natural frequency)")
                 return chk.error("bridge.EI", ei, "a value that, with mass_per_length and "
                                  "spans, gives finite natural frequencies > 0 Hz")
             spec.all_frequencies = allf
@@ -1920,6 +1928,10 @@ def _read_toml(path: Path) -> tuple[dict | None, list[str]]:
         return None, [f"{path}: is a directory; expected a TOML configuration file"]
     except OSError as exc:
         return None, [f"{path}: cannot be read ({exc.strerror}); expected a TOML file"]
+    if raw.startswith(b"\xef\xbb\xbf"):
+        return None, [f"{path}: starts with a UTF-8 byte-order mark (BOM), which TOML does "
+                      "not allow; expected a UTF-8 TOML file without BOM (save it as "
+                      "'UTF-8', not 'UTF-8 with BOM')"]
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -2063,6 +2075,13 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
 
     if study.get("refine_resonance"):
         _refine_resonance(study, bridge, train)
+    spans = bridge.resolved.get("spans") or []
+    if spans and min(spans) < MIN_SPAN:
+        # the span is the cause: no time-step or frequency message about its consequences
+        _refuse(chk, solver, "allow_implausible", f"bridge.spans = {_show(spans)}: expected "
+                f"spans of a railway bridge >= {MIN_SPAN:g} m (units: m)")
+        if chk.errors:
+            raise ConfigError(chk.errors, source=source)
     _physics_warnings(chk, bridge, train, irr, solver, study, contact)
     _plausibility(chk, bridge, train, irr, solver, study, contact)
     if chk.errors:  # checks of the whole model (time step, budget, plausibility)

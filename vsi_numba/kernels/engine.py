@@ -554,6 +554,9 @@ def solve_hertz(veh, wk, scale, g_hertz, max_iter, tol_force):
 
 # ---------------------------------------------------------------------------- impacts
 
+# Halvings of a step in which a wheel crosses an end of the deck (16 substeps); never more
+# than ``max_subdivisions``.  Retries of a failed substep may still go finer.
+CROSSING_LEVELS = 4
 # Murty's least-index rule after this many block-pivoting sweeps of :func:`solve_lcp`
 # (block pivoting is fast but may cycle; the least-index rule terminates for any
 # P-matrix, and S = G M^-1 G^T is symmetric positive definite).
@@ -1101,9 +1104,10 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
         if prm.contact_model == 0 and crosses_deck_end(br, veh, n * dt, (n + 1) * dt,
                                                        prm.speed):
             # a wheel meets the velocity jump of the rail at a deck end in this step:
-            # take it in the finest substeps, so that where the event falls on the time
-            # grid hardly matters (design note 1.4)
-            status, iters, level = NOT_CONVERGED, 0, prm.max_sub - 1
+            # take it in 2^CROSSING_LEVELS substeps (at most max_sub halvings), so that
+            # where the event falls on the time grid hardly matters (design note 1.4)
+            status, iters = NOT_CONVERGED, 0
+            level = min(prm.max_sub, CROSSING_LEVELS) - 1
         else:
             status, iters = hht_step(br, veh, pr, prm, st, wk, (n + 1) * dt, dt, 0)
         while status != OK and level < prm.max_sub:

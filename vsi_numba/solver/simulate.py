@@ -105,11 +105,24 @@ def _vehicle_inverses(v, settings, levels):
     n = v.n_dof
     kh_inv = np.zeros((levels, n, n))
     for lev in range(levels):
-        kh = _effective_stiffness(v.M, v.C, v.K, settings.dt / 2**lev, settings.hht_alpha)
-        if np.linalg.cond(kh) > 1e13:
+        h = settings.dt / 2**lev
+        kh = _effective_stiffness(v.M, v.C, v.K, h, settings.hht_alpha)
+        # conditioning of the equilibrated matrix D^-1/2 K^ D^-1/2: a massless wheel DOF
+        # (K only, ~1e6) next to a body DOF (M / (beta h^2), ~1e16 at h = dt/2^15) is
+        # badly scaled, not singular
+        d = np.sqrt(np.abs(np.diag(kh)))
+        if np.any(d == 0.0) or not np.all(np.isfinite(kh)):
             raise ModelError(
-                f"vehicle {v.name!r}: singular effective stiffness (a DOF with neither "
-                "mass nor stiffness?)"
+                f"vehicle {v.name!r}: singular effective stiffness at the time step "
+                f"{h:.3g} s: a DOF with neither mass nor stiffness (zero on the diagonal)"
+            )
+        cond = np.linalg.cond(kh / np.outer(d, d))
+        if not cond <= 1e13:
+            raise ModelError(
+                f"vehicle {v.name!r}: singular effective stiffness at the time step "
+                f"{h:.3g} s (condition number {cond:.3g} after scaling): a mechanism "
+                "(DOFs that move together with neither mass nor stiffness), or masses and "
+                "stiffnesses too far apart for double precision"
             )
         kh_inv[lev] = np.linalg.inv(kh)
     massive = np.any(v.M != 0.0, axis=1)

@@ -605,35 +605,50 @@ def execute_study(config, output=None, workers=None, scheduler=None, progress=Fa
                    f"workers={workers!r}, scheduler={scheduler!r}, backend={backend!r})")
 
     check_writable(output.parent if str(output.parent) else Path("."), "results file")
+    store_existed = store_path(output).exists()
     model_sha = (model_fingerprint(model) if not variants else hashlib.sha256(
         "".join(model_fingerprint(m) for m in models).encode()).hexdigest())
     store = CaseStore(store_path(output), sha, config_json, fresh=fresh,
                       model_sha256=model_sha, plan_sha256=plan_fingerprint(plan))
-    with store:
-        done = store.done()
-        for b in plan:  # a damaged or foreign batch file is found now, not at the end
-            if b.key in done:
-                store.check(b.key)
-        pending = [b for b in plan if b.key not in done]
-        n_runs = len(grid.cases) * len(models)
-        n_todo = sum(b.n_runs for b in pending)
-        n_s, n_t, n_i = grid.shape
-        if pending:
-            be = _choose_backend(backend, workers, scheduler, len(pending),
-                                 store.path / "dask-scratch")
-            nv = f"{len(models)} variants x " if variants else ""
-            _say(quiet, f"{n_runs} runs in {len(plan)} batches ({nv}{n_s} speeds x {n_t} "
-                        f"trains x {n_i} irregularities): {n_runs - n_todo} done earlier, "
-                        f"{n_todo} to run ({be.name}"
-                        f"{'' if be.name == 'serial' else f', {workers or be.n_workers} workers'}"
-                        ")")
-            _run_pending(be, task_spec, pending, store, progress, n_runs, n_runs - n_todo)
-        else:
-            _say(quiet, f"{n_runs} runs: all done earlier, writing {output}")
-        n_failed = _write_results(output, store, specs, models, grid, plan, config_json, sha,
-                                  command, [lab for lab, _ in variants] or None)
-        if not keep_cases:
+    try:
+        with store:
+            return _execute(store, spec, task_spec, specs, models, grid, plan, variants,
+                            output, backend, workers, scheduler, progress, keep_cases, quiet,
+                            config_json, sha, command)
+    except BaseException:
+        # a run that stored nothing leaves nothing behind (e.g. an unreachable scheduler)
+        if not store_existed and store.path.is_dir() and not store.done():
             store.remove()
+        raise
+
+
+def _execute(store, spec, task_spec, specs, models, grid, plan, variants, output, backend,
+             workers, scheduler, progress, keep_cases, quiet, config_json, sha, command):
+    """The part of :func:`execute_study` that runs with the store open."""
+    done = store.done()
+    for b in plan:  # a damaged or foreign batch file is found now, not at the end
+        if b.key in done:
+            store.check(b.key)
+    pending = [b for b in plan if b.key not in done]
+    n_runs = len(grid.cases) * len(models)
+    n_todo = sum(b.n_runs for b in pending)
+    n_s, n_t, n_i = grid.shape
+    if pending:
+        be = _choose_backend(backend, workers, scheduler, len(pending),
+                             store.path / "dask-scratch")
+        nv = f"{len(models)} variants x " if variants else ""
+        _say(quiet, f"{n_runs} runs in {len(plan)} batches ({nv}{n_s} speeds x {n_t} "
+                    f"trains x {n_i} irregularities): {n_runs - n_todo} done earlier, "
+                    f"{n_todo} to run ({be.name}"
+                    f"{'' if be.name == 'serial' else f', {workers or be.n_workers} workers'}"
+                    ")")
+        _run_pending(be, task_spec, pending, store, progress, n_runs, n_runs - n_todo)
+    else:
+        _say(quiet, f"{n_runs} runs: all done earlier, writing {output}")
+    n_failed = _write_results(output, store, specs, models, grid, plan, config_json, sha,
+                              command, [lab for lab, _ in variants] or None)
+    if not keep_cases:
+        store.remove()
     _say(quiet, f"wrote {output}: {n_runs} runs, {n_failed} failed")
     return StudyOutcome(output, n_runs, n_failed, len(plan))
 

@@ -344,3 +344,96 @@ def test_hostile__unreachable_scheduler_leaves_no_store(tmp_path, monkeypatch):
     with pytest.raises(OSError, match="Timed out"):
         run_study(cfg(), out, scheduler="tcp://127.0.0.1:9")
     assert not store_path(out).exists() and not out.exists()
+
+
+def _two_train_study(tmp_path):
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_study import write_study
+
+    return write_study(tmp_path, speeds=(100.0, 150.0), history=(150.0,))  # 4 batches
+
+
+def test_hostile__damaged_or_swapped_batch_found_before_running(tmp_path):
+    """A damaged or swapped stored batch is named before any missing batch runs (the
+    missing one is still missing afterwards), never a traceback at the end."""
+    from vsi_numba.study.runner import run_study
+    from vsi_numba.study.store import CorruptBatchError, store_path
+
+    config = _two_train_study(tmp_path)
+    out = tmp_path / "s.nc"
+    run_study(config, out, backend="serial", keep_cases=True).close()
+    out.unlink()
+    files = sorted(store_path(out).glob("batch_*.npz"))
+    assert len(files) == 4
+    files[0].unlink()  # a batch to run again
+    files[1].write_bytes(files[1].read_bytes()[:100])  # damaged
+    with pytest.raises(CorruptBatchError, match=files[1].name):
+        run_study(config, out, backend="serial")
+    assert not files[0].exists() and not out.exists()  # found before running anything
+    files[1].unlink()
+    files[2].write_bytes(files[3].read_bytes())  # another batch under this name
+    with pytest.raises(CorruptBatchError, match="holds batch"):
+        run_study(config, out, backend="serial")
+
+
+def test_hostile__process_pool_workers_die_with_the_sweep(tmp_path):
+    """SIGKILL of a sweep running on a process pool leaves no worker alive (they die with
+    their parent: PR_SET_PDEATHSIG); checked within 15 s, polled."""
+    import os
+    import subprocess
+    import sys
+    import time
+
+    from vsi_numba.study.runner import HOLD_ENV
+    from vsi_numba.study.store import store_path
+
+    config = _two_train_study(tmp_path)
+    out = tmp_path / "p.nc"
+    code = ("from vsi_numba.study.runner import execute_study\n"
+            "if __name__ == '__main__':\n"
+            f"    execute_study({str(config)!r}, {str(out)!r}, workers=2, "
+            "backend='processes')\n")
+    script = tmp_path / "sweep.py"
+    script.write_text(code)
+    env = dict(os.environ, **{HOLD_ENV: "1"})
+    proc = subprocess.Popen([sys.executable, str(script)], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    marker = store_path(out) / ".held"
+    t0 = time.monotonic()
+    while not marker.exists():
+        assert proc.poll() is None, proc.stderr.read().decode()
+        assert time.monotonic() - t0 < 600, "the sweep did not hold"
+        time.sleep(0.05)
+
+    def children(pid):
+        kids = []
+        for d in Path("/proc").iterdir():
+            if d.name.isdigit():
+                try:
+                    stat = (d / "stat").read_text()
+                except OSError:
+                    continue
+                if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+                    kids.append(int(d.name))
+        return kids
+
+    workers = children(proc.pid)
+    assert workers, "the process pool has no worker"
+    proc.kill()
+    proc.wait()
+    proc.stderr.close()
+    t0 = time.monotonic()
+
+    def running(pid):  # exists and is not a zombie waiting for its reaper
+        try:
+            return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+        except OSError:
+            return False
+
+    alive = workers
+    while alive and time.monotonic() - t0 < 15.0:
+        time.sleep(0.1)
+        alive = [w for w in workers if running(w)]
+    assert not alive, f"workers still alive 15 s after the sweep was killed: {alive}"

@@ -31,6 +31,7 @@ import json
 import os
 import re
 import shutil
+import zipfile
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -225,9 +226,9 @@ class CaseStore:
         """Check that the stored batch ``key`` is readable and is that batch."""
         path = self.batch_path(key)
         try:
-            with np.load(path, allow_pickle=False) as z:
+            with open(path, "rb") as f, np.load(f, allow_pickle=False) as z:
                 found = str(z["batch_key"])
-        except (OSError, ValueError, KeyError, EOFError) as exc:
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
             raise CorruptBatchError(
                 f"the stored batch {path} cannot be read ({type(exc).__name__}: {exc}). "
                 "Delete this file and re-run the same command to compute it again."
@@ -242,9 +243,9 @@ class CaseStore:
         """Read one finished batch into memory (the file is closed on return)."""
         path = self.batch_path(key)
         try:
-            with np.load(path, allow_pickle=False) as z:
+            with open(path, "rb") as f, np.load(f, allow_pickle=False) as z:
                 return {k: z[k] for k in z.files}
-        except (OSError, ValueError, EOFError) as exc:
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
             raise CorruptBatchError(
                 f"cannot read the stored batch {path}: {exc}. Delete this file and re-run "
                 "the same command to compute that batch again."

@@ -1,8 +1,10 @@
 """Studies: speeds x trains x irregularity realisations, resumable, serial or parallel.
 
-``run_study`` (the ``vsi sweep`` command) runs every case of a configuration, keeps each
-finished case in ``<output>.cases/`` and writes one CF netCDF file; see
-:mod:`vsi_numba.study.runner` for the flow and exit codes, :mod:`.store` for resume and
+``run_study`` (the ``vsi sweep`` command) runs every case of a configuration in batches
+(:mod:`.batches`: one kernel call per train, realisation and block of speeds), keeps each
+finished batch in ``<output>.cases/`` and writes one CF netCDF file by slices
+(:mod:`vsi_numba.io.study_file`); see :mod:`vsi_numba.study.runner` for the flow, the
+variants of ``study.vary`` and the exit codes, :mod:`.store` for resume and
 :mod:`.backends` for the parallel backends.
 """
 

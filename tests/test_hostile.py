@@ -437,3 +437,115 @@ def test_hostile__process_pool_workers_die_with_the_sweep(tmp_path):
         time.sleep(0.1)
         alive = [w for w in workers if running(w)]
     assert not alive, f"workers still alive 15 s after the sweep was killed: {alive}"
+
+
+@pytest.mark.parametrize("name, changes, key", [
+    ("1e30 kg car body", {"train": {"vehicles": [{"kind": "sprung_mass", "mass": 1e30,
+                                                  "stiffness": 1.595e6}]}}, "static deflection"),
+    ("1e9 kg wheel", {"train": {"vehicles": [{"kind": "sprung_mass", "mass": 5750.0,
+                                              "stiffness": 1.595e6, "wheel_mass": 1e9}]}},
+     "static deflection"),
+    ("1.3 km train on a 1 km bridge", {"bridge__spans": [1000.0], "train": {"vehicles": [
+        {"kind": "force", "load": 2e5, "offset": 10.0 * i} for i in range(130)]}},
+     "static deflection"),
+    ("dt = 1e-9", {"solver__dt": 1e-9}, "solver.dt"),
+    ("EI = 1e-300", {"bridge__EI": 1e-300}, "static deflection"),
+    ("a massless deck", {"bridge__mass_per_length": 1e-3}, "solver.dt"),
+    ("1000 stacked dips", {"irregularity": {"kind": "none", "defects": [
+        {"kind": "cosine", "depth": 0.0009, "wavelength": 3.0, "position": 5.0}] * 1000}},
+     "irregularity.defects (added up): |r| = 0.9 m"),
+])
+def test_hostile__absurd_models_are_refused_with_their_cause(name, changes, key):
+    """Each was accepted without a word (or failed with a misleading "singular effective
+    stiffness"); now a config error names the cause and the override."""
+    msgs = errors_of(cfg(**changes))
+    assert any(key in m for m in msgs), (name, msgs)
+    assert not any("singular" in m for m in msgs), (name, msgs)
+
+
+def test_hostile__store_lock_is_released_last(tmp_path):
+    """While the store is removed its lock stays held: a second run cannot adopt a store
+    that is half gone."""
+    import fcntl
+    import os
+
+    from vsi_numba.study.store import CaseStore
+
+    store = CaseStore(tmp_path / "s.cases", "abc", "{}").open()
+    store.write("t000_i000_s0000-0000", {"status": np.zeros(1, np.int32)})
+    original = store._clear
+    seen = []
+
+    def clear_then_probe(keep_lock):
+        original(keep_lock)
+        fd = os.open(store.path / ".lock", os.O_RDWR)
+        try:
+            with pytest.raises(BlockingIOError):
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            seen.append("locked")
+        finally:
+            os.close(fd)
+
+    store._clear = clear_then_probe
+    store.remove()
+    assert seen == ["locked"] and not store.path.exists()
+
+
+def test_hostile__dask_keeps_its_scratch_space_out_of_the_temp_dir(tmp_path, monkeypatch):
+    """A Dask study leaves nothing in the system temp directory (scratch space, if any,
+    lives in the store and goes with it)."""
+    import tempfile
+
+    from vsi_numba.study.runner import run_study
+
+    tmp = tmp_path / "systemp"
+    tmp.mkdir()
+    monkeypatch.setenv("TMPDIR", str(tmp))
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp))
+    run_study(cfg(), tmp_path / "d.nc", workers=2).close()
+    assert sorted(p.name for p in tmp.iterdir()) == []
+    assert not (tmp_path / "d.nc.cases").exists()
+
+
+def test_hostile__dask_sweep_interrupted_cleanly(tmp_path):
+    """Ctrl-C of a `--workers 2` (Dask) sweep: exit 130, the message, no traceback (no
+    "IOLoop is closed"); deterministic: the signal is sent while the sweep holds."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from vsi_numba.study.runner import HOLD_ENV
+    from vsi_numba.study.store import store_path
+
+    config = _two_train_study(tmp_path)
+    out = tmp_path / "k.nc"
+    env = dict(os.environ, **{HOLD_ENV: "1"})
+    proc = subprocess.Popen([sys.executable, "-m", "vsi_numba.cli", "sweep", str(config),
+                             "-o", str(out), "--workers", "2"], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    marker = store_path(out) / ".held"
+    t0 = time.monotonic()
+    while not marker.exists():
+        if proc.poll() is not None:
+            pytest.fail(proc.communicate()[1])
+        assert time.monotonic() - t0 < 600, "the sweep did not hold"
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "interrupted" in err and "Traceback" not in err and "IOLoop" not in err
+
+
+@pytest.mark.parametrize("dt", [5e-3, 20e-3])
+def test_hostile__hertz_at_a_coarse_dt_is_flagged_as_a_resolution_warning(dt):
+    """ICE3 with Hertz contact at dt = 5 or 20 ms ran to "pass", status ok: now the Hertz
+    spring's under-resolution is a resolution warning (the report marks every check
+    "not reliable"), naming solver.dt and contact.hertz_coefficient."""
+    c = load_config(cfg(train={"preset": "ICE3"}, solver__dt=dt,
+                        contact={"model": "hertz", "hertz_coefficient": 3e-8}))
+    hertz = [r for r in c.warning_records if "Hertz contact spring" in r["message"]]
+    assert hertz and hertz[0]["kind"] == "resolution"
+    assert {"solver.dt", "contact.hertz_coefficient"} <= set(hertz[0]["keys"])

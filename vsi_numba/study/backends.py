@@ -256,8 +256,14 @@ class DaskBackend:
         return len(self._client.scheduler_info(n_workers=-1).get("workers", {}))
 
     def __enter__(self):
+        import dask
         from dask.distributed import Client, LocalCluster
 
+        # Dask's scratch space (spilling, locks) in the store, not the system temp dir
+        self._config = None
+        if self.local_directory is not None:
+            self._config = dask.config.set({"temporary-directory": str(self.local_directory)})
+            self._config.__enter__()
         if self.scheduler is not None:
             self._client = Client(self.scheduler, timeout="30s")
         else:
@@ -286,6 +292,13 @@ class DaskBackend:
         finally:
             if cluster is not None:
                 cluster.close()
+            if self._config is not None:
+                self._config.__exit__(None, None, None)
+                self._config = None
+            if self.local_directory is not None:
+                import shutil
+
+                shutil.rmtree(self.local_directory, ignore_errors=True)
         return None
 
     def run(self, fn: Callable, config_json: str, cases: Iterable) -> Iterator[tuple[Any, Any]]:

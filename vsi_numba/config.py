@@ -1830,11 +1830,7 @@ class Config:
         kind = r["kind"]
 
         def defect(spec):
-            if spec["kind"] == "cosine":
-                return _irr.cosine_defect(spec["depth"], spec["wavelength"], spec["position"])
-            stop = max(x_stop, spec["position"] + spec["length"])
-            return _irr.step_defect(spec["height"], spec["length"], spec["position"], stop,
-                                    spec["shape"])
+            return _defect_profile(spec, x_stop)
 
         extra = [defect(s) for s in r.get("defects", [])]
         if kind == "psd":
@@ -2340,10 +2336,19 @@ def _train_loads(tr):
     return np.concatenate(xs), np.concatenate(qs)
 
 
+def _defect_profile(spec, x_stop: float):
+    """The Profile of a resolved cosine or step defect (a step persists to ``x_stop``)."""
+    if spec["kind"] == "cosine":
+        return _irr.cosine_defect(spec["depth"], spec["wavelength"], spec["position"])
+    stop = max(x_stop, spec["position"] + spec["length"])
+    return _irr.step_defect(spec["height"], spec["length"], spec["position"], stop,
+                            spec["shape"])
+
+
 def _defects_amplitude(r) -> float | None:
-    """Largest |r| (m) of the deterministic defects added up (a cosine base and every
-    ``[[irregularity.defects]]``), or None without two of them.  A sweep over the defects'
-    extents bounds it first; only a bound above the limit is evaluated on a grid."""
+    """Largest |r| (m) of the deterministic defects added up (a cosine or step base and
+    every ``[[irregularity.defects]]``), or None without two of them.  A sweep over the
+    defects' extents bounds it first; only a bound above the limit builds the profile."""
     specs = [dict(r)] if r["kind"] in ("cosine", "step") else []
     specs += list(r.get("defects", []))
     if len(specs) < 2:
@@ -2360,19 +2365,10 @@ def _defects_amplitude(r) -> float | None:
         bound = max(bound, level)
     if bound <= MAX_PROFILE_AMPLITUDE:
         return bound
-    lo = min(d["position"] for d in specs)
-    hi = max(d["position"] + d.get("wavelength", d.get("length", 0.0)) for d in specs)
-    step = min(d.get("wavelength", d.get("length", 1.0)) for d in specs) / 40.0
-    x = np.arange(lo, hi + step, step)[:200_000]
-    total = np.zeros_like(x)
-    for d in specs:
-        s = (x - d["position"]) / (d["wavelength"] if d["kind"] == "cosine" else d["length"])
-        if d["kind"] == "cosine":
-            total += np.where((s >= 0) & (s <= 1), d["depth"] * 0.5 * (1 - np.cos(2 * np.pi * s)),
-                              0.0)
-        else:
-            total += d["height"] * np.clip(s, 0.0, 1.0)
-    return float(np.max(np.abs(total)))
+    stop = max(d["position"] + d.get("wavelength", d.get("length", 0.0)) for d in specs)
+    total = _irr.combine(*[_defect_profile(d, stop) for d in specs])
+    x = np.linspace(total.x0, total.x_end, min(200_000, total.coef.shape[0] * 4 + 1))
+    return float(np.max(np.abs(total(x))))
 
 
 def _plausibility(chk, bridge, train, irr, solver, study, contact):

@@ -871,40 +871,31 @@ def report_command(results: Path, outdir: Path | None = None) -> int:
         if "variant" in ds.dims:  # a parametric study: the report over the variants
             from vsi_numba.analysis.variants import write_variants_report
 
-            if outdir is None:
-                outdir = results.with_name(f"{results.stem}_report")
+            writer, data = write_variants_report, ds.load()
+        else:
             try:
-                path = write_variants_report(ds.load(), outdir, source_path=results)
+                data = prepare(ds)
+                require(data, REQUIRED_VARIABLES, "the report")
             except ResultsError as exc:
-                _error(f"'{results}': {exc}")
+                _error(f"'{results}' is not a usable results file: {exc}")
                 return 2
-            except OSError as exc:
-                _error(f"cannot write the report to '{outdir}': {exc}")
+            if "status" in data and data["status"].size and bool(
+                    (data["status"].values != 0).all()):
+                n = int(data["status"].size)
+                msgs = (sorted({str(m) for m in np.ravel(data["message"].values)})
+                        if "message" in data else [])
+                _error(f"'{results}': every case ({n}) failed numerically (status != 0, "
+                       "outputs NaN): there is nothing to check"
+                       + (f"; e.g. {msgs[0]}" if msgs else "") + ". Fix the run (see the "
+                       "warnings and README 'When things go wrong') and run it again")
                 return 1
-            print(f"report written to {path}")
-            return 0
-        try:
-            prepared = prepare(ds)
-            require(prepared, REQUIRED_VARIABLES, "the report")
-        except ResultsError as exc:
-            _error(f"'{results}' is not a usable results file: {exc}")
-            return 2
-        if "status" in prepared and prepared["status"].size and bool(
-                (prepared["status"].values != 0).all()):
-            n = int(prepared["status"].size)
-            msgs = (sorted({str(m) for m in np.ravel(prepared["message"].values)})
-                    if "message" in prepared else [])
-            _error(f"'{results}': every case ({n}) failed numerically (status != 0, "
-                   "outputs NaN): there is nothing to check"
-                   + (f"; e.g. {msgs[0]}" if msgs else "") + ". Fix the run (see the "
-                   "warnings and README 'When things go wrong') and run it again")
-            return 1
-        for r in stored_warnings(prepared):
-            _error(f"warning: {r['message']}")
+            for r in stored_warnings(data):
+                _error(f"warning: {r['message']}")
+            writer = write_report
         if outdir is None:
             outdir = results.with_name(f"{results.stem}_report")
         try:
-            path = write_report(prepared, outdir, source_path=results)
+            path = writer(data, outdir, source_path=results)
         except ResultsError as exc:
             _error(f"'{results}': {exc}")
             return 2

@@ -72,7 +72,7 @@ def variant_view(ds: xr.Dataset, k: int) -> xr.Dataset:
         pos = np.asarray(v["point_position"].values, float)
         keep = np.isfinite(pos)
         v = v.isel(point=np.flatnonzero(keep)).drop_vars("point_position")
-        v = v.assign_coords(point=("point", pos[keep], chk_attrs_point(ds)))
+        v = v.assign_coords(point=("point", pos[keep], _point_attrs(ds)))
     if "frequency" in v:
         f = np.asarray(v["frequency"].values, float)
         v = v.isel(mode=np.flatnonzero(np.isfinite(f)))
@@ -80,7 +80,8 @@ def variant_view(ds: xr.Dataset, k: int) -> xr.Dataset:
     return v
 
 
-def chk_attrs_point(ds: xr.Dataset) -> dict:
+def _point_attrs(ds: xr.Dataset) -> dict:
+    """Attributes of the variant view's ``point`` (from ``point_position``)."""
     a = dict(ds["point_position"].attrs) if "point_position" in ds else {}
     return {"units": a.get("units", "m"), "long_name": a.get("long_name", "output point")}
 

@@ -819,6 +819,23 @@ def update_force_totals(br, veh, wk, st):
                 st.fq_tot[j] += wk.phi[i, j] * xi
 
 
+@njit(inline="always")
+def hht_coefficients(alpha, dt):
+    """Newmark/HHT-alpha constants of a step ``dt``: beta = (1 - alpha)^2 / 4,
+    gamma = 1/2 - alpha; a0 = 1/(beta dt^2), a1 = gamma/(beta dt), a2 = 1/(beta dt),
+    a3 = 1/(2 beta) - 1; cv, ca = weights of v_n, a_n in (1+alpha) C v_{n+1} - alpha C v_n;
+    scale = 1 + alpha.  Returns (a0, a1, a2, a3, cv, ca, gamma, scale)."""
+    beta = 0.25 * (1.0 - alpha) ** 2
+    gamma = 0.5 - alpha
+    a0 = 1.0 / (beta * dt * dt)
+    a1 = gamma / (beta * dt)
+    a2 = 1.0 / (beta * dt)
+    a3 = 0.5 / beta - 1.0
+    cv = (1.0 + alpha) * (1.0 - gamma / beta) - alpha
+    ca = (1.0 + alpha) * dt * (1.0 - 0.5 * gamma / beta)
+    return a0, a1, a2, a3, cv, ca, gamma, 1.0 + alpha
+
+
 @njit
 def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
     """Advance the state by one HHT-alpha step of size ``dt`` to time ``t1``.
@@ -828,15 +845,7 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
     Returns (status, iterations); the state is garbage when status != 0.
     """
     alpha = prm.alpha
-    beta = 0.25 * (1.0 - alpha) ** 2
-    gamma = 0.5 - alpha
-    a0 = 1.0 / (beta * dt * dt)
-    a1 = gamma / (beta * dt)
-    a2 = 1.0 / (beta * dt)
-    a3 = 0.5 / beta - 1.0
-    cv = (1.0 + alpha) * (1.0 - gamma / beta) - alpha
-    ca = (1.0 + alpha) * dt * (1.0 - 0.5 * gamma / beta)
-    scale = 1.0 + alpha
+    a0, a1, a2, a3, cv, ca, gamma, scale = hht_coefficients(alpha, dt)
     n_m = st.q.shape[0]
     n_v = st.u.shape[0]
     n_w = veh.wheel_dof.shape[0]
@@ -1212,15 +1221,7 @@ def mf_time_loop(br, veh, prm, st, wk, red, r, out, h, on, off, cs, sums):
     """
     alpha = prm.alpha
     dt = prm.dt
-    beta = 0.25 * (1.0 - alpha) ** 2
-    gamma = 0.5 - alpha
-    a0 = 1.0 / (beta * dt * dt)
-    a1 = gamma / (beta * dt)
-    a2 = 1.0 / (beta * dt)
-    a3 = 0.5 / beta - 1.0
-    cv = (1.0 + alpha) * (1.0 - gamma / beta) - alpha
-    ca = (1.0 + alpha) * dt * (1.0 - 0.5 * gamma / beta)
-    scale = 1.0 + alpha
+    a0, a1, a2, a3, cv, ca, gamma, scale = hht_coefficients(alpha, dt)
     n_m = st.q.shape[0]
     n_l = veh.load_x0.shape[0]
     speed = prm.speed

@@ -484,6 +484,30 @@ def warnings_json(cfg) -> str:
     return json.dumps(records, ensure_ascii=False)
 
 
+@dataclass(frozen=True)
+class _Study:
+    """What :func:`execute_study` derives from a configuration before it runs: one spec
+    and model per variant (a single one without ``study.vary``), the grid and the plan."""
+
+    specs: list
+    models: list
+    grid: StudyGrid
+    plan: list
+    labels: list | None  # the variants' {key path: value}, None without variants
+    config_json: str
+    sha: str
+    command: str
+
+    @property
+    def task_spec(self):
+        """What a batch task receives: the spec, or one spec per variant."""
+        return tuple(self.specs) if self.labels is not None else self.specs[0]
+
+    @property
+    def n_runs(self) -> int:
+        return len(self.grid.cases) * len(self.models)
+
+
 @dataclass
 class StudyOutcome:
     """What a finished study wrote."""
@@ -598,7 +622,6 @@ def execute_study(config, output=None, workers=None, scheduler=None, progress=Fa
     plan: list[Batch] = []
     for k, (sp, m) in enumerate(zip(specs, models, strict=True)):
         plan += study_plan(sp, m, grid, variant=k if variants else None, start=len(plan))
-    task_spec = tuple(specs) if variants else spec
     if command is None:
         source = str(cfg.path) if getattr(cfg, "path", None) else "<mapping>"
         command = (f"vsi_numba.run_study({source!r}, output={str(output)!r}, "
@@ -610,11 +633,12 @@ def execute_study(config, output=None, workers=None, scheduler=None, progress=Fa
         "".join(model_fingerprint(m) for m in models).encode()).hexdigest())
     store = CaseStore(store_path(output), sha, config_json, fresh=fresh,
                       model_sha256=model_sha, plan_sha256=plan_fingerprint(plan))
+    study = _Study(specs, models, grid, plan, [lab for lab, _ in variants] or None,
+                   config_json, sha, command)
     try:
         with store:
-            return _execute(store, spec, task_spec, specs, models, grid, plan, variants,
-                            output, backend, workers, scheduler, progress, keep_cases, quiet,
-                            config_json, sha, command)
+            return _execute(store, study, output, backend, workers, scheduler, progress,
+                            keep_cases, quiet)
     except BaseException:
         # a run that stored nothing leaves nothing behind (e.g. an unreachable scheduler)
         if not store_existed and store.path.is_dir() and not store.done():
@@ -622,42 +646,42 @@ def execute_study(config, output=None, workers=None, scheduler=None, progress=Fa
         raise
 
 
-def _execute(store, spec, task_spec, specs, models, grid, plan, variants, output, backend,
-             workers, scheduler, progress, keep_cases, quiet, config_json, sha, command):
+def _execute(store, study: _Study, output, backend, workers, scheduler, progress,
+             keep_cases, quiet) -> StudyOutcome:
     """The part of :func:`execute_study` that runs with the store open."""
     done = store.done()
-    for b in plan:  # a damaged or foreign batch file is found now, not at the end
+    for b in study.plan:  # a damaged or foreign batch file is found now, not at the end
         if b.key in done:
             store.check(b.key)
-    pending = [b for b in plan if b.key not in done]
-    n_runs = len(grid.cases) * len(models)
+    pending = [b for b in study.plan if b.key not in done]
+    n_runs = study.n_runs
     n_todo = sum(b.n_runs for b in pending)
-    n_s, n_t, n_i = grid.shape
+    n_s, n_t, n_i = study.grid.shape
     if pending:
         be = _choose_backend(backend, workers, scheduler, len(pending),
                              store.path / "dask-scratch")
-        nv = f"{len(models)} variants x " if variants else ""
-        _say(quiet, f"{n_runs} runs in {len(plan)} batches ({nv}{n_s} speeds x {n_t} "
+        nv = f"{len(study.models)} variants x " if study.labels is not None else ""
+        _say(quiet, f"{n_runs} runs in {len(study.plan)} batches ({nv}{n_s} speeds x {n_t} "
                     f"trains x {n_i} irregularities): {n_runs - n_todo} done earlier, "
                     f"{n_todo} to run ({be.name}"
                     f"{'' if be.name == 'serial' else f', {workers or be.n_workers} workers'}"
                     ")")
-        _run_pending(be, task_spec, pending, store, progress, n_runs, n_runs - n_todo)
+        _run_pending(be, study.task_spec, pending, store, progress, n_runs, n_runs - n_todo)
     else:
         _say(quiet, f"{n_runs} runs: all done earlier, writing {output}")
-    n_failed = _write_results(output, store, specs, models, grid, plan, config_json, sha,
-                              command, [lab for lab, _ in variants] or None)
+    n_failed = _write_results(output, store, study)
     if not keep_cases:
         store.remove()
     _say(quiet, f"wrote {output}: {n_runs} runs, {n_failed} failed")
-    return StudyOutcome(output, n_runs, n_failed, len(plan))
+    return StudyOutcome(output, n_runs, n_failed, len(study.plan))
 
 
-def _write_results(output: Path, store: CaseStore, specs, models, grid, plan, config_json,
-                   sha, command, labels=None) -> int:
+def _write_results(output: Path, store: CaseStore, study: _Study) -> int:
     """Stream the stored batches into the results file; returns the failed-run count."""
     from vsi_numba.io.study_file import StudyFile
 
+    specs, models, grid, plan, labels = (study.specs, study.models, study.grid, study.plan,
+                                         study.labels)
     infos = [trains_info(sp, m) for sp, m in zip(specs, models, strict=True)]
     packed = [_packed_trains(sp, m) for sp, m in zip(specs, models, strict=True)]
     hist_steps = [packed[b.variant or 0][b.i_train].n_steps(grid.speeds_kmh[s] / 3.6) + 1
@@ -700,9 +724,10 @@ def _write_results(output: Path, store: CaseStore, specs, models, grid, plan, co
                         failed.append(key if b.variant is None else f"v{b.variant:04d}_{key}")
                 del data
             failed.sort()
-            attrs = _global_attrs(model, config_json, sha, grid, len(failed), failed, command)
+            attrs = _global_attrs(model, study.config_json, study.sha, grid, len(failed),
+                                  failed, study.command)
             if labels is not None:
-                attrs["n_cases"] = len(grid.cases) * len(models)
+                attrs["n_cases"] = study.n_runs
                 attrs["n_variants"] = len(models)
                 attrs["varied_keys"] = " ".join(labels[0])
             if labels is None:  # per variant otherwise (damping_rule(variant))

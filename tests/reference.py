@@ -1257,3 +1257,108 @@ def quarter_car_flexible_event_driven(
         if n_ev > max_events:
             raise RuntimeError("too many contact events (chattering?)")
     return sol
+
+
+# --------------------------------------------------- quarter car over an elastic-track joint
+
+
+@dataclass
+class JointResult:
+    """Output of :func:`quarter_car_elastic_joint`."""
+
+    t: np.ndarray  # s
+    force: np.ndarray  # N, wheel-rail contact force (compression)
+    x: np.ndarray  # m, wheel abscissa
+    static_force: float  # N
+
+
+def quarter_car_elastic_joint(
+    length: float, EI: float, mass_per_length: float, n_modes: int,
+    foundation: float, rail_EI: float,
+    mass: float, stiffness: float, damping: float, wheel_mass: float,
+    speed: float, x_start: float, t_end: float,
+    margin: float = 25.0, h: float = 0.025, rtol: float = 1e-9,
+) -> JointResult:
+    """A quarter car (sprung ``mass`` on a spring-dashpot over ``wheel_mass``) running
+    over an undamped simply supported beam whose track is a rail (``rail_EI``) on a
+    Winkler foundation (``foundation``, N/m per m) bearing on the deck where there is
+    deck and on rigid ground over the approaches; the wheel is in rigid contact with the
+    rail (the test checks that it stays in contact).
+
+    The rail is quasi-static and discretised by central finite differences on a uniform
+    grid of spacing ``h`` over ``[-margin, length + margin]`` (clamped ends, far from the
+    wheel): EI w'''' + k w = k u + P delta(x - x_w) with u = sum_j phi_j q_j on the deck;
+    the point load and the rail deflection under the wheel use linear-interpolation
+    weights between the two nearest nodes.  The deck's modal force is the foundation
+    force integrated over the deck, sum_i h phi_j(x_i) k (w_i - u_i) (trapezoid rule),
+    which holds both the spread wheel load and the rail's restraint of the deck.  The
+    contact force follows from the rail's compliance under the wheel,
+    P = (u_w - w_q(x_w)) / g(x_w).  States: q, q', u_s, u_s', u_w, u_w'; ``solve_ivp``
+    (DOP853) with steps below h / speed so the piecewise-linear load path is followed.
+    """
+    g0 = 9.81
+    n = int(round((length + 2 * margin) / h))
+    xs = -margin + h * np.arange(n + 1)
+    N = xs.size
+    # banded FD matrix EI D4 / h^4 + k I; clamped ends (w = 0 at a ghost node beyond the
+    # last one and mirrored slope: w_{-1} = w_1)
+    c = rail_EI / h**4
+    ab = np.zeros((5, N))
+    ab[0, 2:] = c
+    ab[1, 1:] = -4 * c
+    ab[2, :] = 6 * c + foundation
+    ab[3, :-1] = -4 * c
+    ab[4, :-2] = c
+    ab[2, [0, -1]] += c
+    j = np.arange(1, n_modes + 1)
+    kj = j * np.pi / length
+    omega = kj**2 * np.sqrt(EI / mass_per_length)
+    on = (xs >= 0.0) & (xs <= length)
+    phi = np.zeros((N, n_modes))
+    phi[on] = np.sqrt(2.0 / (mass_per_length * length)) * np.sin(np.outer(xs[on], kj))
+    wq = scipy.linalg.solve_banded((2, 2), ab, foundation * phi)  # per unit q_j
+    trap = np.where(on, h, 0.0)
+    trap[np.flatnonzero(on)[[0, -1]]] *= 0.5
+    # rail deflection under unit loads at the nodes the wheel passes (columns)
+    x_end = x_start + speed * t_end
+    i0 = int(np.floor((x_start - xs[0]) / h)) - 1
+    i1 = int(np.floor((x_end - xs[0]) / h)) + 2
+    E = np.zeros((N, i1 - i0 + 1))
+    E[np.arange(i0, i1 + 1), np.arange(i1 - i0 + 1)] = 1.0 / h
+    cols = scipy.linalg.solve_banded((2, 2), ab, E)
+
+    def under_wheel(t, q):
+        x = x_start + speed * t
+        i = int(np.floor((x - xs[0]) / h))
+        s = (x - xs[i]) / h
+        wts = np.array([1.0 - s, s])
+        col = cols[:, i - i0: i - i0 + 2] @ wts  # rail deflection of a unit wheel load
+        g = wts @ col[i:i + 2]
+        return wts @ (wq[i:i + 2] @ q), g, col
+
+    def rhs(t, y):
+        q, qd = y[:n_modes], y[n_modes:2 * n_modes]
+        us, usd, uw, uwd = y[2 * n_modes:]
+        wq_x, g, col = under_wheel(t, q)
+        P = (uw - wq_x) / g
+        w = wq @ q + col * P
+        f = (trap * foundation * (w - phi @ q)) @ phi
+        fs = stiffness * (us - uw) + damping * (usd - uwd)
+        return np.concatenate([qd, f - omega**2 * q,
+                               [usd, g0 - fs / mass, uwd, g0 + (fs - P) / wheel_mass]])
+
+    # static equilibrium far from the deck (q = 0)
+    _, g, _ = under_wheel(0.0, np.zeros(n_modes))
+    P0 = (mass + wheel_mass) * g0
+    y0 = np.concatenate([np.zeros(2 * n_modes),
+                         [g * P0 + mass * g0 / stiffness, 0.0, g * P0, 0.0]])
+    t_eval = np.linspace(0.0, t_end, int(round(t_end / 1e-5)) + 1)
+    sol = scipy.integrate.solve_ivp(rhs, (0.0, t_end), y0, method="DOP853", rtol=rtol,
+                                    atol=1e-12, max_step=0.5 * h / speed, t_eval=t_eval)
+    if not sol.success:
+        raise RuntimeError(sol.message)
+    force = np.empty(sol.t.size)
+    for k, (t, y) in enumerate(zip(sol.t, sol.y.T, strict=True)):
+        wq_x, g, _ = under_wheel(t, y[:n_modes])
+        force[k] = (y[2 * n_modes + 2] - wq_x) / g
+    return JointResult(t=sol.t, force=force, x=x_start + speed * sol.t, static_force=P0)

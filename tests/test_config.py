@@ -208,7 +208,8 @@ def test_config__bad_values(path, value, expected):
 
 def test_config__hertz_contact():
     data = with_("contact", {"model": "hertz", "hertz_coefficient": 4e-8},
-                 with_("train.vehicles[0].wheel_mass", 500.0))
+                 with_("train.vehicles[0].wheel_mass", 500.0,
+                       with_("track", {"model": "rigid"})))  # the Hertz spring alone
     cfg = load_config(data)
     s = cfg.solver_settings()
     assert (s.contact_model, s.hertz_coefficient) == ("hertz", 4e-8)

@@ -287,6 +287,8 @@ def test_sweep_command__failed_cases_exit_1(tmp_path, capsys, monkeypatch):
         free_vibration = 0.05
         max_iterations = 1
         max_subdivisions = 0
+        [track]
+        model = "rigid"
         [study]
         speeds_kmh = [100.0, 300.0]
         save_time_histories = false
@@ -343,4 +345,6 @@ def test_run_study__a_seed_is_the_same_track_whatever_the_trains(tmp_path):
                 ref.dims else b[name].sel(train="one-car")
             ref = ref.isel(wheel=slice(0, 4)) if "wheel" in ref.dims else ref
             # same samples of the same realisation; the two splines differ by round-off
-            np.testing.assert_allclose(got.values, ref.values, rtol=1e-9, err_msg=name)
+            # (amplified to ~4e-9 by the wheel-on-track resonance of the elastic track;
+            # another realisation would differ by O(1))
+            np.testing.assert_allclose(got.values, ref.values, rtol=1e-8, err_msg=name)

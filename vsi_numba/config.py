@@ -56,6 +56,11 @@ train's first axle; 0) and ``name``.  Vehicles are listed front to back, not ove
 ``acceleration_cutoff`` (Hz; EN 1990 A2 rule).
 ``[contact]`` ``model`` = rigid (default) | hertz | hertz_linear (as offered by
 :mod:`vsi_numba.solver.settings`), ``hertz_coefficient`` G (m N^-2/3; required for Hertz).
+``[track]`` ``model`` = elastic (default: the rail on a Winkler foundation over the deck
+and the approaches, :mod:`vsi_numba.model.track`) | rigid (the rigid-track idealisation:
+a kink at the deck ends); ``foundation_stiffness`` (N/m per metre of track, both rails;
+8.51e7: 150 kN/mm per axle with UIC60 rails) and ``rail_EI`` (N m^2, both rails; 1.283e7,
+UIC60).  Not with ``[bridge.track]``, whose FE track layer is then the track.
 ``[study]`` ``speeds_kmh`` (list, or {start, stop, step} with stop included when on the
 grid) or ``line_speed_kmh`` (then 140 .. 1.2 x line speed, step 5, 1.2 x line speed
 included); ``output`` (results/<stem>.nc); ``save_time_histories`` (true);
@@ -84,6 +89,7 @@ import numpy as np
 
 from vsi_numba.model import bridge as _bridge
 from vsi_numba.model import irregularity as _irr
+from vsi_numba.model import track as _track
 from vsi_numba.model import vehicle as _veh
 from vsi_numba.solver import settings as _settings
 from vsi_numba.solver.settings import SolverSettings
@@ -1452,6 +1458,39 @@ def _contact_section(chk, d) -> dict | _Sentinel:
     return {"model": model, "hertz_coefficient": g}
 
 
+TRACK_MODELS = ("elastic", "rigid")
+
+
+def _rail_track_section(chk, d, fe_layer: bool) -> dict | _Sentinel:
+    """[track]: the rail on an elastic foundation (default) or the rigid idealisation."""
+    if fe_layer:
+        if d is not _MISSING:
+            chk.error("track", d, "no [track] with [bridge.track]: the FE track layer of the "
+                      "deck is the track")
+            return _BAD
+        return {"model": "bridge_layer"}
+    if d is _MISSING:
+        d = {}
+    if chk.table(d, "track", {"model", "foundation_stiffness", "rail_EI"},
+                 what=" [track] of track values") is _BAD:
+        return _BAD
+    model = chk.choice(d, "track", "model", TRACK_MODELS, default="elastic")
+    if model == "rigid":
+        for key in ("foundation_stiffness", "rail_EI"):
+            if key in d:
+                chk.warn(f"track.{key} is ignored: not used by track.model = 'rigid'")
+        return {"model": "rigid"}
+    k = chk.get_number(d, "track", "foundation_stiffness", _Num(
+        "a foundation modulus > 0 N/m per metre of track (both rails; about 3e7 .. 3e8)",
+        gt=0, default=_track.FOUNDATION_DEFAULT))
+    ei = chk.get_number(d, "track", "rail_EI", _Num(
+        "a bending stiffness of both rails > 0 N m^2 (1.283e7 for two UIC60 rails)",
+        gt=0, default=_track.RAIL_EI_UIC60))
+    if not _ok(model, k, ei):
+        return _BAD
+    return {"model": "elastic", "foundation_stiffness": float(k), "rail_EI": float(ei)}
+
+
 # ---------------------------------------------------------------------------------- study
 
 _SPEED = _Num("a speed > 0 km/h (at most 1000)", gt=0, le=1000)
@@ -1563,7 +1602,7 @@ def _study_section(chk, d, default_output: str, base_dir: Path) -> dict | _Senti
 
 MAX_VARIANTS = 5000  # cap on the bridge/track/contact variants of one study
 _KEY_PATH = re.compile(r"^[A-Za-z_]\w*(\[\d+\])?(\.[A-Za-z_]\w*(\[\d+\])?)+$")
-_VARY_SECTIONS = ("bridge", "train", "irregularity", "solver", "contact")
+_VARY_SECTIONS = ("bridge", "train", "irregularity", "solver", "contact", "track")
 #: The variant coordinate of ``study.mass_bounds`` (factors on bridge.mass_per_length).
 MASS_FACTOR = "mass_factor"
 
@@ -1765,6 +1804,7 @@ class Config:
         self._irr = irregularity
         self._solver = solver
         self._study = study
+        self._built = None  # the bridge with its track (build_bridge)
         #: ``[(labels, Config)]``: the variants of ``study.vary`` (empty: none)
         self.variants: list = []
 
@@ -1777,7 +1817,8 @@ class Config:
         """Return the bridge model (:class:`~vsi_numba.model.bridge.ModalBridge`).
 
         Imported bridges (``modes_file``, ``matrices``) are read and checked by
-        :func:`load_config` already; this returns that model.
+        :func:`load_config` already; this returns that model, with the track of
+        ``[track]`` (:attr:`track_model`).
 
         Raises
         ------
@@ -1790,7 +1831,24 @@ class Config:
                  "(deck modes from a file come with a later release)"],
                 source=str(self.path) if self.path else "<mapping>",
             )
-        return self._bridge.model
+        if self._built is None:
+            model = self._bridge.model
+            if self.track_model == "elastic":
+                track = self._resolved["track"]
+                import dataclasses
+
+                model = dataclasses.replace(model, track=_track.ElasticTrack(
+                    track["foundation_stiffness"], track["rail_EI"]))
+            self._built = model
+        return self._built
+
+    @property
+    def track_model(self) -> str:
+        """'elastic' (rail on a foundation), 'rigid' (idealisation) or 'bridge_layer'
+        (the FE track layer of ``[bridge.track]``)."""
+        if "track" in self._resolved["bridge"]:
+            return "bridge_layer"
+        return self._resolved["track"]["model"]
 
     @property
     def output_points(self) -> np.ndarray:
@@ -2035,7 +2093,7 @@ def _refine_resonance(study, bridge, train):
 
 def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     chk = _Checker()
-    top = {"title", "bridge", "train", "irregularity", "solver", "contact", "study"}
+    top = {"title", "bridge", "train", "irregularity", "solver", "contact", "track", "study"}
     chk.table(data, "", top)
     default_title = path.stem if path is not None else "untitled"
     title = chk.string(data, "", "title", "a title (string)", default=None, nonempty=False)
@@ -2048,6 +2106,8 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     contact = _contact_section(chk, data.get("contact", _MISSING))
     cutoff = solver["acceleration_cutoff"] if _ok(solver) else None
     bridge = _bridge_section(chk, data["bridge"], base, cutoff) if "bridge" in data else _BAD
+    fe_layer = isinstance(data.get("bridge"), dict) and "track" in data["bridge"]
+    track = _rail_track_section(chk, data.get("track", _MISSING), fe_layer)
     train = (
         _train_section(chk, data["train"], base, title if _ok(title) else None)
         if "train" in data else _BAD
@@ -2078,7 +2138,7 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
                 f"spans of a railway bridge >= {MIN_SPAN:g} m (units: m)")
         if chk.errors:
             raise ConfigError(chk.errors, source=source)
-    _physics_warnings(chk, bridge, train, irr, solver, study, contact)
+    _physics_warnings(chk, bridge, train, irr, solver, study, contact, track)
     _plausibility(chk, bridge, train, irr, solver, study, contact)
     if chk.errors:  # checks of the whole model (time step, budget, plausibility)
         raise ConfigError(chk.errors, source=source)
@@ -2089,6 +2149,8 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
         "irregularity": irr.resolved,
         "solver": _drop_none(dict(solver)),
         "contact": contact,
+        # (none with the FE track layer of [bridge.track]: that layer is the track)
+        **({"track": track} if track["model"] != "bridge_layer" else {}),
         "study": {k: v for k, v in study.items() if not k.startswith("_")},
     }
     cfg = Config(
@@ -2157,6 +2219,47 @@ def _hertz_warning(chk, train, dt, g, model="hertz"):
             "resolution", ["solver.dt", "contact.hertz_coefficient"])
 
 
+def _track_warning(chk, train, dt, track, contact):
+    """Elastic track: every wheel with mass on the track spring 1/G(0) (in series with
+    the Hertz spring, at twice the static load for ``hertz``, when there is one).  The
+    wheel-on-track mode (~40-60 Hz for a wheelset) must be resolved by the step."""
+    from vsi_numba.model.library import static_axle_loads
+
+    k_track = _track.ElasticTrack(track["foundation_stiffness"], track["rail_EI"]) \
+        .axle_stiffness
+    model = contact["model"]
+    factor = HERTZ_LOAD_FACTOR if model == "hertz" else 1.0
+    f_max, where = 0.0, ""
+    for tr in train.trains:
+        for v in tr.vehicles:
+            if not v.n_wheels or v.total_weight <= 0:
+                continue
+            m_w = np.diag(v.M)[v.wheel_dofs]
+            k = np.full(v.n_wheels, k_track)
+            if model != "rigid":
+                try:
+                    q0 = static_axle_loads(v)[: v.n_wheels]
+                except (ValueError, np.linalg.LinAlgError):
+                    q0 = np.full(v.n_wheels, v.total_weight / v.n_wheels)
+                k_h = 1.5 * np.cbrt(factor * np.clip(q0, 1.0, None)) / \
+                    contact["hertz_coefficient"]
+                k = 1.0 / (1.0 / k + 1.0 / k_h)
+            ok = m_w > 0
+            if not ok.any():
+                continue
+            f = float(np.max(np.sqrt(k[ok] / m_w[ok]))) / (2 * math.pi)
+            if f > f_max:
+                f_max, where = f, f"train '{tr.name}', vehicle '{v.name}'"
+    if dt * f_max > DT_RESOLUTION:
+        spring = "track" if model == "rigid" else "track and Hertz contact"
+        chk.warn(
+            f"solver.dt = {dt:g} s: dt x f = {dt * f_max:.3g} for the wheel on the {spring} "
+            f"springs ({f_max:.4g} Hz, {where}); above {DT_RESOLUTION} it is under-resolved "
+            f"(wheel-rail force peaks too low); use dt <= {DT_RESOLUTION / f_max:.3g} s",
+            "resolution", ["solver.dt", "track.foundation_stiffness"]
+            + (["contact.hertz_coefficient"] if model != "rigid" else []))
+
+
 def _rigid_massive_warning(chk, train, alpha):
     """Rigid contact, wheels with mass, alpha > -0.02: the contact forces ring."""
     if alpha <= RIGID_MASSIVE_ALPHA:
@@ -2174,9 +2277,11 @@ def _rigid_massive_warning(chk, train, alpha):
                 return
 
 
-def _physics_warnings(chk, bridge, train, irr, solver, study, contact):
+def _physics_warnings(chk, bridge, train, irr, solver, study, contact, track):
     dt = solver["dt"]
-    if contact["model"] != "rigid":
+    if track["model"] == "elastic":
+        _track_warning(chk, train, dt, track, contact)
+    elif contact["model"] != "rigid":
         _hertz_warning(chk, train, dt, contact["hertz_coefficient"], contact["model"])
     else:
         _rigid_massive_warning(chk, train, solver["hht_alpha"])

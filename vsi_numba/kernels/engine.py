@@ -45,6 +45,14 @@ class BridgeArrays(NamedTuple):
     nodes: np.ndarray  # (n_nodes,) m
     values: np.ndarray  # (n_nodes, n_m)
     slopes: np.ndarray  # (n_nodes, n_m)
+    # elastic track (vsi_numba.model.track): the wheels see the track-filtered mode shapes
+    # of this Hermite table over [t_nodes[0], t_nodes[-1]] (the deck and a few metres of
+    # each approach) and the rail compliance VehicleArrays.track_C; contact is then
+    # compliant (no impacts).  track = 0: rigid track, the wheels see the shapes above.
+    track: int = 0
+    t_nodes: np.ndarray = np.zeros(2)
+    t_values: np.ndarray = np.zeros((2, 0))
+    t_slopes: np.ndarray = np.zeros((2, 0))
 
 
 class VehicleArrays(NamedTuple):
@@ -72,6 +80,9 @@ class VehicleArrays(NamedTuple):
     body_pt_start: np.ndarray = np.zeros(1, np.int64)  # (n_b + 1,)
     body_pt_pitch: np.ndarray = np.zeros(0, np.int64)  # (n_pt,) global pitch DOF or -1
     body_pt_d: np.ndarray = np.zeros(0)  # (n_pt,) m ahead of the centre of gravity
+    # rail compliance G(x_i - x_k) between the wheels on an elastic track, m/N (n_w, n_w);
+    # constant (the wheel spacing is); read only when BridgeArrays.track == 1
+    track_C: np.ndarray = np.zeros((0, 0))
 
 
 class ProfileArrays(NamedTuple):
@@ -252,7 +263,14 @@ def eval_modes(br, x, out, dout, d2out):
             d2out[j] = -a * k * k * s
             s, c = s * c1 + c * s1, c * c1 - s * s1
         return 1
-    nodes = br.nodes
+    eval_hermite(br.nodes, br.values, br.slopes, x, out, dout, d2out)
+    return 1
+
+
+@njit(inline="always")
+def eval_hermite(nodes, values, slopes, x, out, dout, d2out):
+    """Values and two x-derivatives at ``x`` of a Hermite table (values and slopes at
+    ``nodes``), with the cubic Hermite shape functions of the element holding ``x``."""
     e = np.searchsorted(nodes, x, side="right") - 1
     if e < 0:
         e = 0
@@ -274,15 +292,14 @@ def eval_modes(br, x, out, dout, d2out):
     e2 = (-4.0 + 6.0 * s) / h
     e3 = -e1
     e4 = (-2.0 + 6.0 * s) / h
-    for j in range(n_m):
-        w1 = br.values[e, j]
-        t1 = br.slopes[e, j]
-        w2 = br.values[e + 1, j]
-        t2 = br.slopes[e + 1, j]
+    for j in range(values.shape[1]):
+        w1 = values[e, j]
+        t1 = slopes[e, j]
+        w2 = values[e + 1, j]
+        t2 = slopes[e + 1, j]
         out[j] = n1 * w1 + n2 * t1 + n3 * w2 + n4 * t2
         dout[j] = d1 * w1 + d2 * t1 + d3 * w2 + d4 * t2
         d2out[j] = e1 * w1 + e2 * t1 + e3 * w2 + e4 * t2
-    return 1
 
 
 @njit
@@ -312,11 +329,24 @@ def eval_profile(pr, x, out):
 
 @njit(inline="always")
 def contact_search(br, veh, pr, t, speed, wk):
-    """Position every wheel at time ``t``: on/off the bridge, mode values, irregularity."""
+    """Position every wheel at time ``t``: coupled to the deck or not, mode values (the
+    track-filtered ones on an elastic track), irregularity."""
     n_w = veh.wheel_dof.shape[0]
+    n_m = br.omega.shape[0]
     for i in range(n_w):
         x = veh.wheel_x0[i] + speed * t
-        wk.onb[i] = eval_modes(br, x, wk.phi[i], wk.dphi[i], wk.d2phi[i])
+        if br.track == 0:
+            wk.onb[i] = eval_modes(br, x, wk.phi[i], wk.dphi[i], wk.d2phi[i])
+        elif n_m == 0 or x < br.t_nodes[0] or x > br.t_nodes[br.t_nodes.shape[0] - 1]:
+            wk.onb[i] = 0
+            for j in range(n_m):
+                wk.phi[i, j] = 0.0
+                wk.dphi[i, j] = 0.0
+                wk.d2phi[i, j] = 0.0
+        else:
+            wk.onb[i] = 1
+            eval_hermite(br.t_nodes, br.t_values, br.t_slopes, x, wk.phi[i], wk.dphi[i],
+                         wk.d2phi[i])
         eval_profile(pr, x, wk.rr[i])
 
 
@@ -361,7 +391,8 @@ def block_matvec(veh, A, x, y, accumulate, scale):
 @njit(inline="always")
 def contact_profile(veh, wk, m):
     """Envelope of the active Schur block: ``wk.first[a]`` is the first active position
-    coupled to active position ``a`` (same vehicle, or both wheels on the bridge).
+    coupled to active position ``a`` (same vehicle, both wheels on the bridge, or close
+    enough to share the deflection of an elastic rail).
 
     Wheels are numbered vehicle by vehicle along the train, so the block is a narrow
     skyline (a vehicle's wheels, plus the wheels on the bridge) and Cholesky costs
@@ -372,7 +403,8 @@ def contact_profile(veh, wk, m):
         f = a
         for b in range(a):
             k = wk.idx[b]
-            if veh.wheel_veh[k] == veh.wheel_veh[i] or (wk.onb[i] == 1 and wk.onb[k] == 1):
+            if (veh.wheel_veh[k] == veh.wheel_veh[i] or (wk.onb[i] == 1 and wk.onb[k] == 1)
+                    or (veh.track_C.shape[0] > 0 and veh.track_C[i, k] != 0.0)):
                 f = b
                 break
         wk.first[a] = f
@@ -882,6 +914,11 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
         wk.gstar[i] = g
         wk.active[i] = wk.was_active[i]
     build_schur(veh, wk, wk.khat, khat_v)
+    if br.track == 1:
+        # the rail deflects under the wheels: gap = g* + (1 + alpha) S X + C_track X
+        for i in range(n_w):
+            for k in range(n_w):
+                wk.S[i, k] += veh.track_C[i, k] / scale
     if prm.contact_model == 1:
         for i in range(n_w):
             wk.X[i] = st.X[i]
@@ -925,7 +962,7 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
     # a wheel crossing an end of the deck, where the rail velocity v phi'(x) q jumps
     # to or from the rigid track's (the slope of the deflected deck at its ends).
     landing = False
-    if prm.contact_model == 0:  # compliant (Hertz) contact takes them without impulse
+    if prm.contact_model == 0 and br.track == 0:  # compliant contact: no impulse
         for i in range(n_w):
             wk.impulse[i] = 0.0
             if wk.active[i] == 1 and (wk.was_active[i] == 0 or wk.onb[i] != wk.onb_prev[i]):
@@ -1110,8 +1147,8 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
             wk.act0[i] = wk.active[i]  # the set at t_n, for retries
             wk.onb0[i] = wk.onb[i]
         level = 0
-        if prm.contact_model == 0 and crosses_deck_end(br, veh, n * dt, (n + 1) * dt,
-                                                       prm.speed):
+        if prm.contact_model == 0 and br.track == 0 and crosses_deck_end(
+                br, veh, n * dt, (n + 1) * dt, prm.speed):
             # a wheel meets the velocity jump of the rail at a deck end in this step:
             # take it in 2^CROSSING_LEVELS substeps (at most max_sub halvings), so that
             # where the event falls on the time grid hardly matters (design note 1.4)

@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from vsi_numba.model.track import ElasticTrack
+
 RIGID, SINE, HERMITE = 0, 1, 2
 
 
@@ -46,6 +48,12 @@ class ModalBridge:
         With a track layer (:func:`continuous_with_track`) the track line is the rail;
         ``deck`` tabulates the same modes along the deck, for the deck outputs
         (:meth:`output_shapes`).  None: the deck is the track line.
+    track : ElasticTrack or None
+        The rail on its foundation, over the deck and the approaches
+        (:mod:`vsi_numba.model.track`): the wheels see the track-filtered mode shapes and
+        the rail's compliance.  None: the rigid-track idealisation (the wheel runs on
+        the deck line itself and on a rigid approach; a kink at the deck ends).  The
+        config's default is an elastic track; a bridge built directly has none.
     """
 
     kind: int
@@ -59,6 +67,7 @@ class ModalBridge:
     description: str = ""
     effective_mass_fraction: np.ndarray | None = None
     deck: ModalBridge | None = None
+    track: ElasticTrack | None = None
 
     @property
     def n_modes(self) -> int:

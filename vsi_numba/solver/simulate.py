@@ -81,6 +81,11 @@ def _pack_bridge(bridge: ModalBridge) -> ek.BridgeArrays:
     nodes = np.ascontiguousarray(bridge.nodes if bridge.kind == 2 else np.zeros(2), dtype=f64)
     vals = bridge.values if bridge.kind == 2 else np.zeros((2, n_m))
     slopes = bridge.slopes if bridge.kind == 2 else np.zeros((2, n_m))
+    track = {}
+    if bridge.track is not None:
+        t_nodes, t_vals, t_slopes = bridge.track.filtered_shapes(bridge)
+        track = dict(track=1, t_nodes=t_nodes, t_values=np.ascontiguousarray(t_vals, f64),
+                     t_slopes=np.ascontiguousarray(t_slopes, f64))
     return ek.BridgeArrays(
         kind=int(bridge.kind),
         length=float(bridge.length),
@@ -91,6 +96,7 @@ def _pack_bridge(bridge: ModalBridge) -> ek.BridgeArrays:
         nodes=nodes,
         values=np.ascontiguousarray(vals, dtype=f64),
         slopes=np.ascontiguousarray(slopes, dtype=f64),
+        **track,
     )
 
 
@@ -206,6 +212,8 @@ def pack(
         body_pt_start=np.asarray(pt_start, dtype=np.int64),
         body_pt_pitch=np.asarray(pt_pitch, dtype=np.int64),
         body_pt_d=np.asarray(pt_d, dtype=np.float64),
+        track_C=(bridge.track.compliance(x_front - wpos) if bridge.track is not None
+                 else np.zeros((len(wdof), len(wdof)))),
     )
     if settings.contact_model == "hertz_linear" and len(wdof):
         q0 = _static_loads(veh)
@@ -254,8 +262,8 @@ def _dense(veh: ek.VehicleArrays, A: np.ndarray) -> np.ndarray:
     return out
 
 
-def _kkt(A, G, rhs_top, rhs_bottom):
-    """Solve [A G^T; G 0] [x; y] = [rhs_top; rhs_bottom].
+def _kkt(A, G, rhs_top, rhs_bottom, compliance=None):
+    """Solve [A G^T; G -C] [x; y] = [rhs_top; rhs_bottom] (C = 0 without ``compliance``).
 
     The constraint rows are scaled to the size of ``A`` first: unscaled, a stiffness of
     1e7 N/m next to unit constraint rows makes the system so badly conditioned that the
@@ -267,6 +275,8 @@ def _kkt(A, G, rhs_top, rhs_bottom):
     kkt[:n, :n] = A
     kkt[:n, n:] = s * G.T
     kkt[n:, :n] = s * G
+    if compliance is not None:
+        kkt[n:, n:] = -s * s * compliance
     rhs = np.concatenate([rhs_top, s * np.asarray(rhs_bottom, float)])
     try:
         sol = np.linalg.solve(kkt, rhs)
@@ -316,7 +326,31 @@ def initial_states(packed: Packed, profile: Profile, speeds) -> ek.Initial:
     if np.any(x0 > 0.0):
         raise ModelError("every axle must start on the approach track (x <= 0)")
     r0, r1, r2 = profile(x0), profile(x0, 1), profile(x0, 2)
-    u, X = _kkt(Kd, G, veh.gravity, r0) if n_v else (np.zeros(0), np.zeros(0))
+    br = packed.bridge
+    q0 = np.zeros(n_m)
+    if br.track == 1 and n_v:
+        # elastic track: the rail deflects under the wheels (compliance C) and, within
+        # its reach of a deck end, bends the deck too (filtered shapes phit at the
+        # wheels): static equilibrium of deck modes and vehicles together,
+        # [diag(w^2) 0; 0 K] z + B^T X = [0; g],  B z - C X = r0 with B = [-phit, G]
+        from vsi_numba.model.track import hermite_table
+
+        phit = hermite_table(br.t_nodes, br.t_values, br.t_slopes, x0) if n_m else \
+            np.zeros((n_w, 0))
+        A = np.zeros((n_m + n_v, n_m + n_v))
+        A[:n_m, :n_m] = np.diag(br.omega**2)
+        A[n_m:, n_m:] = Kd
+        Bz = np.hstack([-phit, G])
+        top = np.concatenate([np.zeros(n_m), veh.gravity])
+
+        def static(extra):
+            z, X = _kkt(A, Bz, top, r0 + extra, compliance=veh.track_C)
+            return z[:n_m], z[n_m:], X
+    else:
+        def static(extra):
+            u, X = _kkt(Kd, G, veh.gravity, r0 + extra)
+            return q0, u, X
+    q0, u, X = static(np.zeros(n_w)) if n_v else (q0, np.zeros(0), np.zeros(0))
     prm = packed.params
     if n_v and prm.contact_model != 0:
         # compliant contact: the wheels sit delta(X) below the rail top; the static
@@ -326,7 +360,7 @@ def initial_states(packed: Packed, profile: Profile, speeds) -> ek.Initial:
                 delta = prm.hertz_g * np.cbrt(np.clip(X, 0.0, None)) ** 2
             else:
                 delta = veh.wheel_compliance * X
-            u, X_new = _kkt(Kd, G, veh.gravity, r0 + delta)
+            q0, u, X_new = static(delta)
             done = np.max(np.abs(X_new - X)) <= 1e-9 * max(np.max(np.abs(X)), 1.0)
             X = X_new
             if done:
@@ -344,6 +378,8 @@ def initial_states(packed: Packed, profile: Profile, speeds) -> ek.Initial:
             ud, udd, Xr = np.zeros(0), np.zeros(0), np.zeros(0)
         fv = veh.gravity.copy()
         np.subtract.at(fv, veh.wheel_dof, Xr)
+        init.q[r] = q0
+        init.fq_tot[r] = br.omega**2 * q0  # the static modal load of the wheels
         init.u[r] = u
         init.ud[r] = ud
         init.udd[r] = udd

@@ -190,6 +190,9 @@ def _bridge(ds: xr.Dataset, lphi: chk.DeterminantLength | None = None) -> list[s
             out.append("\n> **Note:** L_Φ rests on an assumption (above): φ'' and the design "
                        "factor depend on it. Give the determinant length explicitly "
                        "(`determinant_length`) if the deck is not as assumed.\n")
+    rail = _track_model(ds)
+    if rail is not None:
+        out.append(f"- Track model at the wheels: {rail}")
     track = track_type(ds)
     limit = chk.DECK_ACCELERATION_LIMITS.get(track)
     out.append(f"- Track: {track}"
@@ -364,6 +367,36 @@ def _one_step_losses(results: dict) -> list[str]:
     return out + [""]
 
 
+def _config_section(ds: xr.Dataset, name: str) -> dict | None:
+    """A section of the resolved config stored with the results (None if unreadable)."""
+    import json
+
+    try:
+        sec = json.loads(ds.attrs.get("config_json", "{}")).get(name)
+    except (TypeError, ValueError, AttributeError):
+        return None
+    return sec if isinstance(sec, dict) else None
+
+
+def _track_model(ds: xr.Dataset) -> str | None:
+    """How the wheels see the track, from the stored config (None: not stated)."""
+    if "config_json" not in ds.attrs:
+        return None
+    bridge = _config_section(ds, "bridge") or {}
+    if "track" in bridge:
+        return ("the FE track layer of the deck (rail, pads, sleepers, ballast); rigid "
+                "approach track, the rail clamped at the deck ends")
+    t = _config_section(ds, "track")
+    if t is None or t.get("model") == "rigid":
+        return ("**rigid-track idealisation** (the wheel runs on the deck line and on rigid "
+                "approach track: a kink in the rail at each deck end)")
+    k, ei = float(t["foundation_stiffness"]), float(t["rail_EI"])
+    beta = (k / (4 * ei)) ** 0.25
+    return (f"elastic track — the rail (EI = {ei:.4g} N m², both rails) on a foundation of "
+            f"{k / 1e6:.4g} MN/m per metre of track over the deck and the approaches, "
+            f"{2 * k / beta / 1e6:.4g} kN/mm under one axle (vsi_numba.model.track)")
+
+
 def _deck_end_note(ds: xr.Dataset, reach: float = 1.0) -> list[str]:
     """Warn when the smallest contact forces occur at the deck ends.
 
@@ -384,20 +417,22 @@ def _deck_end_note(ds: xr.Dataset, reach: float = 1.0) -> list[str]:
     at_end = ok & ((np.abs(x) <= reach) | (np.abs(x - float(length)) <= reach))
     if not at_end.any():
         return []
-    import json
-
-    try:
-        contact = json.loads(ds.attrs.get("config_json", "{}")).get("contact", {})
-        model = contact.get("model", "rigid")
-    except (TypeError, ValueError, AttributeError):
-        model = "rigid"
+    rail = _config_section(ds, "track")
+    if rail is not None and rail.get("model") == "elastic":
+        return [f"> **Note:** {int(at_end.sum())} of the {int(ok.sum())} wheel records with "
+                f"ΔQ/Q₀ > 0.3 have their minimum contact force within {reach:g} m of a deck "
+                "end. The rail carries the wheels over the joint on its foundation (elastic "
+                "track), so this is the modelled transition, not a kink; its stiffness "
+                "(`[track] foundation_stiffness`) governs it.", ""]
+    model = (_config_section(ds, "contact") or {}).get("model", "rigid")
     if model == "rigid":
         advice = ("the minimum there depends on it and, with rigid contact (an impact at the "
-                  "kink), on dt. Check it with Hertz contact (`[contact] model = \"hertz\"`) "
-                  "or a track layer.")
+                  "kink), on dt. Use the elastic track (`[track] model = \"elastic\"`, the "
+                  "default), whose rail carries the wheel over the joint.")
     else:
         advice = ("the Hertz contact softens the impact at the kink, but the minimum there "
-                  "still depends on this idealisation; a track layer models the transition.")
+                  "still depends on this idealisation; the elastic track (`[track] model = "
+                  "\"elastic\"`, the default) models the transition.")
     return [f"> **Note:** {int(at_end.sum())} of the {int(ok.sum())} wheel records with "
             f"ΔQ/Q₀ > 0.3 have their minimum contact force within {reach:g} m of a deck end. "
             "There the deflected deck meets rigid approach track with a kink in the rail, an "

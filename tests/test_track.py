@@ -167,3 +167,30 @@ def test_track__coarse_dt_for_the_wheel_on_the_track_spring_warns():
     assert f"{f:.4g} Hz" in hits[0]["message"]
     assert not [r for r in load_config(_cfg(solver={"dt": 1e-3})).warning_records
                 if "wheel on the track" in r["message"]]
+
+
+def test_track__report_states_the_track_model_and_the_deck_end_note_follows_it():
+    """The report's Bridge section says how the wheels see the track; the note on minima
+    at the deck ends blames the kink only for the rigid-track idealisation."""
+    import json
+
+    from vsi_numba.analysis import report
+    from vsi_numba.analysis.synthetic import synthetic_results
+
+    ds = synthetic_results(bridge_length=20.0)
+    ds["position_of_min_contact_force"][:] = 20.2  # every minimum just past the exit end
+    ds["max_wheel_unloading"][:] = 0.5
+    ds["min_contact_force"][:] = 0.5 * ds["static_wheel_load"]
+    config = json.loads(ds.attrs["config_json"])
+    notes, lines = {}, {}
+    for model in ("rigid", "elastic"):
+        config["track"] = ({"model": "rigid"} if model == "rigid" else
+                           {"model": "elastic", "foundation_stiffness": 8.51e7,
+                            "rail_EI": 1.283e7})
+        ds.attrs["config_json"] = json.dumps(config)
+        notes[model] = " ".join(report._deck_end_note(ds))
+        lines[model] = report._track_model(ds)
+    assert "kink" in notes["rigid"] and "rigid approach track" in notes["rigid"]
+    assert "not a kink" in notes["elastic"] and "foundation_stiffness" in notes["elastic"]
+    assert "rigid-track idealisation" in lines["rigid"]
+    assert "85.1 MN/m per metre" in lines["elastic"] and "kN/mm under one axle" in lines["elastic"]

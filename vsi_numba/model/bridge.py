@@ -132,7 +132,9 @@ def _hermite(s, h, derivative):
     return ((-6 + 12 * s) / h**2, (-4 + 6 * s) / h, (6 - 12 * s) / h**2, (-2 + 6 * s) / h)
 
 
-def _per_mode(value, n, name):
+def per_mode(value, n, name):
+    """One value per retained mode: a scalar for every mode, or the first ``n`` of a list
+    (ValueError when it has fewer than ``n``)."""
     v = np.asarray(value, float)
     if v.ndim == 0:
         return np.full(n, float(v))
@@ -141,7 +143,9 @@ def _per_mode(value, n, name):
     return v[:n].copy()
 
 
-def _n_keep(freqs, n_modes, max_frequency):
+def n_modes_kept(freqs, n_modes, max_frequency):
+    """How many of the ascending ``freqs`` are retained: at most ``n_modes``, none above
+    ``max_frequency`` (either may be None, not both); ValueError when none is."""
     if n_modes is None and max_frequency is None:
         raise ValueError("give n_modes or max_frequency")
     n = freqs.size if n_modes is None else min(int(n_modes), freqs.size)
@@ -167,13 +171,13 @@ def simply_supported(
     nmax = int(n_modes) if n_modes is not None else 400
     j = np.arange(1, nmax + 1)
     freqs = (j * np.pi / length) ** 2 * np.sqrt(EI / mass_per_length) / (2 * np.pi)
-    n = _n_keep(freqs, n_modes, max_frequency)
+    n = n_modes_kept(freqs, n_modes, max_frequency)
     amp = np.full(n, np.sqrt(2.0 / (mass_per_length * length)))
     return ModalBridge(
         kind=SINE,
         length=float(length),
         frequencies=freqs[:n],
-        damping=_per_mode(damping_ratio, n, "damping_ratio"),
+        damping=per_mode(damping_ratio, n, "damping_ratio"),
         values=amp[None, :],
         supports=np.array([0.0, length]),
         description=f"simply supported, L={length} m, EI={EI} N m2, m={mass_per_length} kg/m",
@@ -244,7 +248,7 @@ def continuous(
 
     lam, vec = scipy.linalg.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)])
     freqs = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
-    n = _n_keep(freqs, n_modes, max_frequency)
+    n = n_modes_kept(freqs, n_modes, max_frequency)
     full = np.zeros((K.shape[0], n))
     full[free] = vec[:, :n]
     # sign: make the largest displacement of each mode positive (down)
@@ -255,7 +259,7 @@ def continuous(
         kind=HERMITE,
         length=float(supports[-1]),
         frequencies=freqs[:n],
-        damping=_per_mode(damping_ratio, n, "damping_ratio"),
+        damping=per_mode(damping_ratio, n, "damping_ratio"),
         nodes=nodes,
         values=np.ascontiguousarray(full[0::2]),
         slopes=np.ascontiguousarray(full[1::2]),
@@ -295,7 +299,7 @@ def from_table(
         kind=HERMITE,
         length=float(x[-1] - x[0]) if x[0] == 0 else float(x[-1]),
         frequencies=freqs,
-        damping=_per_mode(damping_ratio, freqs.size, "damping_ratio"),
+        damping=per_mode(damping_ratio, freqs.size, "damping_ratio"),
         nodes=x,
         values=np.ascontiguousarray(shapes),
         slopes=np.ascontiguousarray(slopes),
@@ -526,10 +530,10 @@ def continuous_with_track(
     sign = np.sign(w[np.argmax(np.abs(w), axis=0), np.arange(w.shape[1])])
     sign[sign == 0] = 1.0
     full *= sign
-    keep = _n_keep(freqs, n_modes, max_frequency)
+    keep = n_modes_kept(freqs, n_modes, max_frequency)
     omega = 2 * np.pi * freqs
     zeta_track = np.einsum("ij,ij->j", full, tm.C @ full) / (2 * np.maximum(omega, 1e-300))
-    zeta = np.minimum(_per_mode(damping_ratio, keep, "damping_ratio") + zeta_track[:keep],
+    zeta = np.minimum(per_mode(damping_ratio, keep, "damping_ratio") + zeta_track[:keep],
                       0.99)
     rail = full[tm.rail_dof0: tm.sleeper_dof0]
     deck = full[: tm.rail_dof0]

@@ -24,6 +24,38 @@ import numpy as np
 GRAVITY = 9.81  # m s-2, as in the published train data (TTB-2D ``Calc.Cte.grav``)
 
 
+class VehicleMatrixError(ValueError):
+    """A vehicle matrix breaks a rule of :class:`Vehicle`; ``index`` is the entry (i, j)
+    at fault (the largest asymmetry, the first non-finite entry, the most negative mass)."""
+
+    def __init__(self, message: str, index: tuple[int, int]):
+        super().__init__(message)
+        self.index = index
+
+
+def check_matrix(a: np.ndarray, name: str, vehicle: str = "") -> None:
+    """Raise :class:`VehicleMatrixError` unless the square matrix ``a`` (M, C or K) is
+    symmetric (rtol 1e-12, atol 1e-9 (max |a| + 1)) with finite entries."""
+    if not np.allclose(a, a.T, rtol=1e-12, atol=1e-9 * (np.abs(a).max(initial=0.0) + 1.0)):
+        i, j = np.unravel_index(np.argmax(np.abs(a - a.T)), a.shape)
+        raise VehicleMatrixError(f"vehicle {vehicle!r}: {name} is not symmetric",
+                                 (int(i), int(j)))
+    if not np.all(np.isfinite(a)):
+        i, j = np.argwhere(~np.isfinite(a))[0]
+        raise VehicleMatrixError(f"vehicle {vehicle!r}: {name} has non-finite entries",
+                                 (int(i), int(j)))
+
+
+def check_masses(M: np.ndarray, vehicle: str = "") -> None:
+    """Raise :class:`VehicleMatrixError` if the diagonal of the mass matrix has a negative
+    entry (index: the most negative)."""
+    diag = np.diag(M)
+    if np.any(diag < 0):
+        i = int(np.argmin(diag))
+        raise VehicleMatrixError(f"vehicle {vehicle!r}: negative mass on the diagonal of M",
+                                 (i, i))
+
+
 @dataclass(frozen=True)
 class Vehicle:
     """A linear vehicle subsystem.
@@ -79,10 +111,7 @@ class Vehicle:
         n = np.asarray(self.M).shape[0] if np.asarray(self.M).size else 0
         for name in ("M", "C", "K"):
             a = np.asarray(getattr(self, name), dtype=float).reshape(n, n)
-            if not np.allclose(a, a.T, rtol=1e-12, atol=1e-9 * (np.abs(a).max(initial=0.0) + 1.0)):
-                raise ValueError(f"vehicle {self.name!r}: {name} is not symmetric")
-            if not np.all(np.isfinite(a)):
-                raise ValueError(f"vehicle {self.name!r}: {name} has non-finite entries")
+            check_matrix(a, name, self.name)
             object.__setattr__(self, name, a)
         object.__setattr__(self, "wheel_dofs", np.asarray(self.wheel_dofs, dtype=np.int64))
         object.__setattr__(
@@ -97,8 +126,7 @@ class Vehicle:
             raise ValueError(f"vehicle {self.name!r}: wheel DOF index out of range")
         if len(set(self.wheel_dofs.tolist())) != self.wheel_dofs.size:
             raise ValueError(f"vehicle {self.name!r}: a DOF is used by two wheels")
-        if np.any(np.diag(self.M) < 0):
-            raise ValueError(f"vehicle {self.name!r}: negative mass on the diagonal of M")
+        check_masses(self.M, self.name)
         if not self.dof_names:
             object.__setattr__(self, "dof_names", tuple(f"dof{i}" for i in range(n)))
         if self.comfort_points and len(self.comfort_points) != len(self.body_dofs):

@@ -6,6 +6,38 @@ from dataclasses import dataclass
 
 CONTACT_MODELS = {"rigid": 0, "hertz": 1, "hertz_linear": 2}
 
+#: Lowest HHT-alpha: -1/3 (the config clamps what it admits below it to this value).
+HHT_ALPHA_MIN = -1.0 / 3.0
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """An admissible range, ``x > gt``, ``x >= ge``, ``x < lt``, ``x <= le`` (None: no
+    limit); ``x in bounds`` tests it (NaN is never in)."""
+
+    gt: float | None = None
+    ge: float | None = None
+    lt: float | None = None
+    le: float | None = None
+
+    def __contains__(self, x) -> bool:
+        return ((self.gt is None or x > self.gt) and (self.ge is None or x >= self.ge)
+                and (self.lt is None or x < self.lt) and (self.le is None or x <= self.le))
+
+
+#: The admissible values of the numeric settings: one definition for
+#: :class:`SolverSettings` and the ``[solver]`` / ``[contact]`` keys of the configuration.
+BOUNDS = {
+    "dt": Bounds(gt=0.0),
+    "hht_alpha": Bounds(ge=HHT_ALPHA_MIN - 1e-12, le=0.0),  # -1/3 as written in a file
+    "approach": Bounds(ge=0.0),
+    "free_vibration": Bounds(ge=0.0),
+    "max_iterations": Bounds(ge=1, le=10_000),
+    "max_subdivisions": Bounds(ge=0, le=30),
+    "acceleration_cutoff": Bounds(gt=0.0),
+    "hertz_coefficient": Bounds(gt=0.0),
+}
+
 
 def hertz_coefficient(wheel_radius: float, tread: str = "worn",
                       rail_radius: float | None = None, youngs_modulus: float = 2.1e11,
@@ -95,21 +127,22 @@ class SolverSettings:
     hertz_coefficient: float = 0.0
 
     def __post_init__(self):
-        if not self.dt > 0:
+        if self.dt not in BOUNDS["dt"]:
             raise ValueError(f"solver.dt = {self.dt!r}: expected a time step > 0 s")
-        if not -1.0 / 3.0 - 1e-12 <= self.hht_alpha <= 0.0:
+        if self.hht_alpha not in BOUNDS["hht_alpha"]:
             raise ValueError(f"solver.hht_alpha = {self.hht_alpha!r}: expected -1/3 <= alpha <= 0")
-        if self.approach < 0:
+        if self.approach not in BOUNDS["approach"]:
             raise ValueError(f"solver.approach = {self.approach!r}: expected >= 0 m")
-        if self.contact_model not in ("rigid", "hertz", "hertz_linear"):
+        if self.contact_model not in tuple(CONTACT_MODELS):
             raise ValueError(
                 f"contact.model = {self.contact_model!r}: expected 'rigid', 'hertz' or "
                 "'hertz_linear'"
             )
-        if self.contact_model != "rigid" and not self.hertz_coefficient > 0:
+        if self.contact_model != "rigid" and (
+                self.hertz_coefficient not in BOUNDS["hertz_coefficient"]):
             raise ValueError(
                 f"contact.hertz_coefficient = {self.hertz_coefficient!r}: expected G > 0 "
                 "(m N^-2/3)"
             )
-        if self.free_vibration < 0:
+        if self.free_vibration not in BOUNDS["free_vibration"]:
             raise ValueError(f"solver.free_vibration = {self.free_vibration!r}: expected >= 0 s")

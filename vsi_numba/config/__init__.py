@@ -1,0 +1,129 @@
+"""TOML configuration: parse, validate (every error at once), build the model objects.
+
+The keys are the contract of the design note, section 4: same names, same meaning, SI
+units unless the key says otherwise (``speeds_kmh``).  A config is data only: nothing in
+it is evaluated or imported.
+
+Validation runs before any computation and collects *all* problems of a file in one
+:class:`ConfigError`.  Each message is one line naming the key path, the bad value and
+what was expected, e.g.::
+
+    bridge.spans[1] = -3.0: expected a span length > 0 m
+    bridge.spna = [25.0]: unknown key; did you mean 'spans'?
+
+Physically suspicious but legal input (time step too coarse for the retained modes,
+modes missing below the EN 1990 A2 cut-off, ...) is reported in :attr:`Config.warnings`.
+
+Keys (units; default)
+---------------------
+``title`` (file stem).
+``[bridge]`` ``kind`` = simply_supported | continuous | rigid | modes_file (required);
+``spans`` (m, one per span; one value for simply_supported and rigid); ``EI`` (N m^2) and
+``mass_per_length`` (kg/m), a number or one per span; ``damping_ratio`` (-, a number or
+one per mode; 0); ``n_modes`` (10 unless ``max_frequency``, Hz, is given; both: the
+smaller set); ``elements_per_span`` (continuous; 40); ``output_points`` (m; every
+mid-span).  Imported bridges (formats: :mod:`vsi_numba.model.imported`), read and
+checked at load time: modes_file (``file``, netCDF or CSV; ``track_line`` when it has
+several; ``mass_normalised`` true when there is no modal_mass; n_modes default: every mode
+of the file) | matrices (``stiffness_matrix``, ``mass_matrix`` Matrix Market;
+``station_map`` CSV; ``fixed_dofs`` [] = supports already applied; ``dof_base`` 0;
+``rotation_sign`` 1; ``vertical_dofs`` station DOFs, or {start, step}; ``track_line``);
+both: ``spans`` optional (m along the track line; the table must cover their sum).
+``[bridge.track]`` (continuous only; values per track, both rails): ``rail_EI`` (N m^2),
+``rail_mass_per_length`` (kg/m), ``pad_stiffness`` (N/m per sleeper), ``pad_damping``
+(N s/m; 0), ``sleeper_mass`` (kg), ``sleeper_spacing`` (m), ``ballast_stiffness`` (N/m
+per sleeper), ``ballast_damping`` (N s/m; 0), ``rail_elements_per_bay`` (2): a track
+layer assembled with the deck before the modal reduction; the train runs on the rail
+(see :class:`vsi_numba.model.bridge.TrackLayer` for when it is needed and what it costs:
+a warning says how many modes keep 95 % of the rail's static flexibility).
+``[train]`` exactly one of ``preset`` (library name or list; one train each), ``file``
+(user train TOML, see :func:`vsi_numba.model.library.load_user_trains`) or
+``[[train.vehicles]]`` (one train, ``name``: default ``title``, else "custom"); ``model`` =
+interaction | moving_force for presets (default: interaction where the library has
+vehicle dynamics, moving forces for the HSLM load models).  A vehicle has ``kind`` =
+force (``load``, N) | sprung_mass (``mass``, ``stiffness``, ``damping`` 0,
+``wheel_mass`` 0) | car (the [whole] values of ``data/trains.toml`` plus
+``body_cg_to_front_bogie``, default mid-way) | user (``M``, ``C``, ``K``, ``wheel_dofs``,
+``wheel_positions``, ``gravity`` g diag(M), ``body_dof`` -1); ``offset`` (m behind the
+train's first axle; 0) and ``name``.  Vehicles are listed front to back, not overlapping.
+``[irregularity]`` ``kind`` = none (default) | cosine (``depth``, ``wavelength``,
+``position``, m) | step (``height``, ``length``, ``position``, ``shape`` cosine) | psd
+(``spectrum``, ``wavelength_min``, ``wavelength_max``, ``seeds``, ``dx``) | file
+(``path``, ``x_column`` x, ``r_column`` r, ``r_unit`` m, ``dx``); ``[[irregularity.defects]]``
+(cosine / step) are added to every realisation.
+``[solver]`` ``dt`` (s; 1e-3), ``hht_alpha`` (-0.3), ``approach`` (m; 5),
+``free_vibration`` (s; 1), ``max_iterations`` (50), ``max_subdivisions`` (4),
+``acceleration_cutoff`` (Hz; EN 1990 A2 rule).
+``[contact]`` ``model`` = rigid (default) | hertz | hertz_linear (as offered by
+:mod:`vsi_numba.solver.settings`), ``hertz_coefficient`` G (m N^-2/3; required for Hertz).
+``[track]`` ``model`` = elastic (default: the rail on a Winkler foundation over the deck
+and the approaches, :mod:`vsi_numba.model.track`) | rigid (the rigid-track idealisation:
+a kink at the deck ends); ``foundation_stiffness`` (N/m per metre of track, both rails;
+8.51e7: 150 kN/mm per axle with UIC60 rails) and ``rail_EI`` (N m^2, both rails; 1.283e7,
+UIC60).  Not with ``[bridge.track]``, whose FE track layer is then the track.
+``[study]`` ``speeds_kmh`` (list, or {start, stop, step} with stop included when on the
+grid) or ``line_speed_kmh`` (then 140 .. 1.2 x line speed, step 5, 1.2 x line speed
+included); ``output`` (results/<stem>.nc); ``save_time_histories`` (true);
+``history_speeds_kmh`` (all).
+
+Modules
+-------
+:mod:`~vsi_numba.config._check` (the validation toolkit and :class:`ConfigError`),
+:mod:`~vsi_numba.config.bridge`, :mod:`~vsi_numba.config.train`,
+:mod:`~vsi_numba.config.irregularity`, :mod:`~vsi_numba.config.solver` (``[solver]``,
+``[contact]``, ``[track]``), :mod:`~vsi_numba.config.study` and
+:mod:`~vsi_numba.config.variants` (one reader per section),
+:mod:`~vsi_numba.config.physics` (warnings and plausibility checks of the whole model),
+:mod:`~vsi_numba.config.limits` (their caps and thresholds) and
+:mod:`~vsi_numba.config.core` (:class:`Config`, :func:`load_config`).
+
+Example
+-------
+>>> cfg = load_config("configs/quickstart.toml")            # doctest: +SKIP
+>>> bridge, trains = cfg.build_bridge(), cfg.trains()        # doctest: +SKIP
+"""
+
+# the names other modules and tests import from vsi_numba.config
+# ruff: noqa: F401
+from vsi_numba.config._check import _BAD, _MISSING, ConfigError, _Checker, _Num, _show
+from vsi_numba.config.bridge import (
+    BRIDGE_KINDS,
+    EN_DAMPING,
+    FLEXIBILITY_WARNING,
+    MAX_FIXED_DOFS,
+    MAX_TRACK_DOFS,
+    MIN_SPAN,
+    TRACK_TYPES,
+)
+from vsi_numba.config.core import Config, _validate, load_config, load_config_for_cli
+from vsi_numba.config.irregularity import DEFECT_KINDS, IRREGULARITY_KINDS, _defect_profile
+from vsi_numba.config.limits import (
+    DT_ERROR,
+    DT_RESOLUTION,
+    LONG_TRAIN,
+    MAX_ELEMENTS,
+    MAX_HERTZ_PENETRATION,
+    MAX_HISTORY_BYTES,
+    MAX_MODES,
+    MAX_PROFILE_AMPLITUDE,
+    MAX_PROFILE_SAMPLES,
+    MAX_SPEEDS,
+    MAX_STATIC_DEFLECTION,
+    MAX_STEPS,
+    MAX_USER_DOFS,
+    MAX_VARIANTS,
+    MAX_VEHICLES,
+    STEPS_PER_WAVELENGTH,
+)
+from vsi_numba.config.physics import (
+    HERTZ_LOAD_FACTOR,
+    RIGID_MASSIVE_ALPHA,
+    _defects_amplitude,
+    _train_loads,
+)
+from vsi_numba.config.solver import CONTACT_MODELS, SOLVER_OVERRIDES, TRACK_MODELS
+from vsi_numba.config.study import RESONANCE_ORDERS, _line_speed_grid, _speed_grid
+from vsi_numba.config.train import TRAIN_MODELS, VEHICLE_KINDS
+from vsi_numba.config.variants import MASS_FACTOR, _set_path, variant_labels
+
+__all__ = ["Config", "ConfigError", "load_config"]

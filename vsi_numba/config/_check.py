@@ -1,0 +1,321 @@
+"""The validation toolkit: :class:`ConfigError`, the key-path messages, :class:`_Checker`.
+
+Every section reader walks its table with one :class:`_Checker`, which collects all errors
+(one line each: key path, bad value, expectation) and the warnings; a value that failed is
+``_BAD`` (already reported), an absent key ``_MISSING``.
+"""
+
+from __future__ import annotations
+
+import difflib
+import json
+import math
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+class ConfigError(ValueError):
+    """Invalid configuration: every problem found, one line each.
+
+    Parameters
+    ----------
+    errors : list of str
+        One message per problem, each naming the key path, the bad value and what was
+        expected.
+    source : str, optional
+        The file (or "<mapping>") the errors come from.
+
+    Attributes
+    ----------
+    errors : list of str
+    source : str or None
+    """
+
+    def __init__(self, errors, source: str | None = None):
+        self.errors = [str(e) for e in errors] or ["invalid configuration"]
+        self.source = source
+        n = len(self.errors)
+        where = f" in {source}" if source else ""
+        head = f"{n} error{'s' if n != 1 else ''}{where}:"
+        super().__init__("\n".join([head, *(f"  {e}" for e in self.errors)]))
+
+
+class _Sentinel:
+    def __init__(self, name):
+        self.name = name
+
+    def __repr__(self):
+        return f"<{self.name}>"
+
+
+_MISSING = _Sentinel("missing")  # key absent (as default: the key is required)
+_BAD = _Sentinel("bad")  # value present but invalid (already reported)
+
+_BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
+
+
+def _key(key) -> str:
+    s = str(key)
+    return s if _BARE_KEY.match(s) else json.dumps(s)
+
+
+def _join(path: str, key) -> str:
+    return f"{path}.{_key(key)}" if path else _key(key)
+
+
+def _show(value, limit: int = 70) -> str:
+    """One-line TOML-like rendering of a value, truncated to ``limit`` characters."""
+    s = _render(value, depth=0)
+    return s if len(s) <= limit else s[: limit - 3] + "..."
+
+
+def _render(value, depth: int) -> str:
+    if depth > 3:
+        return "..."
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False)
+    if isinstance(value, float):
+        return repr(value)
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, Mapping):
+        items = list(value.items())
+        body = ", ".join(f"{_key(k)} = {_render(v, depth + 1)}" for k, v in items[:8])
+        return "{" + body + (", ..." if len(items) > 8 else "") + "}"
+    if isinstance(value, list | tuple):
+        body = ", ".join(_render(v, depth + 1) for v in value[:12])
+        return "[" + body + (", ..." if len(value) > 12 else "") + "]"
+    return json.dumps(str(value), ensure_ascii=False)
+
+
+def _did_you_mean(word: str, choices) -> str | None:
+    choices = [str(c) for c in choices]
+    low = {c.lower(): c for c in choices}
+    if str(word).lower() in low:
+        return low[str(word).lower()]
+    swapped = [c for c in low if sorted(c) == sorted(str(word).lower())]  # "stpe" -> step
+    if len(swapped) == 1:
+        return low[swapped[0]]
+    close = difflib.get_close_matches(str(word).lower(), list(low), n=1, cutoff=0.6)
+    if close:
+        return low[close[0]]
+    w = str(word).lower()
+    part = [c for c in low  # "mass" -> mass_per_length
+            if min(len(w), len(c)) >= 3 and (w in c or c in w)]
+    return low[part[0]] if len(part) == 1 else None
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
+
+
+def _finite(v) -> bool:
+    try:
+        return math.isfinite(float(v))
+    except OverflowError:  # an int beyond the float range
+        return False
+
+
+def _as_list(v):
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    if isinstance(v, tuple):
+        return list(v)
+    return v
+
+
+@dataclass(frozen=True)
+class _Num:
+    """A numeric key: expectation text, limits, default (``_MISSING`` = required)."""
+
+    expected: str
+    gt: float | None = None
+    ge: float | None = None
+    lt: float | None = None
+    le: float | None = None
+    default: Any = _MISSING
+    integer: bool = False
+
+
+class _Checker:
+    """Collects errors and warnings while walking the config."""
+
+    def __init__(self):
+        self.errors: list[str] = []
+        self.warnings: list[str] = []
+        self.records: list[dict] = []  # one per warning: message, kind, keys
+
+    # -- reporting
+    def error(self, path: str, value, expected: str) -> _Sentinel:
+        if value is _MISSING:
+            self.errors.append(f"{path}: missing required key; expected {expected}")
+        else:
+            self.errors.append(f"{path} = {_show(value)}: expected {expected}")
+        return _BAD
+
+    def warn(self, message: str, kind: str = "input", keys=()) -> None:
+        """Record a warning; ``kind`` is "resolution" for a time-step resolution warning
+        (checks computed under it are not reliable), else "input" or "plausibility"."""
+        self.warnings.append(message)
+        self.records.append({"message": message, "kind": kind, "keys": list(keys)})
+
+    # -- tables
+    def table(self, data, path: str, allowed, *, elsewhere=None, ignored=None, what="",
+              hidden=()):
+        """Check that ``data`` is a table and report unknown keys (with did-you-mean).
+
+        ``elsewhere`` maps keys valid for another kind to a hint; ``ignored`` maps keys
+        that are legal but unused here to a reason (warning, not error); ``hidden`` keys
+        (overrides) are accepted but not listed in the hints.
+        """
+        if not isinstance(data, Mapping):
+            return self.error(path, data, f"a table{what}")
+        for key, value in data.items():
+            if not isinstance(key, str):
+                self.error(_join(path, key), value, "string keys only")
+                continue
+            if key in allowed or key in hidden:
+                continue
+            kp = _join(path, key)
+            if ignored and key in ignored:
+                self.warn(f"{kp} is ignored: {ignored[key]}")
+                continue
+            if elsewhere and key in elsewhere:
+                self.error(kp, value, elsewhere[key])
+                continue
+            guess = _did_you_mean(key, allowed)
+            hint = (
+                f"did you mean '{guess}'?"
+                if guess
+                else "expected one of " + ", ".join(f"'{a}'" for a in sorted(allowed))
+            )
+            self.errors.append(f"{kp} = {_show(value)}: unknown key; {hint}")
+        return data
+
+    # -- scalars
+    def number(self, value, path: str, spec: _Num):
+        """Validate one number against ``spec``; return float/int or ``_BAD``."""
+        if spec.integer:
+            ok = isinstance(value, int) and not isinstance(value, bool)
+        else:
+            ok = _is_number(value) and _finite(value)
+        if ok:
+            x = int(value) if spec.integer else float(value)
+            ok = (
+                (spec.gt is None or x > spec.gt)
+                and (spec.ge is None or x >= spec.ge)
+                and (spec.lt is None or x < spec.lt)
+                and (spec.le is None or x <= spec.le)
+            )
+        if not ok:
+            return self.error(path, value, spec.expected)
+        return x
+
+    def get_number(self, tbl, path: str, key: str, spec: _Num):
+        """Read ``tbl[key]`` as a number; default, ``None`` (optional) or ``_BAD``."""
+        p = _join(path, key)
+        if key not in tbl:
+            if spec.default is _MISSING:
+                return self.error(p, _MISSING, spec.expected)
+            return spec.default
+        return self.number(tbl[key], p, spec)
+
+    def numbers(self, tbl, path, specs: dict[str, _Num]) -> dict:
+        """Read several numeric keys; the result maps key -> value (or ``_BAD``)."""
+        return {k: self.get_number(tbl, path, k, s) for k, s in specs.items()}
+
+    def number_list(self, value, path: str, item: _Num, *, expected: str,
+                    scalar_ok: bool = False, min_len: int = 1, max_len: int | None = None):
+        """Read a list of numbers (or a single number when ``scalar_ok``)."""
+        value = _as_list(value)
+        if scalar_ok and _is_number(value):
+            return self.number(value, path, item)
+        if not isinstance(value, list):
+            return self.error(path, value, expected)
+        if len(value) < min_len or (max_len is not None and len(value) > max_len):
+            return self.error(path, value, expected)
+        out = [self.number(v, f"{path}[{i}]", item) for i, v in enumerate(value)]
+        return _BAD if any(o is _BAD for o in out) else out
+
+    def string(self, tbl, path: str, key: str, expected: str, default=_MISSING, nonempty=True):
+        p = _join(path, key)
+        if key not in tbl:
+            return self.error(p, _MISSING, expected) if default is _MISSING else default
+        v = tbl[key]
+        if not isinstance(v, str) or (nonempty and not v.strip()):
+            return self.error(p, v, expected)
+        return v
+
+    def choice(self, tbl, path: str, key: str, choices, default=_MISSING, note: str = ""):
+        p = _join(path, key)
+        listing = ", ".join(f"'{c}'" for c in choices)
+        listing = f"one of {listing}" if len(choices) > 1 else listing
+        if key not in tbl:
+            if default is _MISSING:
+                return self.error(p, _MISSING, f"{listing}{note}")
+            return default
+        v = tbl[key]
+        if isinstance(v, str) and v in choices:
+            return v
+        hint = ""
+        if isinstance(v, str):
+            guess = _did_you_mean(v, choices)
+            if guess:
+                hint = f" (did you mean '{guess}'?)"
+        return self.error(p, v, f"{listing}{note}{hint}")
+
+    def boolean(self, tbl, path: str, key: str, default):
+        if key not in tbl:
+            return default
+        v = tbl[key]
+        if not isinstance(v, bool):
+            return self.error(_join(path, key), v, "true or false")
+        return v
+
+    def file(self, tbl, path: str, key: str, base_dir: Path, what: str, default=_MISSING):
+        """Read the path of an existing file (relative to ``base_dir``): (given, resolved)."""
+        p = _join(path, key)
+        if key not in tbl:
+            if default is _MISSING:
+                self.error(p, _MISSING, f"the path of {what}")
+                return _BAD, _BAD
+            return default, default
+        v = tbl[key]
+        if not isinstance(v, str) or not v.strip() or "\x00" in v:
+            self.error(p, v, f"the path of {what} (a string)")
+            return _BAD, _BAD
+        full = _resolve(base_dir, v)
+        if full is None:
+            self.error(p, v, f"a valid path of {what}")
+            return _BAD, _BAD
+        try:
+            exists = full.is_file()
+        except (OSError, ValueError):
+            exists = False
+        if not exists:
+            self.error(p, v, f"an existing file with {what} (looked for {full})")
+            return _BAD, _BAD
+        return v, full
+
+
+def _resolve(base_dir: Path, given: str) -> Path | None:
+    """Return ``base_dir / given`` resolved, or None for an unusable path (``~nobody``)."""
+    try:
+        return (base_dir / Path(given).expanduser()).resolve()
+    except (OSError, ValueError, RuntimeError):
+        return None
+
+
+def _ok(*values) -> bool:
+    return not any(v is _BAD for v in values)
+
+
+def _drop_none(d: dict) -> dict:
+    return {k: v for k, v in d.items() if v is not None}

@@ -1,0 +1,498 @@
+"""``[bridge]`` and ``[bridge.track]``: the deck, built at load time.
+
+The modes are computed (or read, for imported bridges) while the file is validated: the
+time-step and cut-off checks need the frequencies, and a deck that cannot be built is a
+configuration error like any other.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vsi_numba import en1991
+from vsi_numba.config._check import (
+    _BAD,
+    _MISSING,
+    _as_list,
+    _Checker,
+    _drop_none,
+    _is_number,
+    _join,
+    _Num,
+    _ok,
+    _Sentinel,
+)
+from vsi_numba.config.limits import DT_RESOLUTION, MAX_ELEMENTS, MAX_MODES
+from vsi_numba.model import bridge as _bridge
+
+BRIDGE_KINDS = ("simply_supported", "continuous", "rigid", "modes_file", "matrices")
+
+
+@dataclass(frozen=True)
+class _BridgeSpec:
+    """The validated ``[bridge]``: its resolved keys and the model built from them."""
+
+    kind: str
+    resolved: dict
+    length: float
+    model: _bridge.ModalBridge
+    all_frequencies: np.ndarray | None  # the spectrum up to the EN 1990 cut-off
+    output_points: np.ndarray
+
+
+_POS = _Num("a value > 0", gt=0)
+
+
+def _per_span(chk, tbl, path, key, expected, n_spans):
+    """EI / mass_per_length: a number > 0 or one per span."""
+    p = _join(path, key)
+    if key not in tbl:
+        return chk.error(p, _MISSING, f"{expected} (a number, or one per span)")
+    item = _Num(expected, gt=0)
+    v = chk.number_list(
+        tbl[key], p, item, scalar_ok=True,
+        expected=f"{expected} (a number, or a list with one value per span)",
+    )
+    if isinstance(v, list) and n_spans is not None and len(v) != n_spans:
+        return chk.error(
+            p, tbl[key],
+            f"one value per span ({n_spans} span{'s' if n_spans != 1 else ''}) or a single number",
+        )
+    return v
+
+
+TRACK_TYPES = ("ballasted", "direct_fastening")
+
+
+def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeSpec | _Sentinel:
+    path = "bridge"
+    allowed_all = {
+        "kind", "spans", "EI", "mass_per_length", "damping_ratio", "n_modes",
+        "max_frequency", "elements_per_span", "output_points", "file", *_IMPORT_KEYS,
+        "track", "track_type", "deck_type", "additional_damping",
+    }
+    if not isinstance(d, Mapping):
+        return chk.error(path, d, "a table [bridge] with kind, spans, EI, mass_per_length")
+    kind = chk.choice(d, path, "kind", BRIDGE_KINDS)
+    classic = allowed_all - {"file", "track", *_IMPORT_KEYS}
+    modal = {"kind", "damping_ratio", "n_modes", "max_frequency", "output_points", "spans",
+             "track_line"}
+    used = {
+        "simply_supported": classic - {"elements_per_span"},
+        "continuous": classic | {"track"},
+        "rigid": {"kind", "spans", "output_points"},
+        "modes_file": modal | {"file", "mass_normalised"},
+        "matrices": modal | {"stiffness_matrix", "mass_matrix", "station_map", "fixed_dofs",
+                             "dof_base", "rotation_sign", "vertical_dofs"},
+    }
+    if kind is _BAD:
+        chk.table(d, path, allowed_all)
+        return _BAD
+    for k in used:
+        used[k] = used[k] | {"track_type"}
+    ignored = {k: f"not used by bridge.kind = '{kind}'" for k in allowed_all - used[kind]}
+    ignored.pop("track", None)
+    chk.table(d, path, used[kind], ignored=ignored, elsewhere={"track": (
+        f"no [bridge.track] with kind = '{kind}': the track layer is assembled into the FE "
+        "model of kind = 'continuous' (use it with a single span for one span)")})
+
+    # spans
+    spans = _BAD
+    one_span = kind in ("simply_supported", "rigid")
+    span_expect = (
+        "a span length > 0 m (one value)" if one_span
+        else "a list of span lengths > 0 m (one per span)"
+    )
+    if "spans" in d:
+        spans = chk.number_list(
+            d["spans"], "bridge.spans", _Num("a span length > 0 m", gt=0),
+            expected=span_expect, scalar_ok=True, min_len=1, max_len=200,
+        )
+        if _is_number(spans):
+            spans = [spans]
+        if isinstance(spans, list) and one_span and len(spans) != 1:
+            more = " (use kind = 'continuous' for several spans)" if kind != "rigid" else ""
+            spans = chk.error("bridge.spans", d["spans"], f"one span length for kind = "
+                              f"'{kind}'{more}")
+    elif kind not in _IMPORTED:
+        chk.error("bridge.spans", _MISSING, span_expect)
+    if kind in _IMPORTED and "spans" not in d:
+        spans = None  # optional: the track line's length comes from the file
+    n_spans = len(spans) if isinstance(spans, list) else None
+    length = float(sum(spans)) if isinstance(spans, list) else None
+
+    res: dict[str, Any] = {"kind": kind}
+    # EN 1990 A2.4.4.2.1(4)P: the deck-acceleration limit depends on the track form
+    res["track_type"] = chk.choice(d, path, "track_type", TRACK_TYPES, default="ballasted")
+    if isinstance(spans, list):
+        res["spans"] = spans
+    flexible = kind in ("simply_supported", "continuous")
+    ei = mass = damping = n_modes = fmax = _BAD
+    eps = None
+    if flexible:
+        ei = _per_span(chk, d, path, "EI", "a bending stiffness EI > 0 N m^2", n_spans)
+        mass = _per_span(chk, d, path, "mass_per_length", "a mass per length > 0 kg/m", n_spans)
+        res.update(EI=ei, mass_per_length=mass)
+    if kind != "rigid":
+        damping = 0.0
+        if d.get("damping_ratio") == EN_DAMPING:
+            damping = _en_damping(chk, d, kind, spans, res)
+        elif "damping_ratio" in d:
+            damping = chk.number_list(
+                d["damping_ratio"], "bridge.damping_ratio",
+                _Num("a damping ratio 0 <= zeta < 1", ge=0, lt=1), scalar_ok=True,
+                expected="a damping ratio 0 <= zeta < 1, a list with one per mode, or "
+                         f"'{EN_DAMPING}' (Table 6.6 with bridge.deck_type)",
+            )
+        if "deck_type" in d and d.get("damping_ratio") != EN_DAMPING:
+            chk.error("bridge.deck_type", d["deck_type"], "only with damping_ratio = "
+                      f"'{EN_DAMPING}' (the Table 6.6 lower bound of that deck type)")
+        if "additional_damping" in d:
+            _additional_damping(chk, d, kind, spans, res)
+        n_spec = _Num(f"an integer number of modes 1 <= n_modes <= {MAX_MODES}", ge=1,
+                      le=MAX_MODES, integer=True, default=None)
+        n_modes = chk.get_number(d, path, "n_modes", n_spec)
+        fmax = chk.get_number(d, path, "max_frequency",
+                              _Num("a frequency > 0 Hz", gt=0, default=None))
+        if n_modes is None and fmax is None and kind != "modes_file":
+            n_modes = 10  # modes_file: default every mode of the file
+        res.update(damping_ratio=damping, n_modes=n_modes, max_frequency=fmax)
+    if kind == "continuous":
+        eps = chk.get_number(d, path, "elements_per_span", _Num(
+            "an integer number of elements 1 <= elements_per_span <= 400", ge=1, le=400,
+            integer=True, default=40))
+        if _ok(eps) and n_spans is not None and n_spans * eps > MAX_ELEMENTS:
+            eps = chk.error("bridge.elements_per_span", eps,
+                            f"at most {MAX_ELEMENTS} elements in all ({n_spans} spans x "
+                            f"{eps} = {n_spans * eps})")
+        res["elements_per_span"] = eps
+    track = None
+    if kind == "continuous" and "track" in d:
+        track = _track_section(chk, d["track"], spans)
+        res["track"] = track
+    imported = None
+    if kind in _IMPORTED:
+        imported = _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes,
+                                    fmax, solver_cutoff)
+        if imported is not _BAD:
+            length = imported.bridge.length
+
+    # output points
+    points = _BAD
+    if "output_points" in d:
+        points = chk.number_list(d["output_points"], "bridge.output_points",
+                                 _Num("a position x (m)"), scalar_ok=True,
+                                 expected="a list of positions on the deck (m)")
+        if _is_number(points):
+            points = [points]
+        if isinstance(points, list) and length is not None:
+            for i, x in enumerate(points):
+                if not -1e-9 <= x <= length + 1e-9:
+                    chk.error(f"bridge.output_points[{i}]", x,
+                              f"a position on the bridge, 0 <= x <= {length:g} m")
+                    points = _BAD
+    elif isinstance(spans, list) and kind not in _IMPORTED:
+        edges = np.concatenate([[0.0], np.cumsum(spans)])
+        points = (0.5 * (edges[:-1] + edges[1:])).tolist()
+    elif imported is not None and imported is not _BAD:
+        edges = np.asarray(imported.bridge.supports, float)
+        points = (0.5 * (edges[:-1] + edges[1:])).tolist()
+        if edges.size == 2 and not isinstance(spans, list):
+            chk.warn(f"bridge.output_points: the supports along the track line are unknown "
+                     f"(give bridge.spans); the default output point is the middle of the "
+                     f"{edges[-1]:g} m line, x = {points[0]:g} m")
+    if isinstance(points, list):
+        res["output_points"] = points
+
+    resolved = _drop_none(res)
+    if not _ok(spans, points) or (flexible and not _ok(ei, mass, damping, n_modes, fmax, eps,
+                                                       track)):
+        return _BAD
+    allf = None
+    if kind in _IMPORTED:
+        if imported is _BAD:
+            return _BAD
+        model, allf = imported.bridge, imported.all_frequencies
+    elif kind == "rigid":
+        model = _bridge.rigid(length)
+    elif track is not None:
+        built = _track_bridge(chk, spans, ei, mass, n_modes, fmax, eps, damping, track)
+        if built is _BAD:
+            return _BAD
+        model, allf = built
+    else:
+        built = _flexible_bridge(chk, kind, length, spans, ei, mass, n_modes, fmax, eps,
+                                 solver_cutoff)
+        if built is _BAD:
+            return _BAD
+        model, allf = built
+        try:
+            zeta = _bridge.per_mode(damping, model.n_modes, "damping_ratio")
+        except ValueError:
+            return chk.error("bridge.damping_ratio", damping, "a single ratio or at least one "
+                             f"per retained mode ({model.n_modes} modes)")
+        model = dataclasses.replace(model, damping=zeta)
+    return _BridgeSpec(kind=kind, resolved=resolved, length=length, model=model,
+                       all_frequencies=allf, output_points=np.asarray(points, float))
+
+
+_TRACK_FIELDS = {
+    "rail_EI": _Num("a bending stiffness of both rails > 0 N m^2 (2 x 6.42e6 for UIC60)",
+                    gt=0),
+    "rail_mass_per_length": _Num("a mass of both rails > 0 kg/m (2 x 60.3 for UIC60)", gt=0),
+    "pad_stiffness": _Num("a rail pad stiffness per sleeper (both rail seats) > 0 N/m", gt=0),
+    "pad_damping": _Num("a rail pad damping per sleeper >= 0 N s/m", ge=0, default=0.0),
+    "sleeper_mass": _Num("a sleeper mass > 0 kg", gt=0),
+    "sleeper_spacing": _Num("a sleeper spacing > 0 m", gt=0),
+    "ballast_stiffness": _Num("a ballast stiffness per sleeper > 0 N/m", gt=0),
+    "ballast_damping": _Num("a ballast damping per sleeper >= 0 N s/m", ge=0, default=0.0),
+    "rail_elements_per_bay": _Num("an integer number of rail elements between sleepers, "
+                                  "1 .. 8", ge=1, le=8, integer=True, default=2),
+}
+MAX_TRACK_DOFS = 4000  # deck + rail + sleepers (dense eigensolution at load time)
+FLEXIBILITY_WARNING = 0.95  # share of the static rail flexibility kept by the modes
+
+
+EN_DAMPING = "EN1991-2"
+
+
+def _span_for_damping(kind, spans):
+    """The span L of EN 1991-2 Table 6.6 and §6.4.6.3.1: the span of a simply supported
+    deck, the mean span of a continuous one [R]."""
+    return float(np.mean(spans))
+
+
+def _en_damping(chk, d, kind, spans, res):
+    """``damping_ratio = 'EN1991-2'``: the Table 6.6 lower bound of ``deck_type``."""
+    deck = chk.choice(d, "bridge", "deck_type", tuple(en1991.DECK_TYPES))
+    if kind not in ("simply_supported", "continuous"):
+        return chk.error("bridge.damping_ratio", EN_DAMPING, "a number for bridge.kind = "
+                         f"'{kind}' (Table 6.6 is for simply supported and continuous decks)")
+    if not _ok(deck) or not isinstance(spans, list):
+        return _BAD
+    span = _span_for_damping(kind, spans)
+    zeta = en1991.damping_lower_bound(deck, span)
+    res["damping_rule"] = (f"EN 1991-2 Table 6.6, {deck.replace('_', ' ')}, L = {span:g} m: "
+                           f"zeta = {100 * zeta:.4g} %")
+    res["deck_type"] = deck
+    return zeta
+
+
+def _additional_damping(chk, d, kind, spans, res):
+    """``additional_damping = true``: EN 1991-2 §6.4.6.3.1 for moving-force trains."""
+    on = chk.boolean(d, "bridge", "additional_damping", False)
+    if not _ok(on) or not on:
+        return
+    if kind not in ("simply_supported", "continuous"):
+        chk.error("bridge.additional_damping", True, "false for bridge.kind = "
+                  f"'{kind}' (the rule is for simply supported and continuous decks)")
+        return
+    if isinstance(spans, list):
+        span = _span_for_damping(kind, spans)
+        res["additional_damping"] = en1991.additional_damping(span)
+        res["additional_damping_rule"] = (
+            f"EN 1991-2 6.4.6.3.1, L = {span:g} m: dzeta = "
+            f"{100 * res['additional_damping']:.4g} % added for moving-force trains only")
+
+
+def _track_section(chk, t, spans):
+    """[bridge.track]: the track layer of a continuous deck (values per track)."""
+    path = "bridge.track"
+    if chk.table(t, path, set(_TRACK_FIELDS), what=" [bridge.track] of track-layer values") \
+            is _BAD:
+        return _BAD
+    vals = chk.numbers(t, path, _TRACK_FIELDS)
+    if not _ok(*vals.values()):
+        return _BAD
+    if isinstance(spans, list):
+        a, n_e = vals["sleeper_spacing"], vals["rail_elements_per_bay"]
+        if a > 0.5 * min(spans):
+            return chk.error(f"{path}.sleeper_spacing", a,
+                             f"a spacing of at most half the shortest span ({min(spans):g} m)")
+        n_rail = 2 * n_e * (sum(spans) / a + 1)
+        if n_rail + sum(spans) / a > MAX_TRACK_DOFS:
+            return chk.error(f"{path}.sleeper_spacing", a,
+                             f"a track layer of at most {MAX_TRACK_DOFS} rail and sleeper DOFs "
+                             f"(this one has about {n_rail + sum(spans) / a:.0f}: fewer "
+                             "rail_elements_per_bay, or a shorter deck)")
+    return vals
+
+
+def _track_bridge(chk, spans, ei, mass, n_modes, fmax, eps, damping, track):
+    """Continuous deck + track layer: modes of the assembly, along the rail; returns
+    ``(model, all_frequencies)`` or ``_BAD``."""
+    layer = _bridge.TrackLayer(**track)
+    try:
+        with np.errstate(all="ignore"):
+            model, rep = _bridge.continuous_with_track(
+                spans, ei, mass, layer, n_modes, fmax, damping, eps, report=True)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        if "damping_ratio" in str(exc):
+            return chk.error("bridge.damping_ratio", damping,
+                             f"a single ratio or at least one per retained mode ({exc})")
+        return chk.error("bridge.track", track, f"a buildable deck and track layer ({exc})")
+    if rep.flexibility_fraction < FLEXIBILITY_WARNING:
+        chk.warn(
+            f"bridge.track: the {model.n_modes} retained modes (up to "
+            f"{model.frequencies[-1]:.4g} Hz) keep {100 * rep.flexibility_fraction:.0f}% of "
+            f"the static rail deflection under a wheel (x = {rep.probe_x:g} m); the track "
+            f"modes start at {rep.first_track_frequency:.4g} Hz and 95% needs "
+            f"{rep.modes_for_95} modes (bridge.n_modes = {rep.modes_for_95}, up to "
+            f"{rep.frequency_for_95:.4g} Hz, with solver.dt <= "
+            f"{DT_RESOLUTION / rep.frequency_for_95:.2g} s); with fewer the track is too stiff "
+            "under the wheels"
+        )
+    return model, rep.all_frequencies
+
+
+_IMPORTED = ("modes_file", "matrices")
+_IMPORT_KEYS = ("track_line", "mass_normalised", "stiffness_matrix", "mass_matrix",
+                "station_map", "fixed_dofs", "dof_base", "rotation_sign", "vertical_dofs")
+_IMPORT_FILES = {
+    "file": "the deck modes (frequencies, modal masses, mode shapes at stations)",
+    "stiffness_matrix": "the stiffness matrix K (Matrix Market)",
+    "mass_matrix": "the mass matrix M (Matrix Market)",
+    "station_map": "the station map (CSV: x, dof, rotation_dof, line)",
+}
+MAX_FIXED_DOFS = 100_000
+
+
+def _dof_indices(chk, d, key, base, allow_pattern=False):
+    """A list of DOF numbers >= dof_base (or, when allowed, a {start, step} table)."""
+    p = _join("bridge", key)
+    v = _as_list(d[key])
+    if allow_pattern and isinstance(v, Mapping):
+        chk.table(v, p, {"start", "step"})
+        start = chk.get_number(v, p, "start", _Num(
+            f"an integer DOF number >= dof_base ({base})", ge=base, integer=True, default=base))
+        step = chk.get_number(v, p, "step", _Num(
+            "an integer step >= 1", ge=1, integer=True, default=1))
+        return {"start": start, "step": step} if _ok(start, step) else _BAD
+    expected = f"a list of integer DOF numbers >= dof_base ({base})" + (
+        ", or {start = i, step = s}" if allow_pattern else "")
+    if not isinstance(v, list) or len(v) > MAX_FIXED_DOFS:
+        return chk.error(p, d[key], expected)
+    out = [chk.number(x, f"{p}[{i}]", _Num(f"an integer DOF number >= dof_base ({base})",
+                                            ge=base, integer=True)) for i, x in enumerate(v)]
+    return out if _ok(*out) else _BAD
+
+
+def _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes, fmax, cutoff):
+    """kind = modes_file | matrices: read the files now (errors join the others)."""
+    from vsi_numba.model import imported as _imp
+
+    path = "bridge"
+    files = ("file",) if kind == "modes_file" else ("stiffness_matrix", "mass_matrix",
+                                                    "station_map")
+    given, full = {}, {}
+    for key in files:
+        given[key], full[key] = chk.file(d, path, key, base_dir, _IMPORT_FILES[key])
+        res[key] = given[key]
+    line = chk.string(d, path, "track_line", "the name of a track line (string)",
+                      default=None)
+    res["track_line"] = line
+    extra: dict[str, Any] = {}
+    if kind == "modes_file":
+        extra["mass_normalised"] = chk.boolean(d, path, "mass_normalised", None)
+        res["mass_normalised"] = extra["mass_normalised"]
+    else:
+        base = chk.get_number(d, path, "dof_base", _Num(
+            "0 (DOFs numbered from 0) or 1 (from 1)", ge=0, le=1, integer=True, default=0))
+        sign = chk.get_number(d, path, "rotation_sign", _Num(
+            "1 (rotation DOF = +dw/dx) or -1 (= -dw/dx)", default=1))
+        if _ok(sign) and sign not in (1, -1):
+            sign = chk.error("bridge.rotation_sign", d["rotation_sign"],
+                             "1 (rotation DOF = +dw/dx) or -1 (= -dw/dx)")
+        b0 = base if _ok(base) else 0
+        fixed = _dof_indices(chk, d, "fixed_dofs", b0) if "fixed_dofs" in d else []
+        vert = (_dof_indices(chk, d, "vertical_dofs", b0, allow_pattern=True)
+                if "vertical_dofs" in d else None)
+        res.update(dof_base=base, rotation_sign=sign, fixed_dofs=fixed, vertical_dofs=vert)
+        extra = {"dof_base": base, "rotation_sign": float(sign) if _ok(sign) else sign,
+                 "fixed_dofs": fixed, "vertical_dofs": vert}
+    if not _ok(*full.values(), line, spans, damping, n_modes, fmax, *extra.values()):
+        return _BAD
+    zeta = damping if "damping_ratio" in d else None
+    span_list = spans if isinstance(spans, list) else None
+    try:
+        if kind == "modes_file":
+            out = _imp.read_modes_table(
+                full["file"], track_line=line, n_modes=n_modes, max_frequency=fmax,
+                damping_ratio=zeta, mass_normalised=extra["mass_normalised"],
+                spans=span_list, name=given["file"])
+        else:
+            out = _imp.read_matrices(
+                full["stiffness_matrix"], full["mass_matrix"], full["station_map"],
+                fixed_dofs=extra["fixed_dofs"], dof_base=extra["dof_base"], track_line=line,
+                n_modes=n_modes, max_frequency=fmax, damping_ratio=damping,
+                rotation_sign=extra["rotation_sign"], vertical_dofs=extra["vertical_dofs"],
+                spans=span_list, all_up_to=max(30.0, cutoff or 0.0),
+                names={"stiffness": given["stiffness_matrix"], "mass": given["mass_matrix"],
+                       "stations": given["station_map"]})
+    except _imp.ModelFileError as exc:
+        for key, value, expected in exc.problems:
+            if key in given:
+                value = given[key]
+            chk.error(_join(path, key), _MISSING if value is None else value, expected)
+        return _BAD
+    except (ValueError, OSError, ArithmeticError, MemoryError) as exc:  # unforeseen content
+        key = files[0]
+        chk.error(_join(path, key), given[key],
+                  f"{_IMPORT_FILES[key]} that can be read ({type(exc).__name__}: "
+                  f"{' '.join(str(exc).split())[:160]})")
+        return _BAD
+    for w in out.warnings:
+        chk.warn(w)
+    return out
+
+
+#: Shortest span (m) named as the cause when a deck gives no finite frequencies.
+MIN_SPAN = 1.0
+
+
+def _flexible_bridge(chk, kind, length, spans, ei, mass, n_modes, fmax, eps, solver_cutoff):
+    """Build the modes now (cheap; the checks and warnings need the frequencies): the
+    undamped model and the spectrum up to the cut-off, ``(model, all_frequencies)``."""
+    try:
+        with np.errstate(all="ignore"):
+            if kind == "simply_supported":
+                ei1 = ei[0] if isinstance(ei, list) else ei
+                m1 = mass[0] if isinstance(mass, list) else mass
+                f1 = (np.pi / length) ** 2 * math.sqrt(ei1 / m1) / (2 * np.pi)
+                cut = max(30.0, 9.0 * f1) if solver_cutoff is None else solver_cutoff
+                jmax = min(int(math.floor(math.sqrt(cut / f1) + 1e-9)) + 1, 2 * MAX_MODES)
+                allf = f1 * np.arange(1, jmax + 1) ** 2
+            else:
+                # every mode at once (one eigensolution); truncated below
+                full = _bridge.continuous(spans, ei, mass, None, np.inf, 0.0, eps)
+                allf = full.frequencies
+            if not (allf.size and np.all(np.isfinite(allf)) and allf[0] > 0):
+                if min(spans) < MIN_SPAN:  # the span, not EI, is what is off
+                    return chk.error("bridge.spans", spans, f"spans of a railway bridge >= "
+                                     f"{MIN_SPAN:g} m (with EI and mass_per_length they "
+                                     "give no finite natural frequency)")
+                return chk.error("bridge.EI", ei, "a value that, with mass_per_length and "
+                                 "spans, gives finite natural frequencies > 0 Hz")
+            if fmax is not None and fmax < allf[0]:
+                return chk.error("bridge.max_frequency", fmax,
+                                 f"a frequency >= the first mode ({allf[0]:.4g} Hz), else no "
+                                 "mode is retained")
+            if kind == "simply_supported":
+                return _bridge.simply_supported(length, ei1, m1, n_modes, fmax, 0.0), allf
+            keep = _bridge.n_modes_kept(allf, n_modes, fmax)
+            return _bridge.ModalBridge(
+                kind=full.kind, length=full.length, frequencies=allf[:keep].copy(),
+                damping=np.zeros(keep), nodes=full.nodes,
+                values=np.ascontiguousarray(full.values[:, :keep]),
+                slopes=np.ascontiguousarray(full.slopes[:, :keep]), supports=full.supports,
+                description=full.description,
+            ), allf
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        return chk.error("bridge.spans", spans, f"a buildable bridge ({exc})")

@@ -1,0 +1,412 @@
+"""The validated configuration: :class:`Config`, :func:`load_config` (TOML reading, the
+section readers in file order, the whole-model checks, the variants) and the CLI helper."""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import re
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vsi_numba.config._check import (
+    _BAD,
+    _MISSING,
+    ConfigError,
+    _Checker,
+    _drop_none,
+    _ok,
+    _show,
+)
+from vsi_numba.config.bridge import MIN_SPAN, _bridge_section, _BridgeSpec
+from vsi_numba.config.irregularity import (
+    _check_file_coverage,
+    _defect_profile,
+    _irregularity_section,
+    _IrregularitySpec,
+)
+from vsi_numba.config.physics import _physics_warnings, _plausibility, _refuse
+from vsi_numba.config.solver import (
+    SOLVER_OVERRIDES,
+    _contact_section,
+    _rail_track_section,
+    _solver_section,
+)
+from vsi_numba.config.study import _refine_resonance, _study_section, _StudySpec
+from vsi_numba.config.train import _train_section, _TrainSpec
+from vsi_numba.config.variants import _build_variants
+from vsi_numba.model import bridge as _bridge
+from vsi_numba.model import irregularity as _irr
+from vsi_numba.model import track as _track
+from vsi_numba.model import vehicle as _veh
+from vsi_numba.solver.settings import SolverSettings
+
+
+class Config:
+    """A validated configuration (build it with :func:`load_config`).
+
+    Attributes
+    ----------
+    title : str
+        The run title (default: the file name stem).
+    path : pathlib.Path or None
+        The config file, or None for a mapping.
+    base_dir : pathlib.Path
+        Directory relative paths resolve against.
+    warnings : list of str
+        Physically suspicious but legal input.
+    """
+
+    def __init__(self, *, title: str, path: Path | None, base_dir: Path, resolved: dict,
+                 bridge: _BridgeSpec, train: _TrainSpec, irregularity: _IrregularitySpec,
+                 solver: dict, study: _StudySpec, warnings):
+        self.title: str = title
+        self.path: Path | None = path
+        self.base_dir: Path = base_dir
+        self.warnings: list[str] = list(warnings)
+        #: the warnings as records {"message", "kind", "keys"}; kind "resolution" marks a
+        #: time-step resolution warning (the results' checks are then not reliable)
+        self.warning_records: list[dict] = [
+            {"message": w, "kind": "input", "keys": []} for w in self.warnings]
+        self._resolved = resolved
+        self._bridge = bridge
+        self._train = train
+        self._irregularity = irregularity
+        self._solver = solver
+        self._study = study
+        self._built = None  # the bridge with its track (build_bridge)
+        #: ``[(labels, Config)]``: the variants of ``study.vary`` (empty: none)
+        self.variants: list = []
+
+    def __repr__(self) -> str:
+        """Title and hash."""
+        return f"Config(title={self.title!r}, sha256={self.sha256[:12]}...)"
+
+    # -- model
+    def build_bridge(self) -> _bridge.ModalBridge:
+        """Return the bridge model (:class:`~vsi_numba.model.bridge.ModalBridge`).
+
+        Imported bridges (``modes_file``, ``matrices``) are read and checked by
+        :func:`load_config` already; this returns that model, with the track of
+        ``[track]`` (:attr:`track_model`, :attr:`rail_track`).
+        """
+        if self._built is None:
+            model = self._bridge.model
+            if self.rail_track is not None:
+                model = dataclasses.replace(model, track=self.rail_track)
+            self._built = model
+        return self._built
+
+    @property
+    def rail_track(self) -> _track.ElasticTrack | None:
+        """The rail on its foundation of ``[track]`` (model = 'elastic'), or None: the
+        rigid-track idealisation, or the FE track layer of ``[bridge.track]``."""
+        if self.track_model != "elastic":
+            return None
+        track = self._resolved["track"]
+        return _track.ElasticTrack(track["foundation_stiffness"], track["rail_EI"])
+
+    @property
+    def track_model(self) -> str:
+        """'elastic' (rail on a foundation), 'rigid' (idealisation) or 'bridge_layer'
+        (the FE track layer of ``[bridge.track]``)."""
+        if "track" in self._resolved["bridge"]:
+            return "bridge_layer"
+        return self._resolved["track"]["model"]
+
+    @property
+    def output_points(self) -> np.ndarray:
+        """Positions of the deck outputs (m from the left end), shape (n_points,)."""
+        return self._bridge.output_points.copy()
+
+    def trains(self) -> list[_veh.Train]:
+        """Return the trains: one per preset, or one built from explicit vehicles."""
+        return list(self._train.trains)
+
+    @property
+    def additional_damping(self) -> float:
+        """EN 1991-2 6.4.6.3.1 additional damping (fraction) for moving-force trains
+        (0 unless ``bridge.additional_damping = true`` and L < 30 m)."""
+        return float(self._resolved["bridge"].get("additional_damping", 0.0))
+
+    def bridge_for(self, train) -> _bridge.ModalBridge:
+        """The bridge a train runs on: :meth:`build_bridge`, with the additional damping
+        of ``bridge.additional_damping`` added to every mode when ``train`` is moving
+        forces only (never for interaction models, which carry that interaction)."""
+        bridge = self.build_bridge()
+        extra = self.additional_damping
+        if extra and all(v.n_dof == 0 for v in train.vehicles):
+            return dataclasses.replace(bridge, damping=np.asarray(bridge.damping) + extra)
+        return bridge
+
+    def irregularities(self, x_start: float, x_stop: float) -> list[tuple[int, Any]]:
+        """Track profiles over ``[x_start, x_stop]`` (m) as ``(realisation id, Profile)``.
+
+        The id is the seed for ``kind = 'psd'`` (one profile per seed) and -1 for the
+        deterministic kinds (none, cosine, step, file).  Isolated defects listed in
+        ``[[irregularity.defects]]`` are added to every profile.
+        """
+        r = self._resolved["irregularity"]
+        kind = r["kind"]
+
+        def defect(spec):
+            return _defect_profile(spec, x_stop)
+
+        extra = [defect(s) for s in r.get("defects", [])]
+        if kind == "psd":
+            base = [
+                (int(seed), _irr.psd_profile(r["spectrum"], r["wavelength_min"],
+                                             r["wavelength_max"], int(seed), x_start, x_stop,
+                                             r.get("dx")))
+                for seed in r["seeds"]
+            ]
+        elif kind == "file":
+            base = [(-1, self._irregularity.file_profile)]
+        elif kind == "none":
+            base = [(-1, _irr.no_irregularity())]
+        else:
+            base = [(-1, defect(r))]
+        if not extra:
+            return base
+        return [(i, _irr.combine(p, *extra)) for i, p in base]
+
+    def solver_settings(self) -> SolverSettings:
+        """Return the :class:`~vsi_numba.solver.settings.SolverSettings` (SI units).
+
+        The ``[contact]`` keys are part of the settings (``contact_model``,
+        ``hertz_coefficient``).
+        """
+        contact = self._resolved["contact"]
+        extra = {}
+        if contact["model"] != "rigid":
+            extra = {"contact_model": contact["model"],
+                     "hertz_coefficient": contact["hertz_coefficient"]}
+        fields = {k: v for k, v in self._solver.items() if k not in SOLVER_OVERRIDES}
+        return SolverSettings(**fields, **extra)
+
+    # -- study
+    @property
+    def speeds_kmh(self) -> np.ndarray:
+        """Speeds of the study (km/h), shape (n_speeds,)."""
+        return np.asarray(self._study.resolved["speeds_kmh"], float)
+
+    @property
+    def output_path(self) -> Path:
+        """The netCDF output file (absolute; relative paths resolve against base_dir)."""
+        return self._study.output_path
+
+    @property
+    def save_time_histories(self) -> bool:
+        """Whether time histories are written (envelopes always are)."""
+        return bool(self._study.resolved["save_time_histories"])
+
+    @property
+    def history_speeds_kmh(self) -> np.ndarray | None:
+        """Speeds (km/h) whose time histories are kept; None = every speed."""
+        h = self._study.resolved.get("history_speeds_kmh")
+        return None if h is None else np.asarray(h, float)
+
+    @property
+    def track_type(self) -> str:
+        """Track form on the deck: 'ballasted' (3.5 m/s2) or 'direct_fastening' (5 m/s2)."""
+        return self._resolved["bridge"].get("track_type", "ballasted")
+
+    @property
+    def contact_model(self) -> str:
+        """Wheel-rail contact model ('rigid', 'hertz', ...)."""
+        return self._resolved["contact"]["model"]
+
+    # -- provenance
+    def resolved(self) -> dict:
+        """Return the configuration with every default filled in (JSON-serialisable).
+
+        Paths stay as written (relative to :attr:`base_dir`), so
+        ``load_config(cfg.resolved(), base_dir=cfg.base_dir)`` gives the same config.
+        """
+        return json.loads(json.dumps(self._resolved))
+
+    def to_json(self) -> str:
+        """Return the resolved configuration as JSON with sorted keys (stable)."""
+        return json.dumps(self._resolved, sort_keys=True, separators=(",", ":"))
+
+    @property
+    def sha256(self) -> str:
+        """SHA-256 hex digest of :meth:`to_json`."""
+        return hashlib.sha256(self.to_json().encode("utf-8")).hexdigest()
+
+
+def _read_toml(path: Path) -> tuple[dict | None, list[str]]:
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        return None, [f"{path}: file not found; expected a TOML configuration file"]
+    except IsADirectoryError:
+        return None, [f"{path}: is a directory; expected a TOML configuration file"]
+    except OSError as exc:
+        return None, [f"{path}: cannot be read ({exc.strerror}); expected a TOML file"]
+    if raw.startswith(b"\xef\xbb\xbf"):
+        return None, [f"{path}: starts with a UTF-8 byte-order mark (BOM), which TOML does "
+                      "not allow; expected a UTF-8 TOML file without BOM (save it as "
+                      "'UTF-8', not 'UTF-8 with BOM')"]
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        return None, [f"{path}: not a TOML file (byte {exc.start} is not UTF-8 text); expected "
+                      "a UTF-8 TOML configuration file"]
+    try:
+        return tomllib.loads(text), []
+    except RecursionError:
+        return None, [f"{path}: nested too deeply (arrays or inline tables); expected a "
+                      "TOML configuration file"]
+    except ValueError as exc:
+        if isinstance(exc, tomllib.TOMLDecodeError):
+            return _syntax_error(path, text, exc)
+        msg = " ".join(str(exc).split())  # e.g. an integer of thousands of digits
+        return None, [f"{path}: value not readable ({msg}); expected a TOML configuration "
+                      "file with numbers of ordinary size"]
+
+
+def _syntax_error(path: Path, text: str, exc) -> tuple[None, list[str]]:
+    hint = "" if path.suffix.lower() == ".toml" else " (is this a TOML file?)"
+    msg = " ".join(str(exc).split())
+    if "(at end of document)" in msg:  # tomllib gives no line/column there
+        lines = text.split("\n")
+        msg = msg.replace("(at end of document)", f"(at end of document, line {len(lines)}, "
+                                                  f"column {len(lines[-1]) + 1})")
+    return None, [f"{path}: TOML syntax error: {msg}; expected valid TOML{hint}"]
+
+
+def load_config(path_or_mapping, base_dir=None) -> Config:
+    """Read and validate a configuration.
+
+    Parameters
+    ----------
+    path_or_mapping : str, path-like or mapping
+        A TOML file, or the already-parsed mapping (same structure).
+    base_dir : str or path-like, optional
+        Directory that relative paths (profile file, train file, output) resolve
+        against; default: the config file's directory, or the working directory for a
+        mapping.
+
+    Returns
+    -------
+    Config
+
+    Raises
+    ------
+    ConfigError
+        Listing every problem found (key path, bad value, expectation), before any
+        computation.
+    """
+    path = None
+    if isinstance(path_or_mapping, Mapping):
+        data = path_or_mapping
+        source = "<mapping>"
+    elif isinstance(path_or_mapping, str | Path):
+        path = Path(path_or_mapping).expanduser()
+        source = str(path)
+        data, errors = _read_toml(path)
+        if errors:
+            raise ConfigError(errors, source=source)
+        path = path.resolve()
+    else:
+        raise ConfigError([f"config = {_show(path_or_mapping)}: expected a path to a TOML "
+                           "file or a mapping"])
+    if base_dir is None:
+        base = path.parent if path is not None else Path.cwd()
+    else:
+        base = Path(base_dir).expanduser().resolve()
+    cfg = _validate(data, path, base, source)
+    if cfg._study.axes:
+        cfg.variants = _build_variants(data, cfg._study.axes, _validate, path, base, source,
+                                       cfg._study.resolved["speeds_kmh"])
+    return cfg
+
+
+def _validate(data, path: Path | None, base: Path, source: str) -> Config:
+    chk = _Checker()
+    top = {"title", "bridge", "train", "irregularity", "solver", "contact", "track", "study"}
+    chk.table(data, "", top)
+    default_title = path.stem if path is not None else "untitled"
+    title = chk.string(data, "", "title", "a title (string)", default=None, nonempty=False)
+    if "bridge" not in data:
+        chk.error("bridge", _MISSING, "a table [bridge] with kind, spans, EI, mass_per_length")
+    if "train" not in data:
+        chk.error("train", _MISSING, "a table [train] with preset, [[train.vehicles]] or file")
+
+    solver = _solver_section(chk, data.get("solver", _MISSING))
+    contact = _contact_section(chk, data.get("contact", _MISSING))
+    cutoff = solver["acceleration_cutoff"] if _ok(solver) else None
+    bridge = _bridge_section(chk, data["bridge"], base, cutoff) if "bridge" in data else _BAD
+    fe_layer = isinstance(data.get("bridge"), dict) and "track" in data["bridge"]
+    track = _rail_track_section(chk, data.get("track", _MISSING), fe_layer)
+    train = (
+        _train_section(chk, data["train"], base, title if _ok(title) else None)
+        if "train" in data else _BAD
+    )
+    irr = _irregularity_section(chk, data.get("irregularity", _MISSING), base)
+    stem = path.stem if path is not None else "run"
+    study = _study_section(chk, data.get("study", _MISSING), f"results/{stem}.nc", base)
+
+    if _ok(bridge, solver, irr) and irr.file_profile is not None:
+        _check_file_coverage(chk, irr, -solver["approach"], bridge.length)
+    if chk.errors:
+        # report in the order of the file's sections (validation order differs)
+        order = {k: i for i, k in enumerate(data) if isinstance(k, str)}
+        head = re.compile(r"^([^.\[ :=]+)")
+
+        def rank(msg):
+            m = head.match(msg)
+            return order.get(m.group(1) if m else "", len(order))
+
+        raise ConfigError(sorted(chk.errors, key=rank), source=source)
+
+    if study.resolved.get("refine_resonance"):
+        _refine_resonance(study.resolved, bridge, train)
+    spans = bridge.resolved.get("spans") or []
+    if spans and min(spans) < MIN_SPAN:
+        # the span is the cause: no time-step or frequency message about its consequences
+        _refuse(chk, solver, "allow_implausible", f"bridge.spans = {_show(spans)}: expected "
+                f"spans of a railway bridge >= {MIN_SPAN:g} m (units: m)")
+        if chk.errors:
+            raise ConfigError(chk.errors, source=source)
+    _physics_warnings(chk, bridge, train, irr, solver, study.resolved, contact, track)
+    _plausibility(chk, bridge, train, irr, solver, study.resolved, contact)
+    if chk.errors:  # checks of the whole model (time step, budget, plausibility)
+        raise ConfigError(chk.errors, source=source)
+    resolved = {
+        "title": title if title is not None else default_title,
+        "bridge": bridge.resolved,
+        "train": train.resolved,
+        "irregularity": irr.resolved,
+        "solver": _drop_none(dict(solver)),
+        "contact": contact,
+        # (none with the FE track layer of [bridge.track]: that layer is the track)
+        **({"track": track} if track["model"] != "bridge_layer" else {}),
+        "study": dict(study.resolved),
+    }
+    cfg = Config(
+        title=resolved["title"], path=path, base_dir=base, resolved=resolved, bridge=bridge,
+        train=train, irregularity=irr, solver=solver, study=study, warnings=chk.warnings,
+    )
+    cfg.warning_records = [dict(r) for r in chk.records]
+    return cfg
+
+
+def load_config_for_cli(path, console) -> Config | None:
+    """``load_config`` for a command: on a config error print every message on
+    ``console`` (a rich Console) and return None (the command then exits with 2)."""
+    try:
+        return load_config(path)
+    except ConfigError as exc:
+        from rich.markup import escape
+
+        console.print(f"[bold red]error[/]: {escape(str(path))}: invalid configuration",
+                      highlight=False)
+        console.print(str(exc), highlight=False, markup=False)
+        return None

@@ -1,0 +1,23 @@
+"""Caps and thresholds of the checks: sizes refused at load time, time-step resolution,
+run budget and physical plausibility (one place for every number the checks compare)."""
+
+from __future__ import annotations
+
+from vsi_numba.model.irregularity import MAX_SAMPLES
+
+DT_RESOLUTION = 0.1  # dt * f above this: fewer than 10 steps per period (warning)
+STEPS_PER_WAVELENGTH = 10  # fewer time steps per shortest irregularity wavelength: warning
+MAX_SPEEDS = 10_000  # cap on the number of speeds of one study
+MAX_MODES = 1000  # cap on bridge.n_modes
+MAX_ELEMENTS = 1000  # cap on spans * elements_per_span (the eigenproblem runs at load time)
+MAX_USER_DOFS = 200  # cap on the size of a user vehicle
+MAX_VEHICLES = 500  # cap on explicit vehicles
+DT_ERROR = 0.25  # dt * f above this (fewer than 4 steps per period): error
+MAX_STEPS = 50_000_000  # time steps of the slowest run: above this the run is refused
+MAX_HISTORY_BYTES = 2 * 1024**3  # time histories of one run kept in memory: at most 2 GiB
+MAX_PROFILE_SAMPLES = MAX_SAMPLES  # samples of one irregularity profile (its FFT included)
+MAX_STATIC_DEFLECTION = 1.0 / 50.0  # static deck deflection / span: above this, error
+MAX_HERTZ_PENETRATION = 0.010  # m, static Hertz penetration of a wheel: above this, error
+MAX_PROFILE_AMPLITUDE = 0.050  # m, |r| of a profile: above this, error
+LONG_TRAIN = 1000.0  # m, a longer train gets a warning
+MAX_VARIANTS = 5000  # cap on the bridge/track/contact variants of one study

@@ -1,0 +1,449 @@
+"""Checks of the whole model at load time: the physics warnings (time-step resolution of
+the modes, the vehicles, the contact and track springs and the irregularities; modes left
+out below the EN 1990 cut-off) and the plausibility refusals (static deflection, Hertz
+penetration, vehicle stiffness, run and memory budget), each with its override key."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from vsi_numba.config.irregularity import _defect_profile
+from vsi_numba.config.limits import (
+    DT_ERROR,
+    DT_RESOLUTION,
+    LONG_TRAIN,
+    MAX_HERTZ_PENETRATION,
+    MAX_HISTORY_BYTES,
+    MAX_PROFILE_AMPLITUDE,
+    MAX_PROFILE_SAMPLES,
+    MAX_STATIC_DEFLECTION,
+    MAX_STEPS,
+    STEPS_PER_WAVELENGTH,
+)
+from vsi_numba.model import irregularity as _irr
+from vsi_numba.model import track as _track
+from vsi_numba.model.irregularity import profile_range
+from vsi_numba.model.library import static_axle_loads
+
+#: The nonlinear Hertz spring is checked at this multiple of the static wheel load.
+HERTZ_LOAD_FACTOR = 2.0
+#: Rigid contact with massive wheels needs at least this much numerical damping.
+RIGID_MASSIVE_ALPHA = -0.02
+
+
+def _wheel_loads(v) -> np.ndarray:
+    """Static load (N) of each wheel of a vehicle; the weight shared equally when the
+    static state cannot be solved."""
+    try:
+        return static_axle_loads(v)[: v.n_wheels]
+    except (ValueError, np.linalg.LinAlgError):
+        return np.full(v.n_wheels, v.total_weight / v.n_wheels)
+
+
+def _acceleration_cutoff(freqs) -> float:
+    """EN 1990 A2.4.4.2.1: the modes up to max(30 Hz, 1.5 f1, f3) enter the deck
+    acceleration (``freqs`` ascending, at least one)."""
+    return float(max(30.0, 1.5 * freqs[0], freqs[2] if len(freqs) >= 3 else 0.0))
+
+
+def _hertz_warning(chk, train, dt, g, model="hertz"):
+    """Wheel on the Hertz spring, stiffness at twice the static wheel load.
+
+    The Hertz spring stiffens with the force, dN/d(delta) = 3 N^(1/3) / (2 G), so its
+    frequency grows as N^(1/6).  A dip or a landing that the run should resolve lifts the
+    contact force well above its static value Q0; the check takes the stiffness at
+    :data:`HERTZ_LOAD_FACTOR` x Q0 (frequency x 2^(1/6) = 1.12), because the static-load
+    stiffness let impact peaks be under-resolved without a warning.  The linearised
+    model (``hertz_linear``) keeps the static-load stiffness for every force, so it is
+    checked there.  Every wheel with mass is checked with its own static load.
+    """
+    factor = HERTZ_LOAD_FACTOR if model == "hertz" else 1.0
+    f_max, where = 0.0, ""
+    for tr in train.trains:
+        for v in tr.vehicles:
+            if not v.n_wheels or v.total_weight <= 0:
+                continue
+            q0 = _wheel_loads(v)
+            m_w = np.diag(v.M)[v.wheel_dofs]
+            ok = (m_w > 0) & (q0 > 0)
+            if not ok.any():
+                continue
+            # N/m, d(N)/d(delta) of delta = G N^(2/3) at factor x Q0
+            k_h = 1.5 * np.cbrt(factor * q0[ok]) / g
+            f = float(np.max(np.sqrt(k_h / m_w[ok]))) / (2 * math.pi)
+            if f > f_max:
+                f_max, where = f, f"train '{tr.name}', vehicle '{v.name}'"
+    if dt * f_max > DT_RESOLUTION:
+        load = (f"at {factor:g} x the static wheel load: the spring stiffens with the force"
+                if factor != 1.0 else "at the static wheel load")
+        chk.warn(
+            f"solver.dt = {dt:g} s: dt x f = {dt * f_max:.3g} for the wheel on the Hertz "
+            f"contact spring ({f_max:.4g} Hz, {where}, {load}); above "
+            f"{DT_RESOLUTION} it is under-resolved (impact peaks too low); use "
+            f"dt <= {DT_RESOLUTION / f_max:.3g} s",
+            "resolution", ["solver.dt", "contact.hertz_coefficient"])
+
+
+def _track_warning(chk, train, dt, track, contact):
+    """Elastic track: every wheel with mass on the track spring 1/G(0) (in series with
+    the Hertz spring, at twice the static load for ``hertz``, when there is one).  The
+    wheel-on-track mode (~40-60 Hz for a wheelset) must be resolved by the step."""
+    k_track = _track.ElasticTrack(track["foundation_stiffness"], track["rail_EI"]) \
+        .axle_stiffness
+    model = contact["model"]
+    factor = HERTZ_LOAD_FACTOR if model == "hertz" else 1.0
+    f_max, where = 0.0, ""
+    for tr in train.trains:
+        for v in tr.vehicles:
+            if not v.n_wheels or v.total_weight <= 0:
+                continue
+            m_w = np.diag(v.M)[v.wheel_dofs]
+            k = np.full(v.n_wheels, k_track)
+            if model != "rigid":
+                q0 = _wheel_loads(v)
+                k_h = 1.5 * np.cbrt(factor * np.clip(q0, 1.0, None)) / \
+                    contact["hertz_coefficient"]
+                k = 1.0 / (1.0 / k + 1.0 / k_h)
+            ok = m_w > 0
+            if not ok.any():
+                continue
+            f = float(np.max(np.sqrt(k[ok] / m_w[ok]))) / (2 * math.pi)
+            if f > f_max:
+                f_max, where = f, f"train '{tr.name}', vehicle '{v.name}'"
+    if dt * f_max > DT_RESOLUTION:
+        spring = "track" if model == "rigid" else "track and Hertz contact"
+        chk.warn(
+            f"solver.dt = {dt:g} s: dt x f = {dt * f_max:.3g} for the wheel on the {spring} "
+            f"springs ({f_max:.4g} Hz, {where}); above {DT_RESOLUTION} it is under-resolved "
+            f"(wheel-rail force peaks too low); use dt <= {DT_RESOLUTION / f_max:.3g} s",
+            "resolution", ["solver.dt", "track.foundation_stiffness"]
+            + (["contact.hertz_coefficient"] if model != "rigid" else []))
+
+
+def _rigid_massive_warning(chk, train, alpha):
+    """Rigid contact, wheels with mass, alpha > -0.02: the contact forces ring."""
+    if alpha <= RIGID_MASSIVE_ALPHA:
+        return
+    for tr in train.trains:
+        for v in tr.vehicles:
+            if v.n_wheels and np.any(np.diag(v.M)[v.wheel_dofs] > 0):
+                chk.warn(
+                    f"solver.hht_alpha = {alpha:g} with contact.model = 'rigid' and wheels "
+                    f"with mass (train '{tr.name}', vehicle '{v.name}'): the trapezoidal "
+                    "rule is weakly unstable on the position constraint of a massive wheel "
+                    "and the contact forces ring from step to step; use hht_alpha <= "
+                    f"{RIGID_MASSIVE_ALPHA:g} (the default -0.3 is safe)"
+                )
+                return
+
+
+def _physics_warnings(chk, bridge, train, irr, solver, study, contact, track):
+    dt = solver["dt"]
+    if track["model"] == "elastic":
+        _track_warning(chk, train, dt, track, contact)
+    elif contact["model"] != "rigid":
+        _hertz_warning(chk, train, dt, contact["hertz_coefficient"], contact["model"])
+    else:
+        _rigid_massive_warning(chk, train, solver["hht_alpha"])
+    vmax = max(study["speeds_kmh"]) / 3.6
+    model = bridge.model
+    if model.n_modes:
+        fmax = float(model.frequencies[-1])
+        # the modes that enter the checks: those up to the deck-acceleration cut-off
+        freqs = np.asarray(model.frequencies, float)
+        f_cut = solver["acceleration_cutoff"]
+        if f_cut is None:
+            f_cut = _acceleration_cutoff(freqs)
+        f_chk = float(freqs[freqs <= f_cut * (1 + 1e-9)].max(initial=freqs[0]))
+        if dt * f_chk > DT_ERROR and not solver.get("allow_coarse_dt"):
+            chk.errors.append(
+                f"solver.dt = {dt:g}: expected a time step giving at least "
+                f"{1 / DT_ERROR:.0f} steps per period of the highest retained bridge mode "
+                f"within the checks' cut-off ({f_chk:.4g} Hz; cut-off {f_cut:.4g} Hz): "
+                f"dt x f = {dt * f_chk:.3g} > {DT_ERROR}; use dt <= "
+                f"{DT_RESOLUTION / f_chk:.3g} s (10 steps per period), or set "
+                "solver.allow_coarse_dt = true to run anyway (the checks are then marked "
+                "not reliable)")
+        elif dt * fmax > DT_RESOLUTION:
+            chk.warn(
+                f"solver.dt = {dt:g} s: dt x f = {dt * fmax:.3g} for the highest retained "
+                f"bridge mode ({fmax:.4g} Hz); above {DT_RESOLUTION} (fewer than "
+                f"{1 / DT_RESOLUTION:.0f} steps per period) that mode is under-resolved and "
+                f"damped numerically; use dt <= {DT_RESOLUTION / fmax:.3g} s or fewer modes",
+                # only the modes within the cut-off make the checks unreliable
+                "resolution" if dt * f_chk > DT_RESOLUTION else "input",
+                ["solver.dt", "bridge.n_modes"])
+            if dt * f_chk > DT_RESOLUTION and f_chk < fmax:
+                chk.warn(
+                    f"solver.dt = {dt:g} s: dt x f = {dt * f_chk:.3g} for the highest "
+                    f"retained mode within the checks' cut-off ({f_chk:.4g} Hz); the "
+                    "deck accelerations are under-resolved", "resolution",
+                    ["solver.dt", "bridge.n_modes"])
+        allf = bridge.all_frequencies
+        if allf is not None and allf.size:
+            cut = solver["acceleration_cutoff"]
+            rule = "solver.acceleration_cutoff"
+            if cut is None:
+                cut = _acceleration_cutoff(allf)
+                rule = "the EN 1990 A2.4.4.2.1 cut-off max(30 Hz, 1.5 f1, f3)"
+            missing = int(np.count_nonzero(allf <= cut * (1 + 1e-9))) - model.n_modes
+            if missing > 0:
+                chk.warn(
+                    f"bridge.n_modes: the highest retained mode ({fmax:.4g} Hz) is below "
+                    f"{rule} = {cut:.4g} Hz; {missing} mode(s) up to the cut-off are left out "
+                    "of the deck accelerations (raise bridge.n_modes or bridge.max_frequency)"
+                )
+    for tr in train.trains:
+        fv = 0.0
+        for v in tr.vehicles:
+            if v.n_dof and v.n_dof > v.n_wheels:
+                try:
+                    f = v.natural_frequencies(fixed_wheels=True)
+                except (ValueError, np.linalg.LinAlgError):
+                    continue
+                if f.size:
+                    fv = max(fv, float(f.max()))
+        if dt * fv > DT_ERROR and not solver.get("allow_coarse_dt"):
+            chk.errors.append(
+                f"solver.dt = {dt:g}: expected a time step giving at least "
+                f"{1 / DT_ERROR:.0f} steps per period of the highest vehicle frequency of "
+                f"train '{tr.name}' ({fv:.4g} Hz, wheels held): dt x f = {dt * fv:.3g} > "
+                f"{DT_ERROR}; use dt <= {DT_RESOLUTION / fv:.3g} s, or set "
+                "solver.allow_coarse_dt = true to run anyway (the results are then marked "
+                "not reliable)")
+        elif dt * fv > DT_RESOLUTION:
+            chk.warn(
+                f"solver.dt = {dt:g} s: dt x f = {dt * fv:.3g} for the highest vehicle "
+                f"frequency of train '{tr.name}' ({fv:.4g} Hz, wheels held); above "
+                f"{DT_RESOLUTION} it is under-resolved; use dt <= {DT_RESOLUTION / fv:.3g} s",
+                "resolution", ["solver.dt", "train"])
+    r = irr.resolved
+    shortest = []
+    if r["kind"] == "psd":
+        shortest.append(("irregularity.wavelength_min", r["wavelength_min"]))
+    if r["kind"] == "cosine":
+        shortest.append(("irregularity.wavelength", r["wavelength"]))
+    for i, dfc in enumerate(r.get("defects", [])):
+        key = "wavelength" if dfc["kind"] == "cosine" else "length"
+        shortest.append((f"irregularity.defects[{i}].{key}", dfc[key]))
+    for key, lam in shortest:
+        steps = lam / (vmax * dt)
+        if steps < STEPS_PER_WAVELENGTH:
+            chk.warn(
+                f"{key} = {lam:g} m is crossed in {steps:.3g} time steps at "
+                f"{vmax * 3.6:g} km/h (dt = {dt:g} s); fewer than {STEPS_PER_WAVELENGTH} "
+                "steps per wavelength under-resolve the excitation (reduce solver.dt)",
+                "resolution", ["solver.dt", key, "study.speeds_kmh"])
+    amps = []
+    if r["kind"] in ("cosine", "step"):
+        key = "depth" if "depth" in r else "height"
+        amps.append((f"irregularity.{key}", abs(r.get(key, 0.0))))
+    for i, dfc in enumerate(r.get("defects", [])):
+        key = "depth" if dfc["kind"] == "cosine" else "height"
+        amps.append((f"irregularity.defects[{i}].{key}", abs(dfc.get(key, 0.0))))
+    if irr.file_profile is not None and irr.file_profile.coef.size:
+        amps.append(("irregularity.path", float(np.max(np.abs(irr.file_profile.coef[:, 0])))))
+    combined = _defects_amplitude(r)
+    if combined is not None and all(a <= MAX_PROFILE_AMPLITUDE for _, a in amps):
+        amps.append(("irregularity.defects (added up)", combined))
+    for key, amp in amps:
+        if amp > MAX_PROFILE_AMPLITUDE and not solver.get("allow_implausible"):
+            chk.errors.append(
+                f"{key}: |r| = {amp:g} m: expected a track irregularity within "
+                f"+-{MAX_PROFILE_AMPLITUDE * 1e3:g} mm (irregularities are in metres: was mm "
+                "intended?); set solver.allow_implausible = true to run it anyway")
+        elif amp > MAX_PROFILE_AMPLITUDE:
+            chk.warn(f"{key}: |r| = {amp:g} m is more than "
+                     f"{MAX_PROFILE_AMPLITUDE * 1e3:g} mm; irregularities are in metres (was "
+                     "mm intended?)", "plausibility", [key])
+    prof = irr.file_profile
+    if prof is not None and bridge.length is not None and train.trains:
+        tl = max(t.length for t in train.trains)
+        lo, hi = -solver["approach"] - tl, bridge.length + tl
+        if prof.x0 > lo + 1e-9 or prof.x_end < hi - 1e-9:
+            chk.warn(f"irregularity.path: the profile covers x = {prof.x0:g} .. "
+                     f"{prof.x_end:g} m; the trailing axles run over {lo:g} .. {hi:g} m and see "
+                     "r = 0 outside the measured range")
+    if train.trains:
+        length = max(t.length for t in train.trains)
+        vmin = min(study["speeds_kmh"]) / 3.6
+        steps = ((solver["approach"] + model.length + length) / vmin
+                 + solver["free_vibration"]) / dt
+        if steps > 2e7:
+            chk.warn(f"solver.dt = {dt:g} s: the slowest run needs about {steps:.3g} time "
+                     "steps; check the time step")
+
+
+def _refuse(chk, solver, override: str, message: str) -> None:
+    """An error unless ``solver.<override> = true`` (then a warning)."""
+    if solver.get(override):
+        chk.warn(f"{message} (accepted: solver.{override} = true)", "plausibility")
+    else:
+        chk.errors.append(f"{message}; set solver.{override} = true to run it anyway")
+
+
+def _train_loads(tr):
+    """Axle positions (m behind the first axle) and static loads (N) of a train: each
+    vehicle's weight shared equally by its wheels, plus its moving forces."""
+    xs, qs = [], []
+    for v, off in zip(tr.vehicles, tr.offsets, strict=True):
+        if v.n_wheels and v.total_weight > 0:
+            share = (v.total_weight - float(np.sum(v.loads))) / v.n_wheels
+            xs.append(off + np.asarray(v.wheel_positions, float))
+            qs.append(np.full(v.n_wheels, max(share, 0.0)))
+        if np.size(v.loads):
+            xs.append(off + np.asarray(v.load_positions, float))
+            qs.append(np.asarray(v.loads, float))
+    if not xs:
+        return np.zeros(0), np.zeros(0)
+    return np.concatenate(xs), np.concatenate(qs)
+
+
+def _defects_amplitude(r) -> float | None:
+    """Largest |r| (m) of the deterministic defects added up (a cosine or step base and
+    every ``[[irregularity.defects]]``), or None without two of them.  A sweep over the
+    defects' extents bounds it first; only a bound above the limit builds the profile."""
+    specs = [dict(r)] if r["kind"] in ("cosine", "step") else []
+    specs += list(r.get("defects", []))
+    if len(specs) < 2:
+        return None
+    events = []
+    for d in specs:
+        amp = abs(d.get("depth", d.get("height", 0.0)))
+        start = d["position"]
+        end = start + (d["wavelength"] if d["kind"] == "cosine" else math.inf)
+        events += [(start, amp), (end, -amp)]
+    bound = level = 0.0
+    for _, a in sorted(events, key=lambda e: (e[0], e[1] < 0)):
+        level += a
+        bound = max(bound, level)
+    if bound <= MAX_PROFILE_AMPLITUDE:
+        return bound
+    stop = max(d["position"] + d.get("wavelength", d.get("length", 0.0)) for d in specs)
+    total = _irr.combine(*[_defect_profile(d, stop) for d in specs])
+    x = np.linspace(total.x0, total.x_end, min(200_000, total.coef.shape[0] * 4 + 1))
+    return float(np.max(np.abs(total(x))))
+
+
+def _plausibility(chk, bridge, train, irr, solver, study, contact):
+    """Errors for input that cannot be meant (each names its keys and the override key)
+    and for runs beyond the memory/time budget; warnings for the unusual."""
+    model = bridge.model
+    spans = np.atleast_1d(np.asarray(bridge.resolved.get("spans", [bridge.length or 0.0]),
+                                     float))
+    dt = solver["dt"]
+    trains = list(train.trains)
+    # -- static deflection of the deck under each train
+    if model.n_modes and trains and spans.size and spans.max() > 0:
+        limit = MAX_STATIC_DEFLECTION * float(spans.max())
+        pts = np.linspace(0.0, model.length, 41)
+        phi_p = model.output_shapes(pts)  # (points, modes)
+        # upper bound first: the heaviest bridge-length of axles at the most flexible
+        # point, W max_x sum_j phi_j(x)^2 / w_j^2; the influence lines only when it exceeds
+        # the limit (the bound is cheap; the exact pass costs ~50 ms per train)
+        with np.errstate(all="ignore"):
+            flex = float(np.max(np.sum(model.shapes(pts) ** 2 / model.omega**2, axis=1)))
+        for tr in trains:
+            x, q = _train_loads(tr)
+            if not x.size:
+                continue
+            order = np.argsort(x)
+            xs, cq = x[order], np.concatenate([[0.0], np.cumsum(np.abs(q[order]))])
+            j = np.searchsorted(xs, xs + model.length, side="right")
+            heaviest = float(np.max(cq[j] - cq[np.arange(xs.size)]))
+            if np.isfinite(flex) and heaviest * flex <= limit:
+                continue
+            step = max(model.length / 200.0, 0.05)
+            reach = model.length + float(x.max())
+            n_f = min(reach / step + 2, max(200_000 // x.size, 2))  # keep it cheap
+            fronts = np.linspace(0.0, reach, int(n_f))
+            xx = fronts[:, None] - x[None, :]
+            on = (xx >= 0.0) & (xx <= model.length)
+            xx = np.where(on, xx, 0.0)
+            phi_k = model.shapes(xx.ravel()).reshape(xx.shape + (model.n_modes,))
+            phi_k = phi_k * on[..., None]
+            with np.errstate(all="ignore"):  # absurd input: inf/NaN is the answer here
+                modal = np.einsum("fkj,k->fj", phi_k, q) / model.omega**2
+                w = float(np.max(np.abs(modal @ phi_p.T))) if modal.size else 0.0
+            if not np.isfinite(w) or w > limit:
+                _refuse(chk, solver, "allow_implausible",
+                        f"train '{tr.name}' on the deck: static deflection {w:.3g} m > "
+                        f"span/{1 / MAX_STATIC_DEFLECTION:.0f} = {limit:.3g} m (check "
+                        "bridge.EI, bridge.mass_per_length, bridge.spans and the train's "
+                        "loads/masses: units N, kg, N m^2?)")
+    # -- Hertz static penetration
+    if contact["model"] != "rigid":
+        g = contact["hertz_coefficient"]
+        for tr in trains:
+            x, q = _train_loads(tr)
+            if q.size and q.max() > 0:
+                pen = g * float(q.max()) ** (2.0 / 3.0)
+                if pen > MAX_HERTZ_PENETRATION:
+                    _refuse(chk, solver, "allow_implausible",
+                            f"contact.hertz_coefficient = {g:g}: static Hertz penetration "
+                            f"{pen * 1e3:.3g} mm under the heaviest wheel of train "
+                            f"'{tr.name}' ({float(q.max()):.4g} N) > "
+                            f"{MAX_HERTZ_PENETRATION * 1e3:g} mm (G is in m N^-2/3, about "
+                            "4e-8 for a wheel on a rail)")
+    # -- vehicle stiffness
+    for tr in trains:
+        for v in tr.vehicles:
+            if v.n_dof == 0:
+                continue
+            k = np.asarray(v.K, float)
+            ks = 0.5 * (k + k.T)
+            try:
+                lam = np.linalg.eigvalsh(ks)
+            except np.linalg.LinAlgError:
+                continue
+            scale = max(float(np.max(np.abs(lam))), 1e-300)
+            if lam.size and lam.min() < -1e-9 * scale:
+                _refuse(chk, solver, "allow_implausible",
+                        f"train '{tr.name}', vehicle '{v.name}': the stiffness matrix K is "
+                        f"not positive semi-definite (eigenvalue {lam.min():.4g} N/m; check "
+                        "the signs of train.vehicles[].K or the spring stiffnesses)")
+    # -- long trains
+    for tr in trains:
+        if tr.length > LONG_TRAIN:
+            chk.warn(f"train '{tr.name}' is {tr.length:.4g} m long (more than "
+                     f"{LONG_TRAIN:g} m): check the vehicle offsets", "plausibility",
+                     ["train.vehicles[].offset"])
+    # -- budget: time steps, histories, profile samples
+    if not trains:
+        return
+    length = max(t.length for t in trains)
+    vmin = min(study["speeds_kmh"]) / 3.6
+    steps = ((solver["approach"] + model.length + length) / vmin
+             + solver["free_vibration"]) / dt
+    keys = ("solver.dt, study.speeds_kmh (slowest), solver.free_vibration, "
+            "solver.approach, the train length (vehicle offsets)")
+    if steps > MAX_STEPS:
+        _refuse(chk, solver, "allow_large_problem",
+                f"the slowest run needs {steps:.3g} time steps, more than the budget of "
+                f"{MAX_STEPS:.3g}; check {keys}")
+    elif study["save_time_histories"]:
+        n_w = max(t.n_wheels + t.n_loads for t in trains)
+        n_b = max(len(t.vehicles) for t in trains)
+        nbytes = steps * 8.0 * (2 * model.n_modes + 2 * n_w + n_b)
+        if nbytes > MAX_HISTORY_BYTES:
+            _refuse(chk, solver, "allow_large_problem",
+                    f"the time histories of the slowest run need about {nbytes / 2**30:.3g} "
+                    f"GiB in memory ({steps:.3g} steps), more than the budget of "
+                    f"{MAX_HISTORY_BYTES / 2**30:g} GiB; set study.save_time_histories = "
+                    f"false or study.history_speeds_kmh, or check {keys}")
+    r = irr.resolved
+    if r["kind"] == "psd":
+        x0, x1 = profile_range(model.length, [t.length for t in trains],
+                               solver["approach"], solver["free_vibration"])
+        dx = r.get("dx") or r["wavelength_min"] / 20.0
+        n = max(x1 - x0, 20.0 * r["wavelength_max"]) / dx
+        if n > MAX_PROFILE_SAMPLES:
+            _refuse(chk, solver, "allow_large_problem",
+                    f"irregularity: each random profile needs {n:.3g} samples, more than "
+                    f"the budget of {MAX_PROFILE_SAMPLES:.3g} (track length {x1 - x0:.4g} m "
+                    f"and 20 x irregularity.wavelength_max = {20 * r['wavelength_max']:g} m "
+                    f"at irregularity.dx = {dx:g} m, default wavelength_min / 20); check "
+                    "irregularity.wavelength_min, wavelength_max, dx, solver.free_vibration "
+                    "and the train length")

@@ -1,0 +1,118 @@
+"""``[solver]``, ``[contact]`` and ``[track]``: the settings of the time integration, the
+wheel-rail contact and the rail on its foundation.
+
+The admissible values of the solver keys are those of
+:class:`vsi_numba.solver.settings.SolverSettings` (its ``BOUNDS`` and defaults), which the
+validated section becomes (:meth:`vsi_numba.config.Config.solver_settings`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict
+
+from vsi_numba.config._check import _BAD, _MISSING, _Num, _ok, _Sentinel
+from vsi_numba.model import track as _track
+from vsi_numba.solver.settings import BOUNDS, HHT_ALPHA_MIN, SolverSettings
+from vsi_numba.solver.settings import CONTACT_MODELS as _SOLVER_CONTACT_MODELS
+
+CONTACT_MODELS = tuple(_SOLVER_CONTACT_MODELS)
+TRACK_MODELS = ("elastic", "rigid")
+
+#: Keys that accept a result the checks below refuse (never listed in hints).
+SOLVER_OVERRIDES = {
+    "allow_coarse_dt": "fewer than 4 time steps per period of a retained frequency",
+    "allow_large_problem": "runs or profiles beyond the memory/time budget",
+    "allow_implausible": "implausible physical input (deflection, penetration, profile "
+                         "amplitude, vehicle stiffness)",
+}
+
+
+def _setting(key: str, expected: str, **kw) -> _Num:
+    """The spec of a ``[solver]`` key: the bounds of :data:`BOUNDS`, the default of
+    :class:`SolverSettings`."""
+    return _Num(expected, **asdict(BOUNDS[key]), **kw)
+
+
+_SOLVER_FIELDS = {
+    "dt": _setting("dt", "a time step > 0 s", default=SolverSettings.dt),
+    "hht_alpha": _setting("hht_alpha", "-1/3 <= hht_alpha <= 0",
+                          default=SolverSettings.hht_alpha),
+    "approach": _setting("approach", "a length of approach track >= 0 m",
+                         default=SolverSettings.approach),
+    "free_vibration": _setting("free_vibration", "a duration >= 0 s",
+                               default=SolverSettings.free_vibration),
+    "max_iterations": _setting("max_iterations", "an integer 1 <= max_iterations <= 10000",
+                               integer=True, default=SolverSettings.max_iterations),
+    "max_subdivisions": _setting("max_subdivisions", "an integer 0 <= max_subdivisions <= 30",
+                                 integer=True, default=SolverSettings.max_subdivisions),
+    "acceleration_cutoff": _setting("acceleration_cutoff", "a frequency > 0 Hz",
+                                    default=SolverSettings.acceleration_cutoff),
+}
+#: contact.hertz_coefficient: > 0 (SolverSettings), and < 1 (a G of 1 m N^-2/3 is a typo)
+_HERTZ_MAX = 1.0
+
+
+def _solver_section(chk, d) -> dict | _Sentinel:
+    if d is _MISSING:
+        d = {}
+    if chk.table(d, "solver", set(_SOLVER_FIELDS), what=" [solver] (dt, hht_alpha, ...)",
+                 hidden=SOLVER_OVERRIDES) is _BAD:
+        return _BAD
+    vals = chk.numbers(d, "solver", _SOLVER_FIELDS)
+    for key in SOLVER_OVERRIDES:
+        if key in d:
+            vals[key] = chk.boolean(d, "solver", key, False)
+    if not _ok(*vals.values()):
+        return _BAD
+    vals["hht_alpha"] = max(vals["hht_alpha"], HHT_ALPHA_MIN)
+    return vals
+
+
+def _contact_section(chk, d) -> dict | _Sentinel:
+    if d is _MISSING:
+        return {"model": "rigid"}
+    if chk.table(d, "contact", {"model", "hertz_coefficient"},
+                 what=" [contact] with model = 'rigid'") is _BAD:
+        return _BAD
+    model = chk.choice(d, "contact", "model", CONTACT_MODELS, default="rigid")
+    spec = _Num("a Hertz constant G > 0 m N^-2/3 (about 4e-8 for a wheel on a rail)",
+                gt=BOUNDS["hertz_coefficient"].gt, lt=_HERTZ_MAX,
+                default=_MISSING if model not in ("rigid", _BAD) else None)
+    if model == "rigid":
+        if "hertz_coefficient" in d:
+            chk.warn("contact.hertz_coefficient is ignored: not used by contact.model = 'rigid'")
+        return {"model": "rigid"}
+    g = chk.get_number(d, "contact", "hertz_coefficient", spec)
+    if not _ok(model, g):
+        return _BAD
+    return {"model": model, "hertz_coefficient": g}
+
+
+def _rail_track_section(chk, d, fe_layer: bool) -> dict | _Sentinel:
+    """[track]: the rail on an elastic foundation (default) or the rigid idealisation."""
+    if fe_layer:
+        if d is not _MISSING:
+            chk.error("track", d, "no [track] with [bridge.track]: the FE track layer of the "
+                      "deck is the track")
+            return _BAD
+        return {"model": "bridge_layer"}
+    if d is _MISSING:
+        d = {}
+    if chk.table(d, "track", {"model", "foundation_stiffness", "rail_EI"},
+                 what=" [track] of track values") is _BAD:
+        return _BAD
+    model = chk.choice(d, "track", "model", TRACK_MODELS, default="elastic")
+    if model == "rigid":
+        for key in ("foundation_stiffness", "rail_EI"):
+            if key in d:
+                chk.warn(f"track.{key} is ignored: not used by track.model = 'rigid'")
+        return {"model": "rigid"}
+    k = chk.get_number(d, "track", "foundation_stiffness", _Num(
+        "a foundation modulus > 0 N/m per metre of track (both rails; about 3e7 .. 3e8)",
+        gt=0, default=_track.FOUNDATION_DEFAULT))
+    ei = chk.get_number(d, "track", "rail_EI", _Num(
+        "a bending stiffness of both rails > 0 N m^2 (1.283e7 for two UIC60 rails)",
+        gt=0, default=_track.RAIL_EI_UIC60))
+    if not _ok(model, k, ei):
+        return _BAD
+    return {"model": "elastic", "foundation_stiffness": float(k), "rail_EI": float(ei)}

@@ -1,0 +1,347 @@
+"""``[train]``: library presets, a user train file, or explicit ``[[train.vehicles]]``."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vsi_numba.config._check import (
+    _BAD,
+    _MISSING,
+    _as_list,
+    _did_you_mean,
+    _drop_none,
+    _finite,
+    _is_number,
+    _Num,
+    _ok,
+    _Sentinel,
+    _show,
+)
+from vsi_numba.config.limits import MAX_USER_DOFS, MAX_VEHICLES
+from vsi_numba.model import library as _lib
+from vsi_numba.model import vehicle as _veh
+
+VEHICLE_KINDS = ("force", "sprung_mass", "car", "user")
+TRAIN_MODELS = ("interaction", "moving_force")
+_VEHICLE_FIELDS: dict[str, dict[str, _Num]] = {
+    "force": {"load": _Num("a force > 0 N (positive down)", gt=0)},
+    "sprung_mass": {
+        "mass": _Num("a mass > 0 kg", gt=0),
+        "stiffness": _Num("a stiffness > 0 N/m", gt=0),
+        "damping": _Num("a damping >= 0 N s/m", ge=0, default=0.0),
+        "wheel_mass": _Num("a mass >= 0 kg (0 = massless contact point)", ge=0, default=0.0),
+    },
+    "car": {
+        "body_mass": _Num("a mass > 0 kg", gt=0),
+        "body_pitch_inertia": _Num("a pitch inertia > 0 kg m^2", gt=0),
+        "bogie_mass": _Num("a mass > 0 kg", gt=0),
+        "bogie_pitch_inertia": _Num("a pitch inertia > 0 kg m^2", gt=0),
+        "wheelset_mass": _Num("a mass > 0 kg", gt=0),
+        "bogie_spacing": _Num("a distance between bogie centres > 0 m", gt=0),
+        "wheelbase": _Num("an axle distance within a bogie > 0 m", gt=0),
+        "primary_stiffness": _Num("a stiffness > 0 N/m (per wheelset)", gt=0),
+        "primary_damping": _Num("a damping >= 0 N s/m (per wheelset)", ge=0),
+        "secondary_stiffness": _Num("a stiffness > 0 N/m (per bogie)", gt=0),
+        "secondary_damping": _Num("a damping >= 0 N s/m (per bogie)", ge=0),
+        "body_cg_to_front_bogie": _Num(
+            "a distance >= 0 m behind the front bogie centre", ge=0, default=None),
+    },
+    "user": {},
+}
+_USER_KEYS = ("M", "C", "K", "wheel_dofs", "wheel_positions", "gravity", "body_dof")
+_COMMON_VEHICLE_KEYS = ("kind", "offset", "name")
+
+
+def _vehicle_keys(kind):
+    extra = _USER_KEYS if kind == "user" else tuple(_VEHICLE_FIELDS[kind])
+    return set(_COMMON_VEHICLE_KEYS) | set(extra)
+
+
+def _matrix(chk, value, path, n=None):
+    """Read a square matrix (nested lists of finite numbers): ndarray or ``_BAD``."""
+    value = _as_list(value)
+    expected = "a square matrix (list of rows of numbers)" + (f", {n} x {n}" if n else "")
+    if not isinstance(value, list) or not value or len(value) > MAX_USER_DOFS:
+        return chk.error(path, value, expected)
+    rows = [_as_list(r) for r in value]
+    size = len(rows)
+    if not all(isinstance(r, list) and len(r) == size for r in rows) or (n and size != n):
+        return chk.error(path, value, expected)
+    bad = False
+    for i, row in enumerate(rows):
+        for j, x in enumerate(row):
+            if not (_is_number(x) and _finite(x)):
+                chk.error(f"{path}[{i}][{j}]", x, "a finite number")
+                bad = True
+    if bad:
+        return _BAD
+    a = np.asarray(rows, float)
+    try:
+        _veh.check_matrix(a, path)
+    except _veh.VehicleMatrixError as exc:  # finite by now: not symmetric
+        i, j = exc.index
+        return chk.error(f"{path}[{i}][{j}]", float(a[i, j]),
+                         f"a symmetric matrix ({path}[{j}][{i}] = {float(a[j, i])!r})")
+    return a
+
+
+def _user_vehicle(chk, v, path, name):
+    m = _matrix(chk, v["M"], f"{path}.M") if "M" in v else chk.error(
+        f"{path}.M", _MISSING, "the mass matrix (list of rows, kg and kg m^2)")
+    n = m.shape[0] if isinstance(m, np.ndarray) else None
+    mats = {"M": m}
+    for key, what in (("C", "damping matrix (N s/m)"), ("K", "stiffness matrix (N/m)")):
+        if key not in v:
+            mats[key] = chk.error(f"{path}.{key}", _MISSING, f"the {what}, same size as M")
+        else:
+            mats[key] = _matrix(chk, v[key], f"{path}.{key}", n)
+    if isinstance(m, np.ndarray):
+        try:
+            _veh.check_masses(m)
+        except _veh.VehicleMatrixError as exc:
+            i = exc.index[0]
+            mats["M"] = chk.error(f"{path}.M[{i}][{i}]", float(m[i, i]),
+                                  "a mass >= 0 (diagonal)")
+    hi = (n - 1) if n else MAX_USER_DOFS
+    dofs = _BAD
+    if "wheel_dofs" not in v:
+        chk.error(f"{path}.wheel_dofs", _MISSING, "a list of wheel DOF indices")
+    else:
+        dofs = chk.number_list(v["wheel_dofs"], f"{path}.wheel_dofs",
+                               _Num(f"a DOF index 0 <= i <= {hi}", ge=0, le=hi, integer=True),
+                               expected="a non-empty list of wheel DOF indices")
+        if isinstance(dofs, list) and len(set(dofs)) != len(dofs):
+            dofs = chk.error(f"{path}.wheel_dofs", v["wheel_dofs"], "distinct DOF indices")
+    pos = _BAD
+    if "wheel_positions" not in v:
+        chk.error(f"{path}.wheel_positions", _MISSING,
+                  "one position (m behind the vehicle's first axle) per wheel DOF")
+    else:
+        pos = chk.number_list(v["wheel_positions"], f"{path}.wheel_positions",
+                              _Num("a position >= 0 m behind the first axle", ge=0),
+                              expected="a list of wheel positions >= 0 m, one per wheel DOF")
+        if isinstance(pos, list) and isinstance(dofs, list) and len(pos) != len(dofs):
+            pos = chk.error(f"{path}.wheel_positions", v["wheel_positions"],
+                            f"one position per wheel DOF ({len(dofs)} wheel DOFs)")
+        elif isinstance(pos, list) and any(b <= a for a, b in zip(pos, pos[1:], strict=False)):
+            pos = chk.error(f"{path}.wheel_positions", v["wheel_positions"],
+                            "strictly increasing positions (wheels front to back)")
+    grav = None
+    if "gravity" in v:
+        grav = chk.number_list(v["gravity"], f"{path}.gravity", _Num("a load in N"),
+                               expected="a list of static loads (N, positive down), one per DOF",
+                               min_len=n or 1, max_len=n)
+    body = chk.get_number(v, path, "body_dof", _Num(
+        f"a DOF index -1 <= i <= {hi} (-1: none)", ge=-1, le=hi, integer=True, default=-1))
+    if not _ok(*mats.values(), dofs, pos, grav, body) or n is None:
+        return _BAD
+    try:
+        return _veh.user_vehicle(mats["M"], mats["C"], mats["K"], dofs, pos, grav, body, name)
+    except ValueError as exc:
+        return chk.error(path, dict(v), f"a valid vehicle ({exc})")
+
+
+def _vehicle(chk, v, path, index):
+    if not isinstance(v, Mapping):
+        chk.error(path, v, "a table with kind = 'force' | 'sprung_mass' | 'car' | 'user'")
+        return _BAD, _BAD, None
+    kind = chk.choice(v, path, "kind", VEHICLE_KINDS)
+    if kind is _BAD:
+        every = set(_COMMON_VEHICLE_KEYS).union(*(_vehicle_keys(k) for k in VEHICLE_KINDS))
+        chk.table(v, path, every)
+        return _BAD, _BAD, None
+    allowed = _vehicle_keys(kind)
+    elsewhere = {}
+    for other in VEHICLE_KINDS:
+        for k in _vehicle_keys(other) - allowed:
+            elsewhere.setdefault(k, f"no such key for kind = '{kind}' (it belongs to kind = "
+                                    f"'{other}')")
+    chk.table(v, path, allowed, elsewhere=elsewhere)
+    offset = chk.get_number(v, path, "offset", _Num(
+        "an offset >= 0 m behind the train's first axle", ge=0, default=0.0))
+    name = chk.string(v, path, "name", "a vehicle name (string)", default=f"{kind}{index}")
+    res = {"kind": kind, "offset": offset, "name": name}
+    if kind == "user":
+        veh = _user_vehicle(chk, v, path, name if _ok(name) else kind)
+        for k in _USER_KEYS:
+            if k in v:
+                res[k] = _as_list(v[k])
+        res.setdefault("body_dof", -1)
+        return veh, offset, res
+    vals = chk.numbers(v, path, _VEHICLE_FIELDS[kind])
+    res.update(_drop_none(vals))
+    if not _ok(*vals.values(), name):
+        return _BAD, offset, res
+    if kind == "force":
+        veh = _veh.point_loads([0.0], [vals["load"]], name=name)
+    elif kind == "sprung_mass":
+        veh = _veh.sprung_mass(vals["mass"], vals["stiffness"], vals["damping"],
+                               vals["wheel_mass"], name=name)
+    else:
+        veh = _car(chk, vals, path, name)
+    return veh, offset, res
+
+
+def _car(chk, vals, path, name):
+    if vals["bogie_spacing"] <= vals["wheelbase"]:
+        return chk.error(f"{path}.bogie_spacing", vals["bogie_spacing"],
+                         f"a distance between bogie centres > the wheelbase "
+                         f"({vals['wheelbase']:g} m), else the bogies' axles overlap")
+    cg = vals["body_cg_to_front_bogie"]
+    if cg is not None and cg > vals["bogie_spacing"]:
+        return chk.error(f"{path}.body_cg_to_front_bogie", cg,
+                         f"a distance between 0 and bogie_spacing = {vals['bogie_spacing']:g} m")
+    return _veh.railway_car(**{k: vals[k] for k in _VEHICLE_FIELDS["car"]}, name=name)
+
+
+@dataclass(frozen=True)
+class _TrainSpec:
+    """The validated ``[train]``: its resolved keys and the trains built from them."""
+
+    resolved: dict
+    trains: list
+    explicit: bool = False
+
+
+def _preset_names() -> list[str]:
+    return list(_lib.list_presets())
+
+
+def _get_preset(chk, name, path, model):
+    """Build one library train (user files are registered in the library) or ``_BAD``.
+
+    Without ``train.model`` the interaction model is used where the library has vehicle
+    dynamics, the moving forces otherwise (HSLM load models).
+    """
+    try:
+        if model is None:
+            try:
+                train = _lib.get_train(name, model="interaction")
+            except KeyError:
+                raise
+            except ValueError:
+                train = _lib.get_train(name, model="moving_force")
+        else:
+            train = _lib.get_train(name, model=model)
+    except KeyError:
+        guess = _did_you_mean(name, _preset_names())
+        hint = f"; did you mean '{guess}'?" if guess else ""
+        return chk.error(path, name, f"a train name from the library (`vsi trains` lists "
+                                     f"them){hint}")
+    except ValueError as exc:
+        return chk.error(path, name, f"a train that can be built with train.model = "
+                                     f"'{model}' ({' '.join(str(exc).split())})")
+    try:
+        text = _lib.status_warning(name)
+    except (KeyError, ValueError):
+        text = ""
+    if text:
+        chk.warn(f"{path} = {_show(name)}: {text}")
+    return train
+
+
+def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
+    path = "train"
+    allowed = {"preset", "model", "vehicles", "file", "name"}
+    ignored = {"name": "it names the train of [[train.vehicles]]; presets keep their names"}
+    if isinstance(d, Mapping) and "vehicles" in d:
+        ignored = {"model": "it applies to library presets, not to [[train.vehicles]]"}
+    if chk.table(d, path, allowed - set(ignored), ignored=ignored,
+                 what=" [train] with preset, vehicles or file") is _BAD:
+        return _BAD
+    given = [k for k in ("preset", "vehicles", "file") if k in d]
+    if not given:
+        return chk.error(path, _MISSING, "one of train.preset (library names), "
+                                         "[[train.vehicles]] or train.file")
+    if "vehicles" in d and len(given) > 1:
+        other = [k for k in given if k != "vehicles"][0]
+        return chk.error(f"train.{other}", d[other],
+                         "either [[train.vehicles]] or train.preset/train.file, not both")
+    res: dict[str, Any] = {}
+    if "vehicles" in d:
+        name = chk.string(d, path, "name", "a train name (string)",
+                          default=title if title else "custom")
+        res["name"] = name
+        return _explicit_train(chk, d["vehicles"], name, res)
+    model = chk.choice(d, path, "model", TRAIN_MODELS, default=None)
+    if model is not None and model is not _BAD:
+        res["model"] = model
+
+    user_trains: dict = {}
+    if "file" in d:
+        given_path, full = chk.file(d, path, "file", base_dir, "user trains (TOML)")
+        res["file"] = given_path
+        if _ok(full):
+            user_trains = _load_user_trains(chk, full, given_path)
+    if "preset" in d:
+        raw = _as_list(d["preset"])
+        expected = "a train name, or a non-empty list of names (`vsi trains` lists them)"
+        if isinstance(raw, str):
+            names, paths = [raw], ["train.preset"]
+        elif isinstance(raw, list) and raw and all(isinstance(x, str) for x in raw):
+            names, paths = raw, [f"train.preset[{i}]" for i in range(len(raw))]
+            if len(set(names)) != len(names):
+                return chk.error("train.preset", raw, "distinct train names")
+        else:
+            return chk.error("train.preset", raw, expected)
+        res["preset"] = list(names)
+        if model is _BAD or user_trains is _BAD:
+            return _BAD
+        trains = [_get_preset(chk, n, p, model) for n, p in zip(names, paths, strict=True)]
+        if not _ok(*trains):
+            return _BAD
+        return _TrainSpec(resolved=res, trains=trains)
+    if user_trains is _BAD or not _ok(model):
+        return _BAD
+    if not user_trains:
+        return chk.error("train.file", d.get("file"), "a file defining at least one train")
+    trains = [_get_preset(chk, n, "train.file", model) for n in user_trains]
+    return _TrainSpec(resolved=res, trains=trains) if _ok(*trains) else _BAD
+
+
+def _load_user_trains(chk, full: Path, given: str):
+    try:
+        return dict(_lib.load_user_trains(full))
+    except Exception as exc:  # noqa: BLE001 - any failure of a foreign file is a config error
+        msg = " ".join(str(exc).split())
+        return chk.error("train.file", given, f"a valid user train file ({msg})")
+
+
+def _explicit_train(chk, vehicles, name, res) -> _TrainSpec | _Sentinel:
+    vehicles = _as_list(vehicles)
+    if not isinstance(vehicles, list) or not vehicles or len(vehicles) > MAX_VEHICLES:
+        return chk.error("train.vehicles", vehicles,
+                         f"an array of tables [[train.vehicles]] (1 to {MAX_VEHICLES})")
+    built = []
+    resolved = []
+    for i, v in enumerate(vehicles):
+        veh, offset, r = _vehicle(chk, v, f"train.vehicles[{i}]", i)
+        built.append((veh, offset))
+        if r is not None:
+            resolved.append(r)
+    res["vehicles"] = resolved
+    if not all(_ok(veh, off) for veh, off in built):
+        return _BAD
+    # vehicles are listed front to back and must not overlap
+    prev_end = None
+    for i, (veh, off) in enumerate(built):
+        axles = off + veh.axle_positions
+        start, end = float(axles.min()), float(axles.max())
+        if prev_end is not None and start <= prev_end:
+            lo = start - off
+            chk.error(f"train.vehicles[{i}].offset", off,
+                      f"an offset > {prev_end - lo:g} m: vehicles are listed front to back "
+                      f"and must not overlap (train.vehicles[{i - 1}] ends at {prev_end:g} m "
+                      f"behind the first axle)")
+            return _BAD
+        prev_end = end
+    if not _ok(name):
+        return _BAD
+    train = _veh.Train(name=name, vehicles=tuple(v for v, _ in built),
+                       offsets=tuple(o for _, o in built), status="user")
+    return _TrainSpec(resolved=res, trains=[train], explicit=True)

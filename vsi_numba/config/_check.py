@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from vsi_numba.solver.settings import Bounds
+
 
 class ConfigError(ValueError):
     """Invalid configuration: every problem found, one line each.
@@ -143,6 +145,10 @@ class _Num:
     default: Any = _MISSING
     integer: bool = False
 
+    @property
+    def bounds(self) -> Bounds:
+        return Bounds(gt=self.gt, ge=self.ge, lt=self.lt, le=self.le)
+
 
 class _Checker:
     """Collects errors and warnings while walking the config."""
@@ -208,12 +214,7 @@ class _Checker:
             ok = _is_number(value) and _finite(value)
         if ok:
             x = int(value) if spec.integer else float(value)
-            ok = (
-                (spec.gt is None or x > spec.gt)
-                and (spec.ge is None or x >= spec.ge)
-                and (spec.lt is None or x < spec.lt)
-                and (spec.le is None or x <= spec.le)
-            )
+            ok = x in spec.bounds
         if not ok:
             return self.error(path, value, spec.expected)
         return x

@@ -134,6 +134,18 @@ class Config:
         (0 unless ``bridge.additional_damping = true`` and L < 30 m)."""
         return float(self._resolved["bridge"].get("additional_damping", 0.0))
 
+    @property
+    def damping_rule(self) -> str | None:
+        """The EN 1991-2 Table 6.6 rule ``damping_ratio = 'EN1991-2'`` applied (text), or
+        None."""
+        return self._resolved["bridge"].get("damping_rule")
+
+    @property
+    def additional_damping_rule(self) -> str | None:
+        """The EN 1991-2 6.4.6.3.1 rule ``additional_damping = true`` applied (text), or
+        None."""
+        return self._resolved["bridge"].get("additional_damping_rule")
+
     def bridge_for(self, train) -> _bridge.ModalBridge:
         """The bridge a train runs on: :meth:`build_bridge`, with the additional damping
         of ``bridge.additional_damping`` added to every mode when ``train`` is moving

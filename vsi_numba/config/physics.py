@@ -48,6 +48,25 @@ def _acceleration_cutoff(freqs) -> float:
     return float(max(30.0, 1.5 * freqs[0], freqs[2] if len(freqs) >= 3 else 0.0))
 
 
+def _highest_wheel_frequency(train, wheel_stiffness) -> tuple[float, str]:
+    """The highest frequency (Hz) of a wheel with mass on its spring, and where it is;
+    ``wheel_stiffness(vehicle)`` gives each wheel's stiffness (N/m) and which to check."""
+    f_max, where = 0.0, ""
+    for tr in train.trains:
+        for v in tr.vehicles:
+            if not v.n_wheels or v.total_weight <= 0:
+                continue
+            m_w = np.diag(v.M)[v.wheel_dofs]
+            k, ok = wheel_stiffness(v)
+            ok = ok & (m_w > 0)
+            if not ok.any():
+                continue
+            f = float(np.max(np.sqrt(k[ok] / m_w[ok]))) / (2 * math.pi)
+            if f > f_max:
+                f_max, where = f, f"train '{tr.name}', vehicle '{v.name}'"
+    return f_max, where
+
+
 def _hertz_warning(chk, train, dt, g, model="hertz"):
     """Wheel on the Hertz spring, stiffness at twice the static wheel load.
 
@@ -60,21 +79,12 @@ def _hertz_warning(chk, train, dt, g, model="hertz"):
     checked there.  Every wheel with mass is checked with its own static load.
     """
     factor = HERTZ_LOAD_FACTOR if model == "hertz" else 1.0
-    f_max, where = 0.0, ""
-    for tr in train.trains:
-        for v in tr.vehicles:
-            if not v.n_wheels or v.total_weight <= 0:
-                continue
-            q0 = _wheel_loads(v)
-            m_w = np.diag(v.M)[v.wheel_dofs]
-            ok = (m_w > 0) & (q0 > 0)
-            if not ok.any():
-                continue
-            # N/m, d(N)/d(delta) of delta = G N^(2/3) at factor x Q0
-            k_h = 1.5 * np.cbrt(factor * q0[ok]) / g
-            f = float(np.max(np.sqrt(k_h / m_w[ok]))) / (2 * math.pi)
-            if f > f_max:
-                f_max, where = f, f"train '{tr.name}', vehicle '{v.name}'"
+
+    def hertz(v):  # N/m, d(N)/d(delta) of delta = G N^(2/3) at factor x Q0
+        q0 = _wheel_loads(v)
+        return 1.5 * np.cbrt(factor * q0) / g, q0 > 0
+
+    f_max, where = _highest_wheel_frequency(train, hertz)
     if dt * f_max > DT_RESOLUTION:
         load = (f"at {factor:g} x the static wheel load: the spring stiffens with the force"
                 if factor != 1.0 else "at the static wheel load")
@@ -94,24 +104,16 @@ def _track_warning(chk, train, dt, track, contact):
         .axle_stiffness
     model = contact["model"]
     factor = HERTZ_LOAD_FACTOR if model == "hertz" else 1.0
-    f_max, where = 0.0, ""
-    for tr in train.trains:
-        for v in tr.vehicles:
-            if not v.n_wheels or v.total_weight <= 0:
-                continue
-            m_w = np.diag(v.M)[v.wheel_dofs]
-            k = np.full(v.n_wheels, k_track)
-            if model != "rigid":
-                q0 = _wheel_loads(v)
-                k_h = 1.5 * np.cbrt(factor * np.clip(q0, 1.0, None)) / \
-                    contact["hertz_coefficient"]
-                k = 1.0 / (1.0 / k + 1.0 / k_h)
-            ok = m_w > 0
-            if not ok.any():
-                continue
-            f = float(np.max(np.sqrt(k[ok] / m_w[ok]))) / (2 * math.pi)
-            if f > f_max:
-                f_max, where = f, f"train '{tr.name}', vehicle '{v.name}'"
+
+    def track_and_hertz(v):
+        k = np.full(v.n_wheels, k_track)
+        if model != "rigid":
+            k_h = 1.5 * np.cbrt(factor * np.clip(_wheel_loads(v), 1.0, None)) / \
+                contact["hertz_coefficient"]
+            k = 1.0 / (1.0 / k + 1.0 / k_h)
+        return k, np.ones(v.n_wheels, bool)
+
+    f_max, where = _highest_wheel_frequency(train, track_and_hertz)
     if dt * f_max > DT_RESOLUTION:
         spring = "track" if model == "rigid" else "track and Hertz contact"
         chk.warn(

@@ -5,14 +5,12 @@ allows, draws the figures of :mod:`vsi_numba.analysis.plots` and writes ``report
 (plus ``summary.csv``) into one directory. The time-history figures show the governing
 cases of the deck acceleration and wheel unloading checks; a case whose history the file
 does not hold is re-run from the file's ``config_json`` (:mod:`.recompute`).
-:func:`report_command` is the CLI entry: it returns an exit code and prints a one-line
-reason instead of a traceback for missing, unreadable or incomplete files.
+The command ``vsi report`` is :func:`vsi_numba.cli.report.report_command`.
 """
 
 from __future__ import annotations
 
 import json
-import sys
 from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
@@ -25,7 +23,6 @@ from vsi_numba.analysis import checks as chk
 from vsi_numba.analysis import plots
 from vsi_numba.analysis.dataset import (
     DETERMINISTIC,
-    ResultsError,
     bridge_frequencies,
     nanargmax_case,
     prepare,
@@ -831,76 +828,3 @@ def write_report(
     path = outdir / "report.md"
     path.write_text("\n".join(lines), encoding="utf-8")
     return path
-
-
-def _error(message: str) -> None:
-    sys.stderr.write(f"vsi report: {message}\n")
-
-
-def report_command(results: Path, outdir: Path | None = None) -> int:
-    """CLI entry of ``vsi report RESULTS.nc [-o DIR]``.
-
-    Parameters
-    ----------
-    results : Path
-        netCDF results file.
-    outdir : Path, optional
-        Report directory; default ``<results stem>_report`` beside the file.
-
-    Returns
-    -------
-    int
-        0 on success; 2 when the file is missing, unreadable or lacks the variables the
-        report needs; 1 when the report directory cannot be written. The reason goes to
-        stderr as one line (no traceback).
-    """
-    results = Path(results)
-    if not results.exists():
-        _error(f"results file '{results}' does not exist")
-        return 2
-    if not results.is_file():
-        _error(f"'{results}' is not a file")
-        return 2
-    try:
-        ds = xr.open_dataset(results)
-    except Exception as exc:  # noqa: BLE001 - any reader failure means "unreadable"
-        _error(f"cannot read '{results}' as a netCDF results file "
-               f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})")
-        return 2
-    with ds:
-        if "variant" in ds.dims:  # a parametric study: the report over the variants
-            from vsi_numba.analysis.variants import write_variants_report
-
-            writer, data = write_variants_report, ds.load()
-        else:
-            try:
-                data = prepare(ds)
-                require(data, REQUIRED_VARIABLES, "the report")
-            except ResultsError as exc:
-                _error(f"'{results}' is not a usable results file: {exc}")
-                return 2
-            if "status" in data and data["status"].size and bool(
-                    (data["status"].values != 0).all()):
-                n = int(data["status"].size)
-                msgs = (sorted({str(m) for m in np.ravel(data["message"].values)})
-                        if "message" in data else [])
-                _error(f"'{results}': every case ({n}) failed numerically (status != 0, "
-                       "outputs NaN): there is nothing to check"
-                       + (f"; e.g. {msgs[0]}" if msgs else "") + ". Fix the run (see the "
-                       "warnings and README 'When things go wrong') and run it again")
-                return 1
-            for r in stored_warnings(data):
-                _error(f"warning: {r['message']}")
-            writer = write_report
-        if outdir is None:
-            outdir = results.with_name(f"{results.stem}_report")
-        try:
-            path = writer(data, outdir, source_path=results)
-        except ResultsError as exc:
-            _error(f"'{results}': {exc}")
-            return 2
-        except OSError as exc:
-            _error(f"cannot write the report to '{outdir}': {exc}")
-            return 1
-    print(f"report written to {path}")
-    return 0

@@ -106,8 +106,6 @@ the shape error is about 1e-4 of the amplitude.
 
 from __future__ import annotations
 
-import math
-import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -123,9 +121,7 @@ from vsi_numba.model import bridge as _br
 __all__ = [
     "ImportResult",
     "ModelFileError",
-    "modes_command",
     "modes_from_matrices",
-    "plot_modes",
     "read_matrices",
     "read_modes_table",
 ]
@@ -1081,108 +1077,3 @@ def read_matrices(
         names=names, line=line, dof_base=dof_base,
     )
     return ImportResult(res.bridge, res.all_frequencies, res.warnings, tuple(shown))
-
-
-# ------------------------------------------------------------------------ vsi modes
-
-
-def plot_modes(bridge: _br.ModalBridge, path, title: str = "", per_panel: int = 4,
-               max_modes: int = 12):
-    """Plot the mode shapes along the track line to ``path`` (PNG, matplotlib Agg).
-
-    One panel per ``per_panel`` modes, stacked, for the first ``max_modes`` modes;
-    deflection positive down plotted downwards; supports marked; the legend gives each
-    mode's frequency (and effective mass fraction when known).  With a track layer the
-    deck under the rail is drawn dashed.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    n = min(bridge.n_modes, max_modes)
-    n_pan = max(1, math.ceil(n / per_panel))
-    fig, axes = plt.subplots(n_pan, 1, figsize=(9.0, 2.4 + 2.2 * n_pan), sharex=True,
-                             squeeze=False)
-    x = np.linspace(0.0, bridge.length, max(400, 20 * int(bridge.length) + 1))
-    phi = bridge.shapes(x)
-    deck = bridge.deck.shapes(x) if getattr(bridge, "deck", None) is not None else None
-    eff = getattr(bridge, "effective_mass_fraction", None)
-    nodes = bridge.nodes if bridge.kind == _br.HERMITE else np.zeros(0)
-    for k in range(n_pan):
-        ax = axes[k, 0]
-        for j in range(k * per_panel, min(n, (k + 1) * per_panel)):
-            lab = f"mode {j + 1}: {bridge.frequencies[j]:.3f} Hz"
-            if eff is not None and np.isfinite(eff[j]):
-                lab += f", {100 * eff[j]:.1f}% mass"
-            line, = ax.plot(x, phi[:, j], lw=1.6, label=lab)
-            if deck is not None:
-                ax.plot(x, deck[:, j], lw=1.0, ls="--", color=line.get_color())
-            if 0 < nodes.size <= 400:
-                ax.plot(nodes, bridge.shapes(nodes)[:, j], ".", ms=3, color=line.get_color())
-        for s in bridge.supports:
-            ax.axvline(s, color="0.6", lw=0.8, ls="--", zorder=0)
-            ax.plot([s], [0.0], marker="^", color="k", ms=7, clip_on=False)
-        ax.axhline(0.0, color="0.3", lw=0.6)
-        ax.invert_yaxis()  # positive down
-        ax.set_ylabel("phi (1/sqrt(kg)),\npositive down")
-        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
-        ax.grid(alpha=0.3)
-    axes[-1, 0].set_xlabel("x along the track line (m)     [dots: table stations / FE nodes; "
-                           "triangles: supports]")
-    head = title or "Mode shapes along the track"
-    if bridge.n_modes > n:
-        head += f" (first {n} of {bridge.n_modes} modes)"
-    if deck is not None:
-        head += "; solid: rail, dashed: deck"
-    desc = "\n".join(textwrap.wrap(bridge.description, 120)) if bridge.description else ""
-    fig.suptitle(f"{head}\n{desc}" if desc else head, fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-
-
-def modes_command(config, output=None) -> int:
-    """``vsi modes``: print the retained modes of a config's bridge and plot them."""
-    from rich.console import Console
-    from rich.table import Table
-
-    from vsi_numba.config import ConfigError, load_config
-
-    console = Console()
-    err = Console(stderr=True)
-    try:
-        cfg = load_config(config)
-        bridge = cfg.build_bridge()
-    except ConfigError as exc:
-        err.print(f"[red]{exc}[/red]", highlight=False)
-        return 2
-    for w in cfg.warnings:
-        err.print(f"[yellow]warning:[/yellow] {w}", highlight=False)
-    console.print(f"[bold]{cfg.title}[/bold]", highlight=False)
-    console.print(bridge.description or "", highlight=False)
-    sup = ", ".join(f"{s:g}" for s in bridge.supports)
-    console.print(f"length {bridge.length:g} m along the track; supports at x = {sup} m",
-                  highlight=False)
-    table = Table(title=f"{bridge.n_modes} retained modes")
-    table.add_column("mode", justify="right")
-    table.add_column("f (Hz)", justify="right")
-    table.add_column("zeta (%)", justify="right")
-    eff = getattr(bridge, "effective_mass_fraction", None)
-    if eff is not None:
-        table.add_column("eff. vertical mass (%)", justify="right")
-        table.add_column("cumulative (%)", justify="right")
-    cum = 0.0
-    for j in range(bridge.n_modes):
-        row = [str(j + 1), f"{bridge.frequencies[j]:.4f}", f"{100 * bridge.damping[j]:.2f}"]
-        if eff is not None:
-            cum += float(eff[j])
-            row += [f"{100 * eff[j]:.2f}", f"{100 * cum:.2f}"]
-        table.add_row(*row)
-    console.print(table)
-    if output is not None and bridge.n_modes == 0:
-        console.print("no modes (rigid track): nothing to plot", highlight=False)
-    elif output is not None:
-        plot_modes(bridge, output, title=cfg.title)
-        console.print(f"mode shapes plotted to {output}", highlight=False)
-    return 0

@@ -22,6 +22,8 @@ def trains_command(name: str | None = None) -> int:
     from rich.table import Table
 
     from vsi_numba.model import library as lib
+    from vsi_numba.model.library.data import _WARN_STATUSES, _spec
+    from vsi_numba.model.library.tables import _description
 
     pr = Printer()
     out = pr.out
@@ -48,19 +50,19 @@ def trains_command(name: str | None = None) -> int:
             )
         out.print(table)
         flagged = [n for n, s in zip(df["name"], df["status"], strict=True)
-                   if s in lib._WARN_STATUSES]
+                   if s in _WARN_STATUSES]
         if flagged:
             out.print(f"[yellow]Uncertain data (suspect / reconstruction): {', '.join(flagged)}."
                       " `vsi trains NAME` shows the documented doubts.[/]")
         return 0
     try:
-        canon, kind, spec = lib._spec(name)
+        canon, kind, spec = _spec(name)
     except lib.UnknownTrainError as exc:
         pr.line(f"error: {exc}", stderr=True)
         return EXIT_USAGE
     df = lib.axle_table(canon)
     t = lib.get_train(canon, "moving_force")
-    out.print(f"[bold]{canon}[/] - {lib._description(kind, spec)}", highlight=False)
+    out.print(f"[bold]{canon}[/] - {_description(kind, spec)}", highlight=False)
     out.print(f"status: {t.status} ({lib.STATUS_MEANING.get(t.status, '')})", highlight=False)
     out.print(f"axles: {len(df)}, first to last axle {t.length:.3f} m, total "
               f"{t.total_mass / 1e3:.1f} t", highlight=False)

@@ -12,9 +12,7 @@ from vsi_numba.analysis.checks.common import (
     _summarise,
     design_value,
 )
-from vsi_numba.analysis.checks.determinant import (
-    determinant_length,
-)
+from vsi_numba.analysis.checks.determinant import determinant_length
 from vsi_numba.analysis.dataset import (
     DETERMINISTIC,
     ResultsError,

@@ -83,6 +83,25 @@ def load_config(path, printer: Printer):
     return None
 
 
+def load_config_and_output(config, output, printer: Printer):
+    """``(cfg, output path)`` of a command that writes results (``vsi run``, ``vsi
+    sweep``), both checked before any computation; None after printing why not.
+
+    The output defaults to the configuration's ``study.output``; it must not be the
+    configuration itself, a directory or in a place that cannot be written
+    (:func:`output_problem`).
+    """
+    cfg = load_config(config, printer)
+    if cfg is None:
+        return None
+    out_path = Path(output) if output is not None else Path(cfg.output_path)
+    problem = output_problem(config, out_path)
+    if problem is not None:
+        printer.error(problem)
+        return None
+    return cfg, out_path
+
+
 def same_file(a: Path, b: Path) -> bool:
     """Whether two paths name the same file (existing or not)."""
     try:

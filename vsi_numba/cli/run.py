@@ -6,7 +6,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from vsi_numba.cli.common import EXIT_USAGE, Printer, load_config, output_problem
+from vsi_numba.cli.common import EXIT_USAGE, Printer, load_config_and_output
 from vsi_numba.study.single import run_config
 
 
@@ -19,14 +19,10 @@ def run_command(config: Path, output: Path | None, quiet: bool) -> int:
     from vsi_numba.io.netcdf import write_netcdf
 
     pr = Printer()
-    cfg = load_config(config, pr)
-    if cfg is None:
+    loaded = load_config_and_output(config, output, pr)
+    if loaded is None:
         return EXIT_USAGE
-    out_path = Path(output) if output is not None else Path(cfg.output_path)
-    problem = output_problem(config, out_path)
-    if problem is not None:
-        pr.error(problem)
-        return EXIT_USAGE
+    cfg, out_path = loaded
     for w in cfg.warnings:
         pr.warning(w)
     show = not quiet and sys.stderr.isatty()

@@ -6,7 +6,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from vsi_numba.cli.common import EXIT_USAGE, Printer, load_config, output_problem
+from vsi_numba.cli.common import EXIT_USAGE, Printer, load_config_and_output
 
 #: A Dask scheduler address: scheme://host:port or host:port (inproc:// as is).
 _SCHEDULER_ADDRESS = re.compile(
@@ -53,7 +53,7 @@ def sweep_command(config: Path, output: Path | None, workers: int | None,
     pr = Printer()
 
     def fail(message: str, code: int) -> int:
-        pr.line(f"error: {message}", stderr=True)
+        pr.error(message)
         return code
 
     if workers is not None and scheduler is not None:
@@ -64,13 +64,10 @@ def sweep_command(config: Path, output: Path | None, workers: int | None,
     if scheduler is not None and not _SCHEDULER_ADDRESS.match(scheduler):
         return fail(f"--scheduler {scheduler!r}: expected the address of a Dask scheduler, "
                     "tcp://HOST:PORT (or HOST:PORT)", EXIT_USAGE)
-    cfg = load_config(config, pr)
-    if cfg is None:
+    loaded = load_config_and_output(config, output, pr)
+    if loaded is None:
         return EXIT_USAGE
-    out_path = Path(output) if output is not None else Path(cfg.output_path)
-    problem = output_problem(config, out_path)
-    if problem is not None:
-        return fail(problem, EXIT_USAGE)
+    cfg, out_path = loaded
     if not quiet:
         for w in getattr(cfg, "warnings", []) or []:
             pr.warning(w)

@@ -35,7 +35,7 @@ FORBIDDEN = {
     "vsi_numba.study": ("vsi_numba.cli", "vsi_numba.analysis"),
     "vsi_numba.en1990": ("vsi_numba.",),
     "vsi_numba.en1991": ("vsi_numba.",),
-    "vsi_numba.config": ("vsi_numba.cli", "vsi_numba.analysis"),
+    "vsi_numba.config": ("vsi_numba.study", "vsi_numba.cli", "vsi_numba.analysis"),
     "vsi_numba._jit": ("vsi_numba.",),
 }
 
@@ -47,6 +47,10 @@ KNOWN_EXCEPTIONS = {
     # same realisation.  Documented in the README's code map.
     ("vsi_numba.analysis.recompute", "vsi_numba.solver.simulate"): "re-run one case",
     ("vsi_numba.analysis.recompute", "vsi_numba.study.grid"): "the study's track range",
+    # TODO(issue 13): config.py checks the size of a random profile over the study's
+    # track range (study.grid.profile_range); config.py is being changed on another
+    # branch: move profile_range below the config layer then.
+    ("vsi_numba.config", "vsi_numba.study.grid"): "the study's track range",
 }
 
 

@@ -141,3 +141,14 @@ def write_report(
     path = outdir / "report.md"
     path.write_text("\n".join(lines), encoding="utf-8")
     return path
+
+
+def __getattr__(name):
+    """The helpers of the sections and figures (``report._deck_end_note``, ...) as
+    attributes of this package, as when the report was one module (tests use some)."""
+    from vsi_numba.analysis.report import figures, text
+
+    for module in (text, figures):
+        if hasattr(module, name):
+            return getattr(module, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

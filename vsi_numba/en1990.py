@@ -1,10 +1,10 @@
 """EN 1990 Annex A2 rules of the railway bridge checks (deck acceleration, passenger
 comfort).
 
-Used by :mod:`vsi_numba.analysis.checks`.  Values tagged [R] are recalled from the cited
-standard and not re-read against the primary text (``notes/railway.md`` §4): check them
-before relying on them as hard limits.  (``config.py`` and ``solver/simulate.py`` still
-hold their own copies of the acceleration cut-off rule; they are to use this module.)
+Used by :mod:`vsi_numba.analysis.checks`, the solver (which modes enter the deck
+acceleration) and the config (time-step checks of those modes).  Values tagged [R] are
+recalled from the cited standard and not re-read against the primary text
+(``notes/railway.md`` §4): check them before relying on them as hard limits.
 """
 
 from __future__ import annotations

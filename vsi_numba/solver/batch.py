@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vsi_numba.en1990 import frequency_cutoff
 from vsi_numba.kernels import engine as ek
 from vsi_numba.model.bridge import ModalBridge
 from vsi_numba.model.irregularity import Profile
@@ -24,12 +25,9 @@ STATUS_MESSAGES = {
 
 
 def acceleration_cutoff(frequencies: np.ndarray) -> float:
-    """EN 1990 A2.4.4.2.1: frequencies up to max(30 Hz, 1.5 f1, f3) enter the check."""
-    f = np.asarray(frequencies, float)
-    if f.size == 0:
-        return 30.0
-    f3 = f[2] if f.size >= 3 else 0.0
-    return float(max(30.0, 1.5 * f[0], f3))
+    """EN 1990 A2.4.4.2.1: frequencies up to max(30 Hz, 1.5 f1, f3) enter the check
+    (:func:`vsi_numba.en1990.frequency_cutoff`)."""
+    return frequency_cutoff(frequencies)
 
 
 def _workspace(n_m, n_v, n_w) -> ek.Work:

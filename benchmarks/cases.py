@@ -253,12 +253,14 @@ def engine_window(bridge, train, speed, profile, settings, n_steps=None) -> Kern
         n = min(int(n_steps), packed.params.n_steps)
         packed = dataclasses.replace(packed, params=packed.params._replace(n_steps=n))
     try:
-        ek = sim.ek
+        from vsi_numba.kernels import engine as ek
+        from vsi_numba.solver.batch import _workspace
+
         st = sim.initial_state(packed, profile)
         n_m, n_w = packed.bridge.omega.size, packed.vehicles.wheel_dof.size
         n = packed.params.n_steps + 1
         bk = ek.State(*(np.empty_like(a) for a in st))
-        wk = sim._workspace(n_m, packed.n_dof, n_w)
+        wk = _workspace(n_m, packed.n_dof, n_w)
         out = ek.Output(q=np.full((n, n_m), np.nan), qdd=np.full((n, n_m), np.nan),
                         X=np.full((n, n_w), np.nan), contact=np.zeros((n, n_w), np.int8),
                         body_acc=np.full((n, packed.vehicles.body_dof.size), np.nan),

@@ -106,6 +106,7 @@ def _build():
 def _setup(bridge, train, speed, settings):
     from vsi_numba.kernels import engine as ek
     from vsi_numba.model.irregularity import no_irregularity
+    from vsi_numba.solver import batch as sim_batch
     from vsi_numba.solver import simulate as sim
 
     prof = no_irregularity()
@@ -115,7 +116,7 @@ def _setup(bridge, train, speed, settings):
     prm = packed.params._replace(n_steps=mid)
     st = sim.initial_state(packed, prof)
     n_m, n_w = packed.bridge.omega.size, packed.vehicles.wheel_dof.size
-    wk = sim._workspace(n_m, packed.n_dof, n_w)
+    wk = sim_batch._workspace(n_m, packed.n_dof, n_w)
     n = mid + 1
     out = ek.Output(q=np.zeros((n, n_m)), qdd=np.zeros((n, n_m)), X=np.zeros((n, n_w)),
                     contact=np.zeros((n, n_w), np.int8),

@@ -36,7 +36,7 @@ CASE_BUDGET = 5.0  # s per load_config call: validation is ms-scale; 5 s only fl
 #: Filled by the tests below (readable without ``-s``; also printed via capsys.disabled).
 FUZZ_STATS: dict[str, int] = {}
 
-HAS_CLI_RUN = importlib.util.find_spec("vsi_numba.solver.run") is not None
+HAS_CLI_RUN = importlib.util.find_spec("vsi_numba.cli.run") is not None
 
 # Every key name of the config language (design note section 4 plus the documented
 # additions): typos are filtered against it so that a mutated key is surely unknown.
@@ -469,7 +469,7 @@ def test_config_fuzz__malformed_configs(workdir, capsys):
         from vsi_numba.cli import app
 
         runner = CliRunner()
-        import vsi_numba.solver.run  # noqa: F401 - warm-up: imports are not part of a case
+        import vsi_numba.cli.run  # noqa: F401 - warm-up: imports are not part of a case
     for _bname, data in bases:  # warm-up: library and profile readers load once
         load_config(data, base_dir=workdir)
     t_loop = time.perf_counter()

@@ -15,6 +15,8 @@ from vsi_numba.kernels import engine as ek
 from vsi_numba.model import bridge as br
 from vsi_numba.model import vehicle as vh
 from vsi_numba.model.irregularity import Profile, cosine_defect, no_irregularity
+from vsi_numba.solver import batch as sb
+from vsi_numba.solver import pack as sp
 from vsi_numba.solver import simulate as sm
 from vsi_numba.solver.settings import SolverSettings
 
@@ -40,7 +42,7 @@ def test_eval_modes__matches_numpy_evaluation(kind):
         bridge = br.simply_supported(20.0, 5e9, 1e4, n_modes=6)
     else:
         bridge = br.continuous([12.0, 17.0], 5e9, 1e4, n_modes=6, elements_per_span=8)
-    arr = sm._pack_bridge(bridge)
+    arr = sp._pack_bridge(bridge)
     x = np.linspace(-1.0, bridge.length + 1.0, 57)
     n = bridge.n_modes
     for xi in x:
@@ -55,7 +57,7 @@ def test_eval_modes__matches_numpy_evaluation(kind):
 
 def test_eval_modes__sine_is_the_analytic_mode():
     L, EI, m = 20.0, 5e9, 1e4
-    arr = sm._pack_bridge(br.simply_supported(L, EI, m, n_modes=3))
+    arr = sp._pack_bridge(br.simply_supported(L, EI, m, n_modes=3))
     out, d1, d2 = np.zeros(3), np.zeros(3), np.zeros(3)
     ek.eval_modes(arr, 7.3, out, d1, d2)
     j = np.arange(1, 4)
@@ -129,7 +131,7 @@ def test_solve_active_set__is_the_lcp_solution(seed):
                            wheel_massless=np.zeros(n, np.int64),
                            wheel_compliance=np.zeros(n), body_dof=np.zeros(0, np.int64),
                            load_x0=np.zeros(0), load_p=np.zeros(0))
-    wk = sm._workspace(1, 1, n)
+    wk = sb._workspace(1, 1, n)
     wk.S[:] = S
     wk.gstar[:] = gstar
     wk.active[:] = rng.integers(0, 2, n)
@@ -145,7 +147,7 @@ def test_build_schur__equals_dense_b_khat_inv_bt():
     train = vh.Train("two", (car, vh.sprung_mass(5e3, 1e6, 1e3, 400.0)), (0.0, 25.0))
     p = _pack(beam, train)
     n_w = p.vehicles.wheel_dof.size
-    wk = sm._workspace(beam.n_modes, p.n_dof, n_w)
+    wk = sb._workspace(beam.n_modes, p.n_dof, n_w)
     t = (p.params.speed ** -1) * 35.0  # some wheels on the bridge, some off it
     ek.contact_search(p.bridge, p.vehicles, p.profile, t, p.params.speed, wk)
     khat_q = np.linspace(1e5, 9e5, beam.n_modes)
@@ -154,7 +156,7 @@ def test_build_schur__equals_dense_b_khat_inv_bt():
     n_m = beam.n_modes
     Kinv = np.zeros((n_m + p.n_dof,) * 2)
     Kinv[:n_m, :n_m] = np.diag(1 / khat_q)
-    Kinv[n_m:, n_m:] = sm._dense(p.vehicles, p.vehicles.Khat_inv[0])
+    Kinv[n_m:, n_m:] = sp._dense(p.vehicles, p.vehicles.Khat_inv[0])
     x = p.vehicles.wheel_x0 + p.params.speed * t
     B = np.zeros((n_w, n_m + p.n_dof))
     B[:, :n_m] = -beam.shapes(x)

@@ -208,7 +208,7 @@ def test_hostile__deep_nesting_and_huge_integers(tmp_path):
 
 
 def test_hostile__run_prints_errors_without_literal_markup(tmp_path, runner, monkeypatch):
-    import vsi_numba.solver.run as run_mod
+    import vsi_numba.cli.run as run_mod
 
     monkeypatch.chdir(tmp_path)
     (tmp_path / "c.toml").write_text(to_toml(cfg()))
@@ -248,7 +248,7 @@ def test_hostile__output_may_not_be_the_input(tmp_path, runner, monkeypatch, com
 @pytest.mark.parametrize("command", ["run", "sweep"])
 def test_hostile__unwritable_output_checked_before_computing(tmp_path, runner, monkeypatch,
                                                                command):
-    import vsi_numba.solver.run as run_mod
+    import vsi_numba.cli.run as run_mod
     import vsi_numba.study.runner as study_mod
 
     monkeypatch.chdir(tmp_path)

@@ -15,6 +15,7 @@ from vsi_numba.kernels import engine as ek
 from vsi_numba.model import bridge as br
 from vsi_numba.model import vehicle as vh
 from vsi_numba.model.irregularity import no_irregularity
+from vsi_numba.solver import batch as sb
 from vsi_numba.solver import simulate as sm
 from vsi_numba.solver.settings import SolverSettings
 
@@ -101,7 +102,7 @@ def _step_all(packed, max_sub=4):
     ``time_loop``), yielding the workspace after each (sub)step."""
     prm = packed.params
     st = sm.initial_state(packed, no_irregularity())
-    wk = sm._workspace(packed.bridge.omega.size, packed.n_dof, packed.vehicles.wheel_dof.size)
+    wk = sb._workspace(packed.bridge.omega.size, packed.n_dof, packed.vehicles.wheel_dof.size)
     ek.reset_work(wk)
     ek.contact_search(packed.bridge, packed.vehicles, packed.profile, 0.0, prm.speed, wk)
     for n in range(prm.n_steps):

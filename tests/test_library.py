@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
+from vsi_numba.cli.trains import trains_command
 from vsi_numba.model import library as lib
 from vsi_numba.model.library import (
     UnknownTrainError,
@@ -25,7 +26,6 @@ from vsi_numba.model.library import (
     list_presets,
     load_user_trains,
     status_warning,
-    trains_command,
 )
 
 G = 9.81  # m/s2, the data file's g

@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from vsi_numba.analysis.report import report_command, write_report
+from vsi_numba.analysis.report import write_report
 from vsi_numba.analysis.synthetic import synthetic_results
+from vsi_numba.cli.report import report_command
 
 FIGURES = ["deck_acceleration.png", "dynamic_amplification.png", "wheel_unloading.png",
            "comfort.png", "time_history.png"]

@@ -28,9 +28,10 @@ import pytest
 import xarray as xr
 from study_trains import TRAINS_TOML
 
+from vsi_numba.cli.sweep import sweep_command
 from vsi_numba.config import load_config
 from vsi_numba.io.netcdf import open_results
-from vsi_numba.study.runner import HOLD_ENV, run_study, sweep_command
+from vsi_numba.study.runner import HOLD_ENV, run_study
 from vsi_numba.study.store import CaseStore, store_path
 
 SPEEDS = [60.0 + 10.0 * i for i in range(12)]  # 12 speeds x 2 trains x 2 seeds = 48 runs

@@ -19,6 +19,7 @@ import pytest
 import xarray as xr
 from study_trains import TRAINS_TOML
 
+from vsi_numba.cli.sweep import sweep_command
 from vsi_numba.config import ConfigError, load_config
 from vsi_numba.io.netcdf import open_results
 from vsi_numba.io.schema import ENVELOPES, HISTORIES
@@ -32,7 +33,6 @@ from vsi_numba.study.runner import (
     study_grid,
     study_model,
     study_spec,
-    sweep_command,
 )
 from vsi_numba.study.store import StoreMismatchError, store_path
 

@@ -64,3 +64,66 @@ def resonance_speeds_kmh(frequency: float, spacing: float, orders=(1, 2, 3)) -> 
     """Resonance speeds v_i = n0 d / i (km/h) of a first frequency n0 (Hz) under loads at
     a regular spacing d (m), EN 1991-2 §6.4.6.2 [R]."""
     return np.array([3.6 * frequency * spacing / i for i in orders])
+
+
+#: Clause of the determinant length L_phi.
+DETERMINANT_LENGTH_CLAUSE = "EN 1991-2 6.4.5.3, Table 6.2 [R]"
+
+#: Factor k of L_phi = k L_m for a continuous deck of n spans, EN 1991-2 Table 6.2 [R];
+#: n >= 5 takes :data:`CONTINUOUS_K_MANY`.
+CONTINUOUS_K = {2: 1.2, 3: 1.3, 4: 1.4}
+CONTINUOUS_K_MANY = 1.5
+
+
+def continuous_determinant_length(spans) -> float:
+    """L_phi of a continuous deck of n spans, EN 1991-2 Table 6.2 [R].
+
+    ``L_phi = k L_m``, ``L_m = (L_1 + ... + L_n) / n``, with k = 1.2 (n = 2), 1.3 (n = 3),
+    1.4 (n = 4), 1.5 (n >= 5), but not less than the largest span; one span: L_phi = L.
+
+    Parameters
+    ----------
+    spans : sequence of float
+        Span lengths (m), > 0.
+
+    Returns
+    -------
+    float
+        L_phi (m).
+    """
+    L = np.asarray(spans, float).ravel()
+    if L.size == 0 or not np.all(np.isfinite(L) & (L > 0)):
+        raise ValueError(f"spans = {list(L)}: expected one or more span lengths > 0 m")
+    if L.size == 1:
+        return float(L[0])
+    k = CONTINUOUS_K.get(L.size, CONTINUOUS_K_MANY)
+    return float(max(k * L.mean(), L.max()))
+
+
+def irregularity_allowance(speed, length: float, n0: float) -> np.ndarray:
+    """Dynamic allowance for track irregularities, phi'' of EN 1991-2 Annex C [R].
+
+    ``phi'' = a [0.56 exp(-(L/10)^2) + 0.50 (n0 L / 80 - 1) exp(-(L/20)^2)]``, ``phi'' >= 0``,
+    with ``a = min(v / 22, 1)`` (v in m s-1).
+
+    Parameters
+    ----------
+    speed : array_like
+        Speed v (m s-1).
+    length : float
+        Determinant length L_phi (m), EN 1991-2 Table 6.2 [R]; see
+        :func:`vsi_numba.analysis.checks.determinant_length`.
+    n0 : float
+        First natural bending frequency of the loaded bridge (Hz).
+
+    Returns
+    -------
+    ndarray
+        phi'' (-), same shape as ``speed``.
+    """
+    v = np.asarray(speed, float)
+    a = np.minimum(v / 22.0, 1.0)
+    bracket = 0.56 * np.exp(-((length / 10.0) ** 2)) + 0.50 * (n0 * length / 80.0 - 1.0) * np.exp(
+        -((length / 20.0) ** 2)
+    )
+    return np.maximum(a * bracket, 0.0)

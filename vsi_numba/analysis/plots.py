@@ -21,8 +21,9 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.transforms import blended_transform_factory
 
-from vsi_numba.analysis.checks import COMFORT_LEVELS, resonance_speeds
+from vsi_numba.analysis.checks import resonance_speeds
 from vsi_numba.analysis.dataset import bridge_frequencies, prepare
+from vsi_numba.en1990 import COMFORT_LEVELS
 
 WIDTH = 6.5  # in, text width of an A4 report
 HEIGHT = 4.0  # in, one panel

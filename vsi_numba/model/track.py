@@ -202,9 +202,10 @@ class ElasticTrack:
         x = np.linspace(0.0, bridge.length, 20001)
         phi = bridge.shapes(x)
         phit = hermite_table(nodes, vals, slopes, x)
-        integrand = self.foundation_stiffness * phi * (phi - phit)
-        k_t = np.trapezoid(integrand, x, axis=0) if hasattr(np, "trapezoid") else \
-            np.trapz(integrand, x, axis=0)
+        import scipy.integrate
+
+        k_t = scipy.integrate.trapezoid(self.foundation_stiffness * phi * (phi - phit), x,
+                                        axis=0)
         return k_t / bridge.omega**2
 
 

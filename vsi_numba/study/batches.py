@@ -146,7 +146,7 @@ def _packed_train(spec, i_train: int):
     bridge carries the EN 1991-2 additional damping when the train is moving forces."""
     from vsi_numba.model.irregularity import no_irregularity
     from vsi_numba.solver.simulate import pack
-    from vsi_numba.study.runner import study_model
+    from vsi_numba.study.spec import study_model
 
     model = study_model(spec)
     train = model.trains[i_train]
@@ -164,7 +164,7 @@ def _spec_of(spec, batch):
 def packed_for(spec, i_train: int, i_irregularity: int):
     """Packed model of one train on one realisation, and that realisation's profile."""
     from vsi_numba.kernels import engine as ek
-    from vsi_numba.study.runner import study_model
+    from vsi_numba.study.spec import study_model
 
     model = study_model(spec)
     packed = _packed_train(spec, i_train)
@@ -187,7 +187,7 @@ def run_batch_task(spec, batch: Batch) -> dict:
     as float32 (n_hist, n_time, n_dim), NaN-padded (``in_contact``: 1/0, NaN padding).
     """
     from vsi_numba.solver.simulate import run_batch
-    from vsi_numba.study.runner import study_model
+    from vsi_numba.study.spec import study_model
 
     spec = _spec_of(spec, batch)
     model = study_model(spec)

@@ -15,7 +15,7 @@ Because step 4 always reads the stored batches, a resumed study and an uninterru
 give the same file; because every backend runs the same serial kernel on the same inputs,
 serial, threaded, process and Dask runs give bit-identical results.
 
-Exit codes of :func:`sweep_command` (``vsi sweep``)
+Exit codes of ``vsi sweep`` (:func:`vsi_numba.cli.sweep.sweep_command`)
   0   every run succeeded;
   1   the results file was written but some runs failed numerically (``status != 0``,
       their outputs are NaN; the count is in the ``n_failed_cases`` attribute), or the run
@@ -29,17 +29,13 @@ Exit codes of :func:`sweep_command` (``vsi sweep``)
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import json
 import os
-import re
-import sys
 import time as _time
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
-from typing import NamedTuple
 
 import numpy as np
 
@@ -56,8 +52,24 @@ from vsi_numba.study.backends import (
     ThreadBackend,
     available_cores,
 )
-from vsi_numba.study.batches import Batch, plan_batches, run_batch_task
-from vsi_numba.study.grid import Case, StudyGrid, history_mask, make_grid, profile_range
+from vsi_numba.study.batches import Batch, run_batch_task
+from vsi_numba.study.grid import Case, StudyGrid
+from vsi_numba.study.progress import _Progress, _say
+from vsi_numba.study.spec import (
+    StudyModel,
+    StudySpec,
+    _build_model,
+    _load,
+    _packed_trains,
+    _remember,
+    model_fingerprint,
+    plan_fingerprint,
+    study_grid,
+    study_model,
+    study_plan,
+    study_spec,
+    variant_coords,
+)
 from vsi_numba.study.store import (
     CaseStore,
     OutputNotWritableError,
@@ -78,211 +90,6 @@ class CaseErrors(StudyError):
     """Some batches raised an exception (not a numerical failure): no results file."""
 
     exit_code = 1
-
-
-# ---------------------------------------------------------------------------- the model
-
-
-@dataclass(frozen=True)
-class StudyModel:
-    """Everything a batch needs, rebuilt from the resolved configuration."""
-
-    config: object
-    bridge: object
-    trains: tuple
-    settings: object
-    output_points: np.ndarray
-    profiles: dict
-    x_range: tuple[float, float]
-    speeds_kmh: np.ndarray
-    deck: tuple  # (phi_d, phi_a, cut-off Hz) at the output points
-
-
-class StudySpec(NamedTuple):
-    """What a worker needs to rebuild a study's model.
-
-    The resolved configuration (JSON) and the directory its relative paths (profile file,
-    train file) resolve against.
-    """
-
-    config_json: str
-    base_dir: str
-
-
-def study_spec(config) -> StudySpec:
-    """:class:`StudySpec` of a ``Config``, a resolved-config dict or JSON string, or a spec.
-
-    Dicts and JSON strings resolve relative paths against the working directory.
-    """
-    if isinstance(config, StudySpec):
-        return config
-    if isinstance(config, str):
-        return StudySpec(config, str(Path.cwd()))
-    if isinstance(config, dict):
-        return StudySpec(json.dumps(config, sort_keys=True, separators=(",", ":")),
-                         str(Path.cwd()))
-    return StudySpec(config.to_json(), str(config.base_dir))
-
-
-def _load(config):
-    """Return a ``Config`` from a path, mapping, :class:`StudySpec` or ``Config``."""
-    from vsi_numba.config import load_config
-
-    if isinstance(config, StudySpec):
-        return load_config(json.loads(config.config_json), base_dir=config.base_dir)
-    if isinstance(config, str | os.PathLike | dict):
-        return load_config(config)
-    return config
-
-
-_MODELS: dict = {}
-
-
-def study_model(spec: StudySpec) -> StudyModel:
-    """Build (once per process) the bridge, trains and profiles of a configuration."""
-    model = _MODELS.get(spec)
-    if model is None:
-        model = _build_model(_load(spec))
-        if len(_MODELS) >= 4:
-            _MODELS.pop(next(iter(_MODELS)))
-        _MODELS[spec] = model
-    return model
-
-
-def _remember(spec: StudySpec, model: StudyModel) -> None:
-    """Seed the per-process model cache (the parent built the model already)."""
-    _MODELS[spec] = model
-
-
-def _build_model(cfg) -> StudyModel:
-    from vsi_numba.solver.simulate import deck_operators, default_points
-
-    bridge = cfg.build_bridge()
-    trains = tuple(cfg.trains())
-    settings = cfg.solver_settings()
-    x_range = profile_range(bridge.length, [t.length for t in trains], settings.approach,
-                            settings.free_vibration)
-    profiles = dict(cfg.irregularities(*x_range))
-    points = default_points(bridge, cfg.output_points)
-    return StudyModel(cfg, bridge, trains, settings, points, profiles, x_range,
-                      np.asarray(cfg.speeds_kmh, float),
-                      deck_operators(bridge, points, settings))
-
-
-def model_fingerprint(model: StudyModel) -> str:
-    """SHA-256 of the numbers the cases are computed from.
-
-    The configuration's hash does not see data it only names: a train preset (library
-    data), a profile file, the bridge built by this version.  This hash covers the built
-    bridge, trains, profiles, solver settings and output points, so a store is refused
-    when any of them changed even if the configuration text did not.
-    """
-    import hashlib
-
-    h = hashlib.sha256()
-
-    def add(value):
-        if isinstance(value, np.ndarray) and value.dtype.kind in "biufc":
-            a = np.ascontiguousarray(value)
-            h.update(f"{a.dtype.str}{a.shape}".encode())
-            h.update(a.tobytes())
-        else:
-            text = repr(value.tolist() if isinstance(value, np.ndarray) else value)
-            if " at 0x" in text:  # an object without a stable repr: its type only
-                text = type(value).__qualname__
-            h.update(text.encode())
-
-    def add_fields(obj):
-        if dataclasses.is_dataclass(obj):
-            for f in dataclasses.fields(obj):
-                add(f.name)
-                add_fields(getattr(obj, f.name))
-        elif isinstance(obj, tuple | list):
-            for item in obj:
-                add_fields(item)
-        else:
-            add(obj)
-
-    add_fields(model.bridge)
-    add_fields(model.trains)
-    for rid, p in model.profiles.items():
-        add(rid)
-        add(float(p.x0))
-        add(float(p.dx))
-        add(p.coef)
-    add(repr(model.settings))
-    add(model.output_points)
-    return h.hexdigest()
-
-
-def study_grid(model: StudyModel) -> StudyGrid:
-    """Return the run grid of a configuration (deterministic order)."""
-    cfg = model.config
-    hist = history_mask(cfg.speeds_kmh, bool(cfg.save_time_histories),
-                        getattr(cfg, "history_speeds_kmh", None))
-    return make_grid(cfg.speeds_kmh, [t.name for t in model.trains], list(model.profiles),
-                     hist)
-
-
-def _packed_trains(spec: StudySpec, model: StudyModel) -> list:
-    from vsi_numba.study.batches import _packed_train
-
-    return [_packed_train(spec, i) for i in range(len(model.trains))]
-
-
-def study_plan(spec: StudySpec, model: StudyModel, grid: StudyGrid,
-               variant: int | None = None, start: int = 0) -> list[Batch]:
-    """The batch plan of a study (deterministic, see :mod:`.batches`)."""
-    return plan_batches(grid, _packed_trains(spec, model), model.output_points.size,
-                        variant=variant, start=start)
-
-
-def coordinate_name(key_path: str) -> str:
-    """netCDF name of the variant coordinate of a varied key path
-    (``bridge.track.pad_stiffness`` -> ``bridge_track_pad_stiffness``)."""
-    import re
-
-    return re.sub(r"[^A-Za-z0-9_]+", "_", key_path).strip("_")
-
-
-#: Units of the usual varied keys (the variant coordinates' ``units``).
-VARY_UNITS = {"EI": "N m2", "mass_per_length": "kg m-1", "damping_ratio": "1", "spans": "m",
-              "hertz_coefficient": "m N-2/3", "pad_stiffness": "N m-1",
-              "ballast_stiffness": "N m-1", "rail_EI": "N m2", "mass_factor": "1",
-              "dt": "s", "hht_alpha": "1", "n_modes": "1"}
-
-
-def variant_coords(labels: list[dict]) -> dict:
-    """The ``variant`` coordinates of a study: one per varied key path."""
-    from vsi_numba.config import MASS_FACTOR
-
-    coords = {}
-    for key in labels[0]:
-        values = [lab[key] for lab in labels]
-        if all(isinstance(v, list) and len(v) == 1 for v in values):
-            values = [v[0] for v in values]  # e.g. the one span of a simply supported deck
-        numeric = all(isinstance(v, int | float) and not isinstance(v, bool) for v in values)
-        if key == "label":
-            coords["label"] = (np.array([str(v) for v in values], dtype=object),
-                               {"units": "1", "long_name": "label of the variant "
-                                "(study.vary_together label)"})
-            continue
-        leaf = key.split(".")[-1].split("[")[0]
-        attrs = {"units": VARY_UNITS.get(leaf, "1"), "key_path": key,
-                 "long_name": (f"varied configuration key {key}" if key != MASS_FACTOR else
-                               "factor on bridge.mass_per_length (study.mass_bounds)")}
-        if numeric:
-            coords[coordinate_name(key)] = (np.asarray(values, float), attrs)
-        else:
-            coords[coordinate_name(key)] = (np.array([json.dumps(v) for v in values],
-                                                     dtype=object), attrs)
-    return coords
-
-
-def plan_fingerprint(plan: list[Batch]) -> str:
-    """SHA-256 of the batch keys and their runs (a store is only resumed by its plan)."""
-    text = ";".join(f"{b.key}:{b.histories}" for b in plan)
-    return hashlib.sha256(text.encode()).hexdigest()
 
 
 # ---------------------------------------------------------------------------- one case
@@ -317,60 +124,6 @@ def run_case(config, case: Case):
     ds.attrs = {"case_key": case.key, "status": int(sim.attrs["status"]),
                 "message": str(sim.attrs["message"])}
     return ds
-
-
-# ---------------------------------------------------------------------------- progress
-
-
-class _Progress:
-    """A rich progress bar on a terminal; silent otherwise."""
-
-    def __init__(self, enabled: bool, total: int, done: int, label: str):
-        self.bar = None
-        if not enabled:
-            return
-        from rich.console import Console
-        from rich.progress import (
-            BarColumn,
-            MofNCompleteColumn,
-            Progress,
-            TextColumn,
-            TimeElapsedColumn,
-            TimeRemainingColumn,
-        )
-
-        console = Console(stderr=True)
-        if not console.is_terminal:
-            return
-        self.bar = Progress(
-            TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-            TextColumn("{task.fields[rate]}"), TimeElapsedColumn(), TextColumn("ETA"),
-            TimeRemainingColumn(), console=console, transient=False,
-        )
-        self.task = self.bar.add_task(label, total=total, completed=done, rate="")
-        self._t0 = _time.perf_counter()
-        self._n = 0
-
-    def __enter__(self):
-        if self.bar is not None:
-            self.bar.start()
-        return self
-
-    def __exit__(self, *exc):
-        if self.bar is not None:
-            self.bar.stop()
-
-    def advance(self, n: int = 1):
-        if self.bar is None:
-            return
-        self._n += n
-        rate = self._n / max(_time.perf_counter() - self._t0, 1e-9)
-        self.bar.update(self.task, advance=n, rate=f"{rate:.1f} runs/s")
-
-
-def _say(quiet: bool, message: str) -> None:
-    if not quiet:
-        print(message, file=sys.stderr, flush=True)
 
 
 # ---------------------------------------------------------------------------- the study
@@ -821,99 +574,3 @@ def _run_pending(be, spec, pending, store, progress, n_runs, n_done) -> None:
             f"the {len(store.done())} finished batches are kept in {store.path} and a "
             "re-run computes only the missing ones."
         )
-
-
-# ---------------------------------------------------------------------------- the CLI
-
-
-#: A Dask scheduler address: scheme://host:port or host:port (inproc:// as is).
-_SCHEDULER_ADDRESS = re.compile(
-    r"^(?:(?:tcp|tls|ucx|ws|wss)://(?:\[[0-9A-Fa-f:.]+\]|[^\s/:\[\]]+):\d{1,5}/?"
-    r"|(?:\[[0-9A-Fa-f:.]+\]|[^\s/:\[\]]+):\d{1,5}|inproc://\S+)$")
-
-
-class _sigterm_as_interrupt:  # noqa: N801 - used as a context manager
-    """SIGTERM raises KeyboardInterrupt (in the main thread): a terminated sweep keeps its
-    finished batches and says so, like Ctrl-C."""
-
-    def __enter__(self):
-        import signal
-
-        def handler(signum, frame):
-            raise KeyboardInterrupt
-
-        try:
-            self._old = signal.signal(signal.SIGTERM, handler)
-        except ValueError:  # not the main thread
-            self._old = None
-        return self
-
-    def __exit__(self, *exc):
-        import signal
-
-        if self._old is not None:
-            signal.signal(signal.SIGTERM, self._old)
-        return None
-
-
-def sweep_command(config: Path, output: Path | None, workers: int | None,
-                  scheduler: str | None, quiet: bool, fresh: bool = False) -> int:
-    """``vsi sweep``: run a study; returns the exit code (see the module docstring)."""
-    from vsi_numba.config import ConfigError, load_config
-
-    def fail(message: str, code: int) -> int:
-        print(f"error: {message}", file=sys.stderr, flush=True)
-        return code
-
-    if workers is not None and scheduler is not None:
-        return fail("give --workers (local Dask cluster) or --scheduler (existing cluster), "
-                    "not both", 2)
-    if workers is not None and workers < 1:
-        return fail(f"--workers {workers}: expected a number of workers >= 1", 2)
-    if scheduler is not None and not _SCHEDULER_ADDRESS.match(scheduler):
-        return fail(f"--scheduler {scheduler!r}: expected the address of a Dask scheduler, "
-                    "tcp://HOST:PORT (or HOST:PORT)", 2)
-    try:
-        cfg = load_config(Path(config))
-    except ConfigError as exc:
-        return fail(f"invalid configuration {config}:\n{exc}", 2)
-    except OSError as exc:
-        return fail(f"cannot read {config}: {exc.strerror or exc}", 2)
-    from vsi_numba.solver.run import output_problem
-
-    problem = output_problem(config, Path(output) if output is not None
-                             else Path(cfg.output_path))
-    if problem is not None:
-        return fail(problem, 2)
-    if not quiet:
-        for w in getattr(cfg, "warnings", []) or []:
-            print(f"warning: {w}", file=sys.stderr)
-    parts = ["vsi", "sweep", str(config)]
-    if output is not None:
-        parts += ["-o", str(output)]
-    if workers is not None:
-        parts += ["--workers", str(workers)]
-    if scheduler is not None:
-        parts += ["--scheduler", scheduler]
-    if fresh:
-        parts += ["--fresh"]
-    try:
-        with _sigterm_as_interrupt():
-            outcome = execute_study(cfg, output, workers=workers, scheduler=scheduler,
-                                    progress=not quiet, fresh=fresh, quiet=quiet,
-                                    command=" ".join(parts))
-    except ConfigError as exc:
-        return fail(f"invalid configuration {config}:\n{exc}", 2)
-    except StudyError as exc:
-        return fail(str(exc), exc.exit_code)
-    except KeyboardInterrupt:
-        return fail("interrupted: the finished batches are kept; re-run the same command "
-                    "to resume", 130)
-    except OSError as exc:  # I/O outside the store/output writes (numba cache, temp files)
-        return fail(f"{exc}. Finished cases are kept; re-run the same command to resume.", 1)
-    n_failed = outcome.n_failed
-    if n_failed:
-        return fail(f"{n_failed} of {outcome.n_runs} cases failed numerically "
-                    "(status != 0, outputs NaN); see the 'status' and 'message' variables",
-                    1)
-    return 0

@@ -1,4 +1,7 @@
-"""The ``vsi`` command line: parse -> config -> run -> write.  No numerics here."""
+"""The ``vsi`` typer app: options and help of every command, and :func:`main`.
+
+Each command is a function ``*_command(...) -> exit code`` in its own module of this
+package, imported when the command runs (``vsi --help`` stays fast).  No numerics here."""
 
 from __future__ import annotations
 
@@ -20,7 +23,7 @@ def run(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress output"),
 ):
     """Run the speeds of one configuration (first train, first realisation) to netCDF."""
-    from vsi_numba.solver.run import run_command
+    from vsi_numba.cli.run import run_command
 
     raise typer.Exit(run_command(config, output, quiet))
 
@@ -44,23 +47,16 @@ def sweep(
     ),
 ):
     """Sweep speeds x trains x irregularity realisations; resumable."""
-    from vsi_numba.study.runner import sweep_command
+    from vsi_numba.cli.sweep import sweep_command
 
-    code = sweep_command(config, output, workers, scheduler, quiet, fresh)
-    if report_dir is not None and code in (0, 1):  # 1: written, some cases flagged
-        from vsi_numba.analysis.report import report_command
-        from vsi_numba.config import load_config
-
-        results = output if output is not None else load_config(config).output_path
-        rc = report_command(Path(results), report_dir)
-        code = code or rc
-    raise typer.Exit(code)
+    raise typer.Exit(sweep_command(config, output, workers, scheduler, quiet, fresh,
+                                   report_dir))
 
 
 @app.command()
 def trains(name: str | None = typer.Argument(None, help="train name: print its axle table")):
     """List the train library, or print one train's axles."""
-    from vsi_numba.model.library import trains_command
+    from vsi_numba.cli.trains import trains_command
 
     raise typer.Exit(trains_command(name))
 
@@ -72,7 +68,7 @@ def modes(
                                        help="plot the mode shapes to this PNG"),
 ):
     """Print the bridge's retained modes (and effective masses) and plot their shapes."""
-    from vsi_numba.model.imported import modes_command
+    from vsi_numba.cli.model import modes_command
 
     raise typer.Exit(modes_command(config, output))
 
@@ -83,7 +79,7 @@ def report(
     outdir: Path | None = typer.Option(None, "-o", "--output", help="report directory"),
 ):
     """Write the EN 1990 A2 checks, figures and a Markdown report for a results file."""
-    from vsi_numba.analysis.report import report_command
+    from vsi_numba.cli.report import report_command
 
     raise typer.Exit(report_command(results, outdir))
 
@@ -94,7 +90,7 @@ def profile(
     plot: Path | None = typer.Option(None, "--plot", help="draw the profiles into this PNG"),
 ):
     """Show the track irregularity profiles a configuration would use."""
-    from vsi_numba.model.irregularity_plot import profile_command
+    from vsi_numba.cli.model import profile_command
 
     raise typer.Exit(profile_command(config, plot))
 

@@ -1,12 +1,11 @@
-"""``vsi run``: every speed of one configuration (its first train and first track
-realisation), one netCDF file.  The full sweep over trains and realisations, with
-parallel workers and resume, is ``vsi sweep`` (``vsi_numba.study``)."""
+"""One configuration's first train on its first track realisation, every speed, as one
+dataset (what ``vsi run`` writes).  The full sweep over trains and realisations, with
+parallel workers and resume, is :func:`vsi_numba.study.runner.run_study`."""
 
 from __future__ import annotations
 
 import datetime as _dt
 import sys
-from pathlib import Path
 
 import numpy as np
 import xarray as xr
@@ -94,78 +93,3 @@ def run_config(cfg, progress=None) -> xr.Dataset:
     if cfg.warnings:
         out.attrs["config_warnings"] = "\n".join(str(w) for w in cfg.warnings)
     return out
-
-
-def same_file(a: Path, b: Path) -> bool:
-    """Whether two paths name the same file (existing or not)."""
-    try:
-        if a.exists() and b.exists():
-            return a.samefile(b)
-        return a.expanduser().resolve() == b.expanduser().resolve()
-    except (OSError, ValueError, RuntimeError):
-        return False
-
-
-def output_problem(config: Path, out_path: Path) -> str | None:
-    """Why ``out_path`` cannot take the results of ``config`` (checked before any
-    computation): the input itself, a directory, an unwritable location; else None."""
-    from vsi_numba.study.store import OutputNotWritableError, check_writable
-
-    if same_file(Path(config), out_path):
-        return (f"the output {out_path} is the configuration file itself: refusing to "
-                "overwrite the input; choose another output (-o PATH, ending in .nc)")
-    if out_path.is_dir():
-        return f"the output {out_path} is a directory; give a file path (-o PATH)"
-    try:
-        check_writable(out_path.parent if str(out_path.parent) else Path("."),
-                       "results file")
-    except OutputNotWritableError as exc:
-        return str(exc)
-    return None
-
-
-def run_command(config: Path, output: Path | None, quiet: bool) -> int:
-    """Entry of ``vsi run``; returns the process exit code."""
-    from rich.console import Console
-    from rich.markup import escape
-
-    from vsi_numba.config import load_config_for_cli
-    from vsi_numba.io.netcdf import write_netcdf
-
-    err = Console(stderr=True)
-
-    def error(text: str) -> None:  # user text (paths, messages) is printed literally
-        err.print(f"[bold red]error[/]: {escape(str(text))}", highlight=False)
-
-    cfg = load_config_for_cli(config, err)
-    if cfg is None:
-        return 2
-    out_path = Path(output) if output is not None else Path(cfg.output_path)
-    problem = output_problem(config, out_path)
-    if problem is not None:
-        error(problem)
-        return 2
-    for w in cfg.warnings:
-        err.print(f"[yellow]warning[/]: {escape(str(w))}", highlight=False)
-    show = not quiet and sys.stderr.isatty()
-
-    def progress(done, total, ds):
-        if not quiet:
-            v = ds.attrs["speed_kmh"]
-            flag = "ok" if ds.attrs["status"] == 0 else f"FAILED: {ds.attrs['message']}"
-            err.print(f"[{done}/{total}] {v:7.1f} km/h  {flag}", highlight=False,
-                      markup=False)
-
-    try:
-        ds = run_config(cfg, progress if (show or not quiet) else None)
-    except (ValueError, OSError) as exc:
-        error(exc)
-        return 2
-    try:
-        write_netcdf(ds, out_path)
-    except OSError as exc:
-        error(f"cannot write {out_path}: {exc}")
-        return 2
-    if not quiet:
-        err.print(f"wrote {out_path}", highlight=False, markup=False)
-    return 1 if ds.attrs["failed_cases"] else 0

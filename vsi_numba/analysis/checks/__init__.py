@@ -1,0 +1,178 @@
+"""Design checks of a results Dataset.
+
+EN 1990 A2 deck acceleration, dynamic increment, wheel unloading, passenger comfort,
+resonance speeds.
+
+Every check takes the results Dataset (single run or study, see
+:func:`vsi_numba.analysis.dataset.prepare`) and returns an :class:`xarray.Dataset` with
+
+- ``value(speed, train)``: the design value per speed and train (max over deck points,
+  wheels or vehicles; over irregularity realisations the characteristic value, see
+  :func:`design_value`), and where a limit applies ``margin = limit - value``,
+  ``utilisation = value / limit`` and ``passed``;
+- the realisation statistics of ``value`` (``n``, ``mean``, ``std``, ``characteristic``,
+  ``ci_low``, ``ci_high``, ``exceedance_probability``);
+- attributes summarising the check: ``check``, ``clause``, ``units``, ``value``,
+  ``limit``, ``margin``, ``utilisation``, ``result`` ("pass", "FAIL", "info", "n/a"),
+  ``governing_train``, ``governing_speed`` (m s-1), ``governing_speed_kmh``.
+
+:func:`summary_table` collects those attributes in a :class:`pandas.DataFrame`.
+
+Limits tagged [R] are recalled from the cited standard and not re-read against the
+primary text (see ``notes/railway.md`` §4): check them before relying on them as hard
+limits.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from vsi_numba.analysis.checks.comfort import comfort
+from vsi_numba.analysis.checks.common import (
+    _RESULT_NA,
+    DEFAULT_Q,
+    WHEEL_UNLOADING_CLAUSE,
+    WHEEL_UNLOADING_LIMIT,
+    _governing,
+    design_value,
+    resonance_speeds,
+)
+from vsi_numba.analysis.checks.deck import (
+    deck_acceleration_check,
+    dynamic_amplification,
+    max_deck_displacement,
+)
+from vsi_numba.analysis.checks.determinant import (
+    DeterminantLength,
+    determinant_length,
+    results_config,
+)
+from vsi_numba.analysis.checks.wheels import (
+    applicable_trains,
+    prescribed_wheels,
+    wheel_unloading,
+)
+from vsi_numba.analysis.dataset import ResultsError, prepare
+from vsi_numba.en1990 import (
+    COMFORT_CLAUSE,
+    COMFORT_LEVELS,
+    CUTOFF_MIN_FREQUENCY,
+    DECK_ACCELERATION_CLAUSE,
+    DECK_ACCELERATION_LIMITS,
+    comfort_level,
+    frequency_cutoff,
+)
+from vsi_numba.en1991 import (
+    CONTINUOUS_K,
+    CONTINUOUS_K_MANY,
+    DETERMINANT_LENGTH_CLAUSE,
+    continuous_determinant_length,
+    irregularity_allowance,
+)
+
+__all__ = [
+    "COMFORT_CLAUSE",
+    "COMFORT_LEVELS",
+    "CONTINUOUS_K",
+    "CONTINUOUS_K_MANY",
+    "CUTOFF_MIN_FREQUENCY",
+    "DECK_ACCELERATION_CLAUSE",
+    "DECK_ACCELERATION_LIMITS",
+    "DEFAULT_Q",
+    "DETERMINANT_LENGTH_CLAUSE",
+    "SUMMARY_COLUMNS",
+    "WHEEL_UNLOADING_CLAUSE",
+    "WHEEL_UNLOADING_LIMIT",
+    "DeterminantLength",
+    "ResultsError",
+    "applicable_trains",
+    "comfort",
+    "comfort_level",
+    "continuous_determinant_length",
+    "deck_acceleration_check",
+    "design_value",
+    "determinant_length",
+    "dynamic_amplification",
+    "frequency_cutoff",
+    "irregularity_allowance",
+    "max_deck_displacement",
+    "prescribed_wheels",
+    "resonance_speeds",
+    "results_config",
+    "run_checks",
+    "summary_table",
+    "wheel_unloading",
+]
+
+
+SUMMARY_COLUMNS = ["check", "value", "units", "limit", "margin", "utilisation", "result",
+                   "governing_train", "governing_speed_kmh", "clause"]
+
+
+def run_checks(ds: xr.Dataset, q: float = DEFAULT_Q, comfort_level_required: str = "very good",
+               n_boot: int = 2000, seed: int = 0, length: float | None = None
+               ) -> dict[str, xr.Dataset | str]:
+    """Every check that the variables of ``ds`` allow.
+
+    ``length`` is the determinant length L_phi (m) given by the user (see
+    :func:`dynamic_amplification`).
+
+    Returns
+    -------
+    dict
+        name -> check Dataset, or name -> str (why the check could not be made).
+        Names: ``deck_acceleration``, ``deck_displacement``, ``dynamic_amplification``,
+        ``wheel_unloading``, ``comfort``.
+    """
+    ds = prepare(ds)
+    calls = {
+        "deck_acceleration": lambda: deck_acceleration_check(ds, q=q, n_boot=n_boot,
+                                                             seed=seed),
+        "deck_displacement": lambda: max_deck_displacement(ds, q=q),
+        "dynamic_amplification": lambda: dynamic_amplification(ds, length=length, q=q),
+        "wheel_unloading": lambda: wheel_unloading(ds, q=q, n_boot=n_boot, seed=seed),
+        "comfort": lambda: comfort(ds, comfort_level_required, q=q, n_boot=n_boot, seed=seed),
+    }
+    out = {}
+    for name, call in calls.items():
+        try:
+            out[name] = call()
+        except ResultsError as exc:
+            out[name] = str(exc)
+    return out
+
+
+def summary_table(checks: dict) -> pd.DataFrame:
+    """One row per check (the summary attrs of each check Dataset).
+
+    Parameters
+    ----------
+    checks : dict
+        As returned by :func:`run_checks` (string entries are skipped).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns :data:`SUMMARY_COLUMNS`; SI values; ``result`` in pass / FAIL / info / n/a.
+    """
+    rows = []
+    for check in checks.values():
+        if isinstance(check, str):
+            continue
+        rows.append({c: check.attrs.get(c, np.nan) for c in SUMMARY_COLUMNS})
+        if "design_factor" in check:
+            a = check.attrs
+            gov = _governing(check["design_factor"])
+            rows.append({
+                "check": "Design factor 1 + φ'dyn + φ''/2",
+                "value": a["design_factor_max"], "units": "1", "limit": np.nan,
+                "margin": np.nan, "utilisation": np.nan,
+                "result": "info" if np.isfinite(a["design_factor_max"]) else _RESULT_NA,
+                "governing_train": "" if gov is None else str(gov["train"]),
+                "governing_speed_kmh": np.nan if gov is None else float(
+                    check["speed_kmh"].sel(speed=gov["speed"])),
+                "clause": "EN 1991-2 6.4.6.5(3), Annex C [R]",
+            })
+    return pd.DataFrame(rows, columns=SUMMARY_COLUMNS)

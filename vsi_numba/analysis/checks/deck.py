@@ -1,0 +1,247 @@
+"""Deck checks: peak deck acceleration (EN 1990 A2.4.4.2.1(4)P), dynamic increment and
+design factor (EN 1991-2 6.4.6.5, Annex C), maximum deck displacement."""
+
+from __future__ import annotations
+
+import numpy as np
+import xarray as xr
+
+from vsi_numba.analysis.checks.common import (
+    DEFAULT_Q,
+    _case_realisation,
+    _summarise,
+    design_value,
+)
+from vsi_numba.analysis.checks.determinant import determinant_length
+from vsi_numba.analysis.dataset import (
+    DETERMINISTIC,
+    ResultsError,
+    bridge_frequencies,
+    nanmax,
+    prepare,
+    require,
+    track_type,
+    track_type_assumed,
+)
+from vsi_numba.en1990 import (
+    DECK_ACCELERATION_CLAUSE,
+    DECK_ACCELERATION_LIMITS,
+    frequency_cutoff,
+)
+from vsi_numba.en1991 import (
+    DETERMINANT_LENGTH_CLAUSE,
+    irregularity_allowance,
+)
+
+
+def deck_acceleration_check(
+    ds: xr.Dataset, limit: float | None = None, q: float = DEFAULT_Q, n_boot: int = 2000,
+    seed: int = 0,
+) -> xr.Dataset:
+    """Peak vertical deck acceleration against EN 1990 A2.4.4.2.1(4)P.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Results with ``max_deck_acceleration(speed, train, irregularity, point)`` (m s-2)
+        and, from the solver, the whole-deck envelope
+        ``max_deck_acceleration_whole_deck(speed, train, irregularity)`` with its
+        ``position_of_max_deck_acceleration_whole_deck`` (m): the maximum over a grid
+        along every span plus the output points, so the check does not depend on where
+        the output points are.  Files without it are checked at the output points only
+        (attribute ``whole_deck`` = 0).  The solver band-limits both to the modes up to
+        the cut-off ``max(30 Hz, 1.5 f1, f3)`` (:func:`frequency_cutoff`), as the clause
+        requires.
+    limit : float, optional
+        Limit (m s-2). Default from the ``track_type`` attribute: 3.5 ballasted, 5.0
+        direct fastening (:data:`DECK_ACCELERATION_LIMITS`; 5.0 is [R]); a file that does
+        not state its track type gets the stricter ballasted limit
+        (attribute ``track_type_assumed`` = 1).
+    q : float
+        Characteristic fractile over irregularity realisations.
+    n_boot, seed
+        Bootstrap settings of the realisation statistics.
+
+    Returns
+    -------
+    xarray.Dataset
+        ``value(speed, train)``: max over the deck (whole-deck envelope and output
+        points) of the peak acceleration, design value over realisations
+        (:func:`design_value`); ``point_of_max(speed, train)`` (m: the deck abscissa of
+        the peak, grid point or output point); ``margin``, ``utilisation``, ``passed``;
+        the realisation statistics; summary attrs (module docstring) plus
+        ``track_type``, ``frequency_cutoff`` (Hz, NaN without ``frequency``),
+        ``highest_frequency`` (highest mode in the model), ``governing_point`` (m, the x
+        of the governing peak), ``governing_output_point`` (m, the output point with the
+        largest peak in the governing case: where the histories are),
+        ``value_at_output_points`` (m s-2, the max over the output points in the
+        governing case) and ``whole_deck`` (1 if the whole-deck envelope was used).
+
+    Raises
+    ------
+    ResultsError
+        Without ``max_deck_acceleration`` or with an unknown ``track_type``.
+    """
+    ds = prepare(ds)
+    require(ds, ["max_deck_acceleration"], "the deck acceleration check")
+    track = track_type(ds)
+    if limit is None:
+        if track not in DECK_ACCELERATION_LIMITS:
+            raise ResultsError(
+                f"track_type = {track!r} is not one of {sorted(DECK_ACCELERATION_LIMITS)}; "
+                "pass the acceleration limit explicitly"
+            )
+        limit = DECK_ACCELERATION_LIMITS[track]
+    limit = float(limit)
+    acc = ds["max_deck_acceleration"]
+    at_points = nanmax(acc, "point")
+    whole = ("max_deck_acceleration_whole_deck" in ds
+             and bool(ds["max_deck_acceleration_whole_deck"].notnull().any()))
+    peak = at_points
+    if whole:
+        peak = np.fmax(at_points, ds["max_deck_acceleration_whole_deck"])
+    peak = peak.assign_attrs(units="m s-2")
+    out = design_value(peak, q=q, limit=limit, n_boot=n_boot, seed=seed)
+    out["value"].attrs.update(units="m s-2",
+                              long_name="peak vertical deck acceleration (design value)")
+    worst = nanmax(acc, "irregularity")
+    out_point = worst.fillna(-np.inf).idxmax("point").where(worst.notnull().any("point"))
+    point_of_max = out_point
+    if whole:
+        wd = ds["max_deck_acceleration_whole_deck"]
+        i_wd = wd.fillna(-np.inf).argmax("irregularity")
+        wd_worst = wd.isel(irregularity=i_wd)
+        wd_x = ds["position_of_max_deck_acceleration_whole_deck"].isel(irregularity=i_wd)
+        better = wd_worst.fillna(-np.inf) >= nanmax(worst, "point").fillna(-np.inf)
+        point_of_max = xr.where(better & wd_worst.notnull(), wd_x, out_point)
+        point_of_max = point_of_max.drop_vars("irregularity", errors="ignore")
+    out["point_of_max"] = point_of_max.assign_attrs(
+        units="m", long_name="deck abscissa of the peak acceleration")
+    f = bridge_frequencies(ds)
+    extra = {
+        "track_type": track,
+        "track_type_assumed": int(track_type_assumed(ds)),
+        "frequency_cutoff": frequency_cutoff(f) if f.size else np.nan,
+        "highest_frequency": float(f[-1]) if f.size else np.nan,
+        "basis": out.attrs["basis"],
+        "whole_deck": int(whole),
+    }
+    out = _summarise(out, "Peak deck acceleration", DECK_ACCELERATION_CLAUSE, "m s-2", limit,
+                     extra=extra)
+    if out.attrs["governing_train"]:
+        t, v = out.attrs["governing_train"], out.attrs["governing_speed"]
+        out.attrs["governing_point"] = float(out["point_of_max"].sel(train=t, speed=v))
+        out.attrs["governing_output_point"] = float(out_point.sel(train=t, speed=v))
+        out.attrs["value_at_output_points"] = float(nanmax(worst.sel(train=t, speed=v),
+                                                           "point"))
+        out.attrs["governing_irregularity"] = _case_realisation(peak, t, v)
+    else:
+        out.attrs["governing_point"] = np.nan
+        out.attrs["governing_output_point"] = np.nan
+        out.attrs["value_at_output_points"] = np.nan
+    return out
+
+
+def dynamic_amplification(
+    ds: xr.Dataset, length: float | None = None, q: float = DEFAULT_Q
+) -> xr.Dataset:
+    """Dynamic increment phi'_dyn of the deck displacement, phi'' and the design factor.
+
+    ``phi'_dyn = max|y_dyn| / max|y_stat| - 1`` per train, speed and point, with
+    y_stat the static response of the same model (``max_static_deck_displacement``,
+    max over train positions); the two maxima need not occur at the same time
+    (EN 1991-2 §6.4.6.5 [R]).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Results with ``max_deck_displacement`` and ``max_static_deck_displacement``.
+    length : float, optional
+        Determinant length L_phi (m) for phi''; wins over everything. Default: from the
+        results (:func:`determinant_length`: the ``determinant_length`` attribute, else
+        EN 1991-2 Table 6.2 [R] from the configuration's bridge kind and spans).
+    q : float
+        Fractile used only when the file has random realisations and no deterministic
+        track (phi'_dyn then includes the irregularity effect, see ``basis``).
+
+    Returns
+    -------
+    xarray.Dataset
+        ``phi_dyn(speed, train, point)`` and ``phi_dyn_max(train, point)`` (max over
+        speed); ``value(speed, train)`` = deck phi'_dyn = max over points of
+        max|y_dyn| / max over points of max|y_stat| - 1, the summary quantity;
+        ``phi2(speed)`` = phi'' of EN 1991-2 Annex C [R] (needs L_phi and ``frequency``);
+        ``design_factor(speed, train)`` = 1 + phi'_dyn + phi''/2, the factor of
+        EN 1991-2 eq. (6.16)/(6.17) [R] applied to the real train or HSLM to compare with
+        Phi x LM71 (information, no limit). Attributes ``phi2_max``, ``design_factor_max``,
+        ``length`` (L_phi, m), ``length_rule`` (how L_phi was obtained),
+        ``length_assumed`` (1 when that is an assumption), ``n0`` and ``basis``.
+    """
+    ds = prepare(ds)
+    require(ds, ["max_deck_displacement", "max_static_deck_displacement"],
+            "the dynamic increment φ'dyn")
+    dyn = ds["max_deck_displacement"]
+    irr = np.asarray(ds["irregularity"].values)
+    if (irr == DETERMINISTIC).any():
+        dyn = nanmax(dyn.isel(irregularity=np.flatnonzero(irr == DETERMINISTIC)),
+                     "irregularity")
+        basis = "deterministic track (irregularity = -1)"
+    else:
+        stats = design_value(dyn, q=q, n_boot=0)
+        dyn = stats["value"]
+        basis = (stats.attrs["basis"] + "; includes the effect of the irregularities, so "
+                 "adding φ''/2 double counts them")
+    stat = abs(ds["max_static_deck_displacement"])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        phi = (abs(dyn) / stat.where(stat > 0) - 1.0)
+    phi = phi.transpose("speed", "train", "point")
+    deck_dyn = nanmax(abs(dyn), "point")
+    deck_stat = nanmax(stat, "point")
+    value = (deck_dyn / deck_stat.where(deck_stat > 0) - 1.0).transpose("speed", "train")
+    out = xr.Dataset(
+        {
+            "phi_dyn": phi.assign_attrs(units="1", long_name="dynamic increment phi'_dyn"),
+            "phi_dyn_max": nanmax(phi, "speed").assign_attrs(
+                units="1", long_name="dynamic increment phi'_dyn, max over speed"),
+            "value": value.assign_attrs(
+                units="1", long_name="dynamic increment of the deck maximum displacement"),
+        }
+    )
+    lphi = determinant_length(ds, length)
+    L = lphi.value
+    f = bridge_frequencies(ds)
+    n0 = float(f[0]) if f.size else np.nan
+    if np.isfinite(L) and L > 0 and np.isfinite(n0):
+        phi2 = irregularity_allowance(ds["speed"].values, L, n0)
+    else:
+        phi2 = np.full(ds.sizes["speed"], np.nan)
+    phi2 = xr.DataArray(phi2, dims="speed", coords={"speed": ds["speed"]})
+    out["phi2"] = phi2.assign_attrs(units="1",
+                                    long_name="irregularity allowance phi'' (EN 1991-2 Annex C)")
+    out["design_factor"] = (1.0 + value + phi2 / 2.0).transpose("speed", "train").assign_attrs(
+        units="1", long_name="1 + phi'_dyn + phi''/2")
+    extra = {
+        "basis": basis,
+        "length": L,
+        "length_rule": lphi.rule,
+        "length_assumed": int(lphi.assumed),
+        "length_clause": DETERMINANT_LENGTH_CLAUSE,
+        "n0": n0,
+        "phi2_max": float(phi2.max()) if bool(phi2.notnull().any()) else np.nan,
+        "design_factor_max": float(nanmax(out["design_factor"], ["speed", "train"])),
+    }
+    return _summarise(out, "Dynamic increment φ'dyn", "EN 1991-2 6.4.6.5 [R]", "1", None,
+                      extra=extra)
+
+
+def max_deck_displacement(ds: xr.Dataset, q: float = DEFAULT_Q) -> xr.Dataset:
+    """Maximum deck displacement (information, no limit).
+
+    The L/600 limit of EN 1990 A2.4.4.2.3 [R] is for LM71, not for these trains.
+    """
+    ds = prepare(ds)
+    require(ds, ["max_deck_displacement"], "the deck displacement summary")
+    out = design_value(nanmax(ds["max_deck_displacement"], "point"), q=q, n_boot=0)
+    out["value"].attrs.update(units="m", long_name="maximum vertical deck displacement")
+    return _summarise(out, "Max deck displacement", "information", "m", None,
+                      extra={"basis": out.attrs["basis"]})

@@ -1,0 +1,224 @@
+"""The figures of the report: the envelopes of :mod:`vsi_numba.analysis.plots` and the time
+histories of the governing cases (re-run when the file holds none,
+:mod:`vsi_numba.analysis.recompute`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from vsi_numba.analysis import plots
+from vsi_numba.analysis.dataset import (
+    DETERMINISTIC,
+    nanargmax_case,
+)
+from vsi_numba.analysis.recompute import CaseRunner, RecomputeError
+from vsi_numba.analysis.report.text import _fmt
+
+# --------------------------------------------------------------------------------------
+# Figures
+# --------------------------------------------------------------------------------------
+
+
+def _irr_text(irr) -> str:
+    return "deterministic track" if int(irr) == DETERMINISTIC else f"irregularity seed {irr}"
+
+
+class _Histories:
+    """Time histories of single cases: from the file when stored, else re-run.
+
+    ``get`` returns ``(case, how)`` with ``case`` a Dataset on ``time`` (and ``point``,
+    ``wheel``) and ``how`` = "stored" or "recomputed", or ``(None, reason)``.
+    """
+
+    def __init__(self, ds: xr.Dataset, runner: CaseRunner | None):
+        self.ds = ds
+        self.runner = runner
+        self.runs: dict = {}
+
+    def stored(self, train, speed, irr, name: str, **where) -> bool:
+        ds = self.ds
+        if "time" not in ds.dims or name not in ds:
+            return False
+        return bool(ds[name].sel(train=train, speed=speed, irregularity=irr, **where)
+                    .notnull().any())
+
+    def get(self, train, speed, irr, needs: dict):
+        if all(self.stored(train, speed, irr, name, **where) for name, where in needs.items()):
+            return self.ds.sel(train=train, speed=speed, irregularity=irr), "stored"
+        if self.runner is None:
+            return None, "re-running cases is switched off"
+        key = (str(train), float(speed), int(irr))
+        if key not in self.runs:
+            try:
+                self.runs[key] = (self.runner.run(train, speed, irr), "recomputed")
+            except RecomputeError as exc:
+                self.runs[key] = (None, str(exc))
+            except Exception as exc:  # noqa: BLE001 - a figure must not stop the report
+                first = str(exc).splitlines()[0] if str(exc) else ""
+                self.runs[key] = (None, f"the re-run raised {type(exc).__name__}: {first}")
+        return self.runs[key]
+
+
+def _recompute_note(case, ds, name, envelope, where: dict, train, speed, irr, units,
+                    lowest=False) -> str:
+    """Say that a case was re-run and compare its extreme with the stored envelope."""
+    y = np.asarray(case[name].sel(**where).values, float)
+    got = np.nanmin(y) if lowest else np.nanmax(np.abs(y))
+    ref = float(ds[envelope].sel(train=train, speed=speed, irregularity=irr, **where))
+    text = (" No history was stored for this case: it was re-run from the file's "
+            f"configuration (config_json); re-run {'minimum' if lowest else 'peak'} "
+            f"{_fmt(got, units)}, stored envelope {_fmt(ref, units)}")
+    if np.isfinite(ref) and not np.isclose(got, ref, rtol=1e-6, atol=0.0):
+        text += (" — **they differ: the model or the code changed since the study was run; "
+                 "the figure may not show the stored case**")
+    return text + "."
+
+
+def _deck_history(ds, results, hist: _Histories, applicable):
+    """(figure, caption) of the governing deck acceleration case, or (None, reason)."""
+    acc = results.get("deck_acceleration")
+    if acc is None or isinstance(acc, str) or not acc.attrs.get("governing_train"):
+        return None, ""
+    a = acc.attrs
+    train, speed = a["governing_train"], a["governing_speed"]
+    # histories are stored at the output points only: show the one with the largest peak
+    point = a.get("governing_output_point", a["governing_point"])
+    irr = a.get("governing_irregularity", DETERMINISTIC)
+    wheel = None
+    if (applicable is not None and bool(applicable.sel(train=train))
+            and "max_wheel_unloading" in ds):
+        w = nanargmax_case(ds["max_wheel_unloading"].sel(train=train, speed=speed,
+                                                         irregularity=irr))
+        wheel = None if w is None else int(w["wheel"])
+    needs = {"deck_acceleration": {"point": point}}
+    if wheel is not None:
+        needs["contact_force"] = {"wheel": wheel}
+    case, how = hist.get(train, speed, irr, needs)
+    note, fallback = "", case is None
+    if case is None:
+        reason = how
+        if "time" not in ds.dims or "deck_acceleration" not in ds:
+            return None, (f"the file holds no time histories and the governing case could "
+                          f"not be re-run ({reason})")
+        stored = ds["deck_acceleration"].sel(train=train, point=point).notnull().any("time")
+        peak = ds["max_deck_acceleration"].sel(train=train, point=point).where(stored)
+        alt = nanargmax_case(peak)
+        if alt is None:
+            return None, (f"no history of train {train} is stored and the governing case "
+                          f"could not be re-run ({reason})")
+        speed, irr = alt["speed"], alt["irregularity"]
+        case = ds.sel(train=train, speed=speed, irregularity=irr)
+        if wheel is not None and not hist.stored(train, speed, irr, "contact_force",
+                                                 wheel=wheel):
+            wheel = None
+        note = (" No history was stored for the governing case and it could not be re-run "
+                f"({reason}); shown: the stored case of the governing train with the "
+                "largest peak.")
+    elif how == "recomputed":
+        note = _recompute_note(case, ds, "deck_acceleration", "max_deck_acceleration",
+                               {"point": point}, train, speed, irr, "m s-2")
+    kmh = float(ds["speed_kmh"].sel(speed=speed))
+    q0 = (float(ds["static_wheel_load"].sel(train=train, wheel=wheel))
+          if wheel is not None and "static_wheel_load" in ds else None)
+    fig = plots.plot_case_history(case, plots.case_title(train, kmh, irr, point), point=point,
+                                  wheel=wheel, limit=a["limit"], q0=q0)
+    role = "governing train" if fallback else "governing case"
+    caption = (f"Time histories of {train} at {kmh:.0f} km/h ({_irr_text(irr)}), "
+               f"the {role} of the deck acceleration check, at x = {point:g} m"
+               + (f", contact force of axle {wheel} (largest unloading)" if wheel is not None
+                  else "") + "." + note)
+    return fig, caption
+
+
+def _wheel_history(ds, results, hist: _Histories):
+    """(figure, caption) of the governing wheel unloading case, or (None, reason)."""
+    wu = results.get("wheel_unloading")
+    if wu is None or isinstance(wu, str) or not wu.attrs.get("governing_train"):
+        return None, ""
+    a = wu.attrs
+    train, speed, wheel = a["governing_train"], a["governing_speed"], a["governing_wheel"]
+    irr = a.get("governing_irregularity", DETERMINISTIC)
+    if wheel < 0:
+        return None, ""
+    case, how = hist.get(train, speed, irr, {"contact_force": {"wheel": wheel}})
+    kmh = float(ds["speed_kmh"].sel(speed=speed))
+    if case is None:
+        return None, (f"the governing case of the wheel unloading check ({train}, "
+                      f"{kmh:.0f} km/h) has no stored history and could not be re-run "
+                      f"({how})")
+    sel = {"train": train, "speed": speed, "irregularity": irr, "wheel": wheel}
+    pos = (float(ds["position_of_min_contact_force"].sel(sel))
+           if "position_of_min_contact_force" in ds else np.nan)
+    q0 = (float(ds["static_wheel_load"].sel(train=train, wheel=wheel))
+          if "static_wheel_load" in ds else None)
+    length = float(ds.attrs["bridge_length"]) if "bridge_length" in ds.attrs else None
+    dq = float(ds["max_wheel_unloading"].sel(sel))
+    fig = plots.plot_case_history(
+        case, plots.case_title(train, kmh, irr) + f", axle {wheel}", wheel=wheel, q0=q0,
+        min_position=pos if np.isfinite(pos) else None, bridge_length=length,
+        speed=float(speed))
+    caption = (f"Contact force of axle {wheel} of {train} at {kmh:.0f} km/h "
+               f"({_irr_text(irr)}), the governing case of the wheel unloading check "
+               f"(ΔQ/Q₀ = {dq:.3f} in this realisation)")
+    if np.isfinite(pos):
+        caption += (f"; ★ minimum contact force, with the axle at x = {pos:.2f} m along the "
+                    "track (position_of_min_contact_force"
+                    + (f"; the deck spans 0–{length:g} m, shaded while the axle is on it"
+                       if length is not None else "") + ")")
+    caption += "."
+    if how == "recomputed":
+        caption += _recompute_note(case, ds, "contact_force", "min_contact_force",
+                                   {"wheel": wheel}, train, speed, irr, "N", lowest=True)
+    return fig, caption
+
+
+def _figures(ds: xr.Dataset, results: dict, outdir: Path,
+             runner: CaseRunner | None = None) -> tuple[list[tuple[str, str]], list[str]]:
+    """Write the PNGs; return (file name, caption) pairs and notes on figures not drawn."""
+    made, notes = [], []
+
+    def put(fig, name, caption):
+        plots.save(fig, outdir / name)
+        made.append((name, caption))
+
+    acc = results.get("deck_acceleration")
+    if not isinstance(acc, str):
+        put(plots.plot_deck_acceleration(ds, acc), "deck_acceleration.png",
+            "Peak vertical deck acceleration (max over the deck points) against speed, "
+            "with the EN 1990 A2.4.4.2.1 limit; ▼ resonance speeds f₁D/i; shaded: 95 % "
+            "bootstrap interval of the characteristic value where there are realisations.")
+    dyn = results.get("dynamic_amplification")
+    if not isinstance(dyn, str):
+        put(plots.plot_dynamic_amplification(ds, dyn), "dynamic_amplification.png",
+            "Dynamic increment φ'dyn of the deck maximum displacement against speed; "
+            "dotted: φ''/2 (EN 1991-2 Annex C [R]).")
+    wu = results.get("wheel_unloading")
+    applicable = None
+    if not isinstance(wu, str) and wu is not None:
+        applicable = wu["applicable"]
+    if not isinstance(wu, str) and "note" not in wu.attrs:
+        skipped = wu.attrs.get("not_applicable_trains", "")
+        put(plots.plot_wheel_unloading(ds, wu), "wheel_unloading.png",
+            "Minimum wheel–rail contact force and wheel unloading ΔQ/Q₀ (max over axles) "
+            "against speed, with the 0.6 limit (EN 14363 practice [R])"
+            + (f"; not drawn: {skipped} (prescribed moving forces, not applicable)"
+               if skipped else "") + ".")
+    cf = results.get("comfort")
+    if not isinstance(cf, str) and bool(cf["value"].notnull().any()):
+        put(plots.plot_comfort(ds, cf), "comfort.png",
+            "Vertical car-body acceleration (max over vehicles) against speed with the "
+            "levels of comfort of EN 1990 Table A2.9 [R].")
+    hist = _Histories(ds, runner)
+    for name, make in (("time_history.png", lambda: _deck_history(ds, results, hist,
+                                                                  applicable)),
+                       ("wheel_unloading_history.png", lambda: _wheel_history(ds, results,
+                                                                              hist))):
+        fig, caption = make()
+        if fig is not None:
+            put(fig, name, caption)
+        elif caption:
+            notes.append(f"- Not drawn: {caption}.")
+    return made, notes

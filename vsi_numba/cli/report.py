@@ -1,0 +1,89 @@
+"""``vsi report``: the EN 1990 A2 checks, figures and Markdown report of a results file
+(:func:`vsi_numba.analysis.report.write_report`, or the variants report of a parametric
+study)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from vsi_numba.cli.common import EXIT_USAGE, Printer
+
+
+def report_command(results: Path, outdir: Path | None = None) -> int:
+    """CLI entry of ``vsi report RESULTS.nc [-o DIR]``.
+
+    Parameters
+    ----------
+    results : Path
+        netCDF results file.
+    outdir : Path, optional
+        Report directory; default ``<results stem>_report`` beside the file.
+
+    Returns
+    -------
+    int
+        0 on success; 2 when the file is missing, unreadable or lacks the variables the
+        report needs; 1 when the report directory cannot be written. The reason goes to
+        stderr as one line (no traceback).
+    """
+    import numpy as np
+    import xarray as xr
+
+    from vsi_numba.analysis.dataset import ResultsError, prepare, require
+    from vsi_numba.analysis.report import REQUIRED_VARIABLES, stored_warnings, write_report
+
+    pr = Printer()
+
+    def error(message: str) -> None:
+        pr.line(f"vsi report: {message}", stderr=True)
+
+    results = Path(results)
+    if not results.exists():
+        error(f"results file '{results}' does not exist")
+        return EXIT_USAGE
+    if not results.is_file():
+        error(f"'{results}' is not a file")
+        return EXIT_USAGE
+    try:
+        ds = xr.open_dataset(results)
+    except Exception as exc:  # noqa: BLE001 - any reader failure means "unreadable"
+        error(f"cannot read '{results}' as a netCDF results file "
+              f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})")
+        return EXIT_USAGE
+    with ds:
+        if "variant" in ds.dims:  # a parametric study: the report over the variants
+            from vsi_numba.analysis.variants import write_variants_report
+
+            writer, data = write_variants_report, ds.load()
+        else:
+            try:
+                data = prepare(ds)
+                require(data, REQUIRED_VARIABLES, "the report")
+            except ResultsError as exc:
+                error(f"'{results}' is not a usable results file: {exc}")
+                return EXIT_USAGE
+            if "status" in data and data["status"].size and bool(
+                    (data["status"].values != 0).all()):
+                n = int(data["status"].size)
+                msgs = (sorted({str(m) for m in np.ravel(data["message"].values)})
+                        if "message" in data else [])
+                error(f"'{results}': every case ({n}) failed numerically (status != 0, "
+                      "outputs NaN): there is nothing to check"
+                      + (f"; e.g. {msgs[0]}" if msgs else "") + ". Fix the run (see the "
+                      "warnings and README 'When things go wrong') and run it again")
+                return 1
+            for r in stored_warnings(data):
+                error(f"warning: {r['message']}")
+            writer = write_report
+        if outdir is None:
+            outdir = results.with_name(f"{results.stem}_report")
+        try:
+            path = writer(data, outdir, source_path=results)
+        except ResultsError as exc:
+            error(f"'{results}': {exc}")
+            return EXIT_USAGE
+        except OSError as exc:
+            error(f"cannot write the report to '{outdir}': {exc}")
+            return 1
+    pr.line(f"report written to {path}")
+    return 0

@@ -1,0 +1,108 @@
+"""``vsi sweep``: a study (speeds x trains x realisations), resumable, then optionally its
+report.  Exit codes: see :mod:`vsi_numba.study.runner`."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from vsi_numba.cli.common import EXIT_USAGE, Printer, load_config_and_output
+
+#: A Dask scheduler address: scheme://host:port or host:port (inproc:// as is).
+_SCHEDULER_ADDRESS = re.compile(
+    r"^(?:(?:tcp|tls|ucx|ws|wss)://(?:\[[0-9A-Fa-f:.]+\]|[^\s/:\[\]]+):\d{1,5}/?"
+    r"|(?:\[[0-9A-Fa-f:.]+\]|[^\s/:\[\]]+):\d{1,5}|inproc://\S+)$")
+
+
+class _sigterm_as_interrupt:  # noqa: N801 - used as a context manager
+    """SIGTERM raises KeyboardInterrupt (in the main thread): a terminated sweep keeps its
+    finished batches and says so, like Ctrl-C."""
+
+    def __enter__(self):
+        import signal
+
+        def handler(signum, frame):
+            raise KeyboardInterrupt
+
+        try:
+            self._old = signal.signal(signal.SIGTERM, handler)
+        except ValueError:  # not the main thread
+            self._old = None
+        return self
+
+    def __exit__(self, *exc):
+        import signal
+
+        if self._old is not None:
+            signal.signal(signal.SIGTERM, self._old)
+        return None
+
+
+def sweep_command(config: Path, output: Path | None, workers: int | None,
+                  scheduler: str | None, quiet: bool, fresh: bool = False,
+                  report_dir: Path | None = None) -> int:
+    """``vsi sweep``: run a study; returns the exit code (see :mod:`vsi_numba.study.runner`).
+
+    With ``report_dir``, a written results file (exit code 0 or 1) is then reported
+    there (:func:`vsi_numba.cli.report.report_command`); the first non-zero code wins.
+    """
+    from vsi_numba.config import ConfigError
+    from vsi_numba.study import runner
+    from vsi_numba.study.store import StudyError
+
+    pr = Printer()
+
+    def fail(message: str, code: int) -> int:
+        pr.error(message)
+        return code
+
+    if workers is not None and scheduler is not None:
+        return fail("give --workers (local Dask cluster) or --scheduler (existing cluster), "
+                    "not both", EXIT_USAGE)
+    if workers is not None and workers < 1:
+        return fail(f"--workers {workers}: expected a number of workers >= 1", EXIT_USAGE)
+    if scheduler is not None and not _SCHEDULER_ADDRESS.match(scheduler):
+        return fail(f"--scheduler {scheduler!r}: expected the address of a Dask scheduler, "
+                    "tcp://HOST:PORT (or HOST:PORT)", EXIT_USAGE)
+    loaded = load_config_and_output(config, output, pr)
+    if loaded is None:
+        return EXIT_USAGE
+    cfg, out_path = loaded
+    if not quiet:
+        for w in getattr(cfg, "warnings", []) or []:
+            pr.warning(w)
+    parts = ["vsi", "sweep", str(config)]
+    if output is not None:
+        parts += ["-o", str(output)]
+    if workers is not None:
+        parts += ["--workers", str(workers)]
+    if scheduler is not None:
+        parts += ["--scheduler", scheduler]
+    if fresh:
+        parts += ["--fresh"]
+    try:
+        with _sigterm_as_interrupt():
+            outcome = runner.execute_study(cfg, output, workers=workers, scheduler=scheduler,
+                                           progress=not quiet, fresh=fresh, quiet=quiet,
+                                           command=" ".join(parts))
+    except ConfigError as exc:
+        pr.config_error(config, exc)
+        return EXIT_USAGE
+    except StudyError as exc:
+        return fail(str(exc), exc.exit_code)
+    except KeyboardInterrupt:
+        return fail("interrupted: the finished batches are kept; re-run the same command "
+                    "to resume", 130)
+    except OSError as exc:  # I/O outside the store/output writes (numba cache, temp files)
+        return fail(f"{exc}. Finished cases are kept; re-run the same command to resume.", 1)
+    code = 0
+    n_failed = outcome.n_failed
+    if n_failed:
+        code = fail(f"{n_failed} of {outcome.n_runs} cases failed numerically "
+                    "(status != 0, outputs NaN); see the 'status' and 'message' variables",
+                    1)
+    if report_dir is not None:  # 0 or 1 here: the results file is written
+        from vsi_numba.cli.report import report_command
+
+        code = code or report_command(out_path, report_dir)
+    return code

@@ -1,0 +1,353 @@
+"""One packed model at several speeds in one kernel call: workspaces, deck operators,
+the envelopes reduced in the time loop and the raw histories (:class:`BatchResult`)."""
+
+from __future__ import annotations
+
+import time as _time
+from dataclasses import dataclass
+
+import numpy as np
+
+from vsi_numba.en1990 import frequency_cutoff
+from vsi_numba.kernels import engine as ek
+from vsi_numba.model.bridge import ModalBridge
+from vsi_numba.model.irregularity import Profile
+from vsi_numba.solver.pack import ModelError, Packed, initial_states
+from vsi_numba.solver.settings import SolverSettings
+
+STATUS_MESSAGES = {
+    ek.OK: "ok",
+    ek.NOT_CONVERGED: "contact iterations did not converge (also with the step subdivided)",
+    ek.SINGULAR_SCHUR: "singular contact (Schur) system: dependent contact constraints",
+    ek.NON_FINITE: "non-finite (NaN/inf) state: the integration diverged",
+    ek.SINGULAR_IMPACT: "singular impact system at a wheel landing",
+}
+
+
+def acceleration_cutoff(frequencies: np.ndarray) -> float:
+    """EN 1990 A2.4.4.2.1: frequencies up to max(30 Hz, 1.5 f1, f3) enter the check
+    (:func:`vsi_numba.en1990.frequency_cutoff`)."""
+    return frequency_cutoff(frequencies)
+
+
+def _workspace(n_m, n_v, n_w) -> ek.Work:
+    z = np.zeros
+    return ek.Work(
+        phi=z((n_w, n_m)), dphi=z((n_w, n_m)), d2phi=z((n_w, n_m)),
+        onb=z(n_w, np.int64), rr=z((n_w, 3)), S=z((n_w, n_w)), L=z((n_w, n_w)),
+        idx=z(n_w, np.int64), rhs=z(n_w), sol=z(n_w), gstar=z(n_w), X=z(n_w),
+        active=np.ones(n_w, np.int64), was_active=np.ones(n_w, np.int64),
+        yq=z(n_m), yv=z(n_v), rq=z(n_m), rv=z(n_v), fq=z(n_m), phil=z(n_m), hq=z(n_m),
+        hv=z(n_v), ones=np.ones(n_m), khat=z(n_m), xout=z(n_w), vq=z(n_m), vv=z(n_v),
+        av=z(n_v), act0=z(n_w, np.int64), J=z((n_w, n_w)),
+        first=z(n_w, np.int64), onb_prev=z(n_w, np.int64), onb0=z(n_w, np.int64),
+        cand=z(n_w, np.int64), lq=z(n_w), lz=z(n_w), lw=z(n_w), lin=z(n_w, np.int64),
+        impulse=z(n_w),
+    )
+
+
+def _history_buffers(n_slots, n_t, n_m, n_w, n_b) -> ek.Output:
+    return ek.Output(
+        q=np.full((n_slots, n_t, n_m), np.nan), qdd=np.full((n_slots, n_t, n_m), np.nan),
+        X=np.full((n_slots, n_t, n_w), np.nan), contact=np.zeros((n_slots, n_t, n_w), np.int8),
+        body_acc=np.full((n_slots, n_t, n_b), np.nan),
+        iters=np.zeros((n_slots, n_t), np.int16),
+        body_pitch=np.full((n_slots, n_t, n_b), np.nan),
+    )
+
+
+#: Intervals per span of the whole-deck acceleration grid (see :func:`deck_grid`).
+DECK_GRID_INTERVALS = 32
+
+
+def deck_grid(bridge: ModalBridge, points=(), intervals: int = DECK_GRID_INTERVALS
+              ) -> np.ndarray:
+    """Abscissae (m) where the whole-deck acceleration envelope is evaluated.
+
+    ``intervals`` equal intervals on every span (supports included) plus the user's
+    output ``points``, sorted, duplicates removed.
+
+    Notes
+    -----
+    The grid maximum underestimates the maximum over the continuous deck by at most the
+    relative amount (K h)^2 / 8, with h the grid spacing and K the largest wavenumber
+    of the band-limited modes (|f''| <= K^2 max|f| for a trigonometric polynomial of
+    degree K, Bernstein; the true maximum x* is a stationary point of |a(., t*)| and a
+    grid point lies within h/2 of it).  Three half-waves per span (a 15 m span, f1 = 8 Hz:
+    the modes up to the cut-off f3) give 1.1 % with 32 intervals, 4.3 % with 16.
+    """
+    s = np.asarray(bridge.supports, float)
+    if s.size < 2:
+        s = np.array([0.0, float(bridge.length)])
+    grid = [np.linspace(a, b, int(intervals) + 1) for a, b in zip(s[:-1], s[1:], strict=True)]
+    grid.append(np.atleast_1d(np.asarray(points, float)))
+    grid = np.unique(np.round(np.concatenate(grid), 12))
+    return grid[(grid >= 0.0) & (grid <= bridge.length)]
+
+
+def deck_operators(bridge: ModalBridge, points, settings: SolverSettings):
+    """Mode shapes of the deck line at ``points`` and on the whole-deck grid.
+
+    Returns
+    -------
+    tuple
+        ``(phi_d, phi_a, cutoff, grid_x, phi_g)``: ``phi_d`` (n_p, n_m) at the points;
+        ``phi_a`` the same with zero columns for the modes above the EN 1990
+        A2.4.4.2.1 cut-off (Hz, ``cutoff``), so ``phi_a @ qdd`` is the band-limited deck
+        acceleration; ``grid_x`` (n_g,) the whole-deck grid (:func:`deck_grid`) and
+        ``phi_g`` (n_ka, n_g) its band-limited shapes, transposed, for the first ``n_ka``
+        modes (those up to the last mode below the cut-off).
+    """
+    points = np.atleast_1d(np.asarray(points, float))
+    phi_d = np.ascontiguousarray(bridge.output_shapes(points), dtype=np.float64)
+    phi_d = phi_d.reshape(points.size, bridge.n_modes)
+    cutoff = settings.acceleration_cutoff
+    if cutoff is None:
+        cutoff = acceleration_cutoff(bridge.frequencies)
+    keep = np.asarray(bridge.frequencies) <= cutoff + 1e-9
+    phi_a = np.ascontiguousarray(np.where(keep[None, :], phi_d, 0.0))
+    n_ka = int(np.flatnonzero(keep)[-1]) + 1 if keep.any() else 0
+    grid_x = deck_grid(bridge, points) if n_ka else np.zeros(0)
+    shapes = np.asarray(bridge.output_shapes(grid_x), float).reshape(grid_x.size,
+                                                                      bridge.n_modes)
+    phi_g = np.ascontiguousarray(np.where(keep[None, :n_ka], shapes[:, :n_ka], 0.0).T)
+    return phi_d, phi_a, float(cutoff), grid_x, phi_g
+
+
+@dataclass
+class BatchResult:
+    """Envelopes (one row per run) and raw histories (per history slot) of a batch."""
+
+    packed: Packed
+    speeds: np.ndarray  # (R,) m/s
+    n_steps: np.ndarray  # (R,)
+    status: np.ndarray  # (R,) int
+    reached: np.ndarray  # (R,) int
+    slots: np.ndarray  # (R,) history slot or -1
+    red: ek.Reduce
+    out: ek.Output
+    phi_d: np.ndarray
+    phi_a: np.ndarray
+    cutoff: float
+    elapsed: float
+    grid_x: np.ndarray | None = None  # (n_g,) whole-deck grid, m
+
+    @property
+    def static_loads(self) -> np.ndarray:
+        """Q0 of every wheel, dynamic wheels then moving forces (N)."""
+        return np.concatenate([self.packed.static_loads, self.packed.vehicles.load_p])
+
+    @property
+    def wheel_positions(self) -> np.ndarray:
+        return np.concatenate([self.packed.wheel_positions, self.packed.load_positions])
+
+    def message(self, r: int) -> str:
+        status = int(self.status[r])
+        text = STATUS_MESSAGES[status]
+        if status != ek.OK:
+            k = int(self.reached[r])
+            text += f" at t = {k * self.packed.params.dt:.6g} s (step {k})"
+        return text
+
+    def envelopes(self) -> dict[str, np.ndarray]:
+        """Every envelope variable of ``vsi_numba.io.schema`` (rows: runs; NaN for the
+        runs that failed)."""
+        red, pk, dt = self.red, self.packed, self.packed.params.dt
+        n_r = self.speeds.size
+        n_l = pk.load_positions.size
+        loads = pk.vehicles.load_p
+        q0 = self.static_loads
+
+        def with_loads(dyn, value):
+            return np.concatenate([dyn, np.broadcast_to(value, (n_r, n_l))], axis=1)
+
+        xmin = with_loads(red.xmin, loads)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            unloading = (q0[None, :] - xmin) / q0[None, :]
+        data = {
+            "max_deck_displacement": red.disp.copy(),
+            "max_deck_acceleration": red.acc.copy(),
+            "min_contact_force": xmin,
+            "max_contact_force": with_loads(red.xmax, loads),
+            "max_wheel_unloading": unloading,
+            "max_carbody_acceleration": red.body.copy(),
+            "contact_loss_duration": with_loads(red.lost * dt, 0.0),
+            "longest_contact_loss": with_loads(red.longest * dt, 0.0),
+            "contact_loss_events": with_loads(red.events.astype(float), 0.0),
+            "single_step_contact_losses": with_loads(red.single.astype(float), 0.0),
+            "time_of_max_deck_displacement": red.disp_t.copy(),
+            "time_of_max_deck_acceleration": red.acc_t.copy(),
+            # a moving force is at its start position at its (first) minimum, t = 0
+            "position_of_min_contact_force": with_loads(red.xmin_x, pk.vehicles.load_x0),
+            "time_of_max_carbody_acceleration": red.body_t.copy(),
+            "position_of_max_carbody_acceleration": red.body_x.copy(),
+        }
+        grid = self.grid_x if self.grid_x is not None else np.zeros(0)
+        if grid.size:
+            data["max_deck_acceleration_whole_deck"] = red.gacc.copy()
+            data["time_of_max_deck_acceleration_whole_deck"] = red.gacc_t.copy()
+            data["position_of_max_deck_acceleration_whole_deck"] = grid[red.gacc_i]
+        else:  # no modes in the acceleration band (or no deck)
+            for name in ("max_deck_acceleration_whole_deck",
+                         "time_of_max_deck_acceleration_whole_deck",
+                         "position_of_max_deck_acceleration_whole_deck"):
+                data[name] = np.full(n_r, np.nan)
+        failed = self.status != ek.OK
+        if failed.any():
+            for a in data.values():
+                a[failed] = np.nan
+        return data
+
+    def comfort_points(self) -> tuple[np.ndarray, np.ndarray]:
+        """Comfort points of the reported car bodies: (body index, m ahead of the centre
+        of gravity), one entry per point (see ``VehicleArrays.body_pt_*``)."""
+        veh = self.packed.vehicles
+        body = np.repeat(np.arange(veh.body_dof.size), np.diff(veh.body_pt_start))
+        return body, veh.body_pt_d.copy()
+
+    def comfort_point_histories(self, r: int) -> np.ndarray:
+        """Car-body acceleration (m s-2, positive down) at every comfort point of run
+        ``r`` (which must have a slot), shape (time, point of :meth:`comfort_points`):
+        CG bounce + d x pitch acceleration."""
+        h = int(self.slots[r])
+        if h < 0:
+            raise ValueError(f"run {r} kept no histories")
+        n = int(self.n_steps[r]) + 1
+        body, d = self.comfort_points()
+        return self.out.body_acc[h, :n][:, body] + d * self.out.body_pitch[h, :n][:, body]
+
+    def histories(self, r: int) -> dict[str, np.ndarray]:
+        """Time histories of run ``r`` (which must have a slot): deck at the points,
+        contact forces and flags of every wheel (moving forces included), car bodies."""
+        h = int(self.slots[r])
+        if h < 0:
+            raise ValueError(f"run {r} kept no histories")
+        pk = self.packed
+        n = int(self.n_steps[r]) + 1
+        q, qdd = self.out.q[h, :n], self.out.qdd[h, :n]
+        disp = q @ self.phi_d.T
+        keep = np.any(self.phi_a != 0.0, axis=0)
+        acc = qdd[:, keep] @ self.phi_a[:, keep].T
+        n_l = pk.load_positions.size
+        X = np.concatenate([self.out.X[h, :n], np.broadcast_to(pk.vehicles.load_p, (n, n_l))],
+                           axis=1)
+        contact = np.concatenate([self.out.contact[h, :n], np.ones((n, n_l), np.int8)], axis=1)
+        body = self.out.body_acc[h, :n].copy()
+        if self.status[r] != ek.OK:
+            for a in (disp, acc, X, body):
+                a[...] = np.nan
+        return {"deck_displacement": disp, "deck_acceleration": acc, "contact_force": X,
+                "in_contact": contact, "carbody_acceleration": body}
+
+
+def run_batch(packed: Packed, profile: Profile, speeds, points, settings: SolverSettings,
+              bridge: ModalBridge, keep_histories=None, deck=None) -> BatchResult:
+    """Run one packed model at several speeds (m/s) in one kernel call.
+
+    Parameters
+    ----------
+    packed : Packed
+        From :func:`pack` (any speed: only its speed-independent arrays are used).
+    profile : Profile
+        The irregularity the model was packed with (for the initial states).
+    speeds : array_like
+        Speeds (m/s), one run each.
+    points : array_like
+        Deck output points (m).
+    keep_histories : array_like of bool, optional
+        Per run: keep its raw histories (default: none).
+    deck : tuple, optional
+        ``deck_operators(bridge, points, settings)`` when already computed; a 3-tuple
+        ``(phi_d, phi_a, cutoff)`` has no whole-deck grid (its envelopes are NaN).
+    """
+    speeds = np.ascontiguousarray(np.atleast_1d(np.asarray(speeds, float)))
+    if np.any(~(speeds > 0)):
+        raise ModelError(f"speed = {speeds[~(speeds > 0)][0]!r} m/s: expected > 0")
+    n_r = speeds.size
+    keep = np.zeros(n_r, bool) if keep_histories is None else np.asarray(keep_histories, bool)
+    n_steps = np.array([packed.n_steps(v) for v in speeds], np.int64)
+    deck = deck if deck is not None else deck_operators(bridge, points, settings)
+    phi_d, phi_a, cutoff = deck[:3]
+    grid_x, phi_g = (deck[3], deck[4]) if len(deck) > 3 else (np.zeros(0), np.zeros((0, 0)))
+    grid_x = np.ascontiguousarray(grid_x, dtype=np.float64)
+    phi_g = (np.ascontiguousarray(phi_g, dtype=np.float64) if grid_x.size
+             else np.zeros((0, 0)))
+    veh = packed.vehicles
+    n_m, n_v, n_w = packed.bridge.omega.size, packed.n_dof, veh.wheel_dof.size
+    n_b = veh.body_dof.size
+    n_p = phi_d.shape[0]
+    slots = np.full(n_r, -1, np.int64)
+    slots[keep] = np.arange(int(keep.sum()))
+    n_t = int(n_steps[keep].max()) + 1 if keep.any() else 0
+    out = _history_buffers(int(keep.sum()), n_t, n_m, n_w, n_b)
+    z = np.zeros
+    red = ek.Reduce(
+        phi_d=phi_d, phi_a=phi_a,
+        disp=z((n_r, n_p)), disp_t=z((n_r, n_p)), acc=z((n_r, n_p)), acc_t=z((n_r, n_p)),
+        xmin=z((n_r, n_w)), xmin_x=z((n_r, n_w)), xmax=z((n_r, n_w)),
+        body=z((n_r, n_b)), body_t=z((n_r, n_b)), body_x=z((n_r, n_b)),
+        lost=z((n_r, n_w), np.int64), longest=z((n_r, n_w), np.int64),
+        events=z((n_r, n_w), np.int64), single=z((n_r, n_w), np.int64),
+        run_len=z(n_w, np.int64), iters=z(n_r, np.int64),
+        phi_g=phi_g, phi_gmax=np.abs(phi_g).max(axis=1, initial=0.0) * (1.0 + 1e-12),
+        gacc=z(n_r), gacc_t=z(n_r), gacc_i=z(n_r, np.int64),
+        gwork=z(grid_x.size),
+    )
+    init = initial_states(packed, profile, speeds)
+    st = ek.State(*(np.empty_like(a[0]) for a in init))
+    bk = ek.State(*(np.empty_like(a[0]) for a in init))
+    wk = _workspace(n_m, n_v, n_w)
+    status = np.zeros(n_r, np.int64)
+    reached = np.zeros(n_r, np.int64)
+    t0 = _time.perf_counter()
+    ek.run_batch(packed.bridge, veh, packed.profile, packed.params, speeds, n_steps, init,
+                 st, bk, wk, red, out, slots, status, reached)
+    elapsed = _time.perf_counter() - t0
+    _flag_non_finite(status, reached, n_steps, slots, red, out)
+    return BatchResult(packed, speeds, n_steps, status, reached, slots, red, out, phi_d,
+                       phi_a, cutoff, elapsed, np.asarray(grid_x, float))
+
+
+#: Largest magnitude a result may have: histories are stored as float32.
+_STORABLE = float(np.finfo(np.float32).max)
+
+
+def _flag_non_finite(status, reached, n_steps, slots, red, out) -> None:
+    """Flag ``non_finite_state`` for the runs the kernel passed as ok whose envelopes or
+    histories are not finite or beyond the float32 range of the results file (the
+    kernel's check covers the state, not the outputs derived from it, e.g. the deck
+    response to a 1e300 N force)."""
+    envelopes = (red.disp, red.acc, red.xmin, red.xmax, red.body)
+    for r in np.flatnonzero(status == ek.OK):
+        bad = any(not np.all(np.abs(a[r]) <= _STORABLE) for a in envelopes)
+        step = int(n_steps[r])
+        h = int(slots[r])
+        if h >= 0:
+            n = step + 1
+            rows = np.zeros(n, bool)
+            for a in (out.q, out.qdd, out.X, out.body_acc):
+                v = a[h, :n].reshape(n, -1)
+                rows |= ~np.all(np.abs(v) <= _STORABLE, axis=1)
+            if rows.any():
+                bad, step = True, int(np.argmax(rows))
+        if bad:
+            status[r] = ek.NON_FINITE
+            reached[r] = step
+
+
+def run_kernel(packed: Packed, profile: Profile):
+    """Run the time loop at the packed speed, keeping the raw histories.
+
+    Returns (status, step reached, Output of that one run, elapsed seconds).
+    """
+    bridge_points = np.zeros((0, packed.bridge.omega.size))
+    res = _run_packed(packed, profile, bridge_points)
+    out = ek.Output(*(a[0] for a in res.out))
+    return int(res.status[0]), int(res.reached[0]), out, res.elapsed
+
+
+def _run_packed(packed, profile, phi):
+    """One run with histories and given deck operators (no bridge object needed)."""
+    return run_batch(packed, profile, [packed.params.speed], np.zeros(0),
+                     SolverSettings(dt=packed.params.dt), None, keep_histories=[True],
+                     deck=(phi, phi, float("nan")))

@@ -1,0 +1,361 @@
+"""Packing a model for the kernels: contiguous float64 arrays of the bridge (with its
+track), the vehicles and the profile, the effective-stiffness inverses, and the static
+equilibrium the runs start from."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from vsi_numba.kernels import engine as ek
+from vsi_numba.model.bridge import ModalBridge
+from vsi_numba.model.irregularity import Profile, no_irregularity
+from vsi_numba.model.vehicle import Train
+from vsi_numba.solver.settings import CONTACT_MODELS, SolverSettings
+
+
+class ModelError(ValueError):
+    """The model cannot be analysed (e.g. a singular vehicle)."""
+
+
+@dataclass(frozen=True)
+class Packed:
+    """Kernel inputs of one case, plus what the wrapper needs to label the outputs."""
+
+    bridge: ek.BridgeArrays
+    vehicles: ek.VehicleArrays
+    profile: ek.ProfileArrays
+    params: ek.Params
+    n_dof: int
+    wheel_positions: np.ndarray  # m behind the first axle, per wheel (dynamic wheels first)
+    load_positions: np.ndarray
+    vehicle_names: list  # one per reported car body
+    run_length: float = 0.0  # m the first axle travels until the last leaves the bridge
+    free_vibration: float = 0.0  # s simulated after that
+    static_loads: np.ndarray | None = None  # N, static contact force of every wheel
+
+    def n_steps(self, speed: float) -> int:
+        """Time steps of a run at ``speed`` (m/s)."""
+        t_exit = self.run_length / speed
+        return int(math.ceil((t_exit + self.free_vibration) / self.params.dt - 1e-9))
+
+
+def _pack_bridge(bridge: ModalBridge) -> ek.BridgeArrays:
+    n_m = bridge.n_modes
+    f64 = np.float64
+    if bridge.kind == 1:
+        amp = np.ascontiguousarray(bridge.values[0], dtype=f64)
+        k = np.pi * np.arange(1, n_m + 1, dtype=f64) / bridge.length
+    else:
+        amp = np.zeros(n_m)
+        k = np.zeros(n_m)
+    nodes = np.ascontiguousarray(bridge.nodes if bridge.kind == 2 else np.zeros(2), dtype=f64)
+    vals = bridge.values if bridge.kind == 2 else np.zeros((2, n_m))
+    slopes = bridge.slopes if bridge.kind == 2 else np.zeros((2, n_m))
+    track = {}
+    if bridge.track is not None:
+        t_nodes, t_vals, t_slopes = bridge.track.filtered_shapes(bridge)
+        track = dict(track=1, t_nodes=t_nodes, t_values=np.ascontiguousarray(t_vals, f64),
+                     t_slopes=np.ascontiguousarray(t_slopes, f64))
+    return ek.BridgeArrays(
+        kind=int(bridge.kind),
+        length=float(bridge.length),
+        omega=np.ascontiguousarray(bridge.omega, dtype=f64),
+        zeta=np.ascontiguousarray(bridge.damping, dtype=f64),
+        sine_amp=amp,
+        sine_k=k,
+        nodes=nodes,
+        values=np.ascontiguousarray(vals, dtype=f64),
+        slopes=np.ascontiguousarray(slopes, dtype=f64),
+        **track,
+    )
+
+
+def _effective_stiffness(M, C, K, dt, alpha):
+    beta = 0.25 * (1.0 - alpha) ** 2
+    gamma = 0.5 - alpha
+    return M / (beta * dt * dt) + (1.0 + alpha) * (gamma / (beta * dt) * C + K)
+
+
+def _vehicle_inverses(v, settings, levels):
+    """K^-1 for dt/2^k (k < levels), M^-1 on the DOFs with mass, and that mask."""
+    n = v.n_dof
+    kh_inv = np.zeros((levels, n, n))
+    for lev in range(levels):
+        h = settings.dt / 2**lev
+        kh = _effective_stiffness(v.M, v.C, v.K, h, settings.hht_alpha)
+        # conditioning of the equilibrated matrix D^-1/2 K^ D^-1/2: a massless wheel DOF
+        # (K only, ~1e6) next to a body DOF (M / (beta h^2), ~1e16 at h = dt/2^15) is
+        # badly scaled, not singular
+        d = np.sqrt(np.abs(np.diag(kh)))
+        if np.any(d == 0.0) or not np.all(np.isfinite(kh)):
+            raise ModelError(
+                f"vehicle {v.name!r}: singular effective stiffness at the time step "
+                f"{h:.3g} s: a DOF with neither mass nor stiffness (zero on the diagonal)"
+            )
+        cond = np.linalg.cond(kh / np.outer(d, d))
+        if not cond <= 1e13:
+            raise ModelError(
+                f"vehicle {v.name!r}: singular effective stiffness at the time step "
+                f"{h:.3g} s (condition number {cond:.3g} after scaling): a mechanism "
+                "(DOFs that move together with neither mass nor stiffness), or masses and "
+                "stiffnesses too far apart for double precision"
+            )
+        kh_inv[lev] = np.linalg.inv(kh)
+    massive = np.any(v.M != 0.0, axis=1)
+    m_inv = np.zeros((n, n))
+    if massive.any():
+        mm = v.M[np.ix_(massive, massive)]
+        if np.linalg.cond(mm) > 1e13:
+            raise ModelError(f"vehicle {v.name!r}: singular mass matrix")
+        m_inv[np.ix_(np.flatnonzero(massive), np.flatnonzero(massive))] = np.linalg.inv(mm)
+    return kh_inv, m_inv, massive
+
+
+def pack(
+    bridge: ModalBridge,
+    train: Train,
+    speed: float,
+    profile: Profile | None,
+    settings: SolverSettings,
+) -> Packed:
+    """Turn the model into kernel arrays (SI units, C-contiguous float64)."""
+    if not speed > 0:
+        raise ModelError(f"speed = {speed!r} m/s: expected > 0")
+    profile = profile if profile is not None else no_irregularity()
+    dyn = [(i, v, o) for i, (v, o) in enumerate(zip(train.vehicles, train.offsets, strict=True))
+           if v.n_dof > 0]
+    n_veh = len(dyn)
+    nb = max([v.n_dof for _, v, _ in dyn], default=1)
+    levels = settings.max_subdivisions + 1
+    start = np.zeros(n_veh + 1, dtype=np.int64)
+    M = np.zeros((n_veh, nb, nb))
+    C = np.zeros_like(M)
+    K = np.zeros_like(M)
+    Kh = np.zeros((levels, n_veh, nb, nb))
+    Mi = np.zeros_like(M)
+    grav, wdof, wveh, wpos, wmassless, body, body_names = [], [], [], [], [], [], []
+    pt_start, pt_pitch, pt_d = [0], [], []
+    inverses: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+    for b, (_, v, off) in enumerate(dyn):
+        n = v.n_dof
+        start[b + 1] = start[b] + n
+        M[b, :n, :n] = v.M
+        C[b, :n, :n] = v.C
+        K[b, :n, :n] = v.K
+        if id(v) not in inverses:  # a train repeats the same car: invert once
+            inverses[id(v)] = _vehicle_inverses(v, settings, levels)
+        kh_inv, m_inv, massive = inverses[id(v)]
+        Kh[:, b, :n, :n] = kh_inv
+        Mi[b, :n, :n] = m_inv
+        for kdof, p in zip(v.wheel_dofs, v.wheel_positions, strict=True):
+            wdof.append(start[b] + kdof)
+            wveh.append(b)
+            wpos.append(off + p)
+            wmassless.append(0 if massive[kdof] else 1)
+        grav.append(v.gravity)
+        for k, d in enumerate(v.body_dofs):
+            body.append(start[b] + d)
+            body_names.append(v.name if len(v.body_dofs) == 1 else f"{v.name}:{v.dof_names[d]}")
+            for th, dist in v.body_comfort_points(k):
+                pt_pitch.append(start[b] + th if th >= 0 else -1)
+                pt_d.append(dist)
+            pt_start.append(len(pt_d))
+    lpos, lp = [], []
+    for v, off in zip(train.vehicles, train.offsets, strict=True):
+        lpos.extend(off + v.load_positions)
+        lp.extend(v.loads)
+    wpos = np.asarray(wpos, float)
+    lpos = np.asarray(lpos, float)
+    x_front = -settings.approach
+    veh = ek.VehicleArrays(
+        start=start,
+        M=M, C=C, K=K, Khat_inv=Kh, M_inv=Mi,
+        gravity=np.ascontiguousarray(np.concatenate(grav) if grav else np.zeros(0)),
+        wheel_dof=np.asarray(wdof, dtype=np.int64),
+        wheel_veh=np.asarray(wveh, dtype=np.int64),
+        wheel_x0=np.ascontiguousarray(x_front - wpos),
+        wheel_massless=np.asarray(wmassless, dtype=np.int64),
+        wheel_compliance=np.zeros(len(wdof)),
+        body_dof=np.asarray(body, dtype=np.int64),
+        load_x0=np.ascontiguousarray(x_front - lpos),
+        load_p=np.asarray(lp, dtype=np.float64),
+        body_pt_start=np.asarray(pt_start, dtype=np.int64),
+        body_pt_pitch=np.asarray(pt_pitch, dtype=np.int64),
+        body_pt_d=np.asarray(pt_d, dtype=np.float64),
+        track_C=(bridge.track.compliance(x_front - wpos) if bridge.track is not None
+                 else np.zeros((len(wdof), len(wdof)))),
+    )
+    if settings.contact_model == "hertz_linear" and len(wdof):
+        q0 = _static_loads(veh)
+        if np.any(q0 <= 0):
+            raise ModelError("linearised Hertz contact needs a positive static load on every "
+                             "wheel")
+        # k_H = dN/d(delta) at N0 = 3 N0^(1/3) / (2 G)
+        veh = veh._replace(wheel_compliance=2.0 * settings.hertz_coefficient
+                           / (3.0 * np.cbrt(q0)))
+    all_pos = np.concatenate([wpos, lpos])
+    last = all_pos.max() if all_pos.size else 0.0
+    run_length = bridge.length + settings.approach + last
+    t_exit = run_length / speed
+    n_steps = int(math.ceil((t_exit + settings.free_vibration) / settings.dt - 1e-9))
+    wheel_load = max(float(np.max(np.abs(veh.gravity), initial=0.0)), 1.0)
+    params = ek.Params(
+        dt=float(settings.dt),
+        alpha=float(settings.hht_alpha),
+        speed=float(speed),
+        n_steps=n_steps,
+        max_iter=int(settings.max_iterations),
+        tol_gap=1e-12 * max(bridge.length, 1.0),
+        tol_force=1e-9 * wheel_load,
+        max_sub=int(settings.max_subdivisions),
+        contact_model=CONTACT_MODELS[settings.contact_model],
+        hertz_g=float(settings.hertz_coefficient),
+    )
+    pr = ek.ProfileArrays(
+        x0=float(profile.x0), dx=float(profile.dx),
+        coef=np.ascontiguousarray(profile.coef, dtype=np.float64).reshape(-1, 4),
+    )
+    return Packed(
+        bridge=_pack_bridge(bridge), vehicles=veh, profile=pr, params=params,
+        n_dof=int(start[-1]), wheel_positions=wpos, load_positions=lpos,
+        vehicle_names=body_names, run_length=float(run_length),
+        free_vibration=float(settings.free_vibration), static_loads=_static_loads(veh),
+    )
+
+
+def _dense(veh: ek.VehicleArrays, A: np.ndarray) -> np.ndarray:
+    n = int(veh.start[-1])
+    out = np.zeros((n, n))
+    for b in range(veh.start.size - 1):
+        s, e = veh.start[b], veh.start[b + 1]
+        out[s:e, s:e] = A[b, : e - s, : e - s]
+    return out
+
+
+def _kkt(A, G, rhs_top, rhs_bottom, compliance=None):
+    """Solve [A G^T; G -C] [x; y] = [rhs_top; rhs_bottom] (C = 0 without ``compliance``).
+
+    The constraint rows are scaled to the size of ``A`` first: unscaled, a stiffness of
+    1e7 N/m next to unit constraint rows makes the system so badly conditioned that the
+    constraints are lost to round-off.
+    """
+    n, m = A.shape[0], G.shape[0]
+    s = max(float(np.max(np.abs(A), initial=0.0)), 1e-300)
+    kkt = np.zeros((n + m, n + m))
+    kkt[:n, :n] = A
+    kkt[:n, n:] = s * G.T
+    kkt[n:, :n] = s * G
+    if compliance is not None:
+        kkt[n:, n:] = -s * s * compliance
+    rhs = np.concatenate([rhs_top, s * np.asarray(rhs_bottom, float)])
+    try:
+        sol = np.linalg.solve(kkt, rhs)
+    except np.linalg.LinAlgError:
+        sol = np.linalg.lstsq(kkt, rhs, rcond=None)[0]
+    return sol[:n], s * sol[n:]
+
+
+def _static_loads(veh: ek.VehicleArrays) -> np.ndarray:
+    n_w = veh.wheel_dof.size
+    if n_w == 0:
+        return np.zeros(0)
+    G = np.zeros((n_w, int(veh.start[-1])))
+    G[np.arange(n_w), veh.wheel_dof] = 1.0
+    _, X = _kkt(_dense(veh, veh.K), G, veh.gravity, np.zeros(n_w))
+    return X
+
+
+def static_wheel_loads(packed: Packed) -> np.ndarray:
+    """Static contact forces (N) of every wheel on level rigid track."""
+    return _static_loads(packed.vehicles)
+
+
+def initial_state(packed: Packed, profile: Profile) -> ek.State:
+    """Static equilibrium on the approach track, with velocities and accelerations
+    compatible with the rail (the train enters at constant speed)."""
+    init = initial_states(packed, profile, [packed.params.speed])
+    return ek.State(*(np.ascontiguousarray(a[0]) for a in init))
+
+
+def initial_states(packed: Packed, profile: Profile, speeds) -> ek.Initial:
+    """:func:`initial_state` of every speed (m/s), one row per speed.
+
+    The static part (displacements, static contact forces) does not depend on the speed
+    and is solved once; velocities and accelerations are solved per speed.
+    """
+    veh = packed.vehicles
+    speeds = np.atleast_1d(np.asarray(speeds, float))
+    n_r = speeds.size
+    n_m = packed.bridge.omega.size
+    n_v = packed.n_dof
+    n_w = veh.wheel_dof.size
+    x0 = veh.wheel_x0
+    G = np.zeros((n_w, n_v))
+    G[np.arange(n_w), veh.wheel_dof] = 1.0
+    Kd, Md, Cd = _dense(veh, veh.K), _dense(veh, veh.M), _dense(veh, veh.C)
+    if np.any(x0 > 0.0):
+        raise ModelError("every axle must start on the approach track (x <= 0)")
+    r0, r1, r2 = profile(x0), profile(x0, 1), profile(x0, 2)
+    br = packed.bridge
+    q0 = np.zeros(n_m)
+    if br.track == 1 and n_v:
+        # elastic track: the rail deflects under the wheels (compliance C) and, within
+        # its reach of a deck end, bends the deck too (filtered shapes phit at the
+        # wheels): static equilibrium of deck modes and vehicles together,
+        # [diag(w^2) 0; 0 K] z + B^T X = [0; g],  B z - C X = r0 with B = [-phit, G]
+        from vsi_numba.model.track import hermite_table
+
+        phit = hermite_table(br.t_nodes, br.t_values, br.t_slopes, x0) if n_m else \
+            np.zeros((n_w, 0))
+        A = np.zeros((n_m + n_v, n_m + n_v))
+        A[:n_m, :n_m] = np.diag(br.omega**2)
+        A[n_m:, n_m:] = Kd
+        Bz = np.hstack([-phit, G])
+        top = np.concatenate([np.zeros(n_m), veh.gravity])
+
+        def static(extra):
+            z, X = _kkt(A, Bz, top, r0 + extra, compliance=veh.track_C)
+            return z[:n_m], z[n_m:], X
+    else:
+        def static(extra):
+            u, X = _kkt(Kd, G, veh.gravity, r0 + extra)
+            return q0, u, X
+    q0, u, X = static(np.zeros(n_w)) if n_v else (q0, np.zeros(0), np.zeros(0))
+    prm = packed.params
+    if n_v and prm.contact_model != 0:
+        # compliant contact: the wheels sit delta(X) below the rail top; the static
+        # forces of an indeterminate vehicle depend on delta, so iterate
+        for _ in range(50):
+            if prm.contact_model == 1:
+                delta = prm.hertz_g * np.cbrt(np.clip(X, 0.0, None)) ** 2
+            else:
+                delta = veh.wheel_compliance * X
+            q0, u, X_new = static(delta)
+            done = np.max(np.abs(X_new - X)) <= 1e-9 * max(np.max(np.abs(X)), 1.0)
+            X = X_new
+            if done:
+                break
+    init = ek.Initial(
+        q=np.zeros((n_r, n_m)), qd=np.zeros((n_r, n_m)), qdd=np.zeros((n_r, n_m)),
+        u=np.zeros((n_r, n_v)), ud=np.zeros((n_r, n_v)), udd=np.zeros((n_r, n_v)),
+        fq_tot=np.zeros((n_r, n_m)), fv_tot=np.zeros((n_r, n_v)), X=np.zeros((n_r, n_w)),
+    )
+    for r, v in enumerate(speeds):
+        if n_v:
+            ud, _ = _kkt(Md, G, np.zeros(n_v), v * r1)
+            udd, Xr = _kkt(Md, G, veh.gravity - Cd @ ud - Kd @ u, v * v * r2)
+        else:
+            ud, udd, Xr = np.zeros(0), np.zeros(0), np.zeros(0)
+        fv = veh.gravity.copy()
+        np.subtract.at(fv, veh.wheel_dof, Xr)
+        init.q[r] = q0
+        init.fq_tot[r] = br.omega**2 * q0  # the static modal load of the wheels
+        init.u[r] = u
+        init.ud[r] = ud
+        init.udd[r] = udd
+        init.fv_tot[r] = fv
+        init.X[r] = Xr
+    return init

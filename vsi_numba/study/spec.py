@@ -1,0 +1,221 @@
+"""What a study computes from: the resolved configuration (:class:`StudySpec`, what a
+worker receives) and the model built from it once per process (:class:`StudyModel`:
+bridge, trains, profiles, deck operators), its run grid, batch plan and fingerprints,
+and the coordinates of a parametric study's variants."""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from vsi_numba.study.batches import Batch, plan_batches
+from vsi_numba.study.grid import StudyGrid, history_mask, make_grid, profile_range
+
+
+@dataclass(frozen=True)
+class StudyModel:
+    """Everything a batch needs, rebuilt from the resolved configuration."""
+
+    config: object
+    bridge: object
+    trains: tuple
+    settings: object
+    output_points: np.ndarray
+    profiles: dict
+    x_range: tuple[float, float]
+    speeds_kmh: np.ndarray
+    deck: tuple  # (phi_d, phi_a, cut-off Hz) at the output points
+
+
+class StudySpec(NamedTuple):
+    """What a worker needs to rebuild a study's model.
+
+    The resolved configuration (JSON) and the directory its relative paths (profile file,
+    train file) resolve against.
+    """
+
+    config_json: str
+    base_dir: str
+
+
+def study_spec(config) -> StudySpec:
+    """:class:`StudySpec` of a ``Config``, a resolved-config dict or JSON string, or a spec.
+
+    Dicts and JSON strings resolve relative paths against the working directory.
+    """
+    if isinstance(config, StudySpec):
+        return config
+    if isinstance(config, str):
+        return StudySpec(config, str(Path.cwd()))
+    if isinstance(config, dict):
+        return StudySpec(json.dumps(config, sort_keys=True, separators=(",", ":")),
+                         str(Path.cwd()))
+    return StudySpec(config.to_json(), str(config.base_dir))
+
+
+def _load(config):
+    """Return a ``Config`` from a path, mapping, :class:`StudySpec` or ``Config``."""
+    from vsi_numba.config import load_config
+
+    if isinstance(config, StudySpec):
+        return load_config(json.loads(config.config_json), base_dir=config.base_dir)
+    if isinstance(config, str | os.PathLike | dict):
+        return load_config(config)
+    return config
+
+
+_MODELS: dict = {}
+
+
+def study_model(spec: StudySpec) -> StudyModel:
+    """Build (once per process) the bridge, trains and profiles of a configuration."""
+    model = _MODELS.get(spec)
+    if model is None:
+        model = _build_model(_load(spec))
+        if len(_MODELS) >= 4:
+            _MODELS.pop(next(iter(_MODELS)))
+        _MODELS[spec] = model
+    return model
+
+
+def _remember(spec: StudySpec, model: StudyModel) -> None:
+    """Seed the per-process model cache (the parent built the model already)."""
+    _MODELS[spec] = model
+
+
+def _build_model(cfg) -> StudyModel:
+    from vsi_numba.solver.simulate import deck_operators, default_points
+
+    bridge = cfg.build_bridge()
+    trains = tuple(cfg.trains())
+    settings = cfg.solver_settings()
+    x_range = profile_range(bridge.length, [t.length for t in trains], settings.approach,
+                            settings.free_vibration)
+    profiles = dict(cfg.irregularities(*x_range))
+    points = default_points(bridge, cfg.output_points)
+    return StudyModel(cfg, bridge, trains, settings, points, profiles, x_range,
+                      np.asarray(cfg.speeds_kmh, float),
+                      deck_operators(bridge, points, settings))
+
+
+def model_fingerprint(model: StudyModel) -> str:
+    """SHA-256 of the numbers the cases are computed from.
+
+    The configuration's hash does not see data it only names: a train preset (library
+    data), a profile file, the bridge built by this version.  This hash covers the built
+    bridge, trains, profiles, solver settings and output points, so a store is refused
+    when any of them changed even if the configuration text did not.
+    """
+    import hashlib
+
+    h = hashlib.sha256()
+
+    def add(value):
+        if isinstance(value, np.ndarray) and value.dtype.kind in "biufc":
+            a = np.ascontiguousarray(value)
+            h.update(f"{a.dtype.str}{a.shape}".encode())
+            h.update(a.tobytes())
+        else:
+            text = repr(value.tolist() if isinstance(value, np.ndarray) else value)
+            if " at 0x" in text:  # an object without a stable repr: its type only
+                text = type(value).__qualname__
+            h.update(text.encode())
+
+    def add_fields(obj):
+        if dataclasses.is_dataclass(obj):
+            for f in dataclasses.fields(obj):
+                add(f.name)
+                add_fields(getattr(obj, f.name))
+        elif isinstance(obj, tuple | list):
+            for item in obj:
+                add_fields(item)
+        else:
+            add(obj)
+
+    add_fields(model.bridge)
+    add_fields(model.trains)
+    for rid, p in model.profiles.items():
+        add(rid)
+        add(float(p.x0))
+        add(float(p.dx))
+        add(p.coef)
+    add(repr(model.settings))
+    add(model.output_points)
+    return h.hexdigest()
+
+
+def study_grid(model: StudyModel) -> StudyGrid:
+    """Return the run grid of a configuration (deterministic order)."""
+    cfg = model.config
+    hist = history_mask(cfg.speeds_kmh, bool(cfg.save_time_histories),
+                        getattr(cfg, "history_speeds_kmh", None))
+    return make_grid(cfg.speeds_kmh, [t.name for t in model.trains], list(model.profiles),
+                     hist)
+
+
+def _packed_trains(spec: StudySpec, model: StudyModel) -> list:
+    from vsi_numba.study.batches import _packed_train
+
+    return [_packed_train(spec, i) for i in range(len(model.trains))]
+
+
+def study_plan(spec: StudySpec, model: StudyModel, grid: StudyGrid,
+               variant: int | None = None, start: int = 0) -> list[Batch]:
+    """The batch plan of a study (deterministic, see :mod:`.batches`)."""
+    return plan_batches(grid, _packed_trains(spec, model), model.output_points.size,
+                        variant=variant, start=start)
+
+
+def coordinate_name(key_path: str) -> str:
+    """netCDF name of the variant coordinate of a varied key path
+    (``bridge.track.pad_stiffness`` -> ``bridge_track_pad_stiffness``)."""
+
+    return re.sub(r"[^A-Za-z0-9_]+", "_", key_path).strip("_")
+
+
+#: Units of the usual varied keys (the variant coordinates' ``units``).
+VARY_UNITS = {"EI": "N m2", "mass_per_length": "kg m-1", "damping_ratio": "1", "spans": "m",
+              "hertz_coefficient": "m N-2/3", "pad_stiffness": "N m-1",
+              "ballast_stiffness": "N m-1", "rail_EI": "N m2", "mass_factor": "1",
+              "dt": "s", "hht_alpha": "1", "n_modes": "1"}
+
+
+def variant_coords(labels: list[dict]) -> dict:
+    """The ``variant`` coordinates of a study: one per varied key path."""
+    from vsi_numba.config import MASS_FACTOR
+
+    coords = {}
+    for key in labels[0]:
+        values = [lab[key] for lab in labels]
+        if all(isinstance(v, list) and len(v) == 1 for v in values):
+            values = [v[0] for v in values]  # e.g. the one span of a simply supported deck
+        numeric = all(isinstance(v, int | float) and not isinstance(v, bool) for v in values)
+        if key == "label":
+            coords["label"] = (np.array([str(v) for v in values], dtype=object),
+                               {"units": "1", "long_name": "label of the variant "
+                                "(study.vary_together label)"})
+            continue
+        leaf = key.split(".")[-1].split("[")[0]
+        attrs = {"units": VARY_UNITS.get(leaf, "1"), "key_path": key,
+                 "long_name": (f"varied configuration key {key}" if key != MASS_FACTOR else
+                               "factor on bridge.mass_per_length (study.mass_bounds)")}
+        if numeric:
+            coords[coordinate_name(key)] = (np.asarray(values, float), attrs)
+        else:
+            coords[coordinate_name(key)] = (np.array([json.dumps(v) for v in values],
+                                                     dtype=object), attrs)
+    return coords
+
+
+def plan_fingerprint(plan: list[Batch]) -> str:
+    """SHA-256 of the batch keys and their runs (a store is only resumed by its plan)."""
+    text = ";".join(f"{b.key}:{b.histories}" for b in plan)
+    return hashlib.sha256(text.encode()).hexdigest()

@@ -47,10 +47,6 @@ KNOWN_EXCEPTIONS = {
     # same realisation.  Documented in the README's code map.
     ("vsi_numba.analysis.recompute", "vsi_numba.solver.simulate"): "re-run one case",
     ("vsi_numba.analysis.recompute", "vsi_numba.study.grid"): "the study's track range",
-    # TODO(issue 13): config.py checks the size of a random profile over the study's
-    # track range (study.grid.profile_range); config.py is being changed on another
-    # branch: move profile_range below the config layer then.
-    ("vsi_numba.config", "vsi_numba.study.grid"): "the study's track range",
 }
 
 

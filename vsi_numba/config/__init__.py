@@ -95,7 +95,7 @@ from vsi_numba.config.bridge import (
     MIN_SPAN,
     TRACK_TYPES,
 )
-from vsi_numba.config.core import Config, _validate, load_config, load_config_for_cli
+from vsi_numba.config.core import Config, _validate, load_config
 from vsi_numba.config.irregularity import DEFECT_KINDS, IRREGULARITY_KINDS, _defect_profile
 from vsi_numba.config.limits import (
     DT_ERROR,

@@ -1,5 +1,5 @@
-"""The validated configuration: :class:`Config`, :func:`load_config` (TOML reading, the
-section readers in file order, the whole-model checks, the variants) and the CLI helper."""
+"""The validated configuration: :class:`Config` and :func:`load_config` (TOML reading, the
+section readers in file order, the whole-model checks, the variants)."""
 
 from __future__ import annotations
 
@@ -408,17 +408,3 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     )
     cfg.warning_records = [dict(r) for r in chk.records]
     return cfg
-
-
-def load_config_for_cli(path, console) -> Config | None:
-    """``load_config`` for a command: on a config error print every message on
-    ``console`` (a rich Console) and return None (the command then exits with 2)."""
-    try:
-        return load_config(path)
-    except ConfigError as exc:
-        from rich.markup import escape
-
-        console.print(f"[bold red]error[/]: {escape(str(path))}: invalid configuration",
-                      highlight=False)
-        console.print(str(exc), highlight=False, markup=False)
-        return None

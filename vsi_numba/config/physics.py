@@ -22,6 +22,7 @@ from vsi_numba.config.limits import (
     MAX_STEPS,
     STEPS_PER_WAVELENGTH,
 )
+from vsi_numba.en1990 import frequency_cutoff
 from vsi_numba.model import irregularity as _irr
 from vsi_numba.model import track as _track
 from vsi_numba.model.irregularity import profile_range
@@ -40,12 +41,6 @@ def _wheel_loads(v) -> np.ndarray:
         return static_axle_loads(v)[: v.n_wheels]
     except (ValueError, np.linalg.LinAlgError):
         return np.full(v.n_wheels, v.total_weight / v.n_wheels)
-
-
-def _acceleration_cutoff(freqs) -> float:
-    """EN 1990 A2.4.4.2.1: the modes up to max(30 Hz, 1.5 f1, f3) enter the deck
-    acceleration (``freqs`` ascending, at least one)."""
-    return float(max(30.0, 1.5 * freqs[0], freqs[2] if len(freqs) >= 3 else 0.0))
 
 
 def _highest_wheel_frequency(train, wheel_stiffness) -> tuple[float, str]:
@@ -157,7 +152,7 @@ def _physics_warnings(chk, bridge, train, irr, solver, study, contact, track):
         freqs = np.asarray(model.frequencies, float)
         f_cut = solver["acceleration_cutoff"]
         if f_cut is None:
-            f_cut = _acceleration_cutoff(freqs)
+            f_cut = frequency_cutoff(freqs)
         f_chk = float(freqs[freqs <= f_cut * (1 + 1e-9)].max(initial=freqs[0]))
         if dt * f_chk > DT_ERROR and not solver.get("allow_coarse_dt"):
             chk.errors.append(
@@ -188,7 +183,7 @@ def _physics_warnings(chk, bridge, train, irr, solver, study, contact, track):
             cut = solver["acceleration_cutoff"]
             rule = "solver.acceleration_cutoff"
             if cut is None:
-                cut = _acceleration_cutoff(allf)
+                cut = frequency_cutoff(allf)
                 rule = "the EN 1990 A2.4.4.2.1 cut-off max(30 Hz, 1.5 f1, f3)"
             missing = int(np.count_nonzero(allf <= cut * (1 + 1e-9))) - model.n_modes
             if missing > 0:

@@ -157,7 +157,7 @@ def _refine_resonance(study, bridge, train):
     f1 = float(bridge.model.frequencies[0])
     extra = []
     for tr in train.trains:
-        d = float(getattr(tr, "regular_length", 0.0) or 0.0)
+        d = float(tr.regular_length)
         if d > 0:
             for v in resonance_speeds_kmh(f1, d, RESONANCE_ORDERS):
                 extra += [round(v + dv, 1) for dv in (-1.0, 0.0, 1.0)]

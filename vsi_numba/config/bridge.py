@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from vsi_numba import en1991
+from vsi_numba import en1990, en1991
 from vsi_numba.config._check import (
     _BAD,
     _MISSING,
@@ -68,7 +68,8 @@ def _per_span(chk, tbl, path, key, expected, n_spans):
     return v
 
 
-TRACK_TYPES = ("ballasted", "direct_fastening")
+#: The track forms of EN 1990 A2.4.4.2.1(4)P (each with its deck-acceleration limit).
+TRACK_TYPES = tuple(en1990.DECK_ACCELERATION_LIMITS)
 
 
 def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeSpec | _Sentinel:

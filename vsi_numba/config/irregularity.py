@@ -36,7 +36,6 @@ _DEFECT_FIELDS: dict[str, dict[str, _Num]] = {
         "position": _Num("a position x (m) where the transition starts"),
     },
 }
-_STEP_SHAPES = ("cosine", "quintic")
 _PSD_FIELDS = {
     "wavelength_min": _Num("a wavelength > 0 m", gt=0),
     "wavelength_max": _Num("a wavelength > 0 m", gt=0),
@@ -51,7 +50,7 @@ def _defect(chk, d, path, kind) -> dict | _Sentinel:
     if _ok(vals[amp]) and vals[amp] == 0.0:
         vals[amp] = chk.error(_join(path, amp), d[amp], _DEFECT_FIELDS[kind][amp].expected)
     if kind == "step":
-        vals["shape"] = chk.choice(d, path, "shape", _STEP_SHAPES, default="cosine")
+        vals["shape"] = chk.choice(d, path, "shape", _irr.STEP_SHAPES, default="cosine")
     if not _ok(*vals.values()):
         return _BAD
     return {"kind": kind, **vals}

@@ -27,7 +27,7 @@ from vsi_numba.model import library as _lib
 from vsi_numba.model import vehicle as _veh
 
 VEHICLE_KINDS = ("force", "sprung_mass", "car", "user")
-TRAIN_MODELS = ("interaction", "moving_force")
+TRAIN_MODELS = _lib.MODELS
 _VEHICLE_FIELDS: dict[str, dict[str, _Num]] = {
     "force": {"load": _Num("a force > 0 N (positive down)", gt=0)},
     "sprung_mass": {

@@ -70,6 +70,10 @@ def cosine_defect(
 # --------------------------------------------------------------------------- isolated defects
 
 
+#: The transition shapes of :func:`step_defect`.
+STEP_SHAPES = ("cosine", "quintic")
+
+
 def step_defect(
     height: float,
     length: float,
@@ -113,7 +117,7 @@ def step_defect(
             f"step_defect: x_stop = {x_stop!r} m must be >= position + length = "
             f"{position + length!r} m"
         )
-    if shape not in ("cosine", "quintic"):
+    if shape not in STEP_SHAPES:
         raise ValueError(f"step_defect: shape must be 'cosine' or 'quintic', got {shape!r}")
 
     def func(x):

@@ -348,3 +348,32 @@ def test_run_study__a_seed_is_the_same_track_whatever_the_trains(tmp_path):
             # (amplified to ~4e-9 by the wheel-on-track resonance of the elastic track;
             # another realisation would differ by O(1))
             np.testing.assert_allclose(got.values, ref.values, rtol=1e-8, err_msg=name)
+
+
+def test_vsi_run__is_the_sweep_restricted_to_its_first_case(study_config, serial_result,
+                                                            tmp_path, capsys):
+    """`vsi run` goes through the study engine: its file has the study layout (train and
+    irregularity of length one) and every variable equals the sweep's first train on the
+    first realisation, bit for bit; no case store is left behind."""
+    from vsi_numba.cli.run import run_command
+
+    out = tmp_path / "run.nc"
+    assert run_command(study_config, out, quiet=True) == 0
+    assert not store_path(out).exists()
+    ref = serial_result.isel(train=[0], irregularity=[0])
+    with open_results(out) as ds:
+        assert dict(ds.sizes)["train"] == 1 and dict(ds.sizes)["irregularity"] == 1
+        assert ds["train"].values.tolist() == ref["train"].values.tolist()
+        assert ds["irregularity"].values.tolist() == [1]
+        assert ds.attrs["history"].split(" ", 1)[1].startswith("vsi run")
+        names = set(ENVELOPES) | set(HISTORIES) | {"status", "message", "static_wheel_load",
+                                                   "max_static_deck_displacement"}
+        for name in sorted(names & set(ds.variables)):
+            got, want = ds[name].load(), ref[name].load()
+            if "wheel" in got.dims:  # the sweep pads to the longest train's wheels
+                want = want.isel(wheel=slice(0, got.sizes["wheel"]))
+            if "vehicle" in got.dims:
+                want = want.isel(vehicle=slice(0, got.sizes["vehicle"]))
+            if "time" in got.dims:
+                want = want.isel(time=slice(0, got.sizes["time"]))
+            np.testing.assert_array_equal(got.values, want.values, err_msg=name)

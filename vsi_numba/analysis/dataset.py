@@ -1,11 +1,13 @@
 """Bring a results Dataset (single run or study) to the full study layout.
 
-A study file has every case variable on the leading dims ``(speed, train, irregularity)``;
-a single ``vsi run`` file may lack ``train`` and ``irregularity`` (one train, one
-realisation) or even ``speed`` (one speed, as a scalar coordinate).  :func:`prepare` adds
-the missing dims (length 1) to exactly the variables that carry them in a study, so every
-analysis function can assume one layout.  It also NaN-masks cases whose ``status`` is not 0
-and adds ``speed_kmh`` when it is missing.
+Every results file written by this version (``vsi sweep``, and ``vsi run``, which is the
+study engine restricted to one case) has every case variable on the leading dims
+``(speed, train, irregularity)``; :func:`prepare` then only NaN-masks the cases whose
+``status`` is not 0.  Files of earlier versions of ``vsi run``, and datasets made by hand,
+may lack ``train`` and ``irregularity`` (one train, one realisation) or even ``speed``
+(a scalar coordinate): :func:`prepare` adds the missing dims (length 1) to exactly the
+variables that carry them in a study, and ``speed_kmh`` when it is missing, so every
+analysis function can assume one layout.
 """
 
 from __future__ import annotations

@@ -13,6 +13,7 @@ import json
 import numpy as np
 import xarray as xr
 
+from vsi_numba.io.netcdf import CONVENTIONS
 from vsi_numba.io.schema import attrs_for
 
 
@@ -170,10 +171,6 @@ def synthetic_results(
             ds[name].attrs.update(attrs_for(name))
         except KeyError:
             pass
-    ds["max_static_deck_displacement"].attrs.update(
-        units="m", long_name="maximum static vertical deck displacement", positive="down")
-    ds["train_regular_length"].attrs.update(units="m", long_name="regular coach length D")
-    ds["train_status"].attrs.update(long_name="train data status")
     ds["contact_loss_count"].attrs.update(units="1", long_name="number of contact losses")
     if contact_loss_events:
         ds["longest_contact_loss"] = ds["contact_loss_duration"].copy().assign_attrs(
@@ -186,7 +183,7 @@ def synthetic_results(
         title="Synthetic results (vsi_numba.analysis.synthetic)",
         history="synthetic_results()",
         source="vsi_numba synthetic data",
-        Conventions="CF-1.12",
+        Conventions=CONVENTIONS,
         config_json=json.dumps(config),
         config_sha256="0" * 64,
         track_type=track_type,

@@ -1,9 +1,9 @@
 """``vsi run``: every speed of one configuration (its first train and first track
-realisation) to one netCDF file (:func:`vsi_numba.study.single.run_config`)."""
+realisation) to one netCDF file, through the study engine
+(:func:`vsi_numba.study.single.run_config`)."""
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 from vsi_numba.cli.common import EXIT_USAGE, Printer, load_config_and_output
@@ -14,9 +14,9 @@ def run_command(config: Path, output: Path | None, quiet: bool) -> int:
     """Entry of ``vsi run``; returns the process exit code.
 
     0 every speed ran; 1 written, some speeds failed numerically; 2 the run cannot
-    start (configuration, output path) or stopped on an error.
+    start (configuration, output path) or stopped on an error; 130 interrupted.
     """
-    from vsi_numba.io.netcdf import write_netcdf
+    from vsi_numba.study.store import StudyError
 
     pr = Printer()
     loaded = load_config_and_output(config, output, pr)
@@ -25,24 +25,21 @@ def run_command(config: Path, output: Path | None, quiet: bool) -> int:
     cfg, out_path = loaded
     for w in cfg.warnings:
         pr.warning(w)
-    show = not quiet and sys.stderr.isatty()
-
-    def progress(done, total, ds):
-        if not quiet:
-            v = ds.attrs["speed_kmh"]
-            flag = "ok" if ds.attrs["status"] == 0 else f"FAILED: {ds.attrs['message']}"
-            pr.line(f"[{done}/{total}] {v:7.1f} km/h  {flag}", stderr=True)
-
+    parts = ["vsi", "run", str(config)] + (["-o", str(output)] if output is not None else [])
     try:
-        ds = run_config(cfg, progress if (show or not quiet) else None)
+        outcome = run_config(cfg, out_path, progress=not quiet, quiet=quiet,
+                             command=" ".join(parts))
+    except StudyError as exc:
+        pr.error(exc)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        pr.error("interrupted: nothing written")
+        return 130
     except (ValueError, OSError) as exc:
         pr.error(exc)
         return EXIT_USAGE
-    try:
-        write_netcdf(ds, out_path)
-    except OSError as exc:
-        pr.error(f"cannot write {out_path}: {exc}")
-        return EXIT_USAGE
-    if not quiet:
-        pr.line(f"wrote {out_path}", stderr=True)
-    return 1 if ds.attrs["failed_cases"] else 0
+    if outcome.n_failed:
+        pr.error(f"{outcome.n_failed} of {outcome.n_runs} speeds failed numerically "
+                 "(status != 0, outputs NaN); see the 'status' and 'message' variables")
+        return 1
+    return 0

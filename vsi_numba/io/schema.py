@@ -124,6 +124,41 @@ DIAGNOSTICS = {
     "max_iterations": ((), "1", "largest number of contact iterations in one step", {}),
 }
 
+#: Variables of a results file beside the per-case outputs: per case (``message``), per
+#: train, and per bridge variant (``study.vary``).
+STUDY_VARIABLES = {
+    "message": ((), "1", "analysis status message", {}),
+    "max_static_deck_displacement": (
+        ("train", "point"), "m", "maximum static deck displacement as the train's static "
+        "axle loads cross the bridge (reference of phi'_dyn)", DOWN,
+    ),
+    "train_regular_length": (
+        ("train",), "m", "regular coach length D of the train (0: none)", {},
+    ),
+    "train_status": (("train",), "1", "data status of the train model", {}),
+    "variant": (("variant",), "1", "bridge variant of the study (study.vary)", {}),
+    "bridge_length": (("variant",), "m", "length of the bridge of the variant", {}),
+    "acceleration_cutoff": (
+        ("variant",), "Hz", "highest frequency of the modes in the deck acceleration "
+        "(EN 1990 A2.4.4.2.1)", {},
+    ),
+    "damping_ratio": (
+        ("variant", "mode"), "1", "modal damping ratio of the variant (interaction models; "
+        "moving forces add additional_damping)", {},
+    ),
+    "additional_damping": (
+        ("variant",), "1", "EN 1991-2 6.4.6.3.1 additional damping of the moving-force "
+        "trains", {},
+    ),
+    "damping_rule": (
+        ("variant",), "1", "EN 1991-2 damping rules applied to the variant (empty: damping "
+        "as given)", {},
+    ),
+    "variant_config_json": (
+        ("variant",), "1", "resolved configuration of the variant (JSON): runs it alone", {},
+    ),
+}
+
 COORDS = {
     "time": ("s", "time since the first axle left its start position", {"axis": "T"}),
     "point": ("m", "output point: distance from the left end of the bridge", {}),
@@ -143,7 +178,7 @@ COORDS = {
 
 def attrs_for(name: str) -> dict:
     """CF attributes (units, long_name, ...) for a declared variable or coordinate."""
-    for table in (HISTORIES, ENVELOPES, DIAGNOSTICS):
+    for table in (HISTORIES, ENVELOPES, DIAGNOSTICS, STUDY_VARIABLES):
         if name in table:
             _, units, long_name, extra = table[name]
             return {"units": units, "long_name": long_name, **extra}

@@ -122,36 +122,23 @@ class StudyFile:
 
         if variants is not None:
             coord("variant", ("variant",), np.arange(n_v, dtype=np.int64), "i8",
-                  {"units": "1", "long_name": "bridge variant of the study (study.vary)"})
+                  attrs_for("variant"))
             for name, (values, attrs) in variants["coords"].items():
                 values = np.asarray(values)
                 kind = str if values.dtype.kind in "OUS" else "f8"
                 coord(name, ("variant",), values.astype(object) if kind is str else values,
                       kind, attrs)
-            self._float("bridge_length", ("variant",), {
-                "units": "m", "long_name": "length of the bridge of the variant"})[...] = \
-                np.asarray(variants["bridge_length"], float)
-            self._float("acceleration_cutoff", ("variant",), {
-                "units": "Hz", "long_name": "highest frequency of the modes in the deck "
-                "acceleration (EN 1990 A2.4.4.2.1)"})[...] = np.asarray(
-                    variants["acceleration_cutoff"], float)
+            for name in ("bridge_length", "acceleration_cutoff", "additional_damping"):
+                self._float(name, ("variant",), attrs_for(name))[...] = np.asarray(
+                    variants[name], float)
             n_m0 = max(len(f) for f in frequencies)
-            self._float("damping_ratio", ("variant", "mode"), {
-                "units": "1", "long_name": "modal damping ratio of the variant (interaction "
-                "models; moving forces add additional_damping)"})[...] = per_variant(
-                    variants["damping"], (n_m0,))
-            self._float("additional_damping", ("variant",), {
-                "units": "1", "long_name": "EN 1991-2 6.4.6.3.1 additional damping of the "
-                "moving-force trains"})[...] = np.asarray(variants["additional_damping"],
-                                                          float)
-            rule = nc.createVariable("damping_rule", str, ("variant",))
-            rule[...] = np.array(list(variants["damping_rule"]), dtype=object)
-            _put_attrs(rule, {"units": "1", "long_name": "EN 1991-2 damping rules applied "
-                              "to the variant (empty: damping as given)"})
-            cj = nc.createVariable("variant_config_json", str, ("variant",))
-            cj[...] = np.array(list(variants["config_json"]), dtype=object)
-            _put_attrs(cj, {"units": "1", "long_name": "resolved configuration of the "
-                            "variant (JSON): runs it alone"})
+            self._float("damping_ratio", ("variant", "mode"), attrs_for("damping_ratio"))[
+                ...] = per_variant(variants["damping"], (n_m0,))
+            for name, key in (("damping_rule", "damping_rule"),
+                              ("variant_config_json", "config_json")):
+                var = nc.createVariable(name, str, ("variant",))
+                var[...] = np.array(list(variants[key]), dtype=object)
+                _put_attrs(var, attrs_for(name))
         coord("speed", ("speed",), speeds_kmh / 3.6, "f8", attrs_for("speed"))
         coord("speed_kmh", ("speed",), speeds_kmh, "f8", attrs_for("speed_kmh"))
         coord("train", ("train",), np.array(list(trains), dtype=object), str,
@@ -222,21 +209,17 @@ class StudyFile:
                 _put_attrs(var, {**attrs, "coordinates": self._coords_attr(full)})
                 self.vars[name] = var
         msg = nc.createVariable("message", str, case)
-        _put_attrs(msg, {"long_name": "analysis status message", "units": "1",
-                         "coordinates": self._coords_attr(case)})
+        _put_attrs(msg, {**attrs_for("message"), "coordinates": self._coords_attr(case)})
         self.vars["message"] = msg
-        self._float("max_static_deck_displacement", (*lead, "train", "point"), {
-            "units": "m", "long_name": "maximum static deck displacement as the train's "
-            "static axle loads cross the bridge (reference of phi'_dyn)", "positive": "down",
-        })[...] = per_variant([i["max_static_deck_displacement"] for i in trains_info],
-                              (n_t, n_p))
+        self._float("max_static_deck_displacement", (*lead, "train", "point"),
+                    attrs_for("max_static_deck_displacement"))[...] = per_variant(
+            [i["max_static_deck_displacement"] for i in trains_info], (n_t, n_p))
         info = trains_info[0]
-        self._float("train_regular_length", ("train",), {
-            "units": "m", "long_name": "regular coach length D of the train (0: none)",
-        })[...] = np.asarray(info["regular_length"], float)
+        self._float("train_regular_length", ("train",), attrs_for("train_regular_length"))[
+            ...] = np.asarray(info["regular_length"], float)
         status = nc.createVariable("train_status", str, ("train",))
         status[...] = np.array([str(s) for s in info["status"]], dtype=object)
-        _put_attrs(status, {"units": "1", "long_name": "data status of the train model"})
+        _put_attrs(status, attrs_for("train_status"))
         self._float("frequency", (*lead, "mode"), attrs_for("frequency"))[...] = per_variant(
             frequencies, (n_m,))
 

@@ -293,17 +293,7 @@ class MultibodyBuilder:
 
 def moving_force(load: float, name: str = "force") -> Vehicle:
     """A constant vertical force ``load`` (N, positive down): no dynamics, no contact."""
-    return Vehicle(
-        name=name,
-        M=np.zeros((0, 0)),
-        C=np.zeros((0, 0)),
-        K=np.zeros((0, 0)),
-        wheel_dofs=np.zeros(0, dtype=np.int64),
-        wheel_positions=np.zeros(0),
-        gravity=np.zeros(0),
-        load_positions=np.zeros(1),
-        loads=np.array([float(load)]),
-    )
+    return point_loads([0.0], [float(load)], name=name)
 
 
 def point_loads(positions, loads, name: str = "loads", status: str = "") -> Vehicle:

@@ -29,6 +29,7 @@ Exit codes of ``vsi sweep`` (:func:`vsi_numba.cli.sweep.sweep_command`)
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import os
@@ -343,8 +344,14 @@ def run_study(
 
 def execute_study(config, output=None, workers=None, scheduler=None, progress=False, *,
                   backend=None, fresh=False, keep_cases=False, quiet=True,
-                  command=None) -> StudyOutcome:
-    """:func:`run_study` without opening the result: returns a :class:`StudyOutcome`."""
+                  command=None, first_case=False) -> StudyOutcome:
+    """:func:`run_study` without opening the result: returns a :class:`StudyOutcome`.
+
+    ``first_case``: only the first train on the first irregularity realisation, at every
+    speed, without variants (``vsi run``: the same engine and the same file layout, with
+    one train and one realisation; the track range of the profiles is the whole study's,
+    so a seed is the same realisation as in the sweep).
+    """
     cfg = _load(Path(config) if isinstance(config, str) else config)
     spec = study_spec(cfg)
     config_json = spec.config_json
@@ -356,12 +363,16 @@ def execute_study(config, output=None, workers=None, scheduler=None, progress=Fa
     output = Path(output)
     if output.exists() and output.is_dir():
         raise OutputNotWritableError(f"the output {output} is a directory")
-    variants = list(getattr(cfg, "variants", []) or [])
+    variants = list(getattr(cfg, "variants", []) or []) if not first_case else []
     vcfgs = [v for _, v in variants] or [cfg]
     specs = [study_spec(c) for c in vcfgs] if variants else [spec]
     models = []
     for sp, c in zip(specs, vcfgs, strict=True):
         m = _build_model(c)
+        if first_case:
+            first = next(iter(m.profiles))
+            m = dataclasses.replace(m, trains=m.trains[:1],
+                                    profiles={first: m.profiles[first]})
         _remember(sp, m)
         models.append(m)
     model = models[0]

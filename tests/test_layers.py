@@ -43,10 +43,9 @@ FORBIDDEN = {
 KNOWN_EXCEPTIONS = {
     # The report re-runs the governing case of a check when the results file holds no
     # time history of it (vsi report figures): analysis calls the solver on purpose,
-    # on the track range of the study (study.grid.profile_range) so a seed gives the
-    # same realisation.  Documented in the README's code map.
+    # on the track range of the study (model.irregularity.profile_range) so a seed gives
+    # the same realisation.  Documented in the README's code map.
     ("vsi_numba.analysis.recompute", "vsi_numba.solver.simulate"): "re-run one case",
-    ("vsi_numba.analysis.recompute", "vsi_numba.study.grid"): "the study's track range",
 }
 
 

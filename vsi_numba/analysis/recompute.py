@@ -5,7 +5,7 @@ still wants the history of the governing case. The file's ``config_json`` holds 
 resolved configuration, so the model can be rebuilt and that one case simulated again
 (milliseconds to seconds). The model is rebuilt as the study runner builds it: the
 bridge, trains and solver settings of the configuration, the irregularity profiles drawn
-over the same track range (:func:`vsi_numba.study.grid.profile_range`, so a seed gives
+over the same track range (:func:`vsi_numba.model.irregularity.profile_range`, so a seed gives
 the same realisation), and the file's own output points.
 
 Relative paths in the configuration (train file, profile file, imported modes) resolve
@@ -86,7 +86,7 @@ class CaseRunner:
                 first = first or str(exc).strip().splitlines()[0]
         if cfg is None:
             raise RecomputeError(f"its configuration does not load ({first})")
-        from vsi_numba.study.grid import profile_range
+        from vsi_numba.model.irregularity import profile_range
 
         bridge = cfg.build_bridge()
         trains = {t.name: t for t in cfg.trains()}

@@ -71,7 +71,7 @@ def profile_command(config: Path, plot: Path | None) -> int:
     import numpy as np
     from rich.table import Table
 
-    from vsi_numba.study.grid import profile_range
+    from vsi_numba.model.irregularity import profile_range
 
     pr = Printer()
     cfg = load_config(config, pr)

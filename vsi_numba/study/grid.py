@@ -13,6 +13,11 @@ from typing import NamedTuple
 
 import numpy as np
 
+from vsi_numba.model.irregularity import (  # noqa: F401  (re-exported)
+    SPEED_BOUND_KMH,
+    profile_range,
+)
+
 
 class Case(NamedTuple):
     """One analysis of a study (picklable: it travels to worker processes).
@@ -103,24 +108,3 @@ def make_grid(speeds_kmh, trains, irregularity_ids, history_speeds) -> StudyGrid
                     Case(len(cases), i_s, i_t, i_i, float(v), name, rid, bool(hist[i_s]))
                 )
     return StudyGrid(speeds, trains, irr, hist, tuple(cases))
-
-
-#: Upper bound of train speeds (km/h): the configuration refuses faster ones.
-SPEED_BOUND_KMH = 1000.0
-
-
-def profile_range(bridge_length, train_lengths, approach, free_vibration):
-    """Track range (m) the irregularity profiles of a study cover.
-
-    From where the last axle of the longest train starts (``-(approach + length)``) to
-    where the first axle is when a run at the highest admissible speed
-    (:data:`SPEED_BOUND_KMH`) ends (``L + length + v_bound * free_vibration``), with 1 m
-    of margin each side.  One range for the whole study, independent of its speeds: a
-    random profile depends on the range it is drawn over, and this way a seed is the same
-    realisation at every speed, for every train of the study, and in another study of the
-    same bridge, trains and solver settings that lists other speeds.
-    """
-    length = max(train_lengths) if len(train_lengths) else 0.0
-    x_start = -(approach + length) - 1.0
-    x_stop = bridge_length + length + SPEED_BOUND_KMH / 3.6 * free_vibration + 1.0
-    return float(x_start), float(x_stop)

@@ -194,3 +194,19 @@ def test_track__report_states_the_track_model_and_the_deck_end_note_follows_it()
     assert "not a kink" in notes["elastic"] and "foundation_stiffness" in notes["elastic"]
     assert "rigid-track idealisation" in lines["rigid"]
     assert "85.1 MN/m per metre" in lines["elastic"] and "kN/mm under one axle" in lines["elastic"]
+
+
+def test_track__implausible_stiffness_is_refused_naming_the_keys():
+    """A foundation modulus given in MN/m^2 instead of N/m^2 (85 instead of 8.5e7) would
+    put the rail metres under the axle: refused, naming the keys and the override."""
+    with pytest.raises(ConfigError) as e:
+        load_config(_cfg(track={"foundation_stiffness": 85.0}))
+    msg = str(e.value)
+    assert "track.foundation_stiffness, track.rail_EI" in msg and "mm under" in msg
+    assert "solver.allow_implausible" in msg
+    with pytest.raises(ConfigError) as e:
+        load_config(_cfg(track={"foundation_stiffness": 1e12}))
+    assert "stiffer than any railway track" in str(e.value)
+    ok = load_config(_cfg(track={"foundation_stiffness": 85.0},
+                          solver={"allow_implausible": True}))
+    assert any("accepted: solver.allow_implausible" in w for w in ok.warnings)

@@ -30,7 +30,12 @@ from vsi_numba.config.irregularity import (
     _irregularity_section,
     _IrregularitySpec,
 )
-from vsi_numba.config.physics import _physics_warnings, _plausibility, _refuse
+from vsi_numba.config.physics import (
+    _physics_warnings,
+    _plausibility,
+    _refuse,
+    _track_plausibility,
+)
 from vsi_numba.config.solver import (
     SOLVER_OVERRIDES,
     _contact_section,
@@ -389,6 +394,7 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
             raise ConfigError(chk.errors, source=source)
     _physics_warnings(chk, bridge, train, irr, solver, study.resolved, contact, track)
     _plausibility(chk, bridge, train, irr, solver, study.resolved, contact)
+    _track_plausibility(chk, train, solver, track)
     if chk.errors:  # checks of the whole model (time step, budget, plausibility)
         raise ConfigError(chk.errors, source=source)
     resolved = {

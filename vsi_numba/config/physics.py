@@ -20,6 +20,8 @@ from vsi_numba.config.limits import (
     MAX_PROFILE_SAMPLES,
     MAX_STATIC_DEFLECTION,
     MAX_STEPS,
+    MAX_TRACK_DEFLECTION,
+    MAX_TRACK_STIFFNESS,
     STEPS_PER_WAVELENGTH,
 )
 from vsi_numba.en1990 import frequency_cutoff
@@ -322,6 +324,31 @@ def _defects_amplitude(r) -> float | None:
     total = _irr.combine(*[_defect_profile(d, stop) for d in specs])
     x = np.linspace(total.x0, total.x_end, min(200_000, total.coef.shape[0] * 4 + 1))
     return float(np.max(np.abs(total(x))))
+
+
+def _track_plausibility(chk, train, solver, track):
+    """The elastic track: a static rail deflection under the heaviest axle above
+    :data:`MAX_TRACK_DEFLECTION` (typically 0.5-2 mm), or a stiffness under one axle
+    above :data:`MAX_TRACK_STIFFNESS`, is a unit slip (N vs MN), not a track."""
+    if not isinstance(track, dict) or track.get("model") != "elastic":
+        return
+    k_axle = _track.ElasticTrack(track["foundation_stiffness"],
+                                 track["rail_EI"]).axle_stiffness
+    keys = "track.foundation_stiffness, track.rail_EI"
+    if k_axle > MAX_TRACK_STIFFNESS:
+        _refuse(chk, solver, "allow_implausible",
+                f"{keys}: {k_axle / 1e6:.4g} kN/mm under one axle, stiffer than any railway "
+                f"track (expected up to {MAX_TRACK_STIFFNESS / 1e6:g} kN/mm; the default is "
+                "150 kN/mm; units: N/m per metre and N m^2)")
+        return
+    loads = [float(np.max(np.abs(_train_loads(tr)[1]), initial=0.0)) for tr in train.trains]
+    heaviest = max(loads, default=0.0)
+    if heaviest / k_axle > MAX_TRACK_DEFLECTION:
+        _refuse(chk, solver, "allow_implausible",
+                f"{keys}: a static rail deflection of {heaviest / k_axle * 1e3:.4g} mm under "
+                f"the heaviest axle ({heaviest / 1e3:.4g} kN on {k_axle / 1e6:.4g} kN/mm), "
+                f"expected at most {MAX_TRACK_DEFLECTION * 1e3:g} mm (units: N/m per metre "
+                "and N m^2)")
 
 
 def _plausibility(chk, bridge, train, irr, solver, study, contact):

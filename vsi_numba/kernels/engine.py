@@ -11,7 +11,9 @@ q, u        modal coordinates of the bridge (n_m) and vehicle DOFs (n_v), positi
 phi_j(x)    mass-normalised mode shapes along the track
 r(x)        irregularity, positive = rail lower; the rail top is at sum_j phi_j q_j + r
 B_i         constraint row of wheel i: B_i u = u_wheel - sum_j phi_j(x_i) q_j
-gap_i       r(x_i) - B_i u  (>= 0; 0 in contact)
+gap_i       r(x_i) - B_i u  (>= 0; 0 in contact); on an elastic track phi_j are the
+            track-filtered shapes and the rail's deflection under the wheels,
+            sum_k C_track[i, k] X_k, adds to the gap (vsi_numba.model.track)
 X_i         contact force of wheel i (>= 0, compression), generalised force -B_i^T X_i
 K^          effective stiffness a0 M + (1 + alpha)(a1 C + K): diagonal for the modes,
             a dense block per vehicle, inverted once per analysis

@@ -42,7 +42,9 @@ class Packed:
         return int(math.ceil((t_exit + self.free_vibration) / self.params.dt - 1e-9))
 
 
-def _pack_bridge(bridge: ModalBridge) -> ek.BridgeArrays:
+def _pack_bridge(bridge: ModalBridge, wheels: bool = True) -> ek.BridgeArrays:
+    """Kernel arrays of the bridge; its track's filtered shapes only when there are
+    ``wheels`` (prescribed moving forces load the deck line directly)."""
     n_m = bridge.n_modes
     f64 = np.float64
     if bridge.kind == 1:
@@ -55,7 +57,7 @@ def _pack_bridge(bridge: ModalBridge) -> ek.BridgeArrays:
     vals = bridge.values if bridge.kind == 2 else np.zeros((2, n_m))
     slopes = bridge.slopes if bridge.kind == 2 else np.zeros((2, n_m))
     track = {}
-    if bridge.track is not None:
+    if bridge.track is not None and wheels:
         t_nodes, t_vals, t_slopes = bridge.track.filtered_shapes(bridge)
         track = dict(track=1, t_nodes=t_nodes, t_values=np.ascontiguousarray(t_vals, f64),
                      t_slopes=np.ascontiguousarray(t_slopes, f64))
@@ -185,7 +187,8 @@ def pack(
         body_pt_start=np.asarray(pt_start, dtype=np.int64),
         body_pt_pitch=np.asarray(pt_pitch, dtype=np.int64),
         body_pt_d=np.asarray(pt_d, dtype=np.float64),
-        track_C=(bridge.track.compliance(x_front - wpos) if bridge.track is not None
+        track_C=(bridge.track.compliance(x_front - wpos)
+                 if bridge.track is not None and len(wdof)
                  else np.zeros((len(wdof), len(wdof)))),
     )
     if settings.contact_model == "hertz_linear" and len(wdof):
@@ -219,7 +222,7 @@ def pack(
         coef=np.ascontiguousarray(profile.coef, dtype=np.float64).reshape(-1, 4),
     )
     return Packed(
-        bridge=_pack_bridge(bridge), vehicles=veh, profile=pr, params=params,
+        bridge=_pack_bridge(bridge, wheels=len(wdof) > 0), vehicles=veh, profile=pr, params=params,
         n_dof=int(start[-1]), wheel_positions=wpos, load_positions=lpos,
         vehicle_names=body_names, run_length=float(run_length),
         free_vibration=float(settings.free_vibration), static_loads=_static_loads(veh),

@@ -77,7 +77,7 @@ def foundation_for(wheel_stiffness: float, rail_EI_one: float) -> float:
     return (wheel_stiffness / (2.0**1.5 * rail_EI_one**0.25)) ** (4.0 / 3.0)
 
 
-#: Foundation modulus per track (both rails), N/m per metre: 8.50e7.
+#: Foundation modulus per track (both rails), N/m per metre: 8.51e7.
 FOUNDATION_DEFAULT = 2.0 * foundation_for(WHEEL_STIFFNESS_DEFAULT, RAIL_EI_UIC60 / 2.0)
 
 

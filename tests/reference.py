@@ -1310,12 +1310,9 @@ def quarter_car_elastic_joint(
     ab[3, :-1] = -4 * c
     ab[4, :-2] = c
     ab[2, [0, -1]] += c
-    j = np.arange(1, n_modes + 1)
-    kj = j * np.pi / length
-    omega = kj**2 * np.sqrt(EI / mass_per_length)
+    omega = ss_omega(length, EI, mass_per_length, n_modes)
     on = (xs >= 0.0) & (xs <= length)
-    phi = np.zeros((N, n_modes))
-    phi[on] = np.sqrt(2.0 / (mass_per_length * length)) * np.sin(np.outer(xs[on], kj))
+    phi = ss_shapes(length, mass_per_length, n_modes, xs)
     wq = scipy.linalg.solve_banded((2, 2), ab, foundation * phi)  # per unit q_j
     trap = np.where(on, h, 0.0)
     trap[np.flatnonzero(on)[[0, -1]]] *= 0.5

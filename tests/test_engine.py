@@ -129,7 +129,7 @@ def test_solve_active_set__is_the_lcp_solution(seed):
     veh = ek.VehicleArrays(*([np.zeros(1)] * 7), wheel_dof=np.arange(n),
                            wheel_veh=np.zeros(n, np.int64), wheel_x0=np.zeros(n),
                            wheel_massless=np.zeros(n, np.int64),
-                           wheel_compliance=np.zeros(n), body_dof=np.zeros(0, np.int64),
+                           compliance=np.zeros((0, 0)), body_dof=np.zeros(0, np.int64),
                            load_x0=np.zeros(0), load_p=np.zeros(0))
     wk = sb._workspace(1, 1, n)
     wk.S[:] = S

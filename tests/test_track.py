@@ -13,7 +13,8 @@ from reference import quarter_car_elastic_joint
 from vsi_numba.config import ConfigError, load_config
 from vsi_numba.model import bridge as br
 from vsi_numba.model import vehicle as vh
-from vsi_numba.model.track import ElasticTrack, hermite_table
+from vsi_numba.model.hermite import table as hermite_table
+from vsi_numba.model.track import ElasticTrack
 from vsi_numba.model.vehicle import Train
 from vsi_numba.solver.settings import SolverSettings
 from vsi_numba.solver.simulate import simulate

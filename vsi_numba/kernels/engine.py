@@ -12,8 +12,9 @@ phi_j(x)    mass-normalised mode shapes along the track
 r(x)        irregularity, positive = rail lower; the rail top is at sum_j phi_j q_j + r
 B_i         constraint row of wheel i: B_i u = u_wheel - sum_j phi_j(x_i) q_j
 gap_i       r(x_i) - B_i u  (>= 0; 0 in contact); on an elastic track phi_j are the
-            track-filtered shapes and the rail's deflection under the wheels,
-            sum_k C_track[i, k] X_k, adds to the gap (vsi_numba.model.track)
+            track-filtered shapes (vsi_numba.model.track); the constant compliance C
+            in series with the contact (the elastic rail's deflection under the
+            wheels, linearised Hertz springs) adds sum_k C[i, k] X_k to the gap
 X_i         contact force of wheel i (>= 0, compression), generalised force -B_i^T X_i
 K^          effective stiffness a0 M + (1 + alpha)(a1 C + K): diagonal for the modes,
             a dense block per vehicle, inverted once per analysis
@@ -49,8 +50,8 @@ class BridgeArrays(NamedTuple):
     slopes: np.ndarray  # (n_nodes, n_m)
     # elastic track (vsi_numba.model.track): the wheels see the track-filtered mode shapes
     # of this Hermite table over [t_nodes[0], t_nodes[-1]] (the deck and a few metres of
-    # each approach) and the rail compliance VehicleArrays.track_C; contact is then
-    # compliant (no impacts).  track = 0: rigid track, the wheels see the shapes above.
+    # each approach) and the rail's compliance (in VehicleArrays.compliance); contact is
+    # then compliant (no impacts).  track = 0: rigid track, the wheels see the shapes above.
     track: int = 0
     t_nodes: np.ndarray = np.zeros(2)
     t_values: np.ndarray = np.zeros((2, 0))
@@ -71,7 +72,10 @@ class VehicleArrays(NamedTuple):
     wheel_veh: np.ndarray  # (n_w,) vehicle index
     wheel_x0: np.ndarray  # (n_w,) wheel abscissa at t = 0, m
     wheel_massless: np.ndarray  # (n_w,) 1 if the wheel DOF has no mass
-    wheel_compliance: np.ndarray  # (n_w,) m/N, linearised Hertz spring 1/k_H (model 2)
+    # constant compliance in series with the contact, m/N: the elastic rail's G(x_i - x_k)
+    # (constant: the wheel spacing is) plus the linearised Hertz springs 1/k_H on the
+    # diagonal (model 2); (n_w, n_w), or (0, 0) when the contact has none
+    compliance: np.ndarray
     body_dof: np.ndarray  # (n_b,) global DOF of each reported car body's bounce (-1: none)
     load_x0: np.ndarray  # (n_l,) point-load abscissa at t = 0, m
     load_p: np.ndarray  # (n_l,) N
@@ -82,9 +86,6 @@ class VehicleArrays(NamedTuple):
     body_pt_start: np.ndarray = np.zeros(1, np.int64)  # (n_b + 1,)
     body_pt_pitch: np.ndarray = np.zeros(0, np.int64)  # (n_pt,) global pitch DOF or -1
     body_pt_d: np.ndarray = np.zeros(0)  # (n_pt,) m ahead of the centre of gravity
-    # rail compliance G(x_i - x_k) between the wheels on an elastic track, m/N (n_w, n_w);
-    # constant (the wheel spacing is); read only when BridgeArrays.track == 1
-    track_C: np.ndarray = np.zeros((0, 0))
 
 
 class ProfileArrays(NamedTuple):
@@ -406,7 +407,7 @@ def contact_profile(veh, wk, m):
         for b in range(a):
             k = wk.idx[b]
             if (veh.wheel_veh[k] == veh.wheel_veh[i] or (wk.onb[i] == 1 and wk.onb[k] == 1)
-                    or (veh.track_C.shape[0] > 0 and veh.track_C[i, k] != 0.0)):
+                    or (veh.compliance.shape[0] > 0 and veh.compliance[i, k] != 0.0)):
                 f = b
                 break
         wk.first[a] = f
@@ -916,19 +917,17 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
         wk.gstar[i] = g
         wk.active[i] = wk.was_active[i]
     build_schur(veh, wk, wk.khat, khat_v)
-    if br.track == 1:
-        # the rail deflects under the wheels: gap = g* + (1 + alpha) S X + C_track X
+    if veh.compliance.shape[0] > 0:
+        # compliance in series with the contact: gap = g* + (1 + alpha) S X + C X
+        inv = 1.0 / scale
         for i in range(n_w):
             for k in range(n_w):
-                wk.S[i, k] += veh.track_C[i, k] / scale
+                wk.S[i, k] += veh.compliance[i, k] * inv
     if prm.contact_model == 1:
         for i in range(n_w):
             wk.X[i] = st.X[i]
         status, iters = solve_hertz(veh, wk, scale, prm.hertz_g, prm.max_iter, prm.tol_force)
     else:
-        if prm.contact_model == 2:
-            for i in range(n_w):
-                wk.S[i, i] += veh.wheel_compliance[i] / scale
         status, iters = solve_active_set(veh, wk, scale, prm.max_iter, prm.tol_gap,
                                          prm.tol_force)
     if status != OK:

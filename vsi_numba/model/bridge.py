@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from vsi_numba.model import hermite
 from vsi_numba.model.track import ElasticTrack
 
 RIGID, SINE, HERMITE = 0, 1, 2
@@ -99,16 +100,7 @@ class ModalBridge:
             else:
                 out[inside] = -amp * k**2 * np.sin(arg)
             return out
-        e = np.clip(np.searchsorted(self.nodes, xi, side="right") - 1, 0, self.nodes.size - 2)
-        h = self.nodes[e + 1] - self.nodes[e]
-        s = (xi - self.nodes[e]) / h
-        n = _hermite(s, h, derivative)
-        out[inside] = (
-            n[0][:, None] * self.values[e]
-            + n[1][:, None] * self.slopes[e]
-            + n[2][:, None] * self.values[e + 1]
-            + n[3][:, None] * self.slopes[e + 1]
-        )
+        out[inside] = hermite.evaluate(self.nodes, self.values, self.slopes, xi, derivative)
         return out
 
 
@@ -119,17 +111,6 @@ class ModalBridge:
         line (:meth:`shapes`).
         """
         return (self.deck if self.deck is not None else self).shapes(x, derivative)
-
-
-def _hermite(s, h, derivative):
-    """Hermite cubic shape functions (w1, theta1, w2, theta2) on an element of length h."""
-    if derivative == 0:
-        return (1 - 3 * s**2 + 2 * s**3, h * (s - 2 * s**2 + s**3), 3 * s**2 - 2 * s**3,
-                h * (-(s**2) + s**3))
-    if derivative == 1:
-        return ((-6 * s + 6 * s**2) / h, 1 - 4 * s + 3 * s**2, (6 * s - 6 * s**2) / h,
-                -2 * s + 3 * s**2)
-    return ((-6 + 12 * s) / h**2, (-4 + 6 * s) / h, (6 - 12 * s) / h**2, (-2 + 6 * s) / h)
 
 
 def per_mode(value, n, name):
@@ -209,18 +190,7 @@ def beam_matrices(spans, EI, mass_per_length, elements_per_span):
     K = np.zeros((ndof, ndof))
     M = np.zeros((ndof, ndof))
     for e, (h, ei, m) in enumerate(props):
-        ke = ei / h**3 * np.array(
-            [[12, 6 * h, -12, 6 * h],
-             [6 * h, 4 * h * h, -6 * h, 2 * h * h],
-             [-12, -6 * h, 12, -6 * h],
-             [6 * h, 2 * h * h, -6 * h, 4 * h * h]]
-        )
-        me = m * h / 420.0 * np.array(
-            [[156, 22 * h, 54, -13 * h],
-             [22 * h, 4 * h * h, 13 * h, -3 * h * h],
-             [54, 13 * h, 156, -22 * h],
-             [-13 * h, -3 * h * h, -22 * h, 4 * h * h]]
-        )
+        ke, me = hermite.beam_element(h, ei, m)
         idx = np.arange(2 * e, 2 * e + 4)
         K[np.ix_(idx, idx)] += ke
         M[np.ix_(idx, idx)] += me
@@ -397,16 +367,6 @@ class TrackModel:
     supports: np.ndarray
 
 
-def _beam_element(h, ei, m):
-    ke = ei / h**3 * np.array(
-        [[12, 6 * h, -12, 6 * h], [6 * h, 4 * h * h, -6 * h, 2 * h * h],
-         [-12, -6 * h, 12, -6 * h], [6 * h, 2 * h * h, -6 * h, 4 * h * h]])
-    me = m * h / 420.0 * np.array(
-        [[156, 22 * h, 54, -13 * h], [22 * h, 4 * h * h, 13 * h, -3 * h * h],
-         [54, 13 * h, 156, -22 * h], [-13 * h, -3 * h * h, -22 * h, 4 * h * h]])
-    return ke, me
-
-
 def track_matrices(spans, EI, mass_per_length, elements_per_span, track: TrackLayer):
     """Assemble deck + rail + sleepers (dense; sizes of a few thousand DOFs)."""
     deck_nodes, Kd, Md, fixed_d, supports = beam_matrices(spans, EI, mass_per_length,
@@ -430,7 +390,7 @@ def track_matrices(spans, EI, mass_per_length, elements_per_span, track: TrackLa
     K[:nd, :nd] = Kd
     M[:nd, :nd] = Md
     for e in range(rail_nodes.size - 1):
-        ke, me = _beam_element(rail_nodes[e + 1] - rail_nodes[e], track.rail_EI,
+        ke, me = hermite.beam_element(rail_nodes[e + 1] - rail_nodes[e], track.rail_EI,
                                track.rail_mass_per_length)
         idx = nd + np.arange(2 * e, 2 * e + 4)
         K[np.ix_(idx, idx)] += ke
@@ -449,7 +409,8 @@ def track_matrices(spans, EI, mass_per_length, elements_per_span, track: TrackLa
         e = int(np.clip(np.searchsorted(deck_nodes, xs, side="right") - 1, 0,
                         deck_nodes.size - 2))
         h = deck_nodes[e + 1] - deck_nodes[e]
-        sh = np.array(_hermite(np.array([(xs - deck_nodes[e]) / h]), h, 0)).ravel()
+        sh = np.array(hermite.shape_functions(np.array([(xs - deck_nodes[e]) / h]), h,
+                                              0)).ravel()
         b = np.zeros(n)
         b[js] = 1.0
         b[2 * e: 2 * e + 4] -= sh

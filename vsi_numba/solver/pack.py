@@ -180,25 +180,27 @@ def pack(
         wheel_veh=np.asarray(wveh, dtype=np.int64),
         wheel_x0=np.ascontiguousarray(x_front - wpos),
         wheel_massless=np.asarray(wmassless, dtype=np.int64),
-        wheel_compliance=np.zeros(len(wdof)),
+        compliance=np.zeros((0, 0)),
         body_dof=np.asarray(body, dtype=np.int64),
         load_x0=np.ascontiguousarray(x_front - lpos),
         load_p=np.asarray(lp, dtype=np.float64),
         body_pt_start=np.asarray(pt_start, dtype=np.int64),
         body_pt_pitch=np.asarray(pt_pitch, dtype=np.int64),
         body_pt_d=np.asarray(pt_d, dtype=np.float64),
-        track_C=(bridge.track.compliance(x_front - wpos)
-                 if bridge.track is not None and len(wdof)
-                 else np.zeros((len(wdof), len(wdof)))),
     )
+    compliance = np.zeros((len(wdof), len(wdof)))
+    if bridge.track is not None and len(wdof):
+        compliance += bridge.track.compliance(x_front - wpos)
     if settings.contact_model == "hertz_linear" and len(wdof):
         q0 = _static_loads(veh)
         if np.any(q0 <= 0):
             raise ModelError("linearised Hertz contact needs a positive static load on every "
                              "wheel")
         # k_H = dN/d(delta) at N0 = 3 N0^(1/3) / (2 G)
-        veh = veh._replace(wheel_compliance=2.0 * settings.hertz_coefficient
-                           / (3.0 * np.cbrt(q0)))
+        compliance[np.diag_indices(len(wdof))] += (2.0 * settings.hertz_coefficient
+                                                   / (3.0 * np.cbrt(q0)))
+    if np.any(compliance != 0.0):
+        veh = veh._replace(compliance=np.ascontiguousarray(compliance))
     all_pos = np.concatenate([wpos, lpos])
     last = all_pos.max() if all_pos.size else 0.0
     run_length = bridge.length + settings.approach + last
@@ -304,14 +306,16 @@ def initial_states(packed: Packed, profile: Profile, speeds) -> ek.Initial:
     r0, r1, r2 = profile(x0), profile(x0, 1), profile(x0, 2)
     br = packed.bridge
     q0 = np.zeros(n_m)
+    # the constant compliance (elastic rail, linearised Hertz) enters the static solve
+    C = veh.compliance if veh.compliance.size else None
     if br.track == 1 and n_v:
         # elastic track: the rail deflects under the wheels (compliance C) and, within
         # its reach of a deck end, bends the deck too (filtered shapes phit at the
         # wheels): static equilibrium of deck modes and vehicles together,
         # [diag(w^2) 0; 0 K] z + B^T X = [0; g],  B z - C X = r0 with B = [-phit, G]
-        from vsi_numba.model.track import hermite_table
+        from vsi_numba.model import hermite
 
-        phit = hermite_table(br.t_nodes, br.t_values, br.t_slopes, x0) if n_m else \
+        phit = hermite.table(br.t_nodes, br.t_values, br.t_slopes, x0) if n_m else \
             np.zeros((n_w, 0))
         A = np.zeros((n_m + n_v, n_m + n_v))
         A[:n_m, :n_m] = np.diag(br.omega**2)
@@ -320,22 +324,19 @@ def initial_states(packed: Packed, profile: Profile, speeds) -> ek.Initial:
         top = np.concatenate([np.zeros(n_m), veh.gravity])
 
         def static(extra):
-            z, X = _kkt(A, Bz, top, r0 + extra, compliance=veh.track_C)
+            z, X = _kkt(A, Bz, top, r0 + extra, compliance=C)
             return z[:n_m], z[n_m:], X
     else:
         def static(extra):
-            u, X = _kkt(Kd, G, veh.gravity, r0 + extra)
+            u, X = _kkt(Kd, G, veh.gravity, r0 + extra, compliance=C)
             return q0, u, X
     q0, u, X = static(np.zeros(n_w)) if n_v else (q0, np.zeros(0), np.zeros(0))
     prm = packed.params
-    if n_v and prm.contact_model != 0:
-        # compliant contact: the wheels sit delta(X) below the rail top; the static
-        # forces of an indeterminate vehicle depend on delta, so iterate
+    if n_v and prm.contact_model == 1:
+        # Hertz contact: the wheels sit delta(X) = G X^(2/3) below the rail top; the
+        # static forces of an indeterminate vehicle depend on delta, so iterate
         for _ in range(50):
-            if prm.contact_model == 1:
-                delta = prm.hertz_g * np.cbrt(np.clip(X, 0.0, None)) ** 2
-            else:
-                delta = veh.wheel_compliance * X
+            delta = prm.hertz_g * np.cbrt(np.clip(X, 0.0, None)) ** 2
             q0, u, X_new = static(delta)
             done = np.max(np.abs(X_new - X)) <= 1e-9 * max(np.max(np.abs(X)), 1.0)
             X = X_new

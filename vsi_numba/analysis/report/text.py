@@ -353,13 +353,8 @@ def _one_step_losses(results: dict) -> list[str]:
 
 
 def _config_section(ds: xr.Dataset, name: str) -> dict | None:
-    """A section of the resolved config stored with the results (None if unreadable)."""
-    import json
-
-    try:
-        sec = json.loads(ds.attrs.get("config_json", "{}")).get(name)
-    except (TypeError, ValueError, AttributeError):
-        return None
+    """A section of the resolved config stored with the results (None if absent)."""
+    sec = chk.results_config(ds).get(name)
     return sec if isinstance(sec, dict) else None
 
 

@@ -51,10 +51,12 @@ def report_command(results: Path, outdir: Path | None = None) -> int:
               f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})")
         return EXIT_USAGE
     with ds:
+        # ds stays lazy: the report loads the envelopes and reads the time histories one
+        # case at a time (memory independent of the study's size)
         if "variant" in ds.dims:  # a parametric study: the report over the variants
-            from vsi_numba.analysis.variants import write_variants_report
+            from vsi_numba.analysis.report.variants import write_variants_report
 
-            writer, data = write_variants_report, ds.load()
+            writer, data = write_variants_report, ds
         else:
             try:
                 data = prepare(ds)

@@ -67,15 +67,16 @@ class Figure:
     _png: bytes | None = field(default=None, repr=False)
 
     def png(self) -> bytes:
-        """The PNG bytes (rendered once, ``bbox_inches="tight"`` so nothing is clipped);
-        the matplotlib figure is released afterwards."""
+        """The PNG bytes, rendered once at :data:`DPI` and the figure's own size (the
+        figures of :mod:`vsi_numba.analysis.plots` use constrained layout with legends
+        outside the axes, so nothing is clipped); the matplotlib figure is released
+        afterwards."""
         if self._png is None:
             if isinstance(self.figure, bytes | bytearray):
                 self._png = bytes(self.figure)
             else:
                 buf = io.BytesIO()
-                self.figure.savefig(buf, format="png", dpi=DPI, bbox_inches="tight",
-                                    pad_inches=0.08)
+                self.figure.savefig(buf, format="png", dpi=DPI)
                 self._png = buf.getvalue()
                 self.figure = None  # let matplotlib free it
         return self._png

@@ -29,7 +29,7 @@ def fmt_number(value, unit: str = "", digits: int = 4) -> str:
         return str(value)
     if not np.isfinite(v):
         return "–"
-    if v != 0 and (abs(v) >= 1e5 or abs(v) < 1e-3):
+    if v != 0 and (abs(v) >= 1e5 or abs(v) < 1e-4):
         mant, exp = f"{v:.{digits - 1}e}".split("e")
         mant = mant.rstrip("0").rstrip(".")
         text = f"{mant}e{int(exp)}"

@@ -199,6 +199,9 @@ th, td { border: 1px solid var(--rule); padding: 0.22em 0.5em; vertical-align: t
          text-align: left; }
 thead th { background: var(--head); }
 td.num, th.num { text-align: right; font-variant-numeric: tabular-nums; }
+.wide table { font-size: 0.74em; }
+.wide td { white-space: nowrap; }
+.wide th { overflow-wrap: anywhere; }
 caption, .caption { caption-side: top; text-align: left; font-style: italic;
                     color: var(--muted); margin-bottom: 0.3em; }
 figure { margin: 1em 0 1.4em; text-align: center; }
@@ -267,7 +270,8 @@ def _html_table(table: Table, md, number: int) -> str:
                      + "</tr>" for r in rows)
     cap = (f"<caption>Table {number}: {md.renderInline(table.caption)}</caption>"
            if table.caption else "")
-    return (f'<div class="table-wrap"><table>{cap}<thead><tr>{head}</tr></thead>'
+    wide = " wide" if len(header) > 8 else ""
+    return (f'<div class="table-wrap{wide}"><table>{cap}<thead><tr>{head}</tr></thead>'
             f"<tbody>\n{body}\n</tbody></table></div>")
 
 

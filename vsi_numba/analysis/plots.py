@@ -240,8 +240,14 @@ def plot_dynamic_amplification(ds: xr.Dataset, dyn: xr.Dataset) -> Figure:
     return fig
 
 
-def plot_wheel_unloading(ds: xr.Dataset, wu: xr.Dataset) -> Figure:
-    """Minimum contact force (top) and wheel unloading dQ/Q0 (bottom) vs speed."""
+def plot_wheel_unloading(ds: xr.Dataset, wu: xr.Dataset, zones: xr.Dataset | None = None
+                         ) -> Figure:
+    """Minimum contact force (top) and wheel unloading dQ/Q0 (bottom) vs speed.
+
+    ``zones`` (:func:`vsi_numba.analysis.report.tables.wheel_unloading_by_zone`): dQ/Q0
+    of the axles whose minimum lay on the approach track is drawn too (thin, dotted), so
+    an approach-track maximum is not read as the bridge's.
+    """
     ds = prepare(ds)
     has_force = "min_contact_force" in wu
     fig, axes = _figure(2 if has_force else 1, 6.0 if has_force else HEIGHT)
@@ -266,6 +272,16 @@ def plot_wheel_unloading(ds: xr.Dataset, wu: xr.Dataset) -> Figure:
     ax = axes[-1]
     h2 = _lines(ax, ds, wu, trains=trains)
     handles = handles or h2
+    if zones is not None and bool(zones["approach"].notnull().any()):
+        styles = train_styles(ds["train"].values)
+        x = ds["speed_kmh"].values
+        for train in trains:
+            y = zones["approach"].sel(train=train).values
+            if np.isfinite(y).any():
+                ax.plot(x, y, color=styles[str(train)]["color"], linestyle=":",
+                        linewidth=1.0)
+        handles = [*handles, Line2D([], [], color="0.3", linestyle=":", linewidth=1.0,
+                                    label="minimum on the approach track")]
     a = wu.attrs
     lim = _limit(ax, a["limit"], f"limit ΔQ/Q₀ = {a['limit']:g} (EN 14363 practice)")
     ax.set_ylim(0, max(1.0, ax.get_ylim()[1]))

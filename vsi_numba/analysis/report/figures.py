@@ -14,6 +14,7 @@ from vsi_numba.analysis.dataset import (
 )
 from vsi_numba.analysis.recompute import CaseRunner, RecomputeError
 from vsi_numba.analysis.report.document import Figure
+from vsi_numba.analysis.report.tables import wheel_unloading_by_zone
 from vsi_numba.analysis.report.text import _fmt
 
 # --------------------------------------------------------------------------------------
@@ -210,9 +211,11 @@ def _figures(ds: xr.Dataset, results: dict, runner: CaseRunner | None = None,
         applicable = wu["applicable"]
     if not isinstance(wu, str) and "note" not in wu.attrs:
         skipped = wu.attrs.get("not_applicable_trains", "")
-        put(plots.plot_wheel_unloading(ds, wu), "wheel_unloading.png",
+        put(plots.plot_wheel_unloading(ds, wu, wheel_unloading_by_zone(ds)),
+            "wheel_unloading.png",
             "Minimum wheel–rail contact force and wheel unloading ΔQ/Q₀ (max over axles) "
-            "against speed, with the 0.6 limit (EN 14363 practice [R])"
+            "against speed, with the 0.6 limit (EN 14363 practice [R]); dotted: ΔQ/Q₀ of "
+            "the axles whose minimum contact force lay on the approach or exit track"
             + (f"; not drawn: {skipped} (prescribed moving forces, not applicable)"
                if skipped else "") + ".")
     cf = results.get("comfort")

@@ -1,14 +1,20 @@
-"""``vsi report``: checks, figures and a Markdown report of a results file.
+"""``vsi report``: checks, figures and the report of a results file, as one
+self-contained HTML file and as Markdown, with CSV/XLSX tables.
 
 :func:`write_report` runs every check of :mod:`vsi_numba.analysis.checks` that the file
-allows, draws the figures of :mod:`vsi_numba.analysis.plots` and writes ``report.md``
-(plus ``summary.csv``) into one directory. The time-history figures show the governing
-cases of the deck acceleration and wheel unloading checks; a case whose history the file
-does not hold is re-run from the file's ``config_json`` (:mod:`.recompute`).
+allows, draws the figures of :mod:`vsi_numba.analysis.plots` and writes ``report.html``,
+``report.md`` (plus the PNGs), ``summary.csv``, ``tables/*.csv`` and ``tables.xlsx`` into
+one directory. It loads the envelopes only and reads time histories one case at a time.
+The time-history figures show the governing cases of the deck acceleration and wheel
+unloading checks; a case whose history the file does not hold is re-run from the file's
+``config_json`` (:mod:`.recompute`).
 The command ``vsi report`` is :func:`vsi_numba.cli.report.report_command`.
 
-Modules: :mod:`.text` (the Markdown sections), :mod:`.figures` (the figures and the
-re-run governing cases); :func:`write_report` here puts them together.
+Modules: :mod:`.document` (sections of text, tables and figures; the Markdown and HTML
+writers), :mod:`.text` (the Markdown sections), :mod:`.echo` (input echo, title block),
+:mod:`.tables` (maxima, deck / approach wheel unloading, CSV/XLSX), :mod:`.figures` (the
+figures and the re-run governing cases), :mod:`.variants` (parametric studies);
+:func:`write_report` here puts them together.
 """
 
 from __future__ import annotations
@@ -186,7 +192,7 @@ def write_report(
             body.append(sec)
 
     add(_summary(results, table, np.asarray(env["point"].values, float))
-        + _deck_end_note(env) + _one_step_losses(results))
+        + _zone_lines(zone_table) + _deck_end_note(env) + _one_step_losses(results))
     body.append(input_echo(env, variant_note))
     add(_bridge(env, lphi))
     body.append(_maxima_section(env, per_train, per_point, zone_table, zones, speed_tables))
@@ -207,6 +213,24 @@ def write_report(
     path = write_markdown(head + body, outdir / "report.md", title=title)
     write_html(body, outdir / "report.html", title=title, header=head)
     return path
+
+
+def _zone_lines(zone_table) -> list[str]:
+    """Summary bullet: the governing wheel unloading on the deck and on the approach."""
+    if zone_table is None:
+        return []
+    parts = []
+    for _, r in zone_table.iterrows():
+        where = ("on the deck" if "deck" in r["Minimum contact force"] else
+                 "off the deck (approach or exit track)")
+        if not np.isfinite(r["ΔQ/Q₀ max"]):
+            parts.append(f"{where}: none")
+            continue
+        parts.append(f"{where} **{r['ΔQ/Q₀ max']:.3f}** ({r['Train']}, "
+                     f"{r['Speed [km/h]']:.0f} km/h, axle {r['Axle']} at "
+                     f"x = {r['x of the axle [m]']:.1f} m)")
+    return ["- Wheel unloading by where the axle was at its minimum contact force (largest "
+            "over the realisations): " + "; ".join(parts) + ". See [Maxima](#maxima).", ""]
 
 
 def _maxima_section(env, per_train, per_point, zone_table, zones, speed_tables) -> Section:

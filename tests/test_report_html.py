@@ -356,3 +356,12 @@ def test_report_html__renders_in_headless_chromium_with_every_image_decoded(tmp_
     assert res.returncode == 0 and pdf.read_bytes()[:5] == b"%PDF-"
     pages = len(re.findall(rb"/Type\s*/Page[^s]", pdf.read_bytes()))
     assert pages >= 6  # a new page per chapter (print stylesheet)
+
+
+def test_bridge_description__numbers_formatted_for_reports_and_figures():
+    from vsi_numba.model import bridge
+
+    beam = bridge.simply_supported(25.0, EI=1.508e10, mass_per_length=15000.0, n_modes=1)
+    assert beam.description == "simply supported, L = 25 m, EI = 1.508e10 N m2, m = 15000 kg/m"
+    deck = bridge.continuous([20.0, 20.0], EI=1.508e10, mass_per_length=15000.0, n_modes=2)
+    assert deck.description == "continuous deck, spans 20 + 20 m"

@@ -365,3 +365,39 @@ def test_bridge_description__numbers_formatted_for_reports_and_figures():
     assert beam.description == "simply supported, L = 25 m, EI = 1.508e10 N m2, m = 15000 kg/m"
     deck = bridge.continuous([20.0, 20.0], EI=1.508e10, mass_per_length=15000.0, n_modes=2)
     assert deck.description == "continuous deck, spans 20 + 20 m"
+
+
+def test_figures__legends_inside_the_figure_and_only_for_trains_with_curves():
+    from vsi_numba.analysis import plots
+
+    trains = tuple((f"Long train name number {j}", 18.0 + j, 4, "standard") for j in range(11))
+    ds = synthetic_results(speeds_kmh=np.arange(140.0, 425.0, 5.0), trains=trains,
+                           seeds=(1, 2), n_vehicles=2, bridge_length=L).load()
+    ds["max_carbody_acceleration"].loc[{"train": ds["train"].values[:8]}] = np.nan
+    env = envelopes(ds)
+    results = run_checks(env, n_boot=0)
+    zones = tbl.wheel_unloading_by_zone(env)
+    figs = {"deck": plots.plot_deck_acceleration(env, results["deck_acceleration"]),
+            "wheels": plots.plot_wheel_unloading(env, results["wheel_unloading"], zones),
+            "comfort": plots.plot_comfort(env, results["comfort"])}
+    for name, fig in figs.items():
+        renderer = fig.canvas.get_renderer()
+        fig.draw(renderer)
+        box = fig.bbox
+        for legend in fig.legends:
+            ext = legend.get_window_extent(renderer)
+            assert ext.x0 >= box.x0 - 0.5 and ext.x1 <= box.x1 + 0.5, name  # not cut
+            assert ext.y0 >= box.y0 - 0.5, name
+    labels = [t.get_text() for t in figs["comfort"].legends[0].get_texts()]
+    drawn = [str(t) for t in ds["train"].values[8:]]
+    assert [x for x in labels if x.startswith("Long train")] == drawn
+    # the lines of neighbouring trains differ in dash pattern as well as colour
+    lines = [ln for ln in figs["deck"].axes[0].get_lines() if ln.get_label() in
+             {str(t) for t in ds["train"].values}]
+    assert len(lines) == 11
+    styles = plots.train_styles(ds["train"].values)
+    names = [ln.get_label() for ln in lines]
+    for a, b in zip(names[:-1], names[1:], strict=True):
+        assert styles[a]["linestyle"] != styles[b]["linestyle"]
+        assert styles[a]["color"] != styles[b]["color"]
+    assert all(ln.get_color() == styles[ln.get_label()]["color"] for ln in lines)

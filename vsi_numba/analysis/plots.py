@@ -190,8 +190,11 @@ def _legend(fig, ax, handles):
     handles = [h for h in handles if h is not None]
     trains = sum(1 for h in handles if h.get_label() and not h.get_label().startswith(
         ("limit", "required", "resonance", "φ")))
+    # as many columns as fit the figure's width (a legend wider than the figure is cut)
+    longest = max((len(h.get_label()) for h in handles), default=1)
+    fit = max(1, int(fig.get_figwidth() / (0.055 * longest + 0.45)))
     fig.legend(handles=handles, fontsize=7, loc="outside lower center",
-               ncols=max(1, min(5, trains if trains > 1 else 2)), frameon=False)
+               ncols=max(1, min(5, trains if trains > 1 else 2, fit)), frameon=False)
 
 
 def _headroom(ax, top_fraction: float = 0.12):
@@ -272,16 +275,22 @@ def plot_wheel_unloading(ds: xr.Dataset, wu: xr.Dataset, zones: xr.Dataset | Non
     ax = axes[-1]
     h2 = _lines(ax, ds, wu, trains=trains)
     handles = handles or h2
-    if zones is not None and bool(zones["approach"].notnull().any()):
+    if zones is not None:
         styles = train_styles(ds["train"].values)
         x = ds["speed_kmh"].values
-        for train in trains:
-            y = zones["approach"].sel(train=train).values
-            if np.isfinite(y).any():
-                ax.plot(x, y, color=styles[str(train)]["color"], linestyle=":",
-                        linewidth=1.0)
-        handles = [*handles, Line2D([], [], color="0.3", linestyle=":", linewidth=1.0,
-                                    label="minimum on the approach track")]
+        several = ds.sizes.get("irregularity", 1) > 1
+        for zone, style, text in (("deck", (0, (4, 1.5, 1, 1.5)), "on the deck"),
+                                  ("approach", ":", "off the deck")):
+            if not bool(zones[zone].notnull().any()):
+                continue
+            for train in trains:
+                y = zones[zone].sel(train=train).values
+                if np.isfinite(y).any():
+                    ax.plot(x, y, color=styles[str(train)]["color"], linestyle=style,
+                            linewidth=0.9)
+            handles = [*handles, Line2D(
+                [], [], color="0.3", linestyle=style, linewidth=0.9,
+                label=f"ΔQ/Q₀, minimum {text}" + (" (worst realisation)" if several else ""))]
     a = wu.attrs
     lim = _limit(ax, a["limit"], f"limit ΔQ/Q₀ = {a['limit']:g} (EN 14363 practice)")
     ax.set_ylim(0, max(1.0, ax.get_ylim()[1]))

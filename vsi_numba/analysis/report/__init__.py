@@ -191,8 +191,10 @@ def write_report(
         if sec is not None:
             body.append(sec)
 
-    add(_summary(results, table, np.asarray(env["point"].values, float))
-        + _zone_lines(zone_table) + _deck_end_note(env) + _one_step_losses(results))
+    summary = _summary(results, table, np.asarray(env["point"].values, float))
+    at = len(summary) - 1 if summary and not summary[-1] else len(summary)
+    add(summary[:at] + _zone_lines(zone_table) + summary[at:] + _deck_end_note(env)
+        + _one_step_losses(results))
     body.append(input_echo(env, variant_note))
     add(_bridge(env, lphi))
     body.append(_maxima_section(env, per_train, per_point, zone_table, zones, speed_tables))
@@ -230,7 +232,7 @@ def _zone_lines(zone_table) -> list[str]:
                      f"{r['Speed [km/h]']:.0f} km/h, axle {r['Axle']} at "
                      f"x = {r['x of the axle [m]']:.1f} m)")
     return ["- Wheel unloading by where the axle was at its minimum contact force (largest "
-            "over the realisations): " + "; ".join(parts) + ". See [Maxima](#maxima).", ""]
+            "over the realisations): " + "; ".join(parts) + ". See [Maxima](#maxima)."]
 
 
 def _maxima_section(env, per_train, per_point, zone_table, zones, speed_tables) -> Section:

@@ -214,8 +214,9 @@ def _figures(ds: xr.Dataset, results: dict, runner: CaseRunner | None = None,
         put(plots.plot_wheel_unloading(ds, wu, wheel_unloading_by_zone(ds)),
             "wheel_unloading.png",
             "Minimum wheel–rail contact force and wheel unloading ΔQ/Q₀ (max over axles) "
-            "against speed, with the 0.6 limit (EN 14363 practice [R]); dotted: ΔQ/Q₀ of "
-            "the axles whose minimum contact force lay on the approach or exit track"
+            "against speed, with the 0.6 limit (EN 14363 practice [R]); thin dash-dot / "
+            "dotted: ΔQ/Q₀ of the axles whose minimum contact force lay on the deck / on the "
+            "approach or exit track (largest over realisations)"
             + (f"; not drawn: {skipped} (prescribed moving forces, not applicable)"
                if skipped else "") + ".")
     cf = results.get("comfort")

@@ -202,6 +202,7 @@ td.num, th.num { text-align: right; font-variant-numeric: tabular-nums; }
 .wide table { font-size: 0.74em; }
 .wide td { white-space: nowrap; }
 .wide th { overflow-wrap: anywhere; }
+.wide th:first-child { overflow-wrap: normal; white-space: nowrap; }
 caption, .caption { caption-side: top; text-align: left; font-style: italic;
                     color: var(--muted); margin-bottom: 0.3em; }
 figure { margin: 1em 0 1.4em; text-align: center; }

@@ -337,6 +337,9 @@ def test_report_html__renders_in_headless_chromium_with_every_image_decoded(tmp_
     html = page.read_text(encoding="utf-8")
     n_img = html.count("<img ")
     assert n_img >= 5
+    # self-contained: every image inline, nothing fetched (no links, imports or urls)
+    assert html.count('<img src="data:image/png;base64,') == n_img
+    assert not re.search(r'(src|href)="(https?:)?//|<link|@import|url\(', html)
     dom = _chromium(tmp_path, "--virtual-time-budget=5000", "--dump-dom", page.as_uri())
     assert dom.returncode == 0, dom.stderr[-2000:]
     # the page's own script counts the images that decoded (naturalWidth > 0) on load

@@ -34,6 +34,9 @@ import sys
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any
 
+#: The only interface a local Dask cluster listens on (scheduler, workers, dashboards).
+LOOPBACK = "127.0.0.1"
+
 #: Environment of worker processes: serial kernels, one thread each.
 WORKER_ENV = {
     "NUMBA_NUM_THREADS": "1",
@@ -275,7 +278,8 @@ class DaskBackend:
                 kw["local_directory"] = str(self.local_directory)
             self._cluster = LocalCluster(
                 n_workers=self._n, threads_per_worker=1, processes=False,
-                dashboard_address="127.0.0.1:0", **kw,
+                dashboard_address=f"{LOOPBACK}:0",
+                worker_dashboard_address=f"{LOOPBACK}:0", **kw,
             )
             self._client = Client(self._cluster)
         return self

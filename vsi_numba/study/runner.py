@@ -40,6 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vsi_numba.io.paths import output_conflict
 from vsi_numba.io.netcdf import (
     CONVENTIONS,
     _fsync_dir,
@@ -361,8 +362,9 @@ def execute_study(config, output=None, workers=None, scheduler=None, progress=Fa
         if output is None:
             raise StudyError("no output file: give one (-o PATH) or set study.output")
     output = Path(output)
-    if output.exists() and output.is_dir():
-        raise OutputNotWritableError(f"the output {output} is a directory")
+    problem = output_conflict(output, cfg)  # an input, a device, a name too long, ...
+    if problem is not None:
+        raise OutputNotWritableError(problem)
     variants = list(getattr(cfg, "variants", []) or []) if not first_case else []
     vcfgs = [v for _, v in variants] or [cfg]
     specs = [study_spec(c) for c in vcfgs] if variants else [spec]
@@ -392,10 +394,11 @@ def execute_study(config, output=None, workers=None, scheduler=None, progress=Fa
                    f"workers={workers!r}, scheduler={scheduler!r}, backend={backend!r})")
 
     check_writable(output.parent if str(output.parent) else Path("."), "results file")
-    store_existed = store_path(output).exists()
+    spath = store_path(output, "run" if first_case else "sweep")  # never the other's
+    store_existed = spath.exists()
     model_sha = (model_fingerprint(model) if not variants else hashlib.sha256(
         "".join(model_fingerprint(m) for m in models).encode()).hexdigest())
-    store = CaseStore(store_path(output), sha, config_json, fresh=fresh,
+    store = CaseStore(spath, sha, config_json, fresh=fresh,
                       model_sha256=model_sha, plan_sha256=plan_fingerprint(plan))
     study = _Study(specs, models, grid, plan, [lab for lab, _ in variants] or None,
                    config_json, sha, command)

@@ -1,6 +1,10 @@
 """The batch store: one file per finished batch, next to the study output.
 
-A study writing ``out.nc`` keeps its finished batches in ``out.nc.cases/``:
+A study writing ``out.nc`` keeps its finished batches in ``out.nc.cases/`` (``vsi sweep``,
+resumable) or ``out.nc.run-cases/`` (``vsi run``, never resumed: a run started on the
+output of an interrupted sweep never touches the sweep's batches).  When ``out.nc`` is
+so long a name that the suffix would not fit the file system, the store's name is
+shortened with a hash of the output name (:func:`vsi_numba.io.paths.fitting_name`).
 
 ``store.json``
     manifest: store format, ``config_sha256`` and the resolved configuration of the study
@@ -21,6 +25,13 @@ Resume is "skip every batch whose file exists".  A store is only ever reused by 
 whose configuration, model data and batch plan are the same: anything else is refused
 with :class:`StoreMismatchError` (never silently mixed).  After the final file is written
 the store is removed (its content is all in the final file).
+
+Removal is safe against a kill at any point: the store directory is first renamed,
+atomically, to a hidden tombstone ``.out.nc.cases.removing`` (so it is either the
+complete store, which a re-run resumes, or no store at all), then deleted; the next run
+on that output deletes a tombstone left behind.  Clearing a store for ``--fresh``
+deletes the batches first and the manifest last, so an interrupted clear leaves a valid
+store with fewer batches, never batches without a manifest.
 """
 
 from __future__ import annotations
@@ -37,7 +48,13 @@ from pathlib import Path
 
 import numpy as np
 
-from vsi_numba.io.netcdf import package_version, write_atomic, write_bytes_atomic
+from vsi_numba.io.netcdf import (
+    _fsync_dir,
+    package_version,
+    write_atomic,
+    write_bytes_atomic,
+)
+from vsi_numba.io.paths import fitting_name, name_max
 
 STORE_FORMAT = 2
 MANIFEST = "store.json"
@@ -81,10 +98,34 @@ class CorruptBatchError(StudyError):
     exit_code = 1
 
 
-def store_path(output: str | os.PathLike) -> Path:
-    """Case store directory of a study output: ``<output>.cases`` beside it."""
+#: Suffix of the store of each command (``vsi sweep`` / ``run_study``, ``vsi run``).
+STORE_SUFFIX = {"sweep": ".cases", "run": ".run-cases"}
+TOMBSTONE_SUFFIX = ".removing"
+
+
+def store_path(output: str | os.PathLike, command: str = "sweep") -> Path:
+    """Case store directory of a study output: ``<output>.cases`` beside it
+    (``<output>.run-cases`` for ``command="run"``), shortened with a hash of the output
+    name when that would be too long a file name."""
     output = Path(output)
-    return output.with_name(output.name + ".cases")
+    limit = name_max(output.parent if str(output.parent) else ".")
+    return output.with_name(fitting_name(output.name, suffix=STORE_SUFFIX[command],
+                                         limit=limit))
+
+
+def tombstone_path(store: str | os.PathLike) -> Path:
+    """Where a store being removed is renamed first: ``.<store name>.removing``."""
+    store = Path(store)
+    limit = name_max(store.parent if str(store.parent) else ".")
+    return store.with_name(fitting_name(store.name, prefix=".", suffix=TOMBSTONE_SUFFIX,
+                                        limit=limit))
+
+
+def remove_tombstone(store: str | os.PathLike) -> None:
+    """Finish the removal of a store that a killed run had begun (if any)."""
+    tomb = tombstone_path(store)
+    if tomb.is_dir() and not tomb.is_symlink():
+        shutil.rmtree(tomb, ignore_errors=True)
 
 
 def _is_permission(exc: OSError) -> bool:
@@ -139,6 +180,7 @@ class CaseStore:
         """Create or adopt the store, refusing one made by another configuration."""
         if self.path.exists() and not self.path.is_dir():
             raise StoreMismatchError(f"{self.path} exists and is not a case store directory")
+        remove_tombstone(self.path)
         check_writable(self.path, "case store")
         self._lock()
         try:
@@ -180,13 +222,22 @@ class CaseStore:
         self.close()
 
     def remove(self) -> None:
-        """Delete the store (after its batches went into the final file); the lock is
-        held until the store is gone, so no other run can adopt it half-removed."""
-        self._clear(keep_lock=True)
-        with contextlib.suppress(OSError):
-            (self.path / LOCK).unlink()
-        with contextlib.suppress(OSError):
-            self.path.rmdir()
+        """Delete the store (after its batches went into the final file).
+
+        The directory is renamed to its tombstone (:func:`tombstone_path`) in one atomic
+        step, then deleted: a kill before the rename leaves the whole store (a re-run
+        resumes it), a kill after it leaves only the tombstone, which the next run on
+        this output deletes.  The lock is held until the end.
+        """
+        remove_tombstone(self.path)  # left by an earlier, killed removal
+        tomb = tombstone_path(self.path)
+        try:
+            os.rename(self.path, tomb)
+        except FileNotFoundError:
+            self.close()
+            return
+        _fsync_dir(self.path.parent)
+        shutil.rmtree(tomb, ignore_errors=True)
         self.close()
 
     # -------------------------------------------------------------- content
@@ -205,7 +256,8 @@ class CaseStore:
 
     def temp_path(self, name: str) -> Path:
         """A path for a file being written inside the store (removed if left behind)."""
-        return self.path / f".{name}.{os.getpid()}.tmp"
+        return self.path / fitting_name(name, prefix=".", suffix=f".{os.getpid()}.tmp",
+                                        limit=name_max(self.path))
 
     def write(self, key: str, arrays: dict) -> Path:
         """Store one finished batch atomically (``arrays``: name -> numpy array)."""
@@ -321,13 +373,14 @@ class CaseStore:
                     p.unlink()
 
     def _clear(self, keep_lock: bool) -> None:
-        for p in self.path.iterdir():
-            if keep_lock and p.name == LOCK:
-                continue
-            if p.is_dir():
+        """Delete the content: the manifest last (an interrupted clear leaves a valid
+        store with fewer batches), the lock only if not ``keep_lock``."""
+        last = [self.path / MANIFEST] + ([] if keep_lock else [self.path / LOCK])
+        for p in [p for p in self.path.iterdir() if p.name not in (MANIFEST, LOCK)] + last:
+            if p.is_dir() and not p.is_symlink():
                 shutil.rmtree(p)
             else:
-                p.unlink()
+                p.unlink(missing_ok=True)
 
 
 

@@ -40,13 +40,14 @@ from pathlib import Path
 
 import numpy as np
 
-from vsi_numba.io.paths import output_conflict
 from vsi_numba.io.netcdf import (
     CONVENTIONS,
     _fsync_dir,
     history_line,
     source_string,
 )
+from vsi_numba.io.paths import output_conflict
+from vsi_numba.io.space import study_need
 from vsi_numba.study.backends import (
     DaskBackend,
     ProcessBackend,
@@ -75,9 +76,9 @@ from vsi_numba.study.spec import (
 from vsi_numba.study.store import (
     CaseStore,
     OutputNotWritableError,
-    StoreWriteError,
     StudyError,
     check_writable,
+    final_write_error,
     store_path,
 )
 
@@ -424,6 +425,10 @@ def _execute(store, study: _Study, output, backend, workers, scheduler, progress
     n_runs = study.n_runs
     n_todo = sum(b.n_runs for b in pending)
     n_s, n_t, n_i = study.grid.shape
+    need = study_need(study, pending)  # refused now if the disk cannot hold the study
+    space_warning = store.check_space(need, output)
+    if space_warning:
+        _say(quiet, f"warning: {space_warning}")
     if pending:
         be = _choose_backend(backend, workers, scheduler, len(pending),
                              store.path / "dask-scratch")
@@ -436,14 +441,15 @@ def _execute(store, study: _Study, output, backend, workers, scheduler, progress
         _run_pending(be, study.task_spec, pending, store, progress, n_runs, n_runs - n_todo)
     else:
         _say(quiet, f"{n_runs} runs: all done earlier, writing {output}")
-    n_failed = _write_results(output, store, study)
+    n_failed = _write_results(output, store, study, need.final_max)
     if not keep_cases:
         store.remove()
     _say(quiet, f"wrote {output}: {n_runs} runs, {n_failed} failed")
     return StudyOutcome(output, n_runs, n_failed, len(study.plan))
 
 
-def _write_results(output: Path, store: CaseStore, study: _Study) -> int:
+def _write_results(output: Path, store: CaseStore, study: _Study,
+                   need_bytes: int | None = None) -> int:
     """Stream the stored batches into the results file; returns the failed-run count."""
     from vsi_numba.io.study_file import StudyFile
 
@@ -509,13 +515,7 @@ def _write_results(output: Path, store: CaseStore, study: _Study) -> int:
         _fsync_dir(output.parent)
     except (OSError, RuntimeError) as exc:
         tmp.unlink(missing_ok=True)
-        n = len(store.done())
-        msg = (f"cannot write {output}: {getattr(exc, 'strerror', None) or exc}. The {n} "
-               f"finished batches are kept in {store.path}; re-run the same command once "
-               "fixed.")
-        if isinstance(exc, PermissionError):
-            raise OutputNotWritableError(msg) from exc
-        raise StoreWriteError(msg) from exc
+        raise final_write_error(exc, output, store, need_bytes) from exc
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise

@@ -92,6 +92,13 @@ class StoreWriteError(StudyError):
     exit_code = 1
 
 
+class InsufficientSpaceError(StudyError):
+    """The disk of the output has too little free space for the study (checked before
+    it starts)."""
+
+    exit_code = 2
+
+
 class CorruptBatchError(StudyError):
     """A stored batch cannot be read or is not the batch its name says."""
 
@@ -240,6 +247,38 @@ class CaseStore:
         shutil.rmtree(tomb, ignore_errors=True)
         self.close()
 
+    def check_space(self, need, output: Path) -> str | None:
+        """Refuse a study that cannot fit on the disk of its store, before it starts.
+
+        ``need`` is a :class:`vsi_numba.io.space.DiskNeed`.  Raises
+        :class:`InsufficientSpaceError` when the free space is below ``need.minimum``;
+        returns a warning when it is below ``need.maximum`` (the compressed histories may
+        not fit), else None.
+        """
+        from vsi_numba.io.space import megabytes
+
+        try:
+            free = shutil.disk_usage(self.path).free
+        except OSError:  # pragma: no cover - cannot tell: let the writes decide
+            return None
+        n = len(self.done())
+        kept = (f" The {n} finished batch(es) stay in {self.path}; re-run the same command "
+                "to resume." if n else "")
+        if free < need.minimum:
+            raise InsufficientSpaceError(
+                f"not enough disk space for {output}: the study needs about "
+                f"{megabytes(need.minimum)} ({megabytes(need.store)} of case store for the "
+                f"batches still to run, then at least {megabytes(need.final_min)} for the "
+                f"results file), but only {megabytes(free)} are free on the disk of "
+                f"{self.path}. Free some space, write to another disk (-o PATH), or save "
+                f"fewer time histories (study.history_speeds_kmh).{kept}")
+        if free < need.maximum:
+            return (f"the disk of {output} has {megabytes(free)} free; the study needs "
+                    f"{megabytes(need.minimum)} to {megabytes(need.maximum)} (depending on "
+                    "how well its time histories compress): it may run out of space at the "
+                    "final write (the finished batches would be kept for a resume)")
+        return None
+
     # -------------------------------------------------------------- content
     def done(self) -> set[str]:
         """Keys of the finished batches."""
@@ -382,6 +421,51 @@ class CaseStore:
             else:
                 p.unlink(missing_ok=True)
 
+
+
+def final_write_error(exc: BaseException, output: Path, store: CaseStore,
+                      need_bytes: int | None = None) -> StudyError:
+    """The error of a failed write of the results file ``output`` (written as a temp file
+    in ``store``, then renamed): what happened, which file, the space needed and free
+    when the disk is the likely cause, and that the finished batches are kept."""
+    from vsi_numba.io.space import megabytes
+
+    try:
+        n = len(store.done())
+    except OSError:
+        n = 0
+    keep = (f"The {n} finished batch(es) are kept in the case store {store.path}; re-run "
+            "the same command to resume once this is fixed (only the results file is "
+            "written again).")
+    try:
+        free = shutil.disk_usage(store.path if store.path.is_dir() else output.parent).free
+    except OSError:
+        free = None
+    errno_ = getattr(exc, "errno", None)
+    reason = getattr(exc, "strerror", None) or str(exc)
+    cause = exc.__cause__ if exc.__cause__ is not None else exc
+    hdf = isinstance(cause, RuntimeError) or "HDF error" in str(exc)
+    if hdf and isinstance(cause, RuntimeError):
+        reason = str(cause)
+    space = ""
+    if need_bytes is not None or free is not None:
+        space = (f" The results file needs about {megabytes(need_bytes)}"
+                 if need_bytes is not None else " The results file")
+        space += (f"; {megabytes(free)} free on the disk of {store.path}."
+                  if free is not None else ".")
+    if isinstance(exc, OSError) and _is_permission(exc):
+        return OutputNotWritableError(f"cannot write {output} (the results file): {reason}. "
+                                      f"{keep}")
+    if errno_ in (errno.ENOSPC, errno.EDQUOT):
+        what = "the disk is full (no space left on the device)"
+    elif errno_ == errno.EFBIG:
+        what = "a file size limit was reached (file too large)"
+    elif hdf:
+        what = (f"the netCDF library failed ({reason}), most likely because the disk is "
+                "full or a file size limit was reached")
+    else:
+        what = reason
+    return StoreWriteError(f"cannot write {output} (the results file): {what}.{space} {keep}")
 
 
 def _write_error(exc: OSError, target: Path, store: CaseStore) -> StudyError:

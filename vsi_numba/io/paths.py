@@ -136,7 +136,7 @@ def output_conflict(out_path: str | os.PathLike, cfg=None) -> str | None:
         return problem
     try:
         st = out_path.stat()
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):  # the writability check says why
         st = None
     except OSError as exc:
         return f"cannot use the output {out_path}: {exc.strerror or exc}"
@@ -155,6 +155,6 @@ def output_conflict(out_path: str | os.PathLike, cfg=None) -> str | None:
                     same = False
             if same:
                 return (f"the output {out_path} is {what} ({path}), an input of this "
-                        "configuration: refusing to overwrite it; choose another output "
+                        "configuration: refusing to overwrite the input; choose another output "
                         "(-o PATH, ending in .nc)")
     return None

@@ -569,3 +569,13 @@ def test_edges__enospc_in_final_rename_named_as_full_disk(tmp_path):
     st.close()
     assert "the disk is full" in msg and "needs about 5.0 MB" in msg
     assert "The 3 finished batch(es) are kept" in msg
+
+
+def test_edges__atomic_write_of_a_longest_name(tmp_path):
+    """The temporary file of an atomic write beside a NAME_MAX-long target fits too."""
+    from vsi_numba.io.netcdf import write_bytes_atomic
+
+    target = tmp_path / ("w" * os.pathconf(tmp_path, "PC_NAME_MAX"))
+    write_bytes_atomic(target, b"data")
+    assert target.read_bytes() == b"data" and [p.name for p in tmp_path.iterdir()] == [
+        target.name]

@@ -22,7 +22,8 @@ alone writes the results, so workers never write to a shared file system.
   removes the pool's semaphores from ``/dev/shm``.
 * ``DaskBackend`` - a ``dask.distributed`` cluster with batches as tasks: a
   ``LocalCluster`` of ``n`` worker threads in this process (``--workers N``; in-process
-  transport, no network listener but a dashboard on 127.0.0.1), or an existing scheduler
+  transport; the only network listeners, the scheduler's dashboard and the workers' HTTP
+  servers, are bound to 127.0.0.1), or an existing scheduler
   (``--scheduler ADDR``).  Remote workers rebuild the model once per process from the
   configuration, so the files a config names (imported bridge, profile CSV, user train
   file) must exist at the same absolute paths on every worker, and the workers should set

@@ -514,8 +514,9 @@ def _write_results(output: Path, store: CaseStore, study: _Study,
         os.replace(tmp, output)
         _fsync_dir(output.parent)
     except (OSError, RuntimeError) as exc:
+        error = final_write_error(exc, output, store, need_bytes, tmp)
         tmp.unlink(missing_ok=True)
-        raise final_write_error(exc, output, store, need_bytes) from exc
+        raise error from exc
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise

@@ -424,10 +424,12 @@ class CaseStore:
 
 
 def final_write_error(exc: BaseException, output: Path, store: CaseStore,
-                      need_bytes: int | None = None) -> StudyError:
-    """The error of a failed write of the results file ``output`` (written as a temp file
-    in ``store``, then renamed): what happened, which file, the space needed and free
-    when the disk is the likely cause, and that the finished batches are kept."""
+                      need_bytes: int | None = None, partial: Path | None = None
+                      ) -> StudyError:
+    """The error of a failed write of the results file ``output`` (written as the temp
+    file ``partial`` in ``store``, then renamed; call this before deleting it): what
+    happened, which file, the space needed and the space that was free for it, and that
+    the finished batches are kept."""
     from vsi_numba.io.space import megabytes
 
     try:
@@ -439,6 +441,8 @@ def final_write_error(exc: BaseException, output: Path, store: CaseStore,
             "written again).")
     try:
         free = shutil.disk_usage(store.path if store.path.is_dir() else output.parent).free
+        if partial is not None and partial.exists():  # what the failed write had taken
+            free += partial.stat().st_blocks * 512
     except OSError:
         free = None
     errno_ = getattr(exc, "errno", None)
@@ -451,7 +455,7 @@ def final_write_error(exc: BaseException, output: Path, store: CaseStore,
     if need_bytes is not None or free is not None:
         space = (f" The results file needs about {megabytes(need_bytes)}"
                  if need_bytes is not None else " The results file")
-        space += (f"; {megabytes(free)} free on the disk of {store.path}."
+        space += (f"; {megabytes(free)} were free for it on the disk of {store.path}."
                   if free is not None else ".")
     if isinstance(exc, OSError) and _is_permission(exc):
         return OutputNotWritableError(f"cannot write {output} (the results file): {reason}. "

@@ -243,6 +243,12 @@ class CaseStore:
         except FileNotFoundError:
             self.close()
             return
+        except OSError:  # the parent cannot take a new name: delete in place, manifest last
+            with contextlib.suppress(OSError):
+                self._clear(keep_lock=False)
+                self.path.rmdir()
+            self.close()
+            return
         _fsync_dir(self.path.parent)
         shutil.rmtree(tomb, ignore_errors=True)
         self.close()
@@ -453,7 +459,7 @@ def final_write_error(exc: BaseException, output: Path, store: CaseStore,
         reason = str(cause)
     space = ""
     if need_bytes is not None or free is not None:
-        space = (f" The results file needs about {megabytes(need_bytes)}"
+        space = (f" The results file needs up to about {megabytes(need_bytes)}"
                  if need_bytes is not None else " The results file")
         space += (f"; {megabytes(free)} were free for it on the disk of {store.path}."
                   if free is not None else ".")

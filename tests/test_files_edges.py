@@ -501,10 +501,8 @@ def test_edges__too_little_disk_refused_before_starting(tmp_path, capsys, monkey
     assert "Traceback" not in err and not ran and not out.exists()
     assert not store_path(out).exists()  # nothing stored, nothing left
     # room for the store and the envelopes, not surely for uncompressed histories
-    from vsi_numba.io import space
-
     seen = {}
-    real_need = space.study_need
+    real_need = store_mod.study_need
     monkeypatch.setattr(runner, "study_need", lambda *a: seen.setdefault("n", real_need(*a)))
     free["bytes"] = 10**15
     assert sweep_command(config, out, None, None, quiet=True) == 0

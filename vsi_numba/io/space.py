@@ -86,40 +86,6 @@ def batch_bytes(n_runs: int, hist_steps: list[int], n_point: int, n_wheel: int,
     return size + NPZ_OVERHEAD * n_arrays
 
 
-def study_need(study, pending) -> DiskNeed:
-    """Disk need of a study (``runner._Study``) with the batches ``pending`` to run."""
-    from vsi_numba.study.spec import _packed_trains
-
-    grid = study.grid
-    packed = [_packed_trains(sp, m) for sp, m in zip(study.specs, study.models, strict=True)]
-    speeds = [float(v) / 3.6 for v in grid.speeds_kmh]
-
-    def dims(b):
-        p = packed[b.variant or 0][b.i_train]
-        return (study.models[b.variant or 0].output_points.size,
-                p.wheel_positions.size + p.load_positions.size,
-                p.vehicles.wheel_dof.size, p.vehicles.body_dof.size, p)
-
-    store = 0
-    for b in pending:
-        n_p, n_w, n_wd, n_v, p = dims(b)
-        steps = [p.n_steps(speeds[s]) + 1
-                 for s, h in zip(b.speeds, b.histories, strict=True) if h]
-        store += batch_bytes(b.n_runs, steps, n_p, n_w, n_wd, n_v)
-    n_p = max(m.output_points.size for m in study.models)
-    n_w = max(max(d[1] for d in map(dims, study.plan)), 0)
-    n_wd = max(max(d[2] for d in map(dims, study.plan)), 0)
-    n_v = max(max(d[3] for d in map(dims, study.plan)), 0)
-    n_runs = study.n_runs
-    final_min = NC_OVERHEAD + n_runs * (envelope_row_bytes(n_p, n_w, n_v)
-                                        + 4 * len(DIAGNOSTICS))
-    hist = [dims(b)[4].n_steps(speeds[s]) + 1 for b in study.plan
-            for s, h in zip(b.speeds, b.histories, strict=True) if h]
-    final_max = final_min + (len(hist) * max(hist, default=0)
-                             * history_row_bytes(n_p, n_wd, n_v))
-    return DiskNeed(store=int(store), final_min=int(final_min), final_max=int(final_max))
-
-
 def megabytes(n: int) -> str:
     """``n`` bytes as a short text (``12.3 MB``)."""
     if n < 10**6:

@@ -47,7 +47,6 @@ from vsi_numba.io.netcdf import (
     source_string,
 )
 from vsi_numba.io.paths import output_conflict
-from vsi_numba.io.space import study_need
 from vsi_numba.study.backends import (
     DaskBackend,
     ProcessBackend,
@@ -80,6 +79,7 @@ from vsi_numba.study.store import (
     check_writable,
     final_write_error,
     store_path,
+    study_need,
 )
 
 BACKENDS = ("serial", "threads", "processes", "dask")

@@ -428,6 +428,48 @@ class CaseStore:
                 p.unlink(missing_ok=True)
 
 
+def study_need(study, pending):
+    """Disk need (:class:`vsi_numba.io.space.DiskNeed`) of a study (``runner._Study``)
+    with the batches ``pending`` still to run."""
+    from vsi_numba.io.schema import DIAGNOSTICS
+    from vsi_numba.io.space import (
+        NC_OVERHEAD,
+        DiskNeed,
+        batch_bytes,
+        envelope_row_bytes,
+        history_row_bytes,
+    )
+    from vsi_numba.study.spec import _packed_trains
+
+    grid = study.grid
+    packed = [_packed_trains(sp, m) for sp, m in zip(study.specs, study.models, strict=True)]
+    speeds = [float(v) / 3.6 for v in grid.speeds_kmh]
+
+    def dims(b):
+        p = packed[b.variant or 0][b.i_train]
+        return (study.models[b.variant or 0].output_points.size,
+                p.wheel_positions.size + p.load_positions.size,
+                p.vehicles.wheel_dof.size, p.vehicles.body_dof.size, p)
+
+    store = 0
+    for b in pending:
+        n_p, n_w, n_wd, n_v, p = dims(b)
+        steps = [p.n_steps(speeds[s]) + 1
+                 for s, h in zip(b.speeds, b.histories, strict=True) if h]
+        store += batch_bytes(b.n_runs, steps, n_p, n_w, n_wd, n_v)
+    n_p = max(m.output_points.size for m in study.models)
+    shapes = [dims(b)[1:4] for b in study.plan]
+    n_w = max((d[0] for d in shapes), default=0)  # the file's wheel dim: all the wheels
+    n_v = max((d[2] for d in shapes), default=0)
+    n_runs = study.n_runs
+    final_min = NC_OVERHEAD + n_runs * (envelope_row_bytes(n_p, n_w, n_v)
+                                        + 4 * len(DIAGNOSTICS))
+    hist = [dims(b)[4].n_steps(speeds[s]) + 1 for b in study.plan
+            for s, h in zip(b.speeds, b.histories, strict=True) if h]
+    final_max = final_min + (len(hist) * max(hist, default=0)
+                             * history_row_bytes(n_p, n_w, n_v))
+    return DiskNeed(store=int(store), final_min=int(final_min), final_max=int(final_max))
+
 
 def final_write_error(exc: BaseException, output: Path, store: CaseStore,
                       need_bytes: int | None = None, partial: Path | None = None

@@ -663,3 +663,20 @@ def test_edges__store_removal_without_rename_deletes_manifest_last(tmp_path, mon
     st.remove()
     assert not st.path.exists() and real_rename is not os.rename
     assert order.index(MANIFEST) > max(i for i, n in enumerate(order) if n.startswith("batch"))
+
+
+def test_edges__default_output_that_is_an_input_is_refused(tmp_path, capsys):
+    """``study.output`` naming an input (no -o; here the modes table, a .nc file like
+    every output): refused the same way."""
+    shutil.copytree(REPO / "configs" / "data", tmp_path / "data")
+    config = tmp_path / "modes.toml"
+    text = (REPO / "configs" / "two_span_modes_file.toml").read_text()
+    assert 'output = "results/two_span_modes_file.nc"' in text
+    config.write_text(text.replace('output = "results/two_span_modes_file.nc"',
+                                   'output = "data/two_span_modes.nc"'))
+    modes = tmp_path / "data" / "two_span_modes.nc"
+    before = digest(modes)
+    assert run_command(config, None, quiet=True) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert "is the file of bridge.file" in err and "refusing to overwrite" in err, err
+    assert digest(modes) == before

@@ -454,7 +454,9 @@ def _write_results(output: Path, store: CaseStore, study: _Study) -> int:
     model = models[0]
     variants = None
     if labels is not None:
-        rules = [m.config.resolved().get("bridge", {}) for m in models]
+        rules = [{k: getattr(m.config, k, None) for k in ("damping_rule",
+                                                          "additional_damping_rule")}
+                 for m in models]
         variants = {"coords": variant_coords(labels),
                     "bridge_length": [m.bridge.length for m in models],
                     "acceleration_cutoff": [m.deck[2] for m in models],
@@ -521,11 +523,10 @@ def _write_results(output: Path, store: CaseStore, study: _Study) -> int:
 
 def _bridge_rules(attrs: dict, cfg) -> None:
     """The EN 1991-2 damping rules a config applied, as attributes of the results."""
-    resolved = cfg.resolved() if hasattr(cfg, "resolved") else {}
-    bridge = resolved.get("bridge", {}) if isinstance(resolved, dict) else {}
     for key in ("damping_rule", "additional_damping_rule"):
-        if bridge.get(key):
-            attrs[key] = str(bridge[key])
+        rule = getattr(cfg, key, None)
+        if rule:
+            attrs[key] = str(rule)
 
 
 def _hold_after() -> int | str | None:

@@ -91,8 +91,8 @@ def peak_deck_acceleration(ds: xr.Dataset) -> xr.DataArray:
     realisations and the deck (the whole-deck envelope when the file has it, else the
     output points)."""
     a = ds["max_deck_acceleration"].max(["train", "irregularity", "point"])
-    if "max_deck_acceleration_deck" in ds:
-        a = np.fmax(a, ds["max_deck_acceleration_deck"].max(["train", "irregularity"]))
+    if "max_deck_acceleration_whole_deck" in ds:
+        a = np.fmax(a, ds["max_deck_acceleration_whole_deck"].max(["train", "irregularity"]))
     return a
 
 

@@ -1,0 +1,172 @@
+"""``vsi --version``, ``vsi check``, ``vsi init``, clean ``--help``, the governing results
+printed by ``vsi sweep`` and the worker count of ``--scheduler``."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+from typer.testing import CliRunner
+
+import vsi_numba
+from vsi_numba.cli import app
+from vsi_numba.cli.check import estimate_study
+from vsi_numba.cli.init import TEMPLATE
+from vsi_numba.config import load_config
+
+ROOT = Path(__file__).resolve().parents[1]
+COMMANDS = ["run", "sweep", "check", "init", "trains", "modes", "report", "profile"]
+
+
+def invoke(*args):
+    return CliRunner().invoke(app, [str(a) for a in args])
+
+
+def test_cli__version():
+    res = invoke("--version")
+    assert res.exit_code == 0
+    assert res.output.startswith(f"vsi_numba {vsi_numba.__version__} (numba ")
+
+
+@pytest.mark.parametrize("command", [None, *COMMANDS])
+def test_cli__help_shows_flags_without_types(command):
+    res = invoke(*([command] if command else []), "--help")
+    assert res.exit_code == 0, res.output
+    assert "<bool>" not in res.output
+    if command == "sweep":
+        assert re.search(r"-q, --quiet\s+no progress bar", res.output)
+        assert re.search(r"--fresh\s+discard", res.output)
+    if command is None:
+        assert "--version" in res.output and "check" in res.output and "init" in res.output
+
+
+def test_init__writes_a_valid_config_and_never_overwrites(tmp_path):
+    path = tmp_path / "bridge.toml"
+    res = invoke("init", path)
+    assert res.exit_code == 0, res.output
+    text = path.read_text()
+    assert text == TEMPLATE.format(name=str(path), stem="bridge")
+    assert text.count("#") > 20  # commented
+    cfg = load_config(path)
+    assert cfg.warnings == []
+    assert cfg.output_path == tmp_path / "results" / "bridge.nc"
+    again = invoke("init", path)
+    assert again.exit_code == 2
+    assert "refusing to overwrite" in again.output
+    assert path.read_text() == text
+    assert invoke("init", tmp_path / "bridge.txt").exit_code == 2
+
+
+def test_check__reports_the_study_and_runs_nothing(tmp_path):
+    cfg = tmp_path / "q.toml"
+    shutil.copy(ROOT / "configs" / "quickstart.toml", cfg)
+    res = invoke("check", cfg)
+    assert res.exit_code == 0, res.output
+    study = load_config(cfg)
+    n = study.speeds_kmh.size * len(study.trains())
+    assert f"study: {n} runs = {study.speeds_kmh.size} speeds x 1 trains" in res.output
+    assert re.search(r"estimate \(warm numba cache, \d+ workers?\): time ~[\d.]+ s, peak "
+                     r"memory ~[\d.]+ MB, results file ~[\d.]+ kB", res.output)
+    assert not study.output_path.exists() and not list(tmp_path.rglob("*.nc"))
+    bad = tmp_path / "bad.toml"
+    bad.write_text(cfg.read_text().replace("[bridge]", "[bridge]\nspna = 3"))
+    res = invoke("check", bad)
+    assert res.exit_code == 2
+    assert "bridge.spna = 3: unknown key; did you mean 'spans'?" in res.output
+
+
+def _measured_sweep(config: Path, out: Path) -> tuple[float, float, int, str]:
+    """CPU time (s, all threads), peak RSS (bytes), file size (bytes) and stdout of
+    ``vsi sweep`` in a fresh interpreter, as a user runs it."""
+    code = ("import resource, sys\n"
+            "from vsi_numba.cli import app\n"
+            f"rc = app(['sweep', {str(config)!r}, '-o', {str(out)!r}, '-q'], "
+            "standalone_mode=False)\n"
+            "r = resource.getrusage(resource.RUSAGE_SELF)\n"
+            "print('MAXRSS', r.ru_maxrss, 'CPU', r.ru_utime + r.ru_stime, file=sys.stderr)\n"
+            "sys.exit(rc or 0)\n")
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=env, timeout=600, check=False)
+    assert proc.returncode == 0, proc.stderr
+    m = re.search(r"MAXRSS (\d+) CPU ([\d.]+)", proc.stderr)
+    rss = 1024.0 * float(m.group(1))  # Linux: kB
+    return float(m.group(2)), rss, out.stat().st_size, proc.stdout
+
+
+@pytest.fixture(scope="module")
+def init_run(tmp_path_factory):
+    """The ``vsi init`` starter config, swept for real (9 runs, ICE3 and HSLM)."""
+    d = tmp_path_factory.mktemp("init")
+    cfg = d / "study.toml"
+    assert invoke("init", cfg).exit_code == 0
+    out = d / "results.nc"
+    return cfg, out, _measured_sweep(cfg, out)
+
+
+def test_check__estimate_within_factor_3_of_a_real_run(init_run, tmp_path):
+    # factor 3: the cost model is a per-step average calibrated on this machine; what it
+    # must give is the order of magnitude.  Time is compared as CPU time (the estimate's
+    # kernel time summed over the workers): wall time on this shared machine depends on
+    # the other jobs' load.
+    cases = [init_run[:2] + (init_run[2],)]
+    hslm = ROOT / "configs" / "hslm_25m.toml"  # 570 runs: kernel time, envelopes only
+    cases.append((hslm, tmp_path / "hslm.nc", _measured_sweep(hslm, tmp_path / "hslm.nc")))
+    for cfg, _, (cpu, rss, size, _) in cases:
+        est = estimate_study(load_config(cfg))
+        for what, e, m in (("CPU time", est.cpu_seconds, cpu), ("memory", est.memory_bytes, rss),
+                           ("disk", est.disk_bytes, size)):
+            assert 1 / 3 <= e / m <= 3, f"{cfg.name} {what}: estimate {e:.4g}, measured {m:.4g}"
+
+
+def _value(line: str) -> float:
+    return float(re.search(r" (-?[\d.]+(?:e[-+]\d+)?)(?: m/s2)? (?:pass|FAIL)", line).group(1))
+
+
+def test_sweep__prints_the_governing_result_of_each_check(init_run):
+    _, out, (*_, stdout) = init_run
+    lines = [ln.strip() for ln in stdout.splitlines()]
+    acc = next(ln for ln in lines if ln.startswith("deck acceleration"))
+    dq = next(ln for ln in lines if ln.startswith("wheel unloading dQ/Q0"))
+    comfort = next(ln for ln in lines if ln.startswith("comfort"))
+    # reference: brute-force maxima of the stored envelopes (one realisation, so the
+    # characteristic value is the maximum); printed with 3 significant digits -> 0.5 %
+    with xr.open_dataset(out) as ds:
+        a = np.fmax(ds["max_deck_acceleration"].max("point"),
+                    ds["max_deck_acceleration_whole_deck"]).isel(irregularity=0)
+        i_s, i_t = np.unravel_index(int(np.nanargmax(a.values)), a.shape)
+        assert _value(acc) == pytest.approx(float(a.max()), rel=5e-3)
+        assert f": {ds['train'].values[i_t]}, {float(ds['speed_kmh'][i_s]):g} km/h" in acc
+        assert ("FAIL" in acc) == (float(a.max()) > 3.5)
+        x = float(ds["position_of_max_deck_acceleration_whole_deck"].isel(
+            irregularity=0, speed=i_s, train=i_t))
+        assert f"x = {x:.1f} m" in acc
+        ice = list(ds["train"].values).index("ICE3")
+        dq_ref = float(ds["max_wheel_unloading"].isel(train=ice).max())
+        assert _value(dq) == pytest.approx(dq_ref, rel=5e-3)
+        assert ": ICE3, " in dq and "axle " in dq
+        bv = float(ds["max_carbody_acceleration"].max())
+        assert _value(comfort) == pytest.approx(bv, rel=5e-3)
+
+
+def test_sweep__scheduler_reports_the_real_worker_count(tmp_path):
+    from dask.distributed import LocalCluster
+
+    cfg = tmp_path / "q.toml"
+    shutil.copy(ROOT / "configs" / "quickstart.toml", cfg)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                      dashboard_address=None, scheduler_port=0) as cluster:
+        addr = cluster.scheduler_address
+        res = invoke("sweep", cfg, "-o", tmp_path / "q.nc", "--scheduler", addr)
+    assert res.exit_code == 0, res.output
+    assert f"connected to the Dask scheduler {addr}: 2 workers, 2 threads" in res.output
+    assert "0 workers" not in res.output
+    assert json.loads(xr.open_dataset(tmp_path / "q.nc").attrs["config_json"])["title"]

@@ -170,3 +170,82 @@ def test_sweep__scheduler_reports_the_real_worker_count(tmp_path):
     assert f"connected to the Dask scheduler {addr}: 2 workers, 2 threads" in res.output
     assert "0 workers" not in res.output
     assert json.loads(xr.open_dataset(tmp_path / "q.nc").attrs["config_json"])["title"]
+
+
+# ------------------------------------------------------------------ the design chart
+
+README_VARIANTS = {
+    "title": "design chart",
+    "bridge": {"kind": "simply_supported", "spans": [25.0], "EI": 7.16e10,
+               "mass_per_length": 18000.0, "damping_ratio": 0.01, "n_modes": 1},
+    "train": {"preset": ["HSLM-A1"]},
+    "solver": {"dt": 2e-3, "free_vibration": 0.0},
+    # the README's pattern: vary x vary_together (with a label) x mass_bounds
+    "study": {"speeds_kmh": [250.0, 300.0, 350.0], "mass_bounds": [0.9, 1.1],
+              "save_time_histories": False,
+              "vary": {"bridge.damping_ratio": [0.01, 0.02]},
+              "vary_together": [{"label": ["short", "long"],
+                                 "bridge.spans": [[20.0], [25.0]],
+                                 "bridge.EI": [3.2e10, 7.16e10],
+                                 "bridge.mass_per_length": [15000.0, 18000.0]}]},
+}
+
+
+@pytest.fixture(scope="module")
+def variants_ds(tmp_path_factory):
+    from vsi_numba.study import run_study
+
+    out = tmp_path_factory.mktemp("chart") / "v.nc"
+    with run_study(README_VARIANTS, out, backend="serial") as ds:
+        return ds.load()
+
+
+def _reference_peak(ds) -> np.ndarray:
+    """Peak deck acceleration per (variant, speed), brute force over the envelopes."""
+    acc = ds["max_deck_acceleration"].values  # (variant, speed, train, irregularity, point)
+    whole = ds["max_deck_acceleration_whole_deck"].values
+    return np.fmax(np.nanmax(acc, axis=(2, 3, 4)), np.nanmax(whole, axis=(2, 3)))
+
+
+def _chart_data(fig):
+    import matplotlib.collections as mc
+
+    panels = [ax for ax in fig.axes if ax.get_label() != "<colorbar>"]
+    meshes = [c for ax in panels for c in ax.collections if isinstance(c, mc.QuadMesh)]
+    lines = [ln for ax in panels for ln in ax.get_lines()
+             if not ln.get_label().startswith("limit")]
+    return meshes, lines
+
+
+@pytest.mark.parametrize("pattern", ["readme", "vary_together_label", "one_variant"])
+def test_design_chart__has_the_peaks_of_every_variant(variants_ds, pattern):
+    import matplotlib.pyplot as plt
+
+    from vsi_numba.analysis.variants import design_chart_figure
+
+    ds = variants_ds
+    if pattern != "readme":  # the label group alone (damping and mass fixed)
+        keep = np.flatnonzero((ds["bridge_damping_ratio"].values == 0.01)
+                              & (ds["mass_factor"].values == 0.9))
+        ds = ds.isel(variant=keep).drop_vars(["bridge_damping_ratio", "mass_factor"])
+        if pattern == "one_variant":
+            ds = ds.isel(variant=[1])
+    ref = _reference_peak(ds)
+    assert np.isfinite(ref).all() and ref.max() > 0
+    fig, caption = design_chart_figure(ds)
+    try:
+        meshes, lines = _chart_data(fig)
+        if pattern == "one_variant":  # no heat map over one variant: a line per variant
+            assert not meshes and len(lines) == 1
+            np.testing.assert_allclose(lines[0].get_ydata(), ref[0], rtol=1e-12)
+            np.testing.assert_allclose(lines[0].get_xdata(), ds["speed_kmh"].values)
+        else:
+            # panels: label x mass_factor (x = damping) for the README pattern, one panel
+            # over the spans for the label group alone; every variant and speed once
+            assert len(meshes) == (4 if pattern == "readme" else 1), caption
+            shown = np.concatenate([np.ma.filled(m.get_array(), np.nan).ravel()
+                                    for m in meshes])
+            assert np.isfinite(shown).all()
+            np.testing.assert_allclose(np.sort(shown), np.sort(ref.ravel()), rtol=1e-12)
+    finally:
+        plt.close(fig)

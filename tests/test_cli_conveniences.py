@@ -249,3 +249,21 @@ def test_design_chart__has_the_peaks_of_every_variant(variants_ds, pattern):
             np.testing.assert_allclose(np.sort(shown), np.sort(ref.ravel()), rtol=1e-12)
     finally:
         plt.close(fig)
+
+
+def test_report__holds_no_machine_path_and_no_clock(init_run, tmp_path):
+    """The report of a results file is the same file each time it is written, and it
+    names the results file relative to itself."""
+    _, out, _ = init_run
+    outdir = tmp_path / "reports" / "r"
+    first = []
+    for _ in range(2):
+        assert invoke("report", out, "-o", outdir).exit_code == 0
+        first.append({p.name: p.read_bytes() for p in sorted(outdir.iterdir())
+                      if p.suffix in (".md", ".csv")})
+    assert first[0] == first[1]
+    md = first[0]["report.md"].decode()
+    assert str(tmp_path) not in md and str(out.parent) not in md
+    rel = Path(os.path.relpath(out, outdir))
+    assert f"| results file | `{rel}` |" in md
+    assert not re.search(r"\d{4}-\d\d-\d\d[T ]\d\d:\d\d", md)

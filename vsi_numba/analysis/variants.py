@@ -67,6 +67,8 @@ def variant_view(ds: xr.Dataset, k: int) -> xr.Dataset:
             attrs["additional_damping_rule"] = rules[1]
     attrs["variant"] = int(k)
     attrs["variant_label"] = variant_label(ds, k)
+    if "bridge_description" in attrs:  # the file's is the first variant's bridge
+        attrs["bridge_description"] = f"variant {k} ({attrs['variant_label']})"
     v = v.drop_vars([n for n in (*_PER_VARIANT, *varied_coords(ds), "variant") if n in v.variables])
     if "point_position" in v.variables:
         pos = np.asarray(v["point_position"].values, float)
@@ -292,7 +294,7 @@ def write_variants_report(ds: xr.Dataset, outdir, source_path=None, **kwargs):
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     table = variant_table(ds)
-    table.to_csv(outdir / "variants.csv", index=False)
+    table.to_csv(outdir / "variants.csv", index=False, float_format="%.10g")
     gov = governing_variant(ds)
     sub = write_report(variant_view(ds, gov), outdir / "governing_variant",
                        source_path=source_path, **kwargs)

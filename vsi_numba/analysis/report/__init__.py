@@ -13,6 +13,7 @@ re-run governing cases); :func:`write_report` here puts them together.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -109,7 +110,9 @@ def write_report(
                              seed=seed, length=determinant_length)
     records = stored_warnings(ds)
     table = mark_unreliable(chk.summary_table(results), records)
-    table.to_csv(outdir / "summary.csv", index=False)
+    # 10 significant digits: the same results give the same file (the last bits of a
+    # float may differ between machines and thread schedules)
+    table.to_csv(outdir / "summary.csv", index=False, float_format="%.10g")
     runner = (CaseRunner(ds, base_dir=config_dir, source_path=source_path) if recompute
               else None)
     figures, figure_notes = _figures(ds, results, outdir, runner)
@@ -125,7 +128,9 @@ def write_report(
     if flagged:
         lines += [f"> ⚠ **WARNING: results for train(s) {', '.join(flagged)} rest on vehicle "
                   "data of doubtful status — see [Trains](#trains).**", ""]
-    lines += _provenance(ds, Path(source_path) if source_path else None)
+    # the results file relative to the report (never the absolute path of this machine)
+    lines += _provenance(ds, Path(os.path.relpath(Path(source_path).resolve(),
+                                                  outdir.resolve())) if source_path else None)
     lines += _bridge(ds, lphi)
     lines += _summary(results, table, np.asarray(ds["point"].values, float))
     lines += _deck_end_note(ds)

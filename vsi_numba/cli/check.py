@@ -35,13 +35,14 @@ from pathlib import Path
 from vsi_numba.cli.common import EXIT_USAGE, Printer, load_config
 
 #: Seconds of a warm start: interpreter, imports, the numba cache, writing the file.
-STARTUP_SECONDS = 1.5
+STARTUP_SECONDS = 2.0
 #: Measured kernel time / :func:`~vsi_numba.study.batches.step_cost` estimate.
 KERNEL_FACTOR = 1.0
 #: Seconds per MB of results written (netCDF, compression of the histories).
 WRITE_SECONDS_PER_MB = 0.05
-#: Resident memory of a sweep before its batches (MB): Python, numpy, numba, xarray, dask.
-BASE_MEMORY_MB = 200.0
+#: Resident memory of a sweep without its batches (MB): Python, numpy, numba, xarray,
+#: dask and the checks printed at its end.
+BASE_MEMORY_MB = 250.0
 #: Bytes of a results file without runs (coordinates, attributes, the stored config).
 FILE_OVERHEAD_BYTES = 90e3
 #: Compressed / raw size of the float32 time histories (zlib level 4 with shuffle).

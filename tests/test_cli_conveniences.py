@@ -270,3 +270,31 @@ def test_report__holds_no_machine_path_and_no_clock(init_run, tmp_path):
     rel = Path(os.path.relpath(out, outdir))
     assert f"| results file | `{rel}` |" in md
     assert not re.search(r"\d{4}-\d\d-\d\d[T ]\d\d:\d\d", md)
+
+
+@pytest.mark.parametrize("train,speed_kmh", [("HSLM-A4", 250.0), ("ICE3", 250.0)])
+def test_results_file__reproduces_its_runs(init_run, train, speed_kmh):
+    """A case re-run from the file's stored configuration alone (as the report does for
+    the governing case of a speed without histories) gives the stored envelopes.  The
+    starter config uses the rules that did not reload before (Table 6.6 damping and the
+    additional damping of moving forces)."""
+    from vsi_numba.analysis.recompute import CaseRunner
+
+    _, out, _ = init_run
+    with xr.open_dataset(out) as ds:
+        assert "Table 6.6" in ds.attrs["damping_rule"]
+        assert "moving-force trains only" in ds.attrs["additional_damping_rule"]
+        i = int(np.flatnonzero(np.isclose(ds["speed_kmh"].values, speed_kmh))[0])
+        stored = ds.sel(train=train).isel(speed=i, irregularity=0)
+        sim = CaseRunner(ds, source_path=out).run(train, speed_kmh / 3.6)
+        # same model, integrator and steps through another driver (single run vs batch):
+        # equal to round-off
+        np.testing.assert_allclose(sim["max_deck_acceleration"].values,
+                                   stored["max_deck_acceleration"].values, rtol=1e-9)
+        np.testing.assert_allclose(sim["max_deck_displacement"].values,
+                                   stored["max_deck_displacement"].values, rtol=1e-9)
+        if train == "ICE3":
+            n = sim.sizes["vehicle"]
+            np.testing.assert_allclose(sim["max_carbody_acceleration"].values,
+                                       stored["max_carbody_acceleration"].values[:n],
+                                       rtol=1e-9)

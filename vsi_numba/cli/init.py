@@ -21,6 +21,7 @@ EI = 3.5e10                    # N m^2 (a number, or one per span)
 mass_per_length = 15000.0      # kg/m: deck + ballast + track (f1 = 6.0 Hz here)
 damping_ratio = "EN1991-2"     # a number (0.01 = 1 %), one per mode, or the Table 6.6 rule ...
 deck_type = "prestressed_concrete"   # ... for this deck type (steel_composite, ...)
+additional_damping = true      # EN 1991-2 6.4.6.3.1 (L < 30 m): added for moving forces only
 n_modes = 3                    # modes kept (or max_frequency = 30.0, Hz)
 track_type = "ballasted"       # ballasted (3.5 m/s2 limit) | direct_fastening (5 m/s2)
 # output_points = [5.0, 10.0, 15.0]   # m from the left support; default: mid-span

@@ -72,7 +72,8 @@ def test_check__reports_the_study_and_runs_nothing(tmp_path):
     assert res.exit_code == 0, res.output
     study = load_config(cfg)
     n = study.speeds_kmh.size * len(study.trains())
-    assert f"study: {n} runs = {study.speeds_kmh.size} speeds x 1 trains" in res.output
+    assert f"study: {n} runs = {study.speeds_kmh.size} speeds x 1 train x 1 track " \
+        "realisation, in 1 batch;" in res.output
     assert re.search(r"estimate \(warm numba cache, \d+ workers?\): time ~[\d.]+ s, peak "
                      r"memory ~[\d.]+ MB, results file ~[\d.]+ kB", res.output)
     assert not study.output_path.exists() and not list(tmp_path.rglob("*.nc"))

@@ -16,8 +16,9 @@ vibration.  From there:
   workers (one per core, at most one per batch) + :data:`WRITE_SECONDS_PER_MB` per MB
   written.  A first run compiles the kernels (one to three minutes) on top of that.
 * **memory** (peak RSS) = :data:`BASE_MEMORY_MB` (the imported libraries and the
-  kernels) + the raw time histories of the batches in flight (two per worker) + the
-  envelopes of the whole study (read back once when the file is written).
+  kernels) + the raw time histories of the batches in flight (two per worker); the
+  results file is written one stored batch at a time, so the study's size does not
+  count.
 * **disk** = :data:`FILE_OVERHEAD_BYTES` + the envelopes (float64, one value per run
   and output point, wheel or vehicle of the widest train) + the time histories kept
   (float32, compressed: about :data:`HISTORY_COMPRESSION` of the raw size, per real
@@ -160,7 +161,7 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
     kernel = KERNEL_FACTOR * sum(b.cost for b in plan)
     fixed = STARTUP_SECONDS + WRITE_SECONDS_PER_MB * disk / _MB
     seconds, cpu_seconds = fixed + kernel / n_workers, fixed + kernel
-    memory = BASE_MEMORY_MB * _MB + 2 * n_workers * raw_hist + disk_env
+    memory = BASE_MEMORY_MB * _MB + 2 * n_workers * raw_hist
     return StudyEstimate(
         n_variants=len(vcfgs), n_speeds=n_s, n_trains=n_t, n_realisations=n_i,
         n_runs=n_runs, n_batches=len(plan), n_history_runs=hist_runs, n_steps=int(steps),
@@ -202,13 +203,16 @@ def check_command(config: Path, workers: int | None = None) -> int:
     except (ValueError, OSError) as exc:  # e.g. a model that cannot be built
         pr.error(f"{config}: the study cannot be planned: {exc}")
         return EXIT_USAGE
-    n_v = f"{est.n_variants} variants x " if cfg.variants else ""
+    def n(count: int, word: str, plural: str | None = None) -> str:
+        return f"{count:,} {word if count == 1 else plural or word + 's'}"
+
+    n_v = f"{n(est.n_variants, 'variant')} x " if cfg.variants else ""
     pr.line(f"{config}: valid configuration ({len(cfg.warnings)} warning"
             f"{'' if len(cfg.warnings) == 1 else 's'}), config SHA-256 {cfg.sha256[:12]}")
-    pr.line(f"study: {est.n_runs} runs = {n_v}{est.n_speeds} speeds x {est.n_trains} "
-            f"trains x {est.n_realisations} track realisations, in {est.n_batches} "
-            f"batches; {est.n_steps:,} time steps; time histories of {est.n_history_runs} "
-            "runs")
+    pr.line(f"study: {n(est.n_runs, 'run')} = {n_v}{n(est.n_speeds, 'speed')} x "
+            f"{n(est.n_trains, 'train')} x {n(est.n_realisations, 'track realisation')}, in "
+            f"{n(est.n_batches, 'batch', 'batches')}; {n(est.n_steps, 'time step')}; "
+            f"time histories of {n(est.n_history_runs, 'run')}")
     pr.line(f"estimate (warm numba cache, {est.workers} worker"
             f"{'' if est.workers == 1 else 's'}): time ~{_duration(est.seconds)}, peak "
             f"memory ~{_size(est.memory_bytes)}, results file ~{_size(est.disk_bytes)} "

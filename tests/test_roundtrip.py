@@ -16,6 +16,7 @@ import pytest
 
 import vsi_numba.config as config_pkg
 from vsi_numba.config import load_config
+from vsi_numba.study.spec import _build_model, model_fingerprint
 
 ROOT = Path(__file__).resolve().parents[1]
 BUNDLED = sorted((ROOT / "configs").glob("*.toml")) + sorted(
@@ -36,9 +37,10 @@ def study_of(cfg) -> dict:
         "save_time_histories": cfg.save_time_histories,
         "output_path": str(cfg.output_path),
         "trains": [(t.name, len(t.vehicles), float(t.length)) for t in trains],
-        # (rounded: scipy's eigsh starts from a random vector, so imported matrices give
-        # frequencies that differ in the last digits from one load to the next)
-        "frequencies": np.asarray(bridge.frequencies).round(9).tolist(),
+        "frequencies": np.asarray(bridge.frequencies).tolist(),
+        # the numbers the runs are computed from (built bridge, trains, profiles,
+        # settings, points): what a resumed store and every Dask worker must agree on
+        "model_fingerprint": model_fingerprint(_build_model(cfg)),
         "damping": [np.asarray(cfg.bridge_for(t).damping).tolist() for t in trains],
         "damping_rules": (cfg.damping_rule, cfg.additional_damping_rule),
         "output_points": cfg.output_points.tolist(),

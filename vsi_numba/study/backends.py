@@ -289,6 +289,14 @@ class DaskBackend:
             return self._n or 0
         return len(self._client.scheduler_info(n_workers=-1).get("workers", {}))
 
+    @property
+    def n_threads(self) -> int:
+        """Threads of the cluster's workers (as the scheduler reports them)."""
+        if self._client is None:
+            return self._n or 0
+        workers = self._client.scheduler_info(n_workers=-1).get("workers", {})
+        return int(sum(w.get("nthreads", 0) for w in workers.values()))
+
     def __enter__(self):
         import dask
         from dask.distributed import Client, LocalCluster

@@ -436,9 +436,9 @@ def _execute(store, study: _Study, output, backend, workers, scheduler, progress
         _say(quiet, f"{n_runs} runs in {len(study.plan)} batches ({nv}{n_s} speeds x {n_t} "
                     f"trains x {n_i} irregularities): {n_runs - n_todo} done earlier, "
                     f"{n_todo} to run ({be.name}"
-                    f"{'' if be.name == 'serial' else f', {workers or be.n_workers} workers'}"
-                    ")")
-        _run_pending(be, study.task_spec, pending, store, progress, n_runs, n_runs - n_todo)
+                    f"{_workers_note(be, workers, scheduler)})")
+        _run_pending(be, study.task_spec, pending, store, progress, n_runs, n_runs - n_todo,
+                     quiet)
     else:
         _say(quiet, f"{n_runs} runs: all done earlier, writing {output}")
     n_failed = _write_results(output, store, study, need.final_max)
@@ -463,7 +463,9 @@ def _write_results(output: Path, store: CaseStore, study: _Study,
     model = models[0]
     variants = None
     if labels is not None:
-        rules = [m.config.resolved().get("bridge", {}) for m in models]
+        rules = [{k: getattr(m.config, k, None) for k in ("damping_rule",
+                                                          "additional_damping_rule")}
+                 for m in models]
         variants = {"coords": variant_coords(labels),
                     "bridge_length": [m.bridge.length for m in models],
                     "acceleration_cutoff": [m.deck[2] for m in models],
@@ -525,11 +527,10 @@ def _write_results(output: Path, store: CaseStore, study: _Study,
 
 def _bridge_rules(attrs: dict, cfg) -> None:
     """The EN 1991-2 damping rules a config applied, as attributes of the results."""
-    resolved = cfg.resolved() if hasattr(cfg, "resolved") else {}
-    bridge = resolved.get("bridge", {}) if isinstance(resolved, dict) else {}
     for key in ("damping_rule", "additional_damping_rule"):
-        if bridge.get(key):
-            attrs[key] = str(bridge[key])
+        rule = getattr(cfg, key, None)
+        if rule:
+            attrs[key] = str(rule)
 
 
 def _hold_after() -> int | str | None:
@@ -551,13 +552,30 @@ def _hold(store: CaseStore) -> None:
         _time.sleep(0.05)
 
 
-def _run_pending(be, spec, pending, store, progress, n_runs, n_done) -> None:
+def _workers_note(be, workers, scheduler) -> str:
+    """``, 2 workers`` (local backends) or ``, scheduler ADDRESS`` (its workers are counted
+    once connected)."""
+    if be.name == "serial":
+        return ""
+    if be.name == "dask" and scheduler is not None:
+        return f", scheduler {scheduler}"
+    return f", {workers or be.n_workers} workers"
+
+
+def _run_pending(be, spec, pending, store, progress, n_runs, n_done, quiet=True) -> None:
     errors: list[tuple[Batch, BaseException]] = []
     order = sorted(pending, key=lambda b: (-b.cost, b.index))
     hold = _hold_after()
     stored = 0
     with _Progress(progress, n_runs, n_done, "runs") as bar:
         with be:
+            if be.name == "dask" and getattr(be, "scheduler", None) is not None:
+                n_w, n_t = be.n_workers, be.n_threads
+                _say(quiet, f"connected to the Dask scheduler {be.scheduler}: {n_w} "
+                            f"worker{'' if n_w == 1 else 's'}, {n_t} thread"
+                            f"{'' if n_t == 1 else 's'}"
+                     + ("" if n_w else "; no worker yet: the batches wait until one "
+                                       "connects (dask worker " + be.scheduler + ")"))
             try:
                 for batch, result in be.run(run_batch_task, spec, order):
                     if isinstance(result, BaseException):

@@ -19,7 +19,7 @@ figures and the re-run governing cases), :mod:`.variants` (parametric studies);
 
 from __future__ import annotations
 
-from datetime import UTC, datetime
+import os
 from pathlib import Path
 
 import numpy as np
@@ -154,7 +154,9 @@ def write_report(
                              seed=seed, length=determinant_length)
     records = stored_warnings(env)
     table = mark_unreliable(chk.summary_table(results), records)
-    table.to_csv(outdir / "summary.csv", index=False)
+    # 10 significant digits: the same results give the same file (the last bits of a
+    # float may differ between machines and thread schedules)
+    table.to_csv(outdir / "summary.csv", index=False, float_format="%.10g")
     runner = (CaseRunner(env, base_dir=config_dir, source_path=source_path) if recompute
               else None)
     figures, figure_notes = _figures(env, results, runner, histories=full)
@@ -172,7 +174,7 @@ def write_report(
     tbl.write_tables(speed_tables, extra, outdir)
 
     title = env.attrs.get("title") or "vsi_numba results"
-    generated = f"vsi_numba {_version()}, {datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')}"
+    generated = f"vsi_numba {_version()}"
     intro = ("Railway vehicle–bridge interaction: dynamic checks of the results "
              + (f"`{Path(source_path).name}`." if source_path else "in memory."))
     head = [Section("", [intro], level=0), title_block(env, generated)]
@@ -210,7 +212,9 @@ def write_report(
         fig_blocks.append("\n".join(figure_notes))
     if fig_blocks:
         body.append(Section("Figures", fig_blocks))
-    add(_provenance(env, Path(source_path) if source_path else None))
+    # the results file relative to the report (never the absolute path of this machine)
+    add(_provenance(env, Path(os.path.relpath(Path(source_path).resolve(), outdir.resolve()))
+                    if source_path else None))
 
     path = write_markdown(head + body, outdir / "report.md", title=title)
     write_html(body, outdir / "report.html", title=title, header=head)

@@ -169,7 +169,7 @@ def simply_supported(
         values=amp[None, :],
         supports=np.array([0.0, length]),
         description=f"simply supported, L={length} m, EI={EI} N m2, m={mass_per_length} kg/m",
-        static=beam_deck([length], EI),
+        static=beam_deck([length], EI, mass_per_length),
     )
 
 
@@ -243,7 +243,7 @@ def continuous(
         slopes=np.ascontiguousarray(full[1::2]),
         supports=supports,
         description=f"continuous deck, spans={list(np.atleast_1d(spans))} m",
-        static=beam_deck(spans, EI),
+        static=beam_deck(spans, EI, mass_per_length),
     )
 
 

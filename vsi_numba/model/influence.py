@@ -86,6 +86,11 @@ class StaticDeck:
         "matrices": rotation DOF of each station (``rotation_sign * dw/dx``), or None.
     rotation_sign : float
         "matrices": +1 or -1 (see :func:`~vsi_numba.model.imported.modes_from_matrices`).
+    mass_per_length : ndarray, shape (n_spans,), or None
+        "beam": mass per length of each span (kg/m) when the deck's modes are those of
+        this beam alone (the effect of a mode is then the static effect of its inertia
+        load, see :func:`modal_effects`); None when other parts load the deck in its
+        modes (a track layer), or for "matrices".
     """
 
     kind: str
@@ -98,6 +103,7 @@ class StaticDeck:
     dofs: np.ndarray | None = None
     rotation_dofs: np.ndarray | None = None
     rotation_sign: float = 1.0
+    mass_per_length: np.ndarray | None = None
 
     @property
     def n_supports(self) -> int:
@@ -115,7 +121,7 @@ class StaticDeck:
         return SUPPORTED[self.kind]
 
 
-def beam_deck(spans, EI) -> StaticDeck:
+def beam_deck(spans, EI, mass_per_length=None) -> StaticDeck:
     """:class:`StaticDeck` of Euler-Bernoulli spans on point supports.
 
     Parameters
@@ -124,14 +130,18 @@ def beam_deck(spans, EI) -> StaticDeck:
         Span lengths (m), > 0.
     EI : float or sequence of float
         Bending stiffness (N m^2), one value or one per span, > 0.
+    mass_per_length : float or sequence of float, optional
+        Mass per length (kg/m), one value or one per span (see :class:`StaticDeck`).
     """
     spans = np.atleast_1d(np.asarray(spans, float)).copy()
     ei = np.broadcast_to(np.asarray(EI, float), spans.shape).copy()
     if np.any(~(spans > 0)) or np.any(~(ei > 0)):
         raise LoadEffectError(f"spans {spans.tolist()} m and EI {ei.tolist()} N m^2: "
                               "expected positive values")
+    m = (None if mass_per_length is None else
+         np.broadcast_to(np.asarray(mass_per_length, float), spans.shape).copy())
     return StaticDeck(kind="beam", supports=np.concatenate([[0.0], np.cumsum(spans)]),
-                      spans=spans, EI=ei)
+                      spans=spans, EI=ei, mass_per_length=m)
 
 
 def _why_not(static: StaticDeck | None, effect: str) -> str:
@@ -346,3 +356,101 @@ def _support_stations(static: StaticDeck) -> np.ndarray:
             f"support reactions and rotations of FE matrices need a fixed vertical station "
             f"DOF at every support (bridge.fixed_dofs); none at x = {bad.tolist()} m")
     return k
+
+
+# ------------------------------------------------------------------------ modal effects
+
+
+def modal_effects(bridge, effect: str, at) -> np.ndarray:
+    """Load effect of each mode shape of the deck: the effect per unit modal coordinate.
+
+    Parameters
+    ----------
+    bridge : ModalBridge
+        With ``bridge.static`` giving ``effect``.
+    effect, at
+        As in :func:`influence`.
+
+    Returns
+    -------
+    ndarray, shape (len(at), n_modes)
+        Units of the effect per unit modal coordinate (e.g. N m per sqrt(kg) m).
+
+    Notes
+    -----
+    Simply supported span (sine modes, ``phi_j = a sin(k x)``): ``M_j = EI a k^2 sin(k x)``,
+    ``V_j = EI a k^3 cos(k x)``, ``R_j`` from V at the ends, ``theta_j = a k cos(k x)``.
+
+    Beam modes (``static.mass_per_length`` known): mode j is the static response of the
+    beam to its own inertia load ``w_j^2 m phi_j``, so its effects are the influence
+    lines integrated against that load, with 4-point Gauss-Legendre on every interval
+    between the FE nodes, the supports and the sections (exact for the cubic mode shapes
+    times the piecewise-cubic influence lines: no differentiation of the cubics, and the
+    shear is as accurate as the moment).
+
+    Decks loaded by other parts in their modes (a track layer: the ballast springs): the
+    derivatives of the deck's Hermite cubics, ``M = -EI phi''``, ``V = -EI phi'''``
+    (piecewise constant per element: accurate to O(h) only), reactions from the jumps of
+    V at the supports.
+    """
+    static = bridge.static
+    check_effects(static, (effect,))
+    at = np.atleast_1d(np.asarray(at, float))
+    deck = bridge.deck if getattr(bridge, "deck", None) is not None else bridge
+    sup = static.supports
+    n_m = bridge.n_modes
+    if n_m == 0:
+        return np.zeros((at.size, 0))
+    if bridge.kind == 1:  # SINE
+        k = np.pi * np.arange(1, n_m + 1) / bridge.length
+        a = bridge.values[0]
+        ei = float(static.EI[0])
+        if effect in AT_SECTIONS:
+            arg = np.outer(at, k)
+            inside = ((at >= 0) & (at <= bridge.length))[:, None]
+            out = {"deflection": a * np.sin(arg), "moment": ei * a * k**2 * np.sin(arg),
+                   "shear": ei * a * k**3 * np.cos(arg)}[effect]
+            return out * inside
+        cos_end = np.cos(np.outer(sup[at.astype(int)], k))
+        sign = np.where(at.astype(int) == 0, 1.0, -1.0)[:, None]
+        if effect == "reaction":
+            return sign * ei * a * k**3 * cos_end
+        return a * k * cos_end
+    if static.kind == "beam" and static.mass_per_length is not None:
+        brk = np.unique(np.concatenate([deck.nodes, sup, at if effect in AT_SECTIONS
+                                        else np.zeros(0)]))
+        brk = brk[(brk >= sup[0]) & (brk <= sup[-1])]
+        g, w = np.polynomial.legendre.leggauss(4)
+        h = np.diff(brk)
+        xq = (0.5 * (brk[:-1] + brk[1:])[:, None] + 0.5 * h[:, None] * g[None, :]).ravel()
+        wq = (0.5 * h[:, None] * w[None, :]).ravel()
+        s = np.clip(np.searchsorted(sup, xq, side="right") - 1, 0, sup.size - 2)
+        load = (wq * static.mass_per_length[s])[:, None] * deck.shapes(xq) * bridge.omega**2
+        return influence(static, effect, at, xq) @ load
+    # a deck loaded by a track layer in its modes: derivatives of the cubics
+    from vsi_numba.model import hermite
+
+    ei_at = lambda x: static.EI[np.clip(np.searchsorted(sup, x, side="right") - 1, 0,  # noqa: E731
+                                        sup.size - 2)][:, None]
+    if effect == "deflection":
+        return deck.shapes(at)
+    if effect == "rotation":
+        return hermite.evaluate(deck.nodes, deck.values, deck.slopes, sup[at.astype(int)], 1)
+    if effect == "moment":
+        return -ei_at(at) * hermite.evaluate(deck.nodes, deck.values, deck.slopes, at, 2)
+    if effect == "shear":
+        return -ei_at(at) * _third_derivative(deck, at)
+    xs = sup[at.astype(int)]
+    eps = 1e-9 * max(float(sup[-1]), 1.0)
+    right = np.where(xs < sup[-1], -ei_at(xs + eps) * _third_derivative(deck, xs + eps), 0.0)
+    left = np.where(xs > sup[0], -ei_at(xs - eps) * _third_derivative(deck, xs - eps), 0.0)
+    return right - left
+
+
+def _third_derivative(deck, x) -> np.ndarray:
+    """d3/dx3 of the Hermite table of ``deck`` at ``x`` (constant per element)."""
+    nodes = deck.nodes
+    e = np.clip(np.searchsorted(nodes, x, side="right") - 1, 0, nodes.size - 2)
+    h = (nodes[e + 1] - nodes[e])[:, None]
+    return (12.0 / h**3 * (deck.values[e] - deck.values[e + 1])
+            + 6.0 / h**2 * (deck.slopes[e] + deck.slopes[e + 1]))

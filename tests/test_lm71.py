@@ -64,12 +64,12 @@ def test_lm71_two_span_hogging_brute_force():
     # brute force: centre c on a 1 cm grid; udl = q times the integral of the (entirely
     # negative) line outside the zone by a 1 mm midpoint rule
     xm = np.arange(0.0005, 2 * Ls, 0.001)
-    I = line(xm)[0]
+    il = line(xm)[0]
     best = np.inf
     for c in np.arange(-3.2, 2 * Ls + 3.2, 0.01):
         out = (xm < c - 3.2) | (xm > c + 3.2)
         axles = sum(line(np.array([c + o]))[0, 0] for o in (-2.4, -0.8, 0.8, 2.4))
-        best = min(best, Q * axles + q * 0.001 * I[out].sum())
+        best = min(best, Q * axles + q * 0.001 * il[out].sum())
     # |E''| ~ 3e4 N m/m^2 at the optimum: the 0.05 m grid misses < 0.05^2/8 |E''| ~ 10 N m,
     # the 1 cm brute grid < 1 N m, the 1 mm midpoint mask ~ 0.0005 m x |I| x q ~ 50 N m;
     # the optimum is 2.9e6 N m: 1e-5 relative covers them with margin

@@ -64,7 +64,9 @@ UIC60).  Not with ``[bridge.track]``, whose FE track layer is then the track.
 ``[study]`` ``speeds_kmh`` (list, or {start, stop, step} with stop included when on the
 grid) or ``line_speed_kmh`` (then 140 .. 1.2 x line speed, step 5, 1.2 x line speed
 included); ``output`` (results/<stem>.nc); ``save_time_histories`` (true);
-``history_speeds_kmh`` (all).
+``history_speeds_kmh`` (all); ``classification_factor`` (alpha of LM71, 1.0, in
+[0.75, 1.46], EN 1991-2 6.3.2(3) [R]) and ``track_maintenance`` ("standard": Phi_3,
+"careful": Phi_2, EN 1991-2 6.4.5.2 [R]) for the load-effect checks of ``vsi report``.
 
 Modules
 -------

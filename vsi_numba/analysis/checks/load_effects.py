@@ -277,3 +277,320 @@ def verdict(phi_dyn_value: float, phi2: float, static_real: float, lm71_static: 
     ratio = real / lm if lm > 0 else np.nan
     return Verdict(float(real), float(lm), float(ratio),
                    REAL_GOVERNS if ratio > 1 else LM71_GOVERNS)
+
+
+# ------------------------------------------------------------------ results-file checks
+
+#: Effects checked: name -> (influence effect, dynamic variable stem, location dim, units,
+#: label).  The deflection has no stored minimum (positive down: max only).
+EFFECTS = {
+    "deflection": ("deflection", "deck_displacement", "point", "m", "deflection w"),
+    "moment": ("moment", "bending_moment", "point", "N m", "bending moment M"),
+    "shear": ("shear", "shear_force", "point", "N", "shear force V"),
+    "reaction": ("reaction", "support_reaction", "support", "N", "support reaction R"),
+    "rotation": ("rotation", "end_rotation", "support", "rad", "rotation θ"),
+}
+#: The load-effect variables whose presence says the file has load effects.
+_LOAD_EFFECT_VARIABLES = ("max_bending_moment", "max_shear_force", "max_support_reaction",
+                          "max_end_rotation")
+#: Default classification factor and track maintenance standard (study keys).
+DEFAULT_ALPHA = 1.0
+DEFAULT_MAINTENANCE = "standard"
+
+
+class LoadEffectChecks(NamedTuple):
+    """The EN 1991-2 6.4.6 checks of the load effects of a results file.
+
+    Attributes
+    ----------
+    envelopes : pandas.DataFrame
+        One row per effect and location: ``effect``, ``location`` (m), ``dynamic``
+        (max|E| over speeds and trains), ``train``, ``speed_kmh`` (of it), ``static``
+        (max|E| of the static crawl over trains), ``lm71`` (LM71 static, alpha = 1),
+        ``lm71_design`` (x Phi x alpha), ``real_design`` (max over speeds and trains of
+        (1 + phi'_dyn + phi''/2) x static crawl = |dynamic| + phi''/2 x static),
+        ``ratio`` (real_design / lm71_design), ``units``.
+    phi_dyn : pandas.DataFrame
+        One row per effect and train: ``phi_dyn`` (max over speeds of
+        max_loc|E_dyn| / max_loc|E_stat| - 1), ``speed_kmh`` of it.
+    verdict : pandas.DataFrame
+        One row per effect: the location of the largest ``ratio``, the values there,
+        ``governs`` and ``margin`` (lm71_design / real_design when LM71 governs, else
+        real_design / lm71_design; >= 1).
+    rotation : pandas.DataFrame
+        Deck-end rotation check: per end support ``theta_lm71_design`` (rad, LM71 x
+        Phi x alpha), ``theta_dynamic`` (max over the trains, information), ``limit``,
+        ``utilisation``, ``result``.
+    deck : dict
+        Whole-deck data for the figure: ``x`` (m) and per effect ("moment", "shear")
+        ``dyn_max``, ``dyn_min`` of the governing train, ``lm71_max``, ``lm71_min``
+        (x Phi x alpha), ``train``; empty when the file has no whole-deck envelopes.
+    factors : dict
+        ``alpha``, ``maintenance``, ``phi_name``, ``phi``, ``length`` (L_phi),
+        ``length_rule``, ``phi2_max``, ``phi2_note``.
+    """
+
+    envelopes: object
+    phi_dyn: object
+    verdict: object
+    rotation: object
+    deck: dict
+    factors: dict
+
+
+def _nanmax(a, axis):
+    a = np.asarray(a, float)
+    m = np.where(np.isnan(a), -np.inf, a).max(axis=axis)
+    return np.where(np.isneginf(m), np.nan, m)
+
+
+def static_deck_of(ds):
+    """The :class:`~vsi_numba.model.influence.StaticDeck` of a results file's beam deck
+    (``bridge.kind`` simply_supported or continuous in the stored configuration), or the
+    reason (str) why there is none."""
+    from vsi_numba.analysis.checks.determinant import results_config
+    from vsi_numba.model.influence import beam_deck
+
+    bridge = results_config(ds).get("bridge", {})
+    bridge = bridge if isinstance(bridge, dict) else {}
+    kind = bridge.get("kind")
+    if kind not in ("simply_supported", "continuous"):
+        return (f"the static reference (crawl of the trains, LM71) needs the deck's spans "
+                f"and bending stiffness; the results' bridge.kind = {kind!r} does not give "
+                "them (beam decks only: simply_supported, continuous)")
+    try:
+        spans = np.atleast_1d(np.asarray(bridge["spans"], float))
+        if kind == "simply_supported":
+            spans = spans[:1]
+        return beam_deck(spans, bridge["EI"])
+    except (KeyError, TypeError, ValueError) as exc:
+        return f"the stored configuration's bridge.spans / bridge.EI are not usable ({exc})"
+
+
+def study_factors(ds) -> tuple[float, str]:
+    """(alpha, track maintenance) from the stored ``study`` section (defaults 1.0 and
+    "standard")."""
+    from vsi_numba.analysis.checks.determinant import results_config
+
+    study = results_config(ds).get("study", {})
+    study = study if isinstance(study, dict) else {}
+    return (float(study.get("classification_factor", DEFAULT_ALPHA)),
+            str(study.get("track_maintenance", DEFAULT_MAINTENANCE)))
+
+
+def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None = None,
+                       length: float | None = None, step: float = 0.05):
+    """EN 1991-2 6.4.6 checks of the load effects in a results file.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Results with the load-effect envelopes (``max_bending_moment``, ...), the trains'
+        ``wheel_position`` and ``static_wheel_load`` and a stored configuration of a beam
+        deck.
+    alpha : float, optional
+        Classification factor; default: ``study.classification_factor`` of the stored
+        configuration, else 1.0.
+    maintenance : {"standard", "careful"}, optional
+        Track maintenance (Phi_3 / Phi_2); default: ``study.track_maintenance``, else
+        "standard".
+    length : float, optional
+        Determinant length L_phi (m); default
+        :func:`~vsi_numba.analysis.checks.determinant_length`.
+    step : float
+        Position grid (m) of the envelope searches (module notes).
+
+    Returns
+    -------
+    LoadEffectChecks or str
+        The checks, or why they cannot be made (no load-effect variables, no static
+        deck).
+    """
+    import pandas as pd
+
+    from vsi_numba.analysis.checks.determinant import determinant_length
+    from vsi_numba.analysis.dataset import DETERMINISTIC, bridge_frequencies, prepare
+    from vsi_numba.en1990 import END_ROTATION_LIMIT_ABUTMENT
+    from vsi_numba.en1991 import dynamic_factor, irregularity_allowance
+    from vsi_numba.model.influence import influence
+
+    ds = prepare(ds)
+    if not any(v in ds.variables for v in _LOAD_EFFECT_VARIABLES):
+        return ("the results hold no load-effect envelopes (bending moment, shear force, "
+                "support reactions, rotations): a file written before they were computed, "
+                "or a bridge that cannot give them (imported modes table, rigid track)")
+    static = static_deck_of(ds)
+    if isinstance(static, str):
+        return static
+    if ds["wheel_position"].ndim != 2 or ds["static_wheel_load"].ndim != 2:
+        return "variant studies (extra dims on the trains' axles) are not covered"
+    a0, m0 = study_factors(ds)
+    alpha = a0 if alpha is None else float(alpha)
+    maintenance = m0 if maintenance is None else maintenance
+    lphi = determinant_length(ds, length)
+    if not np.isfinite(lphi.value):
+        return f"no determinant length L_Φ ({lphi.rule})"
+    phi = dynamic_factor(lphi.value, maintenance)
+    irr = np.asarray(ds["irregularity"].values)
+    det = np.flatnonzero(irr == DETERMINISTIC)
+    f = bridge_frequencies(ds)
+    speeds = np.asarray(ds["speed"].values, float)
+    if det.size:
+        isel = {"irregularity": det}
+        phi2 = (irregularity_allowance(speeds, lphi.value, float(f[0])) if f.size
+                else np.full(speeds.size, np.nan))
+        note = "φ'' of EN 1991-2 Annex C [R] on the deterministic track"
+    else:
+        isel = {}
+        phi2 = np.zeros(speeds.size)
+        note = ("φ'' = 0: the dynamic analysis runs on random irregularities, which "
+                "already hold their effect (max over realisations)")
+    sk = np.asarray(ds["speed_kmh"].values, float)
+    trains = [str(t) for t in ds["train"].values]
+    wp = np.asarray(ds["wheel_position"].values, float)
+    wl = np.asarray(ds["static_wheel_load"].values, float)
+    sup = static.supports
+    ext = (0.0, static.length)
+
+    env_rows, phi_rows, ver_rows = [], [], []
+    crawl_abs = {}
+    lm71_abs = {}
+    for name, (eff, stem, dim, units, _label) in EFFECTS.items():
+        vmax = f"max_{stem}"
+        if vmax not in ds.variables or dim not in ds.dims or eff not in static.effects:
+            continue
+        dyn = np.abs(ds[vmax].isel(isel).transpose("speed", "train", "irregularity", dim)
+                     .values)
+        vmin = f"min_{stem}"
+        if vmin in ds.variables:
+            low = np.abs(ds[vmin].isel(isel).transpose("speed", "train", "irregularity", dim)
+                         .values)
+            dyn = np.fmax(dyn, low)
+        dyn = _nanmax(dyn, 2)  # (speed, train, loc)
+        loc = np.asarray(ds[dim].values, float)
+        if dim == "support":
+            idx = np.array([int(np.argmin(np.abs(sup - x))) if np.isfinite(x) else -1
+                            for x in loc])
+            keep = (idx >= 0) & np.isin(np.round(loc, 6), np.round(sup, 6))
+            at = idx[keep]
+            bp = sup
+        else:
+            keep = np.isfinite(loc)
+            at = loc[keep]
+            bp = np.concatenate([sup, at])
+        if at.size == 0:
+            continue
+        dyn = dyn[:, :, keep]
+        loc = loc[keep]
+
+        def line(x, eff=eff, at=at):
+            return influence(static, eff, at, x)
+
+        stat = np.full((len(trains), at.size), np.nan)
+        for t in range(len(trains)):
+            ok = np.isfinite(wp[t]) & np.isfinite(wl[t]) & (wl[t] > 0)
+            if ok.any():
+                e = crawl_envelope(line, wp[t][ok] - wp[t][ok].min(), wl[t][ok], bp, ext,
+                                   step=step, n_at=at.size)
+                stat[t] = e.max if name == "deflection" else e.abs
+        lm = lm71_envelope(line, bp, ext, step=step, n_at=at.size)
+        lm_abs = lm.max if name == "deflection" else lm.abs
+        crawl_abs[name], lm71_abs[name] = stat, lm_abs
+        real = dyn + 0.5 * phi2[:, None, None] * stat[None, :, :]   # (speed, train, loc)
+        lm_design = phi * alpha * lm_abs
+        for j in range(at.size):
+            d = dyn[:, :, j]
+            r = real[:, :, j]
+            if np.all(np.isnan(d)):
+                continue
+            i_s, i_t = np.unravel_index(np.nanargmax(d), d.shape)
+            k_s, k_t = np.unravel_index(np.nanargmax(r), r.shape)
+            rd = float(r[k_s, k_t])
+            env_rows.append({
+                "effect": name, "location": float(loc[j]), "dynamic": float(d[i_s, i_t]),
+                "train": trains[i_t], "speed_kmh": float(sk[i_s]),
+                "static": float(_nanmax(stat[:, j], 0)), "lm71": float(lm_abs[j]),
+                "lm71_design": float(lm_design[j]), "real_design": rd,
+                "real_train": trains[k_t], "real_speed_kmh": float(sk[k_s]),
+                "ratio": rd / lm_design[j] if lm_design[j] > 0 else np.nan, "units": units,
+            })
+        deck_dyn = _nanmax(dyn, 2)                  # (speed, train)
+        deck_stat = _nanmax(stat, 1)                # (train,)
+        pd_st = phi_dyn(deck_dyn, deck_stat[None, :])
+        for t, tr in enumerate(trains):
+            col = pd_st[:, t]
+            if np.all(np.isnan(col)):
+                continue
+            i = int(np.nanargmax(col))
+            phi_rows.append({"effect": name, "train": tr, "phi_dyn": float(col[i]),
+                             "speed_kmh": float(sk[i])})
+    envelopes = pd.DataFrame(env_rows)
+    if envelopes.empty:
+        return "no load effect of the results has a static reference on this deck"
+    for name, grp in envelopes.groupby("effect", sort=False):
+        g = grp.loc[grp["ratio"].idxmax()]
+        real_gov = g["ratio"] > 1
+        ver_rows.append({
+            "effect": name, "location": g["location"], "real_design": g["real_design"],
+            "train": g["real_train"], "speed_kmh": g["real_speed_kmh"],
+            "lm71_design": g["lm71_design"], "ratio": g["ratio"],
+            "governs": REAL_GOVERNS if real_gov else LM71_GOVERNS,
+            "margin": g["ratio"] if real_gov else 1.0 / g["ratio"], "units": g["units"],
+        })
+    rot = []
+    if "rotation" in lm71_abs:
+        e = envelopes[envelopes["effect"] == "rotation"]
+        for end in (0, static.n_supports - 1):
+            row = e[np.isclose(e["location"], sup[end])]
+            if row.empty:
+                continue
+            th = float(row["lm71_design"].iloc[0])
+            rot.append({"support": float(sup[end]), "theta_lm71_design": th,
+                        "theta_dynamic": float(row["dynamic"].iloc[0]),
+                        "limit": END_ROTATION_LIMIT_ABUTMENT,
+                        "utilisation": th / END_ROTATION_LIMIT_ABUTMENT,
+                        "result": "pass" if th <= END_ROTATION_LIMIT_ABUTMENT else "FAIL"})
+    deck = _whole_deck(ds, static, isel, phi * alpha, step)
+    factors = {"alpha": alpha, "maintenance": maintenance,
+               "phi_name": "Φ3" if maintenance == "standard" else "Φ2", "phi": phi,
+               "length": lphi.value, "length_rule": lphi.rule,
+               "phi2_max": float(_nanmax(phi2, 0)) if phi2.size else np.nan,
+               "phi2_note": note}
+    return LoadEffectChecks(envelopes, pd.DataFrame(phi_rows), pd.DataFrame(ver_rows),
+                            pd.DataFrame(rot), deck, factors)
+
+
+def _whole_deck(ds, static, isel, factor, step) -> dict:
+    """Dynamic envelopes of the governing train and LM71 x factor on the whole-deck grid."""
+    from vsi_numba.model.influence import influence
+
+    out: dict = {}
+    if "deck_x" not in ds.dims:
+        return out
+    x = np.asarray(ds["deck_x"].values, float)
+    keep = np.isfinite(x)
+    x = x[keep]
+    if x.size == 0:
+        return out
+    out["x"] = x
+    for name, eff, stem in (("moment", "moment", "bending_moment_whole_deck"),
+                            ("shear", "shear", "shear_force_whole_deck")):
+        if f"max_{stem}" not in ds.variables or eff not in static.effects:
+            continue
+        hi = ds[f"max_{stem}"].isel(isel).transpose("speed", "train", "irregularity", "deck_x")
+        lo = ds[f"min_{stem}"].isel(isel).transpose("speed", "train", "irregularity", "deck_x")
+        hi = np.asarray(hi.values, float)[..., keep]
+        lo = np.asarray(lo.values, float)[..., keep]
+        size = _nanmax(np.fmax(np.abs(hi), np.abs(lo)).reshape(hi.shape[0], hi.shape[1], -1),
+                       (0, 2))
+        if np.all(np.isnan(size)):
+            continue
+        t = int(np.nanargmax(size))
+        lm = lm71_envelope(lambda xl, eff=eff: influence(static, eff, x, xl),
+                           np.concatenate([static.supports, x]), (0.0, static.length),
+                           step=step, n_at=x.size)
+        out[name] = {"train": str(ds["train"].values[t]),
+                     "dyn_max": _nanmax(hi[:, t].reshape(hi.shape[0], -1, x.size), (0, 1)),
+                     "dyn_min": -_nanmax(-lo[:, t].reshape(lo.shape[0], -1, x.size), (0, 1)),
+                     "lm71_max": factor * lm.max, "lm71_min": factor * lm.min}
+    return out

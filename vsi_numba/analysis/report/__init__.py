@@ -22,6 +22,7 @@ from vsi_numba.analysis import checks as chk
 from vsi_numba.analysis.dataset import prepare, require
 from vsi_numba.analysis.recompute import CaseRunner
 from vsi_numba.analysis.report.figures import _figures
+from vsi_numba.analysis.report.load_effects import load_effects_section
 from vsi_numba.analysis.report.text import (
     FIGURE_NAMES,
     MAX_ONE_STEP_ROWS,
@@ -133,6 +134,7 @@ def write_report(
     lines += _trains(ds, applicable)
     lines += _cases(ds)
     lines += _statistics(results, ds)
+    lines += load_effects_section(ds, outdir, length=determinant_length).lines
     lines += ["## Figures", ""]
     for i, (name, caption) in enumerate(figures, 1):
         lines += [f"![Figure {i}]({name})", "", f"*Figure {i}: {caption}*", ""]

@@ -138,3 +138,14 @@ def test_study_keys_alpha_and_maintenance():
     assert msg.startswith("study.classification_factor = 1.6") and "[0.75, 1.46]" in msg
     (msg,) = errors_of(base(study={"track_maintenance": "poor"}))
     assert msg.startswith("study.track_maintenance = \"poor\"") and "Phi_3" in msg
+
+
+def test_vsi_trains_lists_hslm_b(capsys):
+    from vsi_numba.cli.trains import trains_command
+
+    assert trains_command(None) == 0
+    out = capsys.readouterr().out
+    assert "HSLM-B" in out and "no data (NF)" in out and "Fig. 6.13" in out
+    assert trains_command("hslm-b") == 0
+    out = capsys.readouterr().out
+    assert "not available" in out and "train.hslm_b" in out

@@ -119,8 +119,27 @@ def test_checks_on_constructed_file():
     ratio = design / (PHI3 * LM71_M_MID)
     assert ratio > 1 and ver.loc["moment", "governs"] == REAL_GOVERNS
     assert ver.loc["moment", "margin"] == pytest.approx(ratio, rel=1e-9)
-    # deck-end rotation: Phi3 x LM71 rotation against 6.5 mrad
-    assert list(c.rotation["result"]) == ["pass", "pass"]
+    # deck-end rotation: the design value (the larger of Phi3 x LM71 and the train's)
+    # against 6.5 mrad. LM71 by brute force on the closed-form line
+    # theta_A(a) = a (L - a)(2L - a) / (6 L EI) (> 0: udl everywhere outside the zone)
+    xm = np.arange(0.001, L, 0.002)
+    il = xm * (L - xm) * (2 * L - xm) / (6 * L * EI)
+    best = 0.0
+    for cc in np.arange(-3.2, L + 3.2, 0.02):
+        a = cc + np.array([-2.4, -0.8, 0.8, 2.4])
+        a = a[(a > 0) & (a < L)]
+        out = (xm < cc - 3.2) | (xm > cc + 3.2)
+        best = max(best, 250e3 * np.sum(a * (L - a) * (2 * L - a)) / (6 * L * EI)
+                   + 80e3 * 0.002 * il[out].sum())
+    rot = c.rotation.set_index("support")
+    # 2 cm grid near a smooth optimum and the 2 mm midpoint mask: < 1e-4 relative
+    assert rot.loc[0.0, "theta_lm71_design"] == pytest.approx(PHI3 * best, rel=1e-4)
+    th_real = max(1.3 + phi2_by_hand(40.0) / 2, 1.1 + phi2_by_hand(80.0) / 2) * (
+        P * L**2 / (9 * np.sqrt(3) * EI))
+    assert rot.loc[0.0, "theta_real_design"] == pytest.approx(th_real, rel=1e-5)
+    th = max(th_real, PHI3 * best)
+    assert rot.loc[L, "utilisation"] == pytest.approx(th / 6.5e-3, rel=1e-4)
+    assert list(c.rotation["result"]) == ["pass" if th <= 6.5e-3 else "FAIL"] * 2
 
 
 def test_alpha_and_maintenance_from_study_keys():

@@ -319,8 +319,10 @@ class LoadEffectChecks(NamedTuple):
         real_design / lm71_design; >= 1).
     rotation : pandas.DataFrame
         Deck-end rotation check: per end support ``theta_lm71_design`` (rad, LM71 x
-        Phi x alpha), ``theta_dynamic`` (max over the trains, information), ``limit``,
-        ``utilisation``, ``result``.
+        Phi x alpha), ``theta_real_design`` ((1 + phi'_dyn + phi''/2) x the trains'
+        static rotation, max over speeds and trains), ``theta_design`` (the larger, the
+        design value of EN 1991-2 6.4.6.5(3) [R]), ``limit``, ``utilisation`` (of
+        ``theta_design``), ``result``.
     deck : dict
         Whole-deck data for the figure: ``x`` (m) and per effect ("moment", "shear")
         ``dyn_max``, ``dyn_min`` of the governing train, ``lm71_max``, ``lm71_min``
@@ -544,9 +546,11 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
             row = e[np.isclose(e["location"], sup[end])]
             if row.empty:
                 continue
-            th = float(row["lm71_design"].iloc[0])
-            rot.append({"support": float(sup[end]), "theta_lm71_design": th,
-                        "theta_dynamic": float(row["dynamic"].iloc[0]),
+            lm = float(row["lm71_design"].iloc[0])
+            real = float(row["real_design"].iloc[0])
+            th = max(lm, real)   # the design value of 6.4.6.5(3): the more unfavourable
+            rot.append({"support": float(sup[end]), "theta_lm71_design": lm,
+                        "theta_real_design": real, "theta_design": th,
                         "limit": END_ROTATION_LIMIT_ABUTMENT,
                         "utilisation": th / END_ROTATION_LIMIT_ABUTMENT,
                         "result": "pass" if th <= END_ROTATION_LIMIT_ABUTMENT else "FAIL"})

@@ -50,6 +50,7 @@ def _v(value, units) -> str:
 
 
 def _md(header, rows) -> list[str]:
+    header = [str(h).replace("|", "\\|") for h in header]
     out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
     return out + ["| " + " | ".join(str(c).replace("|", "\\|") for c in r) + " |"
                   for r in rows]
@@ -148,12 +149,13 @@ def load_effects_section(ds, outdir: Path | str | None = None, *, checks=None,
         lines += ["Not available: the results hold no end rotations.", ""]
     else:
         rows = [[f"x = {r.support:g} m", _v(r.theta_lm71_design, "rad"),
-                 _v(r.theta_dynamic, "rad"), _v(r.limit, "rad"), f"{r.utilisation:.3f}",
+                 _v(r.theta_real_design, "rad"), _v(r.theta_design, "rad"),
+                 _v(r.limit, "rad"), f"{r.utilisation:.3f}",
                  "**FAIL**" if r.result == "FAIL" else r.result]
                 for r in c.rotation.itertuples(index=False)]
         lines += _md(["deck end", f"θ under {fa['phi_name']} × α × LM71",
-                      "θ dynamic (max over trains, info)", "limit (ballasted, deck to "
-                      "abutment)", "utilisation", "result"], rows)
+                      "θ (1 + φ'dyn + φ''/2) × train", "design θ (the larger)",
+                      "limit (ballasted, deck to abutment)", "utilisation", "result"], rows)
         lines += ["", f"Limits recalled [R]: {_v(rows and c.rotation['limit'].iloc[0], 'rad')} "
                   f"between a deck end and the abutment, {_v(END_ROTATION_LIMIT_DECKS, 'rad')}"
                   " for θ₁ + θ₂ between two consecutive decks (not checked: one deck).", ""]

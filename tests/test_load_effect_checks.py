@@ -110,6 +110,10 @@ def test_checks_on_constructed_file():
     for e in ("deflection", "moment", "shear", "reaction", "rotation"):
         assert pdyn.loc[e, "phi_dyn"] == pytest.approx(0.3, rel=1e-5), e
         assert pdyn.loc[e, "speed_kmh"] == pytest.approx(144.0)
+    # per speed: 1.3 - 1 at 144 km/h and 1.1 - 1 at 288 km/h
+    sp = c.phi_dyn_speeds[c.phi_dyn_speeds.effect == "moment"]
+    np.testing.assert_allclose(sp["speed_kmh"], [144.0, 288.0])
+    np.testing.assert_allclose(sp["phi_dyn"], [0.3, 0.1], rtol=1e-9)
     # verdict: max over speeds of (amp + phi''(v)/2) x static against Phi3 x LM71
     assert c.factors["phi"] == pytest.approx(PHI3, rel=1e-12)
     design = max(1.3 + phi2_by_hand(40.0) / 2, 1.1 + phi2_by_hand(80.0) / 2) * P * L / 4
@@ -157,8 +161,8 @@ def test_report_section(tmp_path):
     text = "\n".join(sec.lines)
     assert "## Load effects" in text and "Verdict" in text and "Deck-end rotation" in text
     assert (tmp_path / FIGURE_NAME).is_file() and sec.figures[0][0] == FIGURE_NAME
-    assert set(sec.tables) == {"load_effect_envelopes", "phi_dyn", "load_effect_verdict",
-                               "end_rotation"}
+    assert set(sec.tables) == {"load_effect_envelopes", "phi_dyn", "phi_dyn_speeds",
+                               "load_effect_verdict", "end_rotation"}
 
 
 def test_report_section_without_load_effects(tmp_path):

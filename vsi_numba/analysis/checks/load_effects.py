@@ -313,6 +313,8 @@ class LoadEffectChecks(NamedTuple):
     phi_dyn : pandas.DataFrame
         One row per effect and train: ``phi_dyn`` (max over speeds of
         max_loc|E_dyn| / max_loc|E_stat| - 1), ``speed_kmh`` of it.
+    phi_dyn_speeds : pandas.DataFrame
+        One row per effect, train and speed: ``phi_dyn`` at that speed.
     verdict : pandas.DataFrame
         One row per effect: the location of the largest ``ratio``, the values there,
         ``governs`` and ``margin`` (lm71_design / real_design when LM71 governs, else
@@ -334,6 +336,7 @@ class LoadEffectChecks(NamedTuple):
 
     envelopes: object
     phi_dyn: object
+    phi_dyn_speeds: object
     verdict: object
     rotation: object
     deck: dict
@@ -454,7 +457,7 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
     sup = static.supports
     ext = (0.0, static.length)
 
-    env_rows, phi_rows, ver_rows = [], [], []
+    env_rows, phi_rows, ver_rows, speed_rows = [], [], [], []
     crawl_abs = {}
     lm71_abs = {}
     for name, (eff, stem, dim, units, _label) in EFFECTS.items():
@@ -523,6 +526,8 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
             col = pd_st[:, t]
             if np.all(np.isnan(col)):
                 continue
+            speed_rows += [{"effect": name, "train": tr, "speed_kmh": float(v),
+                            "phi_dyn": float(p)} for v, p in zip(sk, col, strict=True)]
             i = int(np.nanargmax(col))
             phi_rows.append({"effect": name, "train": tr, "phi_dyn": float(col[i]),
                              "speed_kmh": float(sk[i])})
@@ -560,8 +565,8 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
                "length": lphi.value, "length_rule": lphi.rule,
                "phi2_max": float(_nanmax(phi2, 0)) if phi2.size else np.nan,
                "phi2_note": note}
-    return LoadEffectChecks(envelopes, pd.DataFrame(phi_rows), pd.DataFrame(ver_rows),
-                            pd.DataFrame(rot), deck, factors)
+    return LoadEffectChecks(envelopes, pd.DataFrame(phi_rows), pd.DataFrame(speed_rows),
+                            pd.DataFrame(ver_rows), pd.DataFrame(rot), deck, factors)
 
 
 def _whole_deck(ds, static, isel, factor, step) -> dict:

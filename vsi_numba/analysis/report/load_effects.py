@@ -21,7 +21,11 @@ from vsi_numba.analysis.checks.load_effects import (
     LoadEffectChecks,
     load_effect_checks,
 )
-from vsi_numba.en1990 import END_ROTATION_CLAUSE, END_ROTATION_LIMIT_DECKS
+from vsi_numba.en1990 import (
+    END_ROTATION_CLAUSE,
+    END_ROTATION_LIMIT_ABUTMENT,
+    END_ROTATION_LIMIT_DECKS,
+)
 from vsi_numba.en1991 import ALPHA_CLAUSE, LM71_CLAUSE, PHI_CLAUSE
 
 #: File name of the figure of the M and V envelopes.
@@ -104,6 +108,7 @@ def load_effects_section(ds, outdir: Path | str | None = None, *, checks=None,
         "Static effects of the trains: their axle loads crawling over the deck (exact "
         "influence lines, every placement). Magnitudes |E| (both signs) are compared.", ""]
     tables = {"load_effect_envelopes": c.envelopes, "phi_dyn": c.phi_dyn,
+              "phi_dyn_speeds": c.phi_dyn_speeds,
               "load_effect_verdict": c.verdict, "end_rotation": c.rotation}
 
     lines += [f"{heading}# Verdict (EN 1991-2 6.4.6.5(3) [R])", ""]
@@ -156,7 +161,7 @@ def load_effects_section(ds, outdir: Path | str | None = None, *, checks=None,
         lines += _md(["deck end", f"θ under {fa['phi_name']} × α × LM71",
                       "θ (1 + φ'dyn + φ''/2) × train", "design θ (the larger)",
                       "limit (ballasted, deck to abutment)", "utilisation", "result"], rows)
-        lines += ["", f"Limits recalled [R]: {_v(rows and c.rotation['limit'].iloc[0], 'rad')} "
+        lines += ["", f"Limits recalled [R]: {_v(END_ROTATION_LIMIT_ABUTMENT, 'rad')} "
                   f"between a deck end and the abutment, {_v(END_ROTATION_LIMIT_DECKS, 'rad')}"
                   " for θ₁ + θ₂ between two consecutive decks (not checked: one deck).", ""]
 

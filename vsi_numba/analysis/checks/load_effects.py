@@ -535,6 +535,8 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
     if envelopes.empty:
         return "no load effect of the results has a static reference on this deck"
     for name, grp in envelopes.groupby("effect", sort=False):
+        if not grp["ratio"].notna().any():  # e.g. the deflection at a support only
+            continue
         g = grp.loc[grp["ratio"].idxmax()]
         real_gov = g["ratio"] > 1
         ver_rows.append({

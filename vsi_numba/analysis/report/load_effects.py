@@ -90,6 +90,7 @@ def load_effects_section(ds, outdir: Path | str | None = None, *, checks=None,
         checks = load_effect_checks(ds, alpha=alpha, maintenance=maintenance, length=length)
     lines = [f"{heading} Load effects", ""]
     if outdir is not None:
+        Path(outdir).mkdir(parents=True, exist_ok=True)
         (Path(outdir) / FIGURE_NAME).unlink(missing_ok=True)  # no stale figure stays
     if isinstance(checks, str):
         lines += [f"Not available: {checks}.", ""]

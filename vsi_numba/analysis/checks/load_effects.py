@@ -98,11 +98,15 @@ def _reduce(values_of, s: np.ndarray, n_at: int, per_s: int) -> Envelope:
 
 
 def _loads_effect(line: Line, s: np.ndarray, positions: np.ndarray, loads: np.ndarray,
-                  n_at: int) -> np.ndarray:
-    """sum_k P_k I(s - p_k) for every s: shape (n_at, n_s)."""
+                  n_at: int, extent) -> np.ndarray:
+    """sum_k P_k I(s - p_k) for every s: shape (n_at, n_s); the line is evaluated only
+    for loads on the deck (it is zero elsewhere)."""
     x = (s[:, None] - positions[None, :]).ravel()
-    inf = np.asarray(line(x), float).reshape(n_at, s.size, positions.size)
-    return inf @ loads
+    on = (x >= extent[0]) & (x <= extent[1])
+    inf = np.zeros((n_at, x.size))
+    if on.any():
+        inf[:, on] = np.asarray(line(x[on]), float).reshape(n_at, -1)
+    return inf.reshape(n_at, s.size, positions.size) @ loads
 
 
 def crawl_envelope(line: Line, positions, loads, breakpoints, extent, step: float = 0.05,
@@ -147,7 +151,7 @@ def crawl_envelope(line: Line, positions, loads, breakpoints, extent, step: floa
     s = _candidates(lo, hi, (bp[:, None] + p[None, :]).ravel(), step)
     if n_at is None:
         n_at = int(np.asarray(line(np.array([0.5 * (extent[0] + extent[1])]))).shape[0])
-    return _reduce(lambda sc: _loads_effect(line, sc, p, P, n_at), s, n_at, p.size)
+    return _reduce(lambda sc: _loads_effect(line, sc, p, P, n_at, extent), s, n_at, p.size)
 
 
 def lm71_envelope(line: Line, breakpoints, extent, step: float = 0.05,
@@ -210,7 +214,8 @@ def lm71_envelope(line: Line, breakpoints, extent, step: float = 0.05,
     s = _candidates(x0 - half, x1 + half, crossings, step)
 
     def total(sc, c):
-        return _loads_effect(line, sc, -offs, Q, n_at) + udl(c, sc)  # axle k at sc + o_k
+        # axle k at sc + o_k
+        return _loads_effect(line, sc, -offs, Q, n_at, (x0, x1)) + udl(c, sc)
 
     hi = _reduce(lambda sc: total(sc, cum[0]), s, n_at, offs.size)
     lo = _reduce(lambda sc: total(sc, cum[1]), s, n_at, offs.size)

@@ -30,6 +30,7 @@ from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
+from scipy.integrate import cumulative_trapezoid
 
 from vsi_numba.en1991 import (
     LM71_AXLE_LOAD,
@@ -192,11 +193,8 @@ def lm71_envelope(line: Line, breakpoints, extent, step: float = 0.05,
     inf = np.asarray(line(xs), float)
     if n_at is None:
         n_at = inf.shape[0]
-    cum = []
-    for part in (np.maximum(inf, 0.0), np.minimum(inf, 0.0)):
-        c = np.zeros_like(part)
-        c[:, 1:] = np.cumsum(0.5 * (part[:, 1:] + part[:, :-1]) * np.diff(xs), axis=1)
-        cum.append(c)
+    cum = [cumulative_trapezoid(part, xs, axis=1, initial=0.0)
+           for part in (np.maximum(inf, 0.0), np.minimum(inf, 0.0))]
     half = 0.5 * LM71_AXLE_ZONE
     offs = np.asarray(LM71_AXLE_OFFSETS, float)
     Q = np.full(offs.size, LM71_AXLE_LOAD)

@@ -40,7 +40,11 @@ a warning says how many modes keep 95 % of the rail's static flexibility).
 (user train TOML, see :func:`vsi_numba.model.library.load_user_trains`) or
 ``[[train.vehicles]]`` (one train, ``name``: default ``title``, else "custom"); ``model`` =
 interaction | moving_force for presets (default: interaction where the library has
-vehicle dynamics, moving forces for the HSLM load models).  A vehicle has ``kind`` =
+vehicle dynamics, moving forces for the HSLM load models); ``hslm_b = {N, d}`` (required
+with the preset "HSLM-B": N forces of 170 kN at spacing d m, EN 1991-2 Fig. 6.13 [R]);
+``axles = {file, load_unit ("kN" | "N"), name}`` adds a moving-force train from an
+axle-load CSV (columns ``position`` m behind the first axle, ``load``), alone or next to
+presets / a file.  A vehicle has ``kind`` =
 force (``load``, N) | sprung_mass (``mass``, ``stiffness``, ``damping`` 0,
 ``wheel_mass`` 0) | car (the [whole] values of ``data/trains.toml`` plus
 ``body_cg_to_front_bogie``, default mid-way) | user (``M``, ``C``, ``K``, ``wheel_dofs``,

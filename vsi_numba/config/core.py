@@ -36,6 +36,7 @@ from vsi_numba.config.physics import (
     _refuse,
     _track_plausibility,
 )
+from vsi_numba.config.report import _report_section
 from vsi_numba.config.solver import (
     SOLVER_OVERRIDES,
     _contact_section,
@@ -347,7 +348,8 @@ def load_config(path_or_mapping, base_dir=None) -> Config:
 
 def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     chk = _Checker()
-    top = {"title", "bridge", "train", "irregularity", "solver", "contact", "track", "study"}
+    top = {"title", "bridge", "train", "irregularity", "solver", "contact", "track", "study",
+           "report"}
     chk.table(data, "", top)
     default_title = path.stem if path is not None else "untitled"
     title = chk.string(data, "", "title", "a title (string)", default=None, nonempty=False)
@@ -369,6 +371,7 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     irr = _irregularity_section(chk, data.get("irregularity", _MISSING), base)
     stem = path.stem if path is not None else "run"
     study = _study_section(chk, data.get("study", _MISSING), f"results/{stem}.nc", base)
+    report = _report_section(chk, data.get("report", _MISSING))
 
     if _ok(bridge, solver, irr) and irr.file_profile is not None:
         _check_file_coverage(chk, irr, -solver["approach"], bridge.length)
@@ -407,6 +410,7 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
         # (none with the FE track layer of [bridge.track]: that layer is the track)
         **({"track": track} if track["model"] != "bridge_layer" else {}),
         "study": dict(study.resolved),
+        **({"report": report} if report else {}),
     }
     cfg = Config(
         title=resolved["title"], path=path, base_dir=base, resolved=resolved, bridge=bridge,

@@ -138,7 +138,8 @@ def _provenance(ds: xr.Dataset, source_path: Path | None) -> list[str]:
     a = ds.attrs
     history = str(a.get("history", "")).strip().splitlines()
     rows = [
-        ["results file", f"`{source_path}`" if source_path else "(in memory)"],
+        # the name only: a report must not carry the paths of the machine it was made on
+        ["results file", f"`{Path(source_path).name}`" if source_path else "(in memory)"],
         ["source", a.get("source", "–")],
         ["config SHA-256", f"`{a['config_sha256']}`" if a.get("config_sha256") else "–"],
         ["conventions", a.get("Conventions", "–")],
@@ -160,11 +161,30 @@ def _flagged_trains(ds: xr.Dataset) -> list[str]:
             if str(s) in WARN_STATUSES]
 
 
+def _bridge_description(ds: xr.Dataset) -> str:
+    """``simply supported, spans 20 + 20 m, EI = 1.508e10 N m², m = 15000 kg/m`` from the
+    stored config, else the file's ``bridge_description``."""
+    from vsi_numba.analysis.report.echo import fmt_list
+
+    bridge = _config_section(ds, "bridge") or {}
+    if not bridge.get("kind"):
+        return str(ds.attrs.get("bridge_description", "–"))
+    parts = [str(bridge["kind"]).replace("_", " ")]
+    if bridge.get("spans"):
+        parts.append(("spans " if len(bridge["spans"]) > 1 else "span ")
+                     + fmt_list(bridge["spans"], "m", " + "))
+    if "EI" in bridge:
+        parts.append("EI = " + fmt_list(bridge["EI"], "N m²"))
+    if "mass_per_length" in bridge:
+        parts.append("m = " + fmt_list(bridge["mass_per_length"], "kg/m"))
+    return ", ".join(parts)
+
+
 def _bridge(ds: xr.Dataset, lphi: chk.DeterminantLength | None = None) -> list[str]:
     a = ds.attrs
     f = bridge_frequencies(ds)
     out = ["## Bridge", ""]
-    out.append(f"- Description: {a.get('bridge_description', '–')}")
+    out.append(f"- Description: {_bridge_description(ds)}")
     if "bridge_length" in a:
         out.append(f"- Length: {float(a['bridge_length']):g} m")
     if lphi is not None:

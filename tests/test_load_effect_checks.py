@@ -201,3 +201,12 @@ def test_quasi_static_run_gives_phi_dyn_near_zero(tmp_path):
     got = c.phi_dyn.set_index("effect")["phi_dyn"]
     for e in ("moment", "shear", "reaction", "rotation"):
         assert abs(got[e]) < 5e-3, (e, got[e])   # measured <= 8e-5
+
+
+def test_hslm_b_outside_its_span_range_is_noted():
+    # HSLM-B covers simply supported spans < 7 m: on the 20 m span the section says so
+    ds = results().assign_coords(train=["HSLM-B"])
+    c = load_effect_checks(ds)
+    assert "shorter than 7 m" in c.factors["notes"][0]
+    assert "use HSLM-A" in "\n".join(load_effects_section(ds).lines)
+    assert load_effect_checks(results()).factors["notes"] == []

@@ -33,6 +33,8 @@ import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
 from vsi_numba.en1991 import (
+    HSLM_B_CLAUSE,
+    HSLM_B_MAX_SPAN,
     LM71_AXLE_LOAD,
     LM71_AXLE_OFFSETS,
     LM71_AXLE_ZONE,
@@ -334,7 +336,8 @@ class LoadEffectChecks(NamedTuple):
         (x Phi x alpha), ``train``; empty when the file has no whole-deck envelopes.
     factors : dict
         ``alpha``, ``maintenance``, ``phi_name``, ``phi``, ``length`` (L_phi),
-        ``length_rule``, ``phi2_max``, ``phi2_note``.
+        ``length_rule``, ``phi2_max``, ``phi2_note``, ``notes`` (applicability notes,
+        e.g. HSLM-B on a deck it does not cover).
     """
 
     envelopes: object
@@ -565,7 +568,13 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
                         "utilisation": th / END_ROTATION_LIMIT_ABUTMENT,
                         "result": "pass" if th <= END_ROTATION_LIMIT_ABUTMENT else "FAIL"})
     deck = _whole_deck(ds, static, isel, phi * alpha, step)
-    factors = {"alpha": alpha, "maintenance": maintenance,
+    notes = []
+    if any(t.casefold() == "hslm-b" for t in trains) and not (
+            static.n_supports == 2 and static.length < HSLM_B_MAX_SPAN):
+        notes.append(f"HSLM-B applies to simply supported spans shorter than "
+                     f"{HSLM_B_MAX_SPAN:g} m ({HSLM_B_CLAUSE}); this deck has spans "
+                     f"{', '.join(f'{x:g}' for x in static.spans)} m: use HSLM-A")
+    factors = {"alpha": alpha, "maintenance": maintenance, "notes": notes,
                "phi_name": "Φ3" if maintenance == "standard" else "Φ2", "phi": phi,
                "length": lphi.value, "length_rule": lphi.rule,
                "phi2_max": float(_nanmax(phi2, 0)) if phi2.size else np.nan,

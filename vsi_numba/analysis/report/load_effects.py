@@ -126,6 +126,7 @@ def _blocks(c: LoadEffectChecks):
         f"({fa['length_rule']}); {fa['phi2_note']}, max φ'' = {fa['phi2_max']:.3g}. "
         "Static effects of the trains: their axle loads crawling over the deck (exact "
         "influence lines, every placement). Magnitudes |E| (both signs) are compared."]
+    blocks += [f"> ⚠ {n}." for n in fa.get("notes", [])]
     tables = {"load_effect_envelopes": c.envelopes, "phi_dyn": c.phi_dyn,
               "phi_dyn_speeds": c.phi_dyn_speeds, "load_effect_verdict": c.verdict,
               "end_rotation": c.rotation}

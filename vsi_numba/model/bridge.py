@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vsi_numba.model import hermite
+from vsi_numba.model.influence import StaticDeck, beam_deck
 from vsi_numba.model.track import ElasticTrack
 
 RIGID, SINE, HERMITE = 0, 1, 2
@@ -55,6 +56,11 @@ class ModalBridge:
         the rail's compliance.  None: the rigid-track idealisation (the wheel runs on
         the deck line itself and on a rigid approach; a kink at the deck ends).  The
         config's default is an elastic track; a bridge built directly has none.
+    static : StaticDeck or None
+        What the static load effects of the deck need (bending stiffness per span, or
+        the FE stiffness), see :mod:`vsi_numba.model.influence`; None when the model has
+        none (a modes table, rigid track): then only deflections and rotations are
+        available, from the modes.
     """
 
     kind: int
@@ -69,6 +75,7 @@ class ModalBridge:
     effective_mass_fraction: np.ndarray | None = None
     deck: ModalBridge | None = None
     track: ElasticTrack | None = None
+    static: StaticDeck | None = None
 
     @property
     def n_modes(self) -> int:
@@ -169,6 +176,7 @@ def simply_supported(
         supports=np.array([0.0, length]),
         description=(f"simply supported, L = {_num(length)} m, EI = {_num(EI)} N m2, "
                      f"m = {_num(mass_per_length)} kg/m"),
+        static=beam_deck([length], EI, mass_per_length),
     )
 
 
@@ -243,6 +251,7 @@ def continuous(
         supports=supports,
         description="continuous deck, spans " + " + ".join(
             _num(x) for x in np.atleast_1d(spans)) + " m",
+        static=beam_deck(spans, EI, mass_per_length),
     )
 
 
@@ -536,6 +545,7 @@ def continuous_with_track(
         values=np.ascontiguousarray(rail[0::2, :keep]),
         slopes=np.ascontiguousarray(rail[1::2, :keep]),
         supports=tm.supports,
+        static=beam_deck(spans, EI),
         deck=ModalBridge(
             kind=HERMITE, length=length, frequencies=freqs[:keep].copy(), damping=zeta,
             nodes=tm.deck_nodes.copy(), values=np.ascontiguousarray(deck[0::2, :keep]),

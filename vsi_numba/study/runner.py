@@ -452,6 +452,7 @@ def _write_results(output: Path, store: CaseStore, study: _Study,
                    need_bytes: int | None = None) -> int:
     """Stream the stored batches into the results file; returns the failed-run count."""
     from vsi_numba.io.study_file import StudyFile
+    from vsi_numba.solver.batch import deck_grid
 
     specs, models, grid, plan, labels = (study.specs, study.models, study.grid, study.plan,
                                          study.labels)
@@ -482,7 +483,9 @@ def _write_results(output: Path, store: CaseStore, study: _Study,
     try:
         f = StudyFile(tmp, grid.speeds_kmh, grid.trains, grid.irregularities,
                       [m.output_points for m in models], [m.bridge.frequencies for m in models],
-                      n_wheel, n_vehicle, n_time, model.settings.dt, infos, variants)
+                      n_wheel, n_vehicle, n_time, model.settings.dt, infos, variants,
+                      deck_x=[deck_grid(m.bridge, m.output_points) for m in models],
+                      supports=[m.bridge.supports for m in models])
         hold = _hold_after() == "write"
         try:
             for b in plan:

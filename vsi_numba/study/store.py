@@ -431,9 +431,11 @@ class CaseStore:
 def study_need(study, pending):
     """Disk need (:class:`vsi_numba.io.space.DiskNeed`) of a study (``runner._Study``)
     with the batches ``pending`` still to run."""
-    from vsi_numba.io.schema import DIAGNOSTICS
+    from vsi_numba.io.schema import DIAGNOSTICS, ENVELOPES, HISTORIES
     from vsi_numba.io.space import (
+        NC_EXTRA_VARIABLES,
         NC_OVERHEAD,
+        NC_PER_VARIABLE,
         DiskNeed,
         batch_bytes,
         envelope_row_bytes,
@@ -444,6 +446,12 @@ def study_need(study, pending):
     grid = study.grid
     packed = [_packed_trains(sp, m) for sp, m in zip(study.specs, study.models, strict=True)]
     speeds = [float(v) / 3.6 for v in grid.speeds_kmh]
+
+    from vsi_numba.solver.batch import deck_grid
+
+    # the load-effect envelopes' whole-deck sections and supports, per variant
+    n_x = [deck_grid(m.bridge, m.output_points).size for m in study.models]
+    n_s = [np.asarray(m.bridge.supports).size for m in study.models]
 
     def dims(b):
         p = packed[b.variant or 0][b.i_train]
@@ -456,18 +464,23 @@ def study_need(study, pending):
         n_p, n_w, n_wd, n_v, p = dims(b)
         steps = [p.n_steps(speeds[s]) + 1
                  for s, h in zip(b.speeds, b.histories, strict=True) if h]
-        store += batch_bytes(b.n_runs, steps, n_p, n_w, n_wd, n_v)
+        store += batch_bytes(b.n_runs, steps, n_p, n_w, n_wd, n_v, n_x[b.variant or 0],
+                             n_s[b.variant or 0])
     n_p = max(m.output_points.size for m in study.models)
     shapes = [dims(b)[1:4] for b in study.plan]
     n_w = max((d[0] for d in shapes), default=0)  # the file's wheel dim: all the wheels
     n_v = max((d[2] for d in shapes), default=0)
     n_runs = study.n_runs
-    final_min = NC_OVERHEAD + n_runs * (envelope_row_bytes(n_p, n_w, n_v)
-                                        + 4 * len(DIAGNOSTICS))
+    n_vars = len(ENVELOPES) + len(DIAGNOSTICS)
+    data_min = n_runs * (envelope_row_bytes(n_p, n_w, n_v, max(n_x), max(n_s))
+                         + 4 * len(DIAGNOSTICS))
+    final_min = NC_OVERHEAD + NC_PER_VARIABLE[0] * n_vars + data_min
     hist = [dims(b)[4].n_steps(speeds[s]) + 1 for b in study.plan
             for s, h in zip(b.speeds, b.histories, strict=True) if h]
-    final_max = final_min + (len(hist) * max(hist, default=0)
-                             * history_row_bytes(n_p, n_w, n_v))
+    final_max = (NC_OVERHEAD + NC_PER_VARIABLE[1] * (n_vars + NC_EXTRA_VARIABLES
+                                                     + (len(HISTORIES) if hist else 0))
+                 + data_min + len(hist) * max(hist, default=0)
+                 * history_row_bytes(n_p, n_w, n_v, max(n_s)))
     return DiskNeed(store=int(store), final_min=int(final_min), final_max=int(final_max))
 
 

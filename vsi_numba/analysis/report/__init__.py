@@ -38,6 +38,7 @@ from vsi_numba.analysis.report.document import (
 )
 from vsi_numba.analysis.report.echo import input_echo, title_block
 from vsi_numba.analysis.report.figures import _figures
+from vsi_numba.analysis.report.load_effects import load_effects_section
 from vsi_numba.analysis.report.text import (
     FIGURE_NAMES,
     MAX_ONE_STEP_ROWS,
@@ -171,6 +172,9 @@ def write_report(
              "maxima_per_point": tbl.ascii_units(per_point)}
     if zone_table is not None:
         extra["wheel_unloading_zones"] = tbl.ascii_units(zone_table)
+    load_effects = load_effects_section(env, outdir, length=determinant_length,
+                                        save_figure=False)
+    extra.update(load_effects.tables)
     tbl.write_tables(speed_tables, extra, outdir)
 
     title = env.attrs.get("title") or "vsi_numba results"
@@ -203,6 +207,7 @@ def write_report(
     add(_trains(env, applicable))
     add(_cases(env))
     add(_statistics(results, env))
+    body.append(load_effects.section)
     for extra_section in sections or []:
         sec = extra_section(env, results) if callable(extra_section) else extra_section
         if sec is not None:

@@ -30,6 +30,7 @@ from vsi_numba.model.imported.common import (
     _spline_slopes,
     _supports_from,
 )
+from vsi_numba.model.influence import StaticDeck
 
 # ------------------------------------------------------------------------------ matrices
 
@@ -312,6 +313,10 @@ def modes_from_matrices(
         damping=zeta, nodes=xs, values=np.ascontiguousarray(values),
         slopes=np.ascontiguousarray(slopes), supports=np.asarray(supports, float),
         description=desc, effective_mass_fraction=eff,
+        static=StaticDeck(kind="matrices", supports=np.asarray(supports, float),
+                          spans=np.diff(np.asarray(supports, float)), K=K, fixed=fixed,
+                          stations=xs, dofs=dofs, rotation_dofs=rot,
+                          rotation_sign=float(rotation_sign)),
     )
     return ImportResult(bridge, freqs.copy(), tuple(warnings), (line,) if line else ())
 

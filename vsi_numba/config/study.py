@@ -62,7 +62,7 @@ def _study_section(chk, d, default_output: str, base_dir: Path) -> _StudySpec | 
     path = "study"
     allowed = {"speeds_kmh", "output", "save_time_histories", "line_speed_kmh",
                "history_speeds_kmh", "vary", "vary_together", "mass_bounds",
-               "refine_resonance"}
+               "refine_resonance", "load_effects"}
     if d is _MISSING:
         return chk.error(path, _MISSING, "a table [study] with speeds_kmh (km/h) or "
                                          "line_speed_kmh")
@@ -136,13 +136,15 @@ def _study_section(chk, d, default_output: str, base_dir: Path) -> _StudySpec | 
                     break
     axes = _vary_axes(chk, d)
     refine = chk.boolean(d, path, "refine_resonance", False)
-    if not _ok(line, speeds, output, save, hist, out_full, axes, refine):
+    effects = chk.boolean(d, path, "load_effects", True)
+    if not _ok(line, speeds, output, save, hist, out_full, axes, refine, effects):
         return _BAD
     vary = {k: d[k] for k in ("vary", "vary_together", "mass_bounds") if k in d}
     if refine:
         vary["refine_resonance"] = True
     resolved = _drop_none({"speeds_kmh": speeds, "line_speed_kmh": line, "output": output,
-                           "save_time_histories": save, "history_speeds_kmh": hist, **vary})
+                           "save_time_histories": save, "history_speeds_kmh": hist,
+                           "load_effects": None if effects else False, **vary})
     return _StudySpec(resolved=resolved, output_path=out_full, axes=axes)
 
 

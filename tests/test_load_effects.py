@@ -307,3 +307,63 @@ def test_simulate__load_effect_variables_and_signs():
                                                         load_effects=False)),
         no_irregularity(), settings, [5.0], False)
     assert "max_bending_moment" not in off and "max_deck_displacement" in off
+
+
+def test_study__load_effects_in_the_file_and_the_switch(tmp_path):
+    """A small sweep (two interaction trains, PSD profiles): the load effects on their
+    dims with their coordinates; ``[study] load_effects = false`` leaves them NaN and
+    every other variable bit for bit the same; a bad value is refused by key path."""
+    from study_trains import TRAINS_TOML  # noqa: F401  (write_study needs it)
+    from test_study import write_study
+
+    from vsi_numba.config import ConfigError, load_config
+    from vsi_numba.io.schema import ENVELOPES, LOAD_EFFECTS
+    from vsi_numba.study.runner import run_study
+
+    on_cfg = write_study(tmp_path / "on", speeds=(100.0, 150.0), history=(150.0,),
+                         seeds=(1,))
+    on = run_study(on_cfg, tmp_path / "on.nc", backend="serial")
+    assert list(on["support"].values) == [0.0, 10.0]
+    assert on["deck_x"].size == 33
+    assert on["max_bending_moment_whole_deck"].dims[-1] == "deck_x"
+    assert on["support_reaction"].dims[-2:] == ("time", "support")
+    assert np.all(np.isfinite(on["max_support_reaction"].values))
+    # the stored histories (float32) reach the kernel's envelopes
+    h = on["bending_moment"].sel(speed=150 / 3.6, method="nearest")
+    env = on["max_bending_moment"].sel(speed=150 / 3.6, method="nearest")
+    np.testing.assert_allclose(h.max("time").values, env.values, rtol=1e-6)
+    text = on_cfg.read_text().replace("save_time_histories = true",
+                                      "save_time_histories = true\nload_effects = false")
+    off_dir = tmp_path / "off"
+    off_dir.mkdir()
+    (off_dir / "trains.toml").write_text((on_cfg.parent / "trains.toml").read_text())
+    (off_dir / "study.toml").write_text(text)
+    off = run_study(off_dir / "study.toml", tmp_path / "off.nc", backend="serial")
+    effect_names = {n for n in ENVELOPES if any(n.endswith(k) for k in LOAD_EFFECTS)}
+    for name in ENVELOPES:
+        if name in effect_names:
+            assert np.all(np.isnan(off[name].values)), name
+        else:
+            np.testing.assert_array_equal(off[name].values, on[name].values)
+    (off_dir / "study.toml").write_text(text.replace("load_effects = false",
+                                                     'load_effects = "yes"'))
+    with pytest.raises(ConfigError, match=r"study\.load_effects.*true or false"):
+        load_config(off_dir / "study.toml")
+
+
+def test_modal_effects__track_layer_path_differentiates_the_cubics():
+    """Decks loaded in their modes by other parts (a track layer) take M = -EI phi'' and
+    V = -EI phi''' of the deck's cubics: on a bare two-span FE deck they agree with the
+    exact quadrature of the modal inertia load to the FE error (O(h) for V)."""
+    import dataclasses
+
+    fe = br.continuous([12.0, 16.0], 5e9, 4000.0, n_modes=3, elements_per_span=40)
+    cubic = dataclasses.replace(fe, static=dataclasses.replace(fe.static,
+                                                               mass_per_length=None))
+    x = np.array([3.0, 6.1, 14.3, 20.2])
+    for effect, at, tol in (("moment", x, 2e-3), ("shear", x, 3e-2),
+                            ("reaction", [0, 1, 2], 3e-2), ("rotation", [0, 1, 2], 1e-6)):
+        a = inf.modal_effects(fe, effect, at)
+        b = inf.modal_effects(cubic, effect, at)
+        # h = 0.3-0.4 m: M linear and V constant per element, errors ~ (k h)^2, k h
+        np.testing.assert_allclose(b, a, rtol=0, atol=tol * np.abs(a).max())

@@ -455,7 +455,7 @@ def run_kernel(packed: Packed, profile: Profile):
     """
     bridge_points = np.zeros((0, packed.bridge.omega.size))
     res = _run_packed(packed, profile, bridge_points)
-    out = ek.Output(*(a[0] for a in res.out))
+    out = ek.Output(*(a[0] if a.shape[0] else a.reshape(a.shape[1:]) for a in res.out))
     return int(res.status[0]), int(res.reached[0]), out, res.elapsed
 
 

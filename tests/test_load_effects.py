@@ -405,3 +405,27 @@ def test_elastic_track__point_load_static_part_bounded_by_the_rail_spreading():
     # spreading changes the peak moment by a few per cent only
     assert m_spread * 0.995 <= m_engine <= m_point * 1.005, (m_spread, m_engine, m_point)
     assert (m_point - m_spread) / m_point < 0.05
+
+
+def test_kernel__three_span_envelopes_equal_the_influence_histories():
+    """Three unequal spans, five moving loads: the kernel's static sweep (support
+    moments from their cubic influence coefficients) and the histories' static part
+    (influence(): three-moment solve per load position) give the same envelopes to
+    round-off."""
+    bridge = br.continuous([12.0, 16.0, 10.0], [4e9, 6e9, 4e9], 4000.0, n_modes=5,
+                           elements_per_span=12)
+    train = Train("L", (vh.point_loads([0, 3, 14, 17, 30],
+                                       [1e5, 1.5e5, 1.2e5, 1e5, 2e5]),), (0.0,))
+    settings = SolverSettings(dt=2e-3, approach=2.0, free_vibration=0.3)
+    packed = sm.pack(bridge, train, 20.0, no_irregularity(), settings)
+    res = sb.run_batch(packed, no_irregularity(), [20.0], [5.0, 12.0, 20.3, 33.0], settings,
+                       bridge, keep_histories=[True])
+    h, env = res.histories(0), res.envelopes()
+    for name, key in (("bending_moment", "bending_moment"), ("shear_force", "shear_force"),
+                      ("support_reaction", "support_reaction"), ("rotation", "end_rotation")):
+        scale = np.abs(h[name]).max()
+        # two exact evaluations of the same formula: round-off (measured ~3e-16)
+        np.testing.assert_allclose(env[f"max_{key}"][0], h[name].max(axis=0), rtol=0,
+                                   atol=1e-12 * scale)
+        np.testing.assert_allclose(env[f"min_{key}"][0], h[name].min(axis=0), rtol=0,
+                                   atol=1e-12 * scale)

@@ -1170,6 +1170,40 @@ def le_static(sup, L, Linv, c6, A, B, X, xi_s, sec0, val, Ms, acc, lx, lp, ls, n
     n_span = L.shape[0]
     n_sup = n_span + 1
     n_s = X.shape[0]
+    if n_span == 1:  # one span from x = 0 (the moving-force hot path): no support moment
+        L0 = L[0]
+        li = Linv[0]
+        c0 = c6[0]
+        ra = 0.0
+        rb = 0.0
+        th0 = 0.0
+        th1 = 0.0
+        for k in range(nl):
+            a = lx[k]
+            p = lp[k]
+            b = L0 - a
+            ra += p * li * b
+            rb += p * li * a
+            c = p * a * b * c0
+            th0 += c * (L0 + b)
+            th1 -= c * (L0 + a)
+        kk = 0
+        s0 = 0.0
+        s1 = 0.0
+        for q in range(n_s):
+            Xq = X[q]
+            while kk < nl and lx[kk] <= Xq:
+                s0 += lp[kk]
+                s1 += lp[kk] * lx[kk]
+                kk += 1
+            v = ra - s0
+            val[q] = Xq * v + s1
+            val[n_s + q] = v
+        val[2 * n_s] = ra
+        val[2 * n_s + 1] = rb
+        val[2 * n_s + 2] = th0
+        val[2 * n_s + 3] = th1
+        return
     for i in range(n_sup):
         Ms[i] = 0.0
     for k in range(n_span):

@@ -65,6 +65,18 @@ UIC60).  Not with ``[bridge.track]``, whose FE track layer is then the track.
 grid) or ``line_speed_kmh`` (then 140 .. 1.2 x line speed, step 5, 1.2 x line speed
 included); ``output`` (results/<stem>.nc); ``save_time_histories`` (true);
 ``history_speeds_kmh`` (all).
+Also: ``[bridge]`` ``track_type`` = ballasted (default) | direct_fastening (the EN 1990 A2
+deck-acceleration limit); ``damping_ratio`` = "EN1991-2" with ``deck_type`` (Table 6.6
+lower bound for the span); ``additional_damping`` (false; EN 1991-2 6.4.6.3.1, moving
+forces only).  ``[solver]`` ``allow_coarse_dt``, ``allow_implausible``,
+``allow_large_problem`` (false; accept what the checks refuse).  ``[study]``
+``refine_resonance`` (false; adds the resonance speeds of the trains), ``vary`` (a table
+of key paths, each with a list of values), ``vary_together`` (tables of key paths varied
+together, optional ``label``), ``mass_bounds`` (factors on ``mass_per_length``): the
+variants of a parametric study.
+The stored configuration of a results file (attribute config_json, :meth:`Config.resolved`) is
+written in these keys, defaults filled in and rules kept as rules, so that it reloads to
+the same configuration.
 
 Modules
 -------

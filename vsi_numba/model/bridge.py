@@ -144,6 +144,12 @@ def n_modes_kept(freqs, n_modes, max_frequency):
     return n
 
 
+def _num(value) -> str:
+    """A number for a description: ``25``, ``7.16e10``, ``18000`` (4 significant digits)."""
+    v = float(value)
+    return f"{v:.4g}".replace("e+", "e") if abs(v) >= 1e5 else f"{v:.6g}"
+
+
 def simply_supported(
     length: float,
     EI: float,
@@ -168,7 +174,8 @@ def simply_supported(
         damping=per_mode(damping_ratio, n, "damping_ratio"),
         values=amp[None, :],
         supports=np.array([0.0, length]),
-        description=f"simply supported, L={length} m, EI={EI} N m2, m={mass_per_length} kg/m",
+        description=(f"simply supported, L = {_num(length)} m, EI = {_num(EI)} N m2, "
+                     f"m = {_num(mass_per_length)} kg/m"),
         static=beam_deck([length], EI, mass_per_length),
     )
 
@@ -242,7 +249,8 @@ def continuous(
         values=np.ascontiguousarray(full[0::2]),
         slopes=np.ascontiguousarray(full[1::2]),
         supports=supports,
-        description=f"continuous deck, spans={list(np.atleast_1d(spans))} m",
+        description="continuous deck, spans " + " + ".join(
+            _num(x) for x in np.atleast_1d(spans)) + " m",
         static=beam_deck(spans, EI, mass_per_length),
     )
 

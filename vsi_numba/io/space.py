@@ -58,29 +58,35 @@ def _width(dims: tuple, sizes: dict) -> int:
     return n
 
 
-def envelope_row_bytes(n_point: int, n_wheel: int, n_vehicle: int) -> int:
-    """float64 bytes of every envelope of one run."""
-    sizes = {"point": n_point, "wheel": n_wheel, "vehicle": n_vehicle}
+def envelope_row_bytes(n_point: int, n_wheel: int, n_vehicle: int, n_deck_x: int = 0,
+                       n_support: int = 0) -> int:
+    """float64 bytes of every envelope of one run (``n_deck_x``, ``n_support``: the
+    load-effect grid and supports, 0 without load effects)."""
+    sizes = {"point": n_point, "wheel": n_wheel, "vehicle": n_vehicle, "deck_x": n_deck_x,
+             "support": n_support}
     return 8 * sum(_width(dims, sizes) for dims, *_ in ENVELOPES.values())
 
 
-def history_row_bytes(n_point: int, n_wheel_dynamic: int, n_vehicle: int) -> int:
+def history_row_bytes(n_point: int, n_wheel_dynamic: int, n_vehicle: int,
+                      n_support: int = 0) -> int:
     """float32 bytes of every history of one run at one time step."""
-    sizes = {"point": n_point, "wheel": n_wheel_dynamic, "vehicle": n_vehicle}
+    sizes = {"point": n_point, "wheel": n_wheel_dynamic, "vehicle": n_vehicle,
+             "support": n_support}
     return 4 * sum(_width(dims, sizes) for dims, *_ in HISTORIES.values())
 
 
 def batch_bytes(n_runs: int, hist_steps: list[int], n_point: int, n_wheel: int,
-                n_wheel_dynamic: int, n_vehicle: int) -> int:
+                n_wheel_dynamic: int, n_vehicle: int, n_deck_x: int = 0,
+                n_support: int = 0) -> int:
     """Size of one stored batch (bytes): ``n_runs`` runs, of which those in
     ``hist_steps`` (time steps + 1 each) keep their histories, NaN-padded to the
     longest (:func:`vsi_numba.study.batches.run_batch_task`)."""
-    size = n_runs * (envelope_row_bytes(n_point, n_wheel, n_vehicle)
+    size = n_runs * (envelope_row_bytes(n_point, n_wheel, n_vehicle, n_deck_x, n_support)
                      + 4 * len(DIAGNOSTICS) + 4 * MESSAGE_CHARS)
     n_arrays = len(ENVELOPES) + len(DIAGNOSTICS) + 3
     if hist_steps:
         size += (len(hist_steps) * max(hist_steps)
-                 * history_row_bytes(n_point, n_wheel_dynamic, n_vehicle))
+                 * history_row_bytes(n_point, n_wheel_dynamic, n_vehicle, n_support))
         size += 16 * len(hist_steps)
         n_arrays += len(HISTORIES) + 2
     return size + NPZ_OVERHEAD * n_arrays

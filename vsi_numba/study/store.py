@@ -439,9 +439,13 @@ def study_need(study, pending):
         envelope_row_bytes,
         history_row_bytes,
     )
+    from vsi_numba.solver.batch import deck_grid
     from vsi_numba.study.spec import _packed_trains
 
     grid = study.grid
+    # load effects: the whole-deck grid and the supports (upper bound: always counted)
+    n_x = max(deck_grid(m.bridge, m.output_points).size for m in study.models)
+    n_s = max(np.asarray(m.bridge.supports).size for m in study.models)
     packed = [_packed_trains(sp, m) for sp, m in zip(study.specs, study.models, strict=True)]
     speeds = [float(v) / 3.6 for v in grid.speeds_kmh]
 
@@ -456,18 +460,18 @@ def study_need(study, pending):
         n_p, n_w, n_wd, n_v, p = dims(b)
         steps = [p.n_steps(speeds[s]) + 1
                  for s, h in zip(b.speeds, b.histories, strict=True) if h]
-        store += batch_bytes(b.n_runs, steps, n_p, n_w, n_wd, n_v)
+        store += batch_bytes(b.n_runs, steps, n_p, n_w, n_wd, n_v, n_x, n_s)
     n_p = max(m.output_points.size for m in study.models)
     shapes = [dims(b)[1:4] for b in study.plan]
     n_w = max((d[0] for d in shapes), default=0)  # the file's wheel dim: all the wheels
     n_v = max((d[2] for d in shapes), default=0)
     n_runs = study.n_runs
-    final_min = NC_OVERHEAD + n_runs * (envelope_row_bytes(n_p, n_w, n_v)
+    final_min = NC_OVERHEAD + n_runs * (envelope_row_bytes(n_p, n_w, n_v, n_x, n_s)
                                         + 4 * len(DIAGNOSTICS))
     hist = [dims(b)[4].n_steps(speeds[s]) + 1 for b in study.plan
             for s, h in zip(b.speeds, b.histories, strict=True) if h]
     final_max = final_min + (len(hist) * max(hist, default=0)
-                             * history_row_bytes(n_p, n_w, n_v))
+                             * history_row_bytes(n_p, n_w, n_v, n_s))
     return DiskNeed(store=int(store), final_min=int(final_min), final_max=int(final_max))
 
 

@@ -29,6 +29,18 @@ NPZ_OVERHEAD = 280
 MESSAGE_CHARS = 32
 #: netCDF-4 bytes of the file beside the variables' data (metadata, coordinates).
 NC_OVERHEAD = 64 * 2**10
+#: Upper bound of the HDF5 bytes of one variable beside its data (object header,
+#: attributes, chunk index; measured 2-2.5 kB with the load-effect variables' long
+#: sign-convention attributes), added to the upper bound of the results file.
+NC_VARIABLE_OVERHEAD = 3 * 2**10
+
+
+def n_file_variables() -> int:
+    """Variables and coordinates a results file may declare (:mod:`.schema`)."""
+    from vsi_numba.io.schema import COORDS, STUDY_VARIABLES
+
+    return (len(ENVELOPES) + len(HISTORIES) + len(DIAGNOSTICS) + len(STUDY_VARIABLES)
+            + len(COORDS))
 
 
 @dataclass(frozen=True)

@@ -434,10 +434,12 @@ def study_need(study, pending):
     from vsi_numba.io.schema import DIAGNOSTICS
     from vsi_numba.io.space import (
         NC_OVERHEAD,
+        NC_VARIABLE_OVERHEAD,
         DiskNeed,
         batch_bytes,
         envelope_row_bytes,
         history_row_bytes,
+        n_file_variables,
     )
     from vsi_numba.solver.batch import deck_grid
     from vsi_numba.study.spec import _packed_trains
@@ -471,7 +473,8 @@ def study_need(study, pending):
     hist = [dims(b)[4].n_steps(speeds[s]) + 1 for b in study.plan
             for s, h in zip(b.speeds, b.histories, strict=True) if h]
     final_max = final_min + (len(hist) * max(hist, default=0)
-                             * history_row_bytes(n_p, n_w, n_v, n_s))
+                             * history_row_bytes(n_p, n_w, n_v, n_s)) + (
+        NC_VARIABLE_OVERHEAD * n_file_variables())
     return DiskNeed(store=int(store), final_min=int(final_min), final_max=int(final_max))
 
 

@@ -307,3 +307,125 @@ def test_simulate__load_effect_variables_and_signs():
                                                         load_effects=False)),
         no_irregularity(), settings, [5.0], False)
     assert "max_bending_moment" not in off and "max_deck_displacement" in off
+
+
+def test_study__load_effects_in_the_file_and_the_switch(tmp_path):
+    """A small sweep (two interaction trains, PSD profiles): the load effects on their
+    dims with their coordinates; ``[study] load_effects = false`` leaves them NaN and
+    every other variable bit for bit the same; a bad value is refused by key path."""
+    from study_trains import TRAINS_TOML  # noqa: F401  (write_study needs it)
+    from test_study import write_study
+
+    from vsi_numba.config import ConfigError, load_config
+    from vsi_numba.io.schema import ENVELOPES, LOAD_EFFECTS
+    from vsi_numba.study.runner import run_study
+
+    on_cfg = write_study(tmp_path / "on", speeds=(100.0, 150.0), history=(150.0,),
+                         seeds=(1,))
+    on = run_study(on_cfg, tmp_path / "on.nc", backend="serial")
+    assert list(on["support"].values) == [0.0, 10.0]
+    assert on["deck_x"].size == 33
+    assert on["max_bending_moment_whole_deck"].dims[-1] == "deck_x"
+    assert on["support_reaction"].dims[-2:] == ("time", "support")
+    assert np.all(np.isfinite(on["max_support_reaction"].values))
+    # the stored histories (float32) reach the kernel's envelopes
+    h = on["bending_moment"].sel(speed=150 / 3.6, method="nearest")
+    env = on["max_bending_moment"].sel(speed=150 / 3.6, method="nearest")
+    np.testing.assert_allclose(h.max("time").values, env.values, rtol=1e-6)
+    text = on_cfg.read_text().replace("save_time_histories = true",
+                                      "save_time_histories = true\nload_effects = false")
+    off_dir = tmp_path / "off"
+    off_dir.mkdir()
+    (off_dir / "trains.toml").write_text((on_cfg.parent / "trains.toml").read_text())
+    (off_dir / "study.toml").write_text(text)
+    off = run_study(off_dir / "study.toml", tmp_path / "off.nc", backend="serial")
+    effect_names = {n for n in ENVELOPES if any(n.endswith(k) for k in LOAD_EFFECTS)}
+    for name in ENVELOPES:
+        if name in effect_names:
+            assert np.all(np.isnan(off[name].values)), name
+        else:
+            np.testing.assert_array_equal(off[name].values, on[name].values)
+    (off_dir / "study.toml").write_text(text.replace("load_effects = false",
+                                                     'load_effects = "yes"'))
+    with pytest.raises(ConfigError, match=r"study\.load_effects.*true or false"):
+        load_config(off_dir / "study.toml")
+
+
+def test_modal_effects__track_layer_path_differentiates_the_cubics():
+    """Decks loaded in their modes by other parts (a track layer) take M = -EI phi'' and
+    V = -EI phi''' of the deck's cubics: on a bare two-span FE deck they agree with the
+    exact quadrature of the modal inertia load to the FE error (O(h) for V)."""
+    import dataclasses
+
+    fe = br.continuous([12.0, 16.0], 5e9, 4000.0, n_modes=3, elements_per_span=40)
+    cubic = dataclasses.replace(fe, static=dataclasses.replace(fe.static,
+                                                               mass_per_length=None))
+    x = np.array([3.0, 6.1, 14.3, 20.2])
+    for effect, at, tol in (("moment", x, 2e-3), ("shear", x, 3e-2),
+                            ("reaction", [0, 1, 2], 3e-2), ("rotation", [0, 1, 2], 1e-6)):
+        a = inf.modal_effects(fe, effect, at)
+        b = inf.modal_effects(cubic, effect, at)
+        # h = 0.3-0.4 m: M linear and V constant per element, errors ~ (k h)^2, k h
+        np.testing.assert_allclose(b, a, rtol=0, atol=tol * np.abs(a).max())
+
+
+def test_elastic_track__point_load_static_part_bounded_by_the_rail_spreading():
+    """On an elastic track the rail spreads a wheel force over the deck (foundation
+    pressure p = k G(xi) P, Hetenyi), while the static part of the load effects takes it
+    as a point load at the wheel.  A slow sprung mass (quasi-static): the engine's
+    midspan moment envelope lies within the point-load / spread-load bracket, and the
+    difference is a small fraction of the moment."""
+    import dataclasses
+
+    from vsi_numba.model.track import ElasticTrack
+
+    L, EI, m = 20.0, 5e9, 5000.0
+    bridge = dataclasses.replace(br.simply_supported(L, EI, m, n_modes=6),
+                                 track=ElasticTrack())
+    W = 1.0e5  # static wheel load (N): the sprung mass's weight
+    train = Train("SM", (vh.sprung_mass(W / 9.81, 5e6, 2e5, 0.0),), (0.0,))
+    settings = SolverSettings(dt=2e-3, approach=5.0, free_vibration=0.0)
+    v = 2.0  # m/s: f1 = 3.9 Hz, a 20 m crossing takes 10 s: quasi-static
+    packed = sm.pack(bridge, train, v, no_irregularity(), settings)
+    res = sb.run_batch(packed, no_irregularity(), [v], [L / 2], settings, bridge)
+    assert res.status[0] == 0
+    m_engine = res.envelopes()["max_bending_moment"][0, 0]
+    m_point = W * L / 4  # point load at midspan
+    # spread: p(xi) = k G(xi) W with the infinite-beam Green function, on the deck only,
+    # the load centred at midspan (the maximum of the bracket's lower end)
+    track = bridge.track
+    xi = np.linspace(-track.reach, track.reach, 4001)
+    p = track.foundation_stiffness * track.green(xi) * W
+    x = L / 2 + xi
+    on = (x >= 0) & (x <= L)
+    M_unit = np.where(x <= L / 2, x / 2, (L - x) / 2)  # influence line of M(L/2)
+    m_spread = np.trapezoid(p[on] * M_unit[on], x[on])
+    assert m_spread < m_point
+    # the engine between the two (the dynamic part at 2 m/s is < 0.5 %), and the
+    # spreading changes the peak moment by a few per cent only
+    assert m_spread * 0.995 <= m_engine <= m_point * 1.005, (m_spread, m_engine, m_point)
+    assert (m_point - m_spread) / m_point < 0.05
+
+
+def test_kernel__three_span_envelopes_equal_the_influence_histories():
+    """Three unequal spans, five moving loads: the kernel's static sweep (support
+    moments from their cubic influence coefficients) and the histories' static part
+    (influence(): three-moment solve per load position) give the same envelopes to
+    round-off."""
+    bridge = br.continuous([12.0, 16.0, 10.0], [4e9, 6e9, 4e9], 4000.0, n_modes=5,
+                           elements_per_span=12)
+    train = Train("L", (vh.point_loads([0, 3, 14, 17, 30],
+                                       [1e5, 1.5e5, 1.2e5, 1e5, 2e5]),), (0.0,))
+    settings = SolverSettings(dt=2e-3, approach=2.0, free_vibration=0.3)
+    packed = sm.pack(bridge, train, 20.0, no_irregularity(), settings)
+    res = sb.run_batch(packed, no_irregularity(), [20.0], [5.0, 12.0, 20.3, 33.0], settings,
+                       bridge, keep_histories=[True])
+    h, env = res.histories(0), res.envelopes()
+    for name, key in (("bending_moment", "bending_moment"), ("shear_force", "shear_force"),
+                      ("support_reaction", "support_reaction"), ("rotation", "end_rotation")):
+        scale = np.abs(h[name]).max()
+        # two exact evaluations of the same formula: round-off (measured ~3e-16)
+        np.testing.assert_allclose(env[f"max_{key}"][0], h[name].max(axis=0), rtol=0,
+                                   atol=1e-12 * scale)
+        np.testing.assert_allclose(env[f"min_{key}"][0], h[name].min(axis=0), rtol=0,
+                                   atol=1e-12 * scale)

@@ -243,6 +243,12 @@ FEATURES = {
         "label": ["short", "long"], "bridge.spans": [[20.0], [25.0]],
         "bridge.EI": [2.0e10, 4.0e10], "bridge.mass_per_length": [12000.0, 15000.0]}]),
     "mass_bounds": feature(study__mass_bounds=[0.9, 1.1]),
+    "load_effect_checks": feature(study__classification_factor=1.21,
+                                  study__track_maintenance="careful"),
+    "no_load_effects": feature(study__load_effects=False),
+    "hslm_b": feature(train={"preset": "HSLM-B", "hslm_b": {"N": 10, "d": 3.5}}),
+    "axle_list": feature(train={"axles": {"file": "axles.csv", "load_unit": "kN",
+                                          "name": "axle list"}}),
     "catalogue_pattern": feature(
         train=HSLM, bridge__damping_ratio="EN1991-2", bridge__deck_type="prestressed_concrete",
         bridge__additional_damping=True, study__refine_resonance=True,
@@ -263,6 +269,7 @@ def files(tmp_path_factory) -> Path:
     np.savetxt(d / "profile.csv", np.c_[x, 0.5 * np.sin(2 * np.pi * x / 7.0)],
                delimiter=",", header="pos,dip", comments="")
     (d / "trains.toml").write_text(TRAIN_FILE)
+    (d / "axles.csv").write_text("position,load\n0,200\n2.5,200\n17.5,180\n20,180\n")
     # mass-normalised sine modes of a 20 m span (m = 12 t/m): phi = sqrt(2/(mL)) sin(j pi x/L)
     xs = np.linspace(0.0, 20.0, 41)
     rows = ["mode,frequency,damping_ratio,line,x,shape"]

@@ -236,6 +236,11 @@ class Config:
         return bool(self._study.resolved["save_time_histories"])
 
     @property
+    def load_effects(self) -> bool:
+        """Whether the dynamic load effects are computed (when the bridge gives them)."""
+        return bool(self._study.resolved.get("load_effects", True))
+
+    @property
     def history_speeds_kmh(self) -> np.ndarray | None:
         """Speeds (km/h) whose time histories are kept; None = every speed."""
         h = self._study.resolved.get("history_speeds_kmh")

@@ -67,7 +67,8 @@ def _study_section(chk, d, default_output: str, base_dir: Path) -> _StudySpec | 
     path = "study"
     allowed = {"speeds_kmh", "output", "save_time_histories", "line_speed_kmh",
                "history_speeds_kmh", "vary", "vary_together", "mass_bounds",
-               "refine_resonance", "classification_factor", "track_maintenance"}
+               "refine_resonance", "classification_factor", "track_maintenance",
+               "load_effects"}
     if d is _MISSING:
         return chk.error(path, _MISSING, "a table [study] with speeds_kmh (km/h) or "
                                          "line_speed_kmh")
@@ -148,7 +149,9 @@ def _study_section(chk, d, default_output: str, base_dir: Path) -> _StudySpec | 
     maint = chk.choice(d, path, "track_maintenance", tuple(TRACK_MAINTENANCE), default=None,
                        note=" (the dynamic factor of LM71: 'careful' maintenance Phi_2, "
                             "'standard' Phi_3, EN 1991-2 6.4.5.2 [R])")
-    if not _ok(line, speeds, output, save, hist, out_full, axes, refine, alpha, maint):
+    effects = chk.boolean(d, path, "load_effects", True)
+    if not _ok(line, speeds, output, save, hist, out_full, axes, refine, alpha, maint,
+               effects):
         return _BAD
     vary = {k: d[k] for k in ("vary", "vary_together", "mass_bounds") if k in d}
     if refine:
@@ -156,7 +159,7 @@ def _study_section(chk, d, default_output: str, base_dir: Path) -> _StudySpec | 
     resolved = _drop_none({"speeds_kmh": speeds, "line_speed_kmh": line, "output": output,
                            "save_time_histories": save, "history_speeds_kmh": hist,
                            "classification_factor": alpha, "track_maintenance": maint,
-                           **vary})
+                           "load_effects": None if effects else False, **vary})
     return _StudySpec(resolved=resolved, output_path=out_full, axes=axes)
 
 

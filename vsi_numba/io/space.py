@@ -27,15 +27,20 @@ NPZ_OVERHEAD = 280
 #: Characters assumed per stored status message (numpy stores 4 bytes per character;
 #: "ok" for a run that succeeded, a sentence for one that failed).
 MESSAGE_CHARS = 32
-#: netCDF-4 bytes of the file beside the variables' data: a base (global attributes,
-#: dimensions) ...
-NC_OVERHEAD = 16 * 2**10
-#: ... and, per variable (its header, attributes and chunk index), a lower and an upper
-#: bound (measured 1.5-2.6 kB on study files of 62-72 variables).
-NC_PER_VARIABLE = (1 * 2**10, 3 * 2**10)
-#: Variables of a results file beside the schema's envelopes, diagnostics and histories
-#: (coordinates and per-train / per-variant variables), an upper bound.
-NC_EXTRA_VARIABLES = 24
+#: netCDF-4 bytes of the file beside the variables' data (metadata, coordinates).
+NC_OVERHEAD = 64 * 2**10
+#: Upper bound of the HDF5 bytes of one variable beside its data (object header,
+#: attributes, chunk index; measured 2-2.5 kB with the load-effect variables' long
+#: sign-convention attributes), added to the upper bound of the results file.
+NC_VARIABLE_OVERHEAD = 3 * 2**10
+
+
+def n_file_variables() -> int:
+    """Variables and coordinates a results file may declare (:mod:`.schema`)."""
+    from vsi_numba.io.schema import COORDS, STUDY_VARIABLES
+
+    return (len(ENVELOPES) + len(HISTORIES) + len(DIAGNOSTICS) + len(STUDY_VARIABLES)
+            + len(COORDS))
 
 
 @dataclass(frozen=True)
@@ -67,8 +72,8 @@ def _width(dims: tuple, sizes: dict) -> int:
 
 def envelope_row_bytes(n_point: int, n_wheel: int, n_vehicle: int, n_deck_x: int = 0,
                        n_support: int = 0) -> int:
-    """float64 bytes of every envelope of one run (``n_deck_x`` whole-deck sections and
-    ``n_support`` supports of the load-effect envelopes)."""
+    """float64 bytes of every envelope of one run (``n_deck_x``, ``n_support``: the
+    load-effect grid and supports, 0 without load effects)."""
     sizes = {"point": n_point, "wheel": n_wheel, "vehicle": n_vehicle, "deck_x": n_deck_x,
              "support": n_support}
     return 8 * sum(_width(dims, sizes) for dims, *_ in ENVELOPES.values())

@@ -266,9 +266,9 @@ class StudyFile:
             if not dims:  # one value per case
                 self.vars[name][(*v, slice(s0, s1), i_t, i_i)] = np.asarray(data[name], float)
                 continue
-            width = {"point": n_p, "wheel": n_wheel, "vehicle": n_vehicle}.get(
-                dims[0], data[name].shape[1])
-            if width:
+            width = min({"point": n_p, "wheel": n_wheel, "vehicle": n_vehicle}.get(
+                dims[0], data[name].shape[1]), data[name].shape[1])
+            if width:  # 0: not computed (load effects off or not available)
                 self.vars[name][(*v, slice(s0, s1), i_t, i_i, slice(0, width))] = \
                     data[name][:, :width]
         for name in DIAGNOSTICS:

@@ -442,8 +442,10 @@ def modal_effects(bridge, effect: str, at) -> np.ndarray:
         return -ei_at(at) * _third_derivative(deck, at)
     xs = sup[at.astype(int)]
     eps = 1e-9 * max(float(sup[-1]), 1.0)
-    right = np.where(xs < sup[-1], -ei_at(xs + eps) * _third_derivative(deck, xs + eps), 0.0)
-    left = np.where(xs > sup[0], -ei_at(xs - eps) * _third_derivative(deck, xs - eps), 0.0)
+    right = np.where((xs < sup[-1])[:, None],
+                     -ei_at(xs + eps) * _third_derivative(deck, xs + eps), 0.0)
+    left = np.where((xs > sup[0])[:, None],
+                    -ei_at(xs - eps) * _third_derivative(deck, xs - eps), 0.0)
     return right - left
 
 

@@ -407,15 +407,17 @@ def _effect_fields(eff: LoadEffectTables | None, packed: Packed, n_r: int) -> di
     n_load = packed.vehicles.load_x0.size + packed.vehicles.wheel_dof.size
     c = np.ascontiguousarray
     return dict(
-        le_sup=c(eff.supports, f64), le_L=c(eff.spans, f64), le_EI=c(eff.EI, f64),
+        le_sup=c(eff.supports, f64), le_L=c(eff.spans, f64), le_Linv=1.0 / eff.spans,
+        le_c6=1.0 / (6.0 * eff.EI * eff.spans), le_xi=c(eff.X / eff.spans[eff.span], f64),
         le_A=c(eff.A, f64), le_B=c(eff.B, f64), le_X=c(eff.X, f64),
-        le_span=c(eff.span, np.int64), le_E=c(eff.E, f64), le_w2inv=c(eff.w2inv, f64),
+        le_sec0=c(np.searchsorted(eff.span, np.arange(eff.spans.size + 1)), np.int64),
+        le_E=c(eff.E, f64), le_w2inv=c(eff.w2inv, f64),
         le_order=c(np.argsort(packed.vehicles.load_x0, kind="stable"), np.int64),
         le_val=np.zeros(n_c), le_Ms=np.zeros(eff.n_supports),
         le_acc=np.zeros((4, eff.spans.size)), le_lx=np.zeros(n_load),
         le_lp=np.zeros(n_load), le_ls=np.zeros(n_load, np.int64),
-        le_max=np.zeros((n_r, n_c)), le_max_t=np.zeros((n_r, n_c)),
-        le_min=np.zeros((n_r, n_c)), le_min_t=np.zeros((n_r, n_c)),
+        le_max=np.full((n_r, n_c), -np.inf), le_max_t=np.zeros((n_r, n_c)),
+        le_min=np.full((n_r, n_c), np.inf), le_min_t=np.zeros((n_r, n_c)),
     )
 
 
@@ -453,7 +455,7 @@ def run_kernel(packed: Packed, profile: Profile):
     """
     bridge_points = np.zeros((0, packed.bridge.omega.size))
     res = _run_packed(packed, profile, bridge_points)
-    out = ek.Output(*(a[0] for a in res.out))
+    out = ek.Output(*(a[0] if a.shape[0] else a.reshape(a.shape[1:]) for a in res.out))
     return int(res.status[0]), int(res.reached[0]), out, res.elapsed
 
 

@@ -431,27 +431,25 @@ class CaseStore:
 def study_need(study, pending):
     """Disk need (:class:`vsi_numba.io.space.DiskNeed`) of a study (``runner._Study``)
     with the batches ``pending`` still to run."""
-    from vsi_numba.io.schema import DIAGNOSTICS, ENVELOPES, HISTORIES
+    from vsi_numba.io.schema import DIAGNOSTICS
     from vsi_numba.io.space import (
-        NC_EXTRA_VARIABLES,
         NC_OVERHEAD,
-        NC_PER_VARIABLE,
+        NC_VARIABLE_OVERHEAD,
         DiskNeed,
         batch_bytes,
         envelope_row_bytes,
         history_row_bytes,
+        n_file_variables,
     )
+    from vsi_numba.solver.batch import deck_grid
     from vsi_numba.study.spec import _packed_trains
 
     grid = study.grid
+    # load effects: the whole-deck grid and the supports (upper bound: always counted)
+    n_x = max(deck_grid(m.bridge, m.output_points).size for m in study.models)
+    n_s = max(np.asarray(m.bridge.supports).size for m in study.models)
     packed = [_packed_trains(sp, m) for sp, m in zip(study.specs, study.models, strict=True)]
     speeds = [float(v) / 3.6 for v in grid.speeds_kmh]
-
-    from vsi_numba.solver.batch import deck_grid
-
-    # the load-effect envelopes' whole-deck sections and supports, per variant
-    n_x = [deck_grid(m.bridge, m.output_points).size for m in study.models]
-    n_s = [np.asarray(m.bridge.supports).size for m in study.models]
 
     def dims(b):
         p = packed[b.variant or 0][b.i_train]
@@ -464,23 +462,19 @@ def study_need(study, pending):
         n_p, n_w, n_wd, n_v, p = dims(b)
         steps = [p.n_steps(speeds[s]) + 1
                  for s, h in zip(b.speeds, b.histories, strict=True) if h]
-        store += batch_bytes(b.n_runs, steps, n_p, n_w, n_wd, n_v, n_x[b.variant or 0],
-                             n_s[b.variant or 0])
+        store += batch_bytes(b.n_runs, steps, n_p, n_w, n_wd, n_v, n_x, n_s)
     n_p = max(m.output_points.size for m in study.models)
     shapes = [dims(b)[1:4] for b in study.plan]
     n_w = max((d[0] for d in shapes), default=0)  # the file's wheel dim: all the wheels
     n_v = max((d[2] for d in shapes), default=0)
     n_runs = study.n_runs
-    n_vars = len(ENVELOPES) + len(DIAGNOSTICS)
-    data_min = n_runs * (envelope_row_bytes(n_p, n_w, n_v, max(n_x), max(n_s))
-                         + 4 * len(DIAGNOSTICS))
-    final_min = NC_OVERHEAD + NC_PER_VARIABLE[0] * n_vars + data_min
+    final_min = NC_OVERHEAD + n_runs * (envelope_row_bytes(n_p, n_w, n_v, n_x, n_s)
+                                        + 4 * len(DIAGNOSTICS))
     hist = [dims(b)[4].n_steps(speeds[s]) + 1 for b in study.plan
             for s, h in zip(b.speeds, b.histories, strict=True) if h]
-    final_max = (NC_OVERHEAD + NC_PER_VARIABLE[1] * (n_vars + NC_EXTRA_VARIABLES
-                                                     + (len(HISTORIES) if hist else 0))
-                 + data_min + len(hist) * max(hist, default=0)
-                 * history_row_bytes(n_p, n_w, n_v, max(n_s)))
+    final_max = final_min + (len(hist) * max(hist, default=0)
+                             * history_row_bytes(n_p, n_w, n_v, n_s)) + (
+        NC_VARIABLE_OVERHEAD * n_file_variables())
     return DiskNeed(store=int(store), final_min=int(final_min), final_max=int(final_max))
 
 

@@ -45,6 +45,29 @@ def _candidates(base_dir, source_path) -> list[Path]:
     return out
 
 
+def _check_budget(bridge, train, speed: float, settings, n_points: int) -> None:
+    """Refuse a re-run beyond the budgets of a study run (time steps, history memory,
+    output points; :mod:`vsi_numba.config.limits`), whatever the file asks for."""
+    from vsi_numba.config.limits import MAX_HISTORY_BYTES, MAX_OUTPUT_POINTS, MAX_STEPS
+    from vsi_numba.config.physics import train_extent
+
+    if n_points > MAX_OUTPUT_POINTS:
+        raise RecomputeError(f"the file has {n_points} output points, more than the "
+                             f"{MAX_OUTPUT_POINTS} a run may have")
+    if not speed > 0:
+        raise RecomputeError(f"speed = {speed!r} m/s: expected a speed > 0")
+    run = settings.approach + bridge.length + train_extent(train)
+    steps = (run / speed + settings.free_vibration) / settings.dt
+    if not steps <= MAX_STEPS:
+        raise RecomputeError(f"the re-run needs {steps:.3g} time steps, more than the budget "
+                             f"of {MAX_STEPS:.3g}")
+    n_w = train.n_wheels + train.n_loads
+    nbytes = steps * 8.0 * (2 * bridge.n_modes + 2 * n_w + len(train.vehicles) + 2 * n_points)
+    if nbytes > MAX_HISTORY_BYTES:
+        raise RecomputeError(f"the re-run's time histories need about {nbytes / 2**30:.3g} "
+                             f"GiB, more than the budget of {MAX_HISTORY_BYTES / 2**30:g} GiB")
+
+
 class CaseRunner:
     """Rebuilds the model of a results file once and re-runs cases of it.
 
@@ -76,6 +99,11 @@ class CaseRunner:
             raise RecomputeError(f"config_json is not JSON ({exc})") from None
         from vsi_numba.config import ConfigError, load_config
 
+        if isinstance(data, dict) and isinstance(data.get("solver"), dict):
+            # the budgets of a run apply, whatever the file says: a results file is
+            # input, and the report must not start a run beyond them
+            data["solver"] = {k: v for k, v in data["solver"].items()
+                              if k != "allow_large_problem"}
         first = None
         cfg = None
         for d in self.dirs:
@@ -83,16 +111,18 @@ class CaseRunner:
                 cfg = load_config(data, base_dir=d)
                 break
             except ConfigError as exc:
-                first = first or str(exc).strip().splitlines()[0]
+                errs = getattr(exc, "errors", None)
+                first = first or (str(errs[0]) if errs else str(exc).strip().splitlines()[0])
         if cfg is None:
             raise RecomputeError(f"its configuration does not load ({first})")
+        from vsi_numba.config.physics import train_extent
         from vsi_numba.model.irregularity import profile_range
 
         bridge = cfg.build_bridge()
         self._bridge_for = cfg.bridge_for  # + EN 1991-2 additional damping (moving forces)
         trains = {t.name: t for t in cfg.trains()}
         settings = cfg.solver_settings()
-        x_range = profile_range(bridge.length, [t.length for t in trains.values()],
+        x_range = profile_range(bridge.length, [train_extent(t) for t in trains.values()],
                                 settings.approach, settings.free_vibration)
         profiles = dict(cfg.irregularities(*x_range))
         self._model = (bridge, trains, settings, profiles)
@@ -131,6 +161,7 @@ class CaseRunner:
                                  f"stored configuration ({', '.join(map(str, profiles))})")
         from vsi_numba.solver.simulate import simulate
 
+        _check_budget(bridge, trains[str(train)], float(speed), settings, self.points.size)
         bridge = self._bridge_for(trains[str(train)])  # the bridge the train ran on
         sim = simulate(bridge, trains[str(train)], float(speed), profiles[int(irregularity)],
                        settings, output_points=self.points, save_histories=True)

@@ -17,11 +17,64 @@ import pandas as pd
 import xarray as xr
 
 from vsi_numba.analysis import checks as chk
-from vsi_numba.analysis.dataset import track_type
+from vsi_numba.analysis.dataset import ResultsError, track_type
+from vsi_numba.analysis.report.text import NOT_RELIABLE, stored_warnings
 
 #: Per-variant variables that become attributes of a variant's view.
 _PER_VARIANT = ("bridge_length", "acceleration_cutoff", "variant_config_json",
-                "damping_ratio", "additional_damping", "damping_rule")
+                "damping_ratio", "additional_damping", "damping_rule", "variant_time")
+
+
+def variant_config(ds: xr.Dataset, k: int) -> dict:
+    """The resolved configuration of variant ``k`` (``variant_config_json``; {} when the
+    file does not have it or it is not a JSON table)."""
+    if "variant_config_json" not in ds.variables:
+        return {}
+    try:
+        cfg = json.loads(str(ds["variant_config_json"].values[k]))
+    except ValueError:
+        return {}
+    return cfg if isinstance(cfg, dict) else {}
+
+
+def variant_warnings(ds: xr.Dataset, k: int) -> list[dict]:
+    """The warnings stored in a study of variants that concern variant ``k``: the
+    records whose ``variants`` list holds ``k``, and those without such a list."""
+    out = []
+    for r in stored_warnings(ds):
+        ks = r.get("variants")
+        if not isinstance(ks, list) or k in ks:
+            out.append(r)
+    return out
+
+
+def variant_track_type(ds: xr.Dataset, k: int) -> str:
+    """Track type of variant ``k``: its configuration's ``bridge.track_type``, else the
+    file's ``track_type`` attribute (normalised as :func:`~vsi_numba.analysis.dataset.
+    track_type`)."""
+    bridge = variant_config(ds, k).get("bridge")
+    tt = bridge.get("track_type") if isinstance(bridge, dict) else None
+    if tt is None:
+        return track_type(ds)
+    return track_type(xr.Dataset(attrs={"track_type": str(tt)}))
+
+
+def variant_limit(ds: xr.Dataset, k: int) -> float:
+    """EN 1990 A2 deck-acceleration limit of variant ``k`` (m s-2) from its track type
+    (3.5 ballasted, 5 direct fastening; 3.5 when the type is unknown)."""
+    return float(chk.DECK_ACCELERATION_LIMITS.get(variant_track_type(ds, k), 3.5))
+
+
+def _limits(ds: xr.Dataset) -> np.ndarray:
+    """Deck-acceleration limit (m s-2) of every variant."""
+    return np.array([variant_limit(ds, k) for k in range(ds.sizes["variant"])])
+
+
+def _limits_text(ds: xr.Dataset) -> str:
+    """``"3.5 m/s² (ballasted track)"``, one per track type of the variants."""
+    types = sorted({variant_track_type(ds, k) for k in range(ds.sizes["variant"])})
+    return ", ".join(f"{chk.DECK_ACCELERATION_LIMITS.get(t, 3.5):g} m/s² ({t} track)"
+                     for t in types)
 
 
 def has_variants(ds: xr.Dataset) -> bool:
@@ -48,12 +101,28 @@ def variant_label(ds: xr.Dataset, k: int) -> str:
 def variant_view(ds: xr.Dataset, k: int) -> xr.Dataset:
     """Variant ``k`` in the layout of a study without variants.
 
-    ``point`` gets the variant's positions (m) when they move with the spans, the modes
-    and points it does not have are dropped, and ``bridge_length``,
-    ``acceleration_cutoff_hz`` and ``config_json`` become the variant's.
+    ``point`` gets the variant's positions (m) when they move with the spans, ``time``
+    its time axis (s) when the variants' time steps differ, the modes and points it does
+    not have are dropped, and ``bridge_length``, ``acceleration_cutoff_hz``,
+    ``config_json``, ``track_type``, ``dt`` and the warnings (``warnings_json``,
+    ``config_warnings``: those that concern this variant) become the variant's.
     """
     v = ds.isel(variant=k)
     attrs = dict(ds.attrs)
+    cfg = variant_config(ds, k)
+    if isinstance(cfg.get("bridge"), dict) and cfg["bridge"].get("track_type") is not None:
+        attrs["track_type"] = str(cfg["bridge"]["track_type"])
+    dt = cfg.get("solver", {}).get("dt") if isinstance(cfg.get("solver"), dict) else None
+    if isinstance(dt, int | float) and not isinstance(dt, bool):
+        attrs["dt"] = float(dt)
+    records = variant_warnings(ds, k)
+    attrs["warnings_json"] = json.dumps(records, ensure_ascii=False)
+    attrs["config_warnings"] = "\n".join(str(r["message"]) for r in records)
+    if not records:
+        attrs.pop("config_warnings")
+    if "variant_time" in v.variables:
+        t = np.asarray(v["variant_time"].values, float)
+        v = v.assign_coords(time=("time", t, dict(ds["variant_time"].attrs)))
     if "bridge_length" in v:
         attrs["bridge_length"] = float(v["bridge_length"])
     if "acceleration_cutoff" in v:
@@ -88,6 +157,16 @@ def _point_attrs(ds: xr.Dataset) -> dict:
     return {"units": a.get("units", "m"), "long_name": a.get("long_name", "output point")}
 
 
+def _all_failed(ds: xr.Dataset) -> bool:
+    """True when no run of any variant has a deck acceleration (every run failed)."""
+    return not bool(np.isfinite(peak_deck_acceleration(ds).values).any())
+
+
+_ALL_FAILED = ("every run of every variant failed numerically (status != 0, outputs NaN): "
+               "there is nothing to check. Fix the run (see the warnings and README 'When "
+               "things go wrong') and run it again")
+
+
 def peak_deck_acceleration(ds: xr.Dataset) -> xr.DataArray:
     """Peak deck acceleration per (variant, speed) (m s-2): the maximum over trains,
     realisations and the deck (the whole-deck envelope when the file has it, else the
@@ -110,10 +189,15 @@ def variant_table(ds: xr.Dataset, q: float = chk.DEFAULT_Q) -> pd.DataFrame:
             row["zeta_pct"] = 100 * float(ds["damping_ratio"].values[k, 0])
         if "additional_damping" in ds and float(ds["additional_damping"].values[k]):
             row["dzeta_mf_pct"] = 100 * float(ds["additional_damping"].values[k])
+        row["track_type"] = variant_track_type(ds, k)
         try:
             acc = chk.deck_acceleration_check(v, q=q, n_boot=200)
+            result = acc.attrs["result"]
+            if any(r.get("kind") == "resolution" for r in variant_warnings(ds, k)):
+                result = {"pass": NOT_RELIABLE, "FAIL": f"FAIL ({NOT_RELIABLE})"}.get(
+                    result, result)
             row.update(deck_acceleration=acc.attrs["value"], limit=acc.attrs["limit"],
-                       result=acc.attrs["result"], governing_train=acc.attrs[
+                       result=result, governing_train=acc.attrs[
                            "governing_train"], governing_speed_kmh=acc.attrs[
                            "governing_speed_kmh"])
         except chk.ResultsError as exc:  # e.g. every run of the variant failed
@@ -128,9 +212,18 @@ def variant_table(ds: xr.Dataset, q: float = chk.DEFAULT_Q) -> pd.DataFrame:
 
 
 def governing_variant(ds: xr.Dataset) -> int:
-    """The variant with the highest peak deck acceleration."""
-    a = peak_deck_acceleration(ds).max("speed")
-    return int(np.nanargmax(a.values))
+    """The variant with the highest utilisation of its deck-acceleration limit (peak
+    deck acceleration / the variant's limit).
+
+    Raises
+    ------
+    ResultsError
+        When every run of every variant failed (no deck acceleration at all).
+    """
+    if _all_failed(ds):
+        raise ResultsError(_ALL_FAILED)
+    a = peak_deck_acceleration(ds).max("speed").values
+    return int(np.nanargmax(a / _limits(ds)))
 
 
 def _determined(ds: xr.Dataset, key: str, by: list[str]) -> bool:
@@ -189,7 +282,9 @@ def design_chart_figure(ds: xr.Dataset, x_key: str | None = None, max_panels: in
     import matplotlib.pyplot as plt
 
     peak = peak_deck_acceleration(ds).transpose("variant", "speed")
-    limit = chk.DECK_ACCELERATION_LIMITS.get(track_type(ds), 3.5)
+    limits = _limits(ds)  # each variant's own (its track type)
+    limit = float(limits.max())
+    same = bool(np.all(limits == limit))
     speeds = np.asarray(ds["speed_kmh"].values, float)
     x_key, others, groups = chart_layout(ds, x_key)
     panels = groups[:max_panels]
@@ -217,14 +312,22 @@ def design_chart_figure(ds: xr.Dataset, x_key: str | None = None, max_panels: in
                         else variant_label(ds, k))
                 ax.plot(speeds, peak.values[k], color=f"C{j % 10}", ls=styles[j // 10 % 4],
                         marker=".", label=text)
-        ax.axhline(limit, color="red", lw=1.2, ls="--", label=f"limit {limit:g} m/s²")
+        if same:
+            ax.axhline(limit, color="red", lw=1.2, ls="--", label=f"limit {limit:g} m/s²")
+        else:
+            for lim in sorted(set(limits.tolist())):
+                ax.axhline(lim, color="red", lw=1.2, ls="--" if lim == limit else ":",
+                           label=f"limit {lim:g} m/s² (variant"
+                           + ("s " if np.sum(limits == lim) > 1 else " ")
+                           + ", ".join(str(k) for k in np.flatnonzero(limits == lim)[:8])
+                           + (", ..." if np.sum(limits == lim) > 8 else "") + ")")
         ax.set_xlabel("speed [km/h]")
         ax.set_ylabel("peak deck acceleration [m/s²]")
         ax.legend(fontsize=8, loc="upper left")
         ax.grid(alpha=0.3)
         caption = ("Design chart: peak deck acceleration (max over trains, realisations and "
-                   f"the deck) over the speed, one line per variant; red: the {limit:g} m/s² "
-                   f"limit ({track_type(ds)} track).")
+                   "the deck) over the speed, one line per variant; red: the limit of each "
+                   f"variant, {_limits_text(ds)}.")
         return fig, caption
 
     n = len(panels)
@@ -240,11 +343,14 @@ def design_chart_figure(ds: xr.Dataset, x_key: str | None = None, max_panels: in
         ks = sorted(ks, key=lambda k: float(ds[x_key].values[k]))
         x = np.asarray([ds[x_key].values[k] for k in ks], float)
         z = np.asarray(peak.values[ks], float).T  # (speed, x)
+        u = z / limits[ks][None, :]  # utilisation of each variant's own limit
         mesh = ax.pcolormesh(x, speeds, z, shading="nearest", cmap="viridis", vmin=0,
                              vmax=vmax)
-        if np.nanmin(z) < limit < np.nanmax(z):
-            cs = ax.contour(x, speeds, z, levels=[limit], colors="red", linewidths=1.5)
-            ax.clabel(cs, fmt={limit: f"{limit:g} m/s²"}, fontsize=8)
+        if np.isfinite(u).any() and np.nanmin(u) < 1.0 < np.nanmax(u):
+            lims = sorted(set(limits[ks].tolist()))
+            cs = ax.contour(x, speeds, u, levels=[1.0], colors="red", linewidths=1.5)
+            ax.clabel(cs, fmt={1.0: " / ".join(f"{v:g}" for v in lims) + " m/s²"},
+                      fontsize=8)
         if "label" in ds.coords and "label" not in others and "label" != x_key:
             top = ax.secondary_xaxis("top")  # the label of each x (its vary_together group)
             top.set_xticks(x, [str(ds["label"].values[k]) for k in ks], fontsize=7)
@@ -259,8 +365,8 @@ def design_chart_figure(ds: xr.Dataset, x_key: str | None = None, max_panels: in
         ax.set_visible(False)
     fig.colorbar(mesh, ax=axes, label="peak deck acceleration [m/s²]", extend="max")
     caption = (f"Design chart: peak deck acceleration (max over trains, realisations and the "
-               f"deck) over {name(x_key)} and speed; red: the {limit:g} m/s² limit "
-               f"({track_type(ds)} track)"
+               f"deck) over {name(x_key)} and speed; red: where each variant reaches its "
+               f"own limit ({_limits_text(ds)})"
                + (f"; one panel per {', '.join(name(o) for o in others)}" if others else "")
                + (f" (first {len(panels)} of {len(groups)})" if len(groups) > len(panels)
                   else "") + ".")
@@ -286,11 +392,20 @@ def design_charts(ds: xr.Dataset, path, x_key: str | None = None):
 def write_variants_report(ds: xr.Dataset, outdir, source_path=None, **kwargs):
     """The report of a study of variants: the table over variants, the envelope with the
     governing variant named, the design chart, and the full report of the governing
-    variant in ``governing_variant/``."""
+    variant in ``governing_variant/``; every variant's warnings, marked per variant.
+
+    Raises
+    ------
+    ResultsError
+        When every run of every variant failed (nothing to check).
+    """
     from pathlib import Path
 
     from vsi_numba.analysis.report import write_report
+    from vsi_numba.analysis.report.text import _warnings_block
 
+    if _all_failed(ds):
+        raise ResultsError(_ALL_FAILED)
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     table = variant_table(ds)
@@ -300,12 +415,13 @@ def write_variants_report(ds: xr.Dataset, outdir, source_path=None, **kwargs):
                        source_path=source_path, **kwargs)
     caption = design_charts(ds, outdir / "design_chart.png")
     title = ds.attrs.get("title") or "vsi_numba study of variants"
-    n_fail = int((table["result"].astype(str) == "FAIL").sum())
+    n_fail = int(table["result"].astype(str).str.startswith("FAIL").sum())
     lines = [f"# {title}", "",
              f"A study of {ds.sizes['variant']} variants ({ds.attrs.get('varied_keys', '')}),"
              f" {ds.sizes['speed']} speeds x {ds.sizes['train']} trains x "
              f"{ds.sizes['irregularity']} track realisations"
              + (f": `{Path(source_path).name}`." if source_path else "."), ""]
+    lines += _warnings_block(stored_warnings(ds))
     for key in ("damping_rule", "additional_damping_rule"):
         if ds.attrs.get(key):
             lines += [f"- {ds.attrs[key]}"]
@@ -317,7 +433,9 @@ def write_variants_report(ds: xr.Dataset, outdir, source_path=None, **kwargs):
     v_gov = float(ds["speed_kmh"].values[int(np.nanargmax(g.values))])
     lines += ["", "## Envelope over the variants", "",
               f"- **Governing variant {gov}** ({variant_label(ds, gov)}): peak deck "
-              f"acceleration **{float(g.max()):.3g} m/s²** at {v_gov:g} km/h; its full "
+              f"acceleration **{float(g.max()):.3g} m/s²** at {v_gov:g} km/h (limit "
+              f"{variant_limit(ds, gov):g} m/s², {variant_track_type(ds, gov)} track; the "
+              "governing variant uses the most of its own limit); its full "
               f"report: [governing_variant/report.md](governing_variant/{sub.name}).",
               f"- Variants that FAIL the deck-acceleration check: **{n_fail}** of "
               f"{len(table)}.", "", "## Per variant", ""]

@@ -66,19 +66,19 @@ def report_command(results: Path, outdir: Path | None = None) -> int:
             except ResultsError as exc:
                 error(f"'{results}' is not a usable results file: {exc}")
                 return EXIT_USAGE
-            if "status" in data and data["status"].size and bool(
-                    (data["status"].values != 0).all()):
-                n = int(data["status"].size)
-                msgs = (sorted({str(m) for m in np.ravel(data["message"].values)})
-                        if "message" in data else [])
-                error(f"'{results}': every case ({n}) failed numerically (status != 0, "
-                      "outputs NaN): there is nothing to check"
-                      + (f"; e.g. {msgs[0]}" if msgs else "") + ". Fix the run (see the "
-                      "warnings and README 'When things go wrong') and run it again")
-                return 1
-            for r in stored_warnings(data):
-                error(f"warning: {r['message']}")
             writer = write_report
+        if "status" in data and data["status"].size and bool(
+                (data["status"].values != 0).all()):
+            n = int(data["status"].size)
+            msgs = (sorted({str(m) for m in np.ravel(data["message"].values)})
+                    if "message" in data else [])
+            error(f"'{results}': every case ({n}) failed numerically (status != 0, "
+                  "outputs NaN): there is nothing to check"
+                  + (f"; e.g. {msgs[0]}" if msgs else "") + ". Fix the run (see the "
+                  "warnings and README 'When things go wrong') and run it again")
+            return 1
+        for r in stored_warnings(data):
+            error(f"warning: {r['message']}")
         if outdir is None:
             outdir = results.with_name(f"{results.stem}_report")
         try:

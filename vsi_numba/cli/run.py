@@ -23,7 +23,7 @@ def run_command(config: Path, output: Path | None, quiet: bool) -> int:
     if loaded is None:
         return EXIT_USAGE
     cfg, out_path = loaded
-    for w in cfg.warnings:
+    for w in cfg.base_warnings:  # the run is of the base values, not of study.vary
         pr.warning(w)
     parts = ["vsi", "run", str(config)] + (["-o", str(output)] if output is not None else [])
     try:

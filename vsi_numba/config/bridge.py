@@ -29,7 +29,7 @@ from vsi_numba.config._check import (
     _ok,
     _Sentinel,
 )
-from vsi_numba.config.limits import DT_RESOLUTION, MAX_ELEMENTS, MAX_MODES
+from vsi_numba.config.limits import DT_RESOLUTION, MAX_ELEMENTS, MAX_MODES, MAX_OUTPUT_POINTS
 from vsi_numba.model import bridge as _bridge
 
 BRIDGE_KINDS = ("simply_supported", "continuous", "rigid", "modes_file", "matrices")
@@ -190,7 +190,8 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
     if "output_points" in d:
         points = chk.number_list(d["output_points"], "bridge.output_points",
                                  _Num("a position x (m)"), scalar_ok=True,
-                                 expected="a list of positions on the deck (m)")
+                                 expected=f"a list of at most {MAX_OUTPUT_POINTS} positions "
+                                          "on the deck (m)", max_len=MAX_OUTPUT_POINTS)
         if _is_number(points):
             points = [points]
         if isinstance(points, list) and length is not None:

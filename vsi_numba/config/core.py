@@ -6,7 +6,10 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import math
+import os
 import re
+import stat
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
@@ -30,6 +33,7 @@ from vsi_numba.config.irregularity import (
     _irregularity_section,
     _IrregularitySpec,
 )
+from vsi_numba.config.limits import MAX_CONFIG_BYTES, MAX_RUNS
 from vsi_numba.config.physics import (
     _physics_warnings,
     _plausibility,
@@ -43,9 +47,14 @@ from vsi_numba.config.solver import (
     _rail_track_section,
     _solver_section,
 )
-from vsi_numba.config.study import _refine_resonance, _study_section, _StudySpec
+from vsi_numba.config.study import (
+    _refine_resonance,
+    _study_section,
+    _StudySpec,
+    refined_speeds,
+)
 from vsi_numba.config.train import _train_section, _TrainSpec
-from vsi_numba.config.variants import _build_variants
+from vsi_numba.config.variants import _build_variants, merge_variant_warnings
 from vsi_numba.model import bridge as _bridge
 from vsi_numba.model import irregularity as _irr
 from vsi_numba.model import track as _track
@@ -65,7 +74,8 @@ class Config:
     base_dir : pathlib.Path
         Directory relative paths resolve against.
     warnings : list of str
-        Physically suspicious but legal input.
+        Physically suspicious but legal input; with ``study.vary``, the warnings of the
+        variants, each marked with the variants it concerns unless all have it.
     """
 
     def __init__(self, *, title: str, path: Path | None, base_dir: Path, resolved: dict,
@@ -79,6 +89,9 @@ class Config:
         #: time-step resolution warning (the results' checks are then not reliable)
         self.warning_records: list[dict] = [
             {"message": w, "kind": "input", "keys": []} for w in self.warnings]
+        #: the warnings of the configuration itself (without ``study.vary`` applied): a
+        #: run of the base values (``vsi run``) carries these
+        self.base_warning_records: list[dict] = self.warning_records
         self._resolved = resolved
         self._bridge = bridge
         self._train = train
@@ -91,6 +104,11 @@ class Config:
         self._built = None  # the bridge with its track (build_bridge)
         #: ``[(labels, Config)]``: the variants of ``study.vary`` (empty: none)
         self.variants: list = []
+
+    @property
+    def base_warnings(self) -> list[str]:
+        """The warnings of the configuration's own values (without ``study.vary``)."""
+        return [str(r["message"]) for r in self.base_warning_records]
 
     def __repr__(self) -> str:
         """Title and hash."""
@@ -283,13 +301,50 @@ class Config:
         return hashlib.sha256(self.to_json().encode("utf-8")).hexdigest()
 
 
+def _read_bounded(path: Path, limit: int) -> bytes:
+    """The bytes of a regular file of at most ``limit`` bytes.
+
+    Opened without blocking (a FIFO does not hang the open) and checked on the open
+    descriptor: anything but a regular file raises ``ValueError`` naming its kind, a
+    larger file ``ValueError`` with its size; at most ``limit + 1`` bytes are ever read.
+    """
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    try:
+        st = os.fstat(fd)
+        if stat.S_ISDIR(st.st_mode):
+            raise IsADirectoryError(21, "Is a directory")
+        if not stat.S_ISREG(st.st_mode):
+            kind = ("a FIFO (named pipe)" if stat.S_ISFIFO(st.st_mode) else
+                    "a character device" if stat.S_ISCHR(st.st_mode) else
+                    "a block device" if stat.S_ISBLK(st.st_mode) else
+                    "a socket" if stat.S_ISSOCK(st.st_mode) else "not a regular file")
+            raise ValueError(f"is {kind}, not a regular file")
+        if st.st_size > limit:
+            raise ValueError(f"is {st.st_size} bytes, more than the {limit} bytes a "
+                             "configuration may have")
+        chunks, n = [], 0
+        while n <= limit:
+            chunk = os.read(fd, min(1 << 20, limit + 1 - n))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            n += len(chunk)
+        if n > limit:
+            raise ValueError(f"holds more than the {limit} bytes a configuration may have")
+        return b"".join(chunks)
+    finally:
+        os.close(fd)
+
+
 def _read_toml(path: Path) -> tuple[dict | None, list[str]]:
     try:
-        raw = path.read_bytes()
+        raw = _read_bounded(path, MAX_CONFIG_BYTES)
     except FileNotFoundError:
         return None, [f"{path}: file not found; expected a TOML configuration file"]
     except IsADirectoryError:
         return None, [f"{path}: is a directory; expected a TOML configuration file"]
+    except ValueError as exc:
+        return None, [f"{path}: {exc}; expected a TOML configuration file"]
     except OSError as exc:
         return None, [f"{path}: cannot be read ({exc.strerror}); expected a TOML file"]
     if raw.startswith(b"\xef\xbb\xbf"):
@@ -365,10 +420,42 @@ def load_config(path_or_mapping, base_dir=None) -> Config:
     else:
         base = Path(base_dir).expanduser().resolve()
     cfg = _validate(data, path, base, source)
+    _check_run_count(cfg, source)
     if cfg._study.axes:
+        speeds = list(cfg._study.resolved["speeds_kmh"])
         cfg.variants = _build_variants(data, cfg._study.axes, _validate, path, base, source,
-                                       cfg._study.resolved["speeds_kmh"])
+                                       speeds)
+        if cfg._study.resolved.get("refine_resonance"):
+            # every variant's resonances (its own f1), on one speed axis for all
+            union = cfg._unrefined_speeds
+            for _, v in cfg.variants:
+                union = refined_speeds(cfg._unrefined_speeds, v._bridge, v._train, union)
+            if union != speeds:
+                cfg._study.resolved["speeds_kmh"] = union
+                cfg._derived["speeds_kmh"] = list(union)  # (stored: the speeds as listed)
+                cfg.variants = _build_variants(data, cfg._study.axes, _validate, path, base,
+                                               source, union)
+        # the study runs the variants, not the base values: their warnings, each marked
+        # with the variants it concerns (the base's stay in base_warning_records)
+        cfg.warning_records = merge_variant_warnings(cfg.variants)
+        cfg.warnings = [r["message"] for r in cfg.warning_records]
     return cfg
+
+
+def _check_run_count(cfg: Config, source: str) -> None:
+    """Refuse a study of more than :data:`MAX_RUNS` runs (variants x speeds x trains x
+    realisations, counted in Python integers) before its variants are built."""
+    irr = cfg._resolved["irregularity"]
+    n_real = len(irr.get("seeds") or [0]) if irr.get("kind") == "psd" else 1
+    n_var = math.prod(len(axis[0][1]) for axis in cfg._study.axes) if cfg._study.axes else 1
+    n_speed, n_train = len(cfg._study.resolved["speeds_kmh"]), len(cfg.trains())
+    n = n_var * n_speed * n_train * n_real
+    if n > MAX_RUNS:
+        raise ConfigError([f"study: {n} runs ({n_var} variants x {n_speed} speeds x {n_train} "
+                           f"trains x {n_real} irregularity realisations): expected at most "
+                           f"{MAX_RUNS} runs in one study (split it, or vary fewer values in "
+                           "study.vary, study.speeds_kmh, train.preset, irregularity.seeds)"],
+                          source=source)
 
 
 def _validate(data, path: Path | None, base: Path, source: str) -> Config:
@@ -423,7 +510,7 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
             raise ConfigError(chk.errors, source=source)
     _physics_warnings(chk, bridge, train, irr, solver, study.resolved, contact, track)
     _plausibility(chk, bridge, train, irr, solver, study.resolved, contact)
-    _track_plausibility(chk, train, solver, track)
+    _track_plausibility(chk, train, solver, track, bridge)
     if chk.errors:  # checks of the whole model (time step, budget, plausibility)
         raise ConfigError(chk.errors, source=source)
     stored_bridge, derived = _stored_bridge(bridge.resolved)
@@ -455,6 +542,8 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
         derived=derived,
     )
     cfg.warning_records = [dict(r) for r in chk.records]
+    cfg.base_warning_records = cfg.warning_records
+    cfg._unrefined_speeds = stored_speeds  # the speeds as listed (before refine_resonance)
     return cfg
 
 

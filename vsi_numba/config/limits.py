@@ -14,12 +14,24 @@ MAX_USER_DOFS = 200  # cap on the size of a user vehicle
 MAX_VEHICLES = 500  # cap on explicit vehicles
 DT_ERROR = 0.25  # dt * f above this (fewer than 4 steps per period): error
 MAX_STEPS = 50_000_000  # time steps of the slowest run: above this the run is refused
+#: time steps of the slowest run beyond which no override runs it (no machine could)
+HARD_MAX_STEPS = 100_000_000_000
+MAX_OUTPUT_POINTS = 5000  # cap on bridge.output_points
 MAX_HISTORY_BYTES = 2 * 1024**3  # time histories of one run kept in memory: at most 2 GiB
 MAX_PROFILE_SAMPLES = MAX_SAMPLES  # samples of one irregularity profile (its FFT included)
 MAX_STATIC_DEFLECTION = 1.0 / 50.0  # static deck deflection / span: above this, error
 MAX_HERTZ_PENETRATION = 0.010  # m, static Hertz penetration of a wheel: above this, error
 MAX_TRACK_DEFLECTION = 0.010  # m, static rail deflection under an axle: above this, error
 MAX_TRACK_STIFFNESS = 5e9  # N/m under one axle (30 x the default): above this, error
+#: Physical ranges of the [track] values (both rails, per track): outside, error (unless
+#: solver.allow_implausible).  Foundation: soft ballast ~3e7 .. stiff slab ~6e8 N/m per m;
+#: rails: 2 x S49 7.6e6 .. 2 x UIC60 1.28e7 N m^2; a factor of about 5 of margin each way.
+TRACK_RANGES = {"foundation_stiffness": (5e6, 3e9, "N/m per metre of track"),
+                "rail_EI": (2e6, 1e8, "N m^2")}
+#: Size of the FE rail filter of the mode shapes (nodes x modes): above this, error.
+MAX_TRACK_FILTER = 20_000_000
 MAX_PROFILE_AMPLITUDE = 0.050  # m, |r| of a profile: above this, error
 LONG_TRAIN = 1000.0  # m, a longer train gets a warning
+MAX_CONFIG_BYTES = 8 * 1024**2  # a configuration file larger than this is refused unread
+MAX_RUNS = 2_000_000  # runs of one study (variants x speeds x trains x realisations)
 MAX_VARIANTS = 5000  # cap on the bridge/track/contact variants of one study

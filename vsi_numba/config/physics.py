@@ -13,6 +13,7 @@ from vsi_numba.config.irregularity import _defect_profile
 from vsi_numba.config.limits import (
     DT_ERROR,
     DT_RESOLUTION,
+    HARD_MAX_STEPS,
     LONG_TRAIN,
     MAX_HERTZ_PENETRATION,
     MAX_HISTORY_BYTES,
@@ -21,19 +22,31 @@ from vsi_numba.config.limits import (
     MAX_STATIC_DEFLECTION,
     MAX_STEPS,
     MAX_TRACK_DEFLECTION,
+    MAX_TRACK_FILTER,
     MAX_TRACK_STIFFNESS,
     STEPS_PER_WAVELENGTH,
+    TRACK_RANGES,
 )
 from vsi_numba.en1990 import frequency_cutoff
 from vsi_numba.model import irregularity as _irr
 from vsi_numba.model import track as _track
 from vsi_numba.model.irregularity import profile_range
 from vsi_numba.model.library import static_axle_loads
+from vsi_numba.model.psd import PSD_PERIOD, psd_grid
 
+#: The defaults of the [track] values (messages).
+_DEFAULT_TRACK = {"foundation_stiffness": _track.FOUNDATION_DEFAULT,
+                  "rail_EI": _track.RAIL_EI_UIC60}
 #: The nonlinear Hertz spring is checked at this multiple of the static wheel load.
 HERTZ_LOAD_FACTOR = 2.0
 #: Rigid contact with massive wheels needs at least this much numerical damping.
 RIGID_MASSIVE_ALPHA = -0.02
+
+
+def train_extent(train) -> float:
+    """How far (m) the last axle runs behind the train's reference point (its first axle,
+    offset 0): the train length, or more when the first vehicle has an offset."""
+    return max(float(train.length), float(np.max(train.axle_positions, initial=0.0)))
 
 
 def _wheel_loads(v) -> np.ndarray:
@@ -259,14 +272,14 @@ def _physics_warnings(chk, bridge, train, irr, solver, study, contact, track):
                      "mm intended?)", "plausibility", [key])
     prof = irr.file_profile
     if prof is not None and bridge.length is not None and train.trains:
-        tl = max(t.length for t in train.trains)
+        tl = max(train_extent(t) for t in train.trains)
         lo, hi = -solver["approach"] - tl, bridge.length + tl
         if prof.x0 > lo + 1e-9 or prof.x_end < hi - 1e-9:
             chk.warn(f"irregularity.path: the profile covers x = {prof.x0:g} .. "
                      f"{prof.x_end:g} m; the trailing axles run over {lo:g} .. {hi:g} m and see "
                      "r = 0 outside the measured range")
     if train.trains:
-        length = max(t.length for t in train.trains)
+        length = max(train_extent(t) for t in train.trains)
         vmin = min(study["speeds_kmh"]) / 3.6
         steps = ((solver["approach"] + model.length + length) / vmin
                  + solver["free_vibration"]) / dt
@@ -326,14 +339,36 @@ def _defects_amplitude(r) -> float | None:
     return float(np.max(np.abs(total(x))))
 
 
-def _track_plausibility(chk, train, solver, track):
-    """The elastic track: a static rail deflection under the heaviest axle above
-    :data:`MAX_TRACK_DEFLECTION` (typically 0.5-2 mm), or a stiffness under one axle
-    above :data:`MAX_TRACK_STIFFNESS`, is a unit slip (N vs MN), not a track."""
+def _track_plausibility(chk, train, solver, track, bridge=None):
+    """The elastic track: a value outside its physical range (:data:`TRACK_RANGES`), a
+    static rail deflection under the heaviest axle above :data:`MAX_TRACK_DEFLECTION`
+    (typically 0.5-2 mm), or a stiffness under one axle above
+    :data:`MAX_TRACK_STIFFNESS`, is a unit slip (N vs MN), not a track; an FE rail filter
+    of more than :data:`MAX_TRACK_FILTER` nodes x modes is refused (memory)."""
     if not isinstance(track, dict) or track.get("model") != "elastic":
         return
-    k_axle = _track.ElasticTrack(track["foundation_stiffness"],
-                                 track["rail_EI"]).axle_stiffness
+    for key, (lo, hi, units) in TRACK_RANGES.items():
+        v = track[key]
+        if not lo <= v <= hi:
+            _refuse(chk, solver, "allow_implausible",
+                    f"track.{key} = {v:g}: expected {lo:g} .. {hi:g} {units} (both rails; "
+                    f"the default is {_DEFAULT_TRACK[key]:.4g}); outside this range it is "
+                    "no railway track")
+    tr = _track.ElasticTrack(track["foundation_stiffness"], track["rail_EI"])
+    if bridge is not None and bridge.model.n_modes:
+        length = float(bridge.model.length)
+        nodes = (length + 2.0 * tr.reach) * _track.ELEMENTS_PER_LENGTH * tr.beta
+        size = nodes * bridge.model.n_modes
+        if not size <= MAX_TRACK_FILTER:
+            chk.errors.append(
+                f"track.foundation_stiffness = {track['foundation_stiffness']:g}, "
+                f"track.rail_EI = {track['rail_EI']:g}: the rail filter of the mode shapes "
+                f"needs {nodes:.3g} rail nodes x {bridge.model.n_modes} modes, more than "
+                f"the budget of {MAX_TRACK_FILTER:.3g} (the rail's characteristic length "
+                f"1/beta = {1 / tr.beta:.3g} m on a {length:g} m deck); expected the "
+                "values of a railway track")
+            return
+    k_axle = tr.axle_stiffness
     keys = "track.foundation_stiffness, track.rail_EI"
     if k_axle > MAX_TRACK_STIFFNESS:
         _refuse(chk, solver, "allow_implausible",
@@ -437,20 +472,27 @@ def _plausibility(chk, bridge, train, irr, solver, study, contact):
     # -- budget: time steps, histories, profile samples
     if not trains:
         return
-    length = max(t.length for t in trains)
+    # the last axle's distance behind the train's reference (the first vehicle's offset
+    # included): the run lasts until it leaves the bridge
+    length = max(train_extent(t) for t in trains)
     vmin = min(study["speeds_kmh"]) / 3.6
     steps = ((solver["approach"] + model.length + length) / vmin
              + solver["free_vibration"]) / dt
     keys = ("solver.dt, study.speeds_kmh (slowest), solver.free_vibration, "
             "solver.approach, the train length (vehicle offsets)")
-    if steps > MAX_STEPS:
+    if not steps <= HARD_MAX_STEPS:
+        chk.errors.append(f"the slowest run needs {steps:.3g} time steps, more than the hard "
+                          f"budget of {HARD_MAX_STEPS:.3g} that no machine runs (solver."
+                          f"allow_large_problem does not lift it); check {keys}")
+    elif steps > MAX_STEPS:
         _refuse(chk, solver, "allow_large_problem",
                 f"the slowest run needs {steps:.3g} time steps, more than the budget of "
                 f"{MAX_STEPS:.3g}; check {keys}")
     elif study["save_time_histories"]:
         n_w = max(t.n_wheels + t.n_loads for t in trains)
         n_b = max(len(t.vehicles) for t in trains)
-        nbytes = steps * 8.0 * (2 * model.n_modes + 2 * n_w + n_b)
+        n_p = len(bridge.resolved.get("output_points") or []) or 1
+        nbytes = steps * 8.0 * (2 * model.n_modes + 2 * n_w + n_b + 2 * n_p)
         if nbytes > MAX_HISTORY_BYTES:
             _refuse(chk, solver, "allow_large_problem",
                     f"the time histories of the slowest run need about {nbytes / 2**30:.3g} "
@@ -459,15 +501,29 @@ def _plausibility(chk, bridge, train, irr, solver, study, contact):
                     f"false or study.history_speeds_kmh, or check {keys}")
     r = irr.resolved
     if r["kind"] == "psd":
-        x0, x1 = profile_range(model.length, [t.length for t in trains],
+        x0, x1 = profile_range(model.length, [train_extent(t) for t in trains],
                                solver["approach"], solver["free_vibration"])
         dx = r.get("dx") or r["wavelength_min"] / 20.0
-        n = max(x1 - x0, 20.0 * r["wavelength_max"]) / dx
+        try:
+            period, n_fft = psd_grid(r["wavelength_min"], r["wavelength_max"], r.get("dx"))
+            dx = period / n_fft
+        except ValueError:  # over the sample budget: the count it would have
+            period = PSD_PERIOD * 2.0 ** max(0, math.ceil(math.log2(
+                20.0 * r["wavelength_max"] / PSD_PERIOD)))
+            n_fft = period / dx
+        n = max(n_fft, (x1 - x0) / dx)
         if n > MAX_PROFILE_SAMPLES:
             _refuse(chk, solver, "allow_large_problem",
                     f"irregularity: each random profile needs {n:.3g} samples, more than "
-                    f"the budget of {MAX_PROFILE_SAMPLES:.3g} (track length {x1 - x0:.4g} m "
-                    f"and 20 x irregularity.wavelength_max = {20 * r['wavelength_max']:g} m "
-                    f"at irregularity.dx = {dx:g} m, default wavelength_min / 20); check "
-                    "irregularity.wavelength_min, wavelength_max, dx, solver.free_vibration "
-                    "and the train length")
+                    f"the budget of {MAX_PROFILE_SAMPLES:.3g} (one period of "
+                    f"{period:.6g} m and the track length {x1 - x0:.4g} m at a spacing of "
+                    f"{dx:.3g} m, irregularity.dx or wavelength_min / 20 rounded down to a "
+                    "power-of-two division of the period); check irregularity."
+                    "wavelength_min, wavelength_max, dx, solver.free_vibration and the "
+                    "train length")
+        elif x1 - x0 > period:
+            chk.warn(f"irregularity: the track range of the study ({x1 - x0:.6g} m: "
+                     "approach, longest train, bridge and solver.free_vibration at "
+                     f"{_irr.SPEED_BOUND_KMH:g} km/h) is longer than the period of the "
+                     f"random profiles ({period:.6g} m): the track repeats every "
+                     f"{period:.6g} m", "input", ["irregularity", "solver.free_vibration"])

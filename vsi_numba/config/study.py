@@ -167,20 +167,28 @@ def _refine_resonance(study, bridge, train):
     """``study.refine_resonance``: add the resonance speeds v_i = 3.6 f1 D / i (km/h,
     i = 1, 2, 3; EN 1991-2 6.4.6.2 [R]) of every train with a regular coach length D, and
     v_i +- 1 km/h, inside the study's speed range (0.1 km/h resolution)."""
-    speeds = list(study["speeds_kmh"])
-    if not bridge.model.n_modes or not speeds:
-        return
+    study["speeds_kmh"] = refined_speeds(study["speeds_kmh"], bridge, train)
+
+
+def refined_speeds(speeds, bridge, train, also=()) -> list:
+    """The speeds (km/h) with the resonance speeds of :func:`_refine_resonance` added for
+    this bridge and these trains, and the speeds ``also`` (the refinement of other
+    variants), inside the range of ``speeds``; sorted, without near-duplicates."""
+    speeds = list(speeds)
+    if not speeds:
+        return speeds
     lo, hi = min(speeds), max(speeds)
-    f1 = float(bridge.model.frequencies[0])
-    extra = []
-    for tr in train.trains:
-        d = float(tr.regular_length)
-        if d > 0:
-            for v in resonance_speeds_kmh(f1, d, RESONANCE_ORDERS):
-                extra += [round(v + dv, 1) for dv in (-1.0, 0.0, 1.0)]
+    extra = list(also)
+    if bridge.model.n_modes:
+        f1 = float(bridge.model.frequencies[0])
+        for tr in train.trains:
+            d = float(tr.regular_length)
+            if d > 0:
+                for v in resonance_speeds_kmh(f1, d, RESONANCE_ORDERS):
+                    extra += [round(v + dv, 1) for dv in (-1.0, 0.0, 1.0)]
     merged = sorted(set(speeds) | {v for v in extra if lo <= v <= hi})
     out = []
     for v in merged:  # drop near-duplicates of listed speeds
         if not out or v - out[-1] > 1e-6:
             out.append(v)
-    study["speeds_kmh"] = out
+    return out

@@ -22,7 +22,7 @@ from vsi_numba.config._check import (
     _Sentinel,
     _show,
 )
-from vsi_numba.config.limits import MAX_USER_DOFS, MAX_VEHICLES
+from vsi_numba.config.limits import MAX_CONFIG_BYTES, MAX_USER_DOFS, MAX_VEHICLES
 from vsi_numba.model import library as _lib
 from vsi_numba.model import vehicle as _veh
 from vsi_numba.model.library import extra as _extra
@@ -379,6 +379,13 @@ def _axle_train(chk, v, base_dir, res):
 
 
 def _load_user_trains(chk, full: Path, given: str):
+    try:
+        size = full.stat().st_size
+    except OSError:
+        size = 0
+    if size > MAX_CONFIG_BYTES:
+        return chk.error("train.file", given, f"a user train file of at most "
+                         f"{MAX_CONFIG_BYTES} bytes (it has {size})")
     try:
         return dict(_lib.load_user_trains(full))
     except Exception as exc:  # noqa: BLE001 - any failure of a foreign file is a config error

@@ -5,16 +5,24 @@ from __future__ import annotations
 
 import copy
 import itertools
+import math
 import re
 from collections.abc import Mapping
-
-import numpy as np
 
 from vsi_numba.config._check import ConfigError, _is_number, _key, _Num, _ok, _show
 from vsi_numba.config.limits import MAX_VARIANTS
 
 _KEY_PATH = re.compile(r"^[A-Za-z_]\w*(\[\d+\])?(\.[A-Za-z_]\w*(\[\d+\])?)+$")
 _VARY_SECTIONS = ("bridge", "train", "irregularity", "solver", "contact", "track")
+#: Keys that are axes of every study (trains, realisations), not variants, and what to
+#: do instead.
+_STUDY_AXES = {
+    "train.preset": "list several trains in train.preset (one train each, every variant "
+                    "runs them all)",
+    "train.file": "put the trains in one train file (every variant runs them all)",
+    "irregularity.seeds": "list several seeds in irregularity.seeds (every variant runs "
+                          "every realisation)",
+}
 #: The variant coordinate of ``study.mass_bounds`` (factors on bridge.mass_per_length).
 MASS_FACTOR = "mass_factor"
 
@@ -33,6 +41,10 @@ def _vary_axes(chk, d):
     def key_path(path, key):
         if key == "label":  # names the variants (a coordinate), sets no key
             return key
+        axis_key = isinstance(key, str) and key.split("[")[0] in _STUDY_AXES
+        if axis_key:
+            return chk.error(path, key, f"a key path that is not an axis of the study: "
+                             f"{_STUDY_AXES[key.split('[')[0]]}")
         ok = isinstance(key, str) and _KEY_PATH.match(key) and key.split(".")[0].split("[")[
             0] in _VARY_SECTIONS
         if not ok:
@@ -85,7 +97,8 @@ def _vary_axes(chk, d):
     dup = {k for k in paths if paths.count(k) > 1}
     if dup:
         return chk.error("study.vary", sorted(dup), "each key path varied once")
-    n = int(np.prod([len(axis[0][1]) for axis in axes])) if axes else 0
+    # Python integers: a product of many axes must not wrap around (np.prod would)
+    n = math.prod(len(axis[0][1]) for axis in axes) if axes else 0
     if n > MAX_VARIANTS:
         return chk.error("study.vary", f"{n} variants", f"at most {MAX_VARIANTS} variants")
     return axes
@@ -167,6 +180,8 @@ def _build_variants(data, axes, validate, path, base, source, base_speeds):
         except ConfigError as exc:
             for msg in exc.errors:
                 errors.append(f"study.vary (variant {n}: {where}): {msg}")
+    if not errors and out:
+        errors += _same_axes(out)
     if errors:
         # the same problem in every variant is said once
         seen, unique = set(), []
@@ -177,3 +192,72 @@ def _build_variants(data, axes, validate, path, base, source, base_speeds):
                 unique.append(e)
         raise ConfigError(unique, source=source)
     return out
+
+
+def variant_where(label: dict, width: int = 30) -> str:
+    """``"solver.dt = 0.004, bridge.EI = 8e+09"``: the values that make a variant."""
+    return ", ".join(f"{k} = {_show(v, width)}" for k, v in label.items())
+
+
+def merge_variant_warnings(variants) -> list[dict]:
+    """The warnings of a study of variants as records ``{"message", "kind", "keys",
+    "variants"}``: a warning every variant has is said once, unmarked; a warning of some
+    variants is marked with them ("variant 1 (solver.dt = 0.004): ...").
+
+    Parameters
+    ----------
+    variants : list of (dict, Config)
+        :attr:`Config.variants` (labels and configurations, in variant order).
+    """
+    n = len(variants)
+    order: list[tuple[str, str]] = []
+    seen: dict[tuple[str, str], dict] = {}
+    for k, (_, vcfg) in enumerate(variants):
+        for rec in getattr(vcfg, "warning_records", []) or []:
+            key = (str(rec.get("message", "")), str(rec.get("kind", "input")))
+            if key not in seen:
+                seen[key] = {"rec": rec, "variants": []}
+                order.append(key)
+            if k not in seen[key]["variants"]:
+                seen[key]["variants"].append(k)
+    out = []
+    for key in order:
+        rec, ks = seen[key]["rec"], seen[key]["variants"]
+        msg = key[0]
+        if len(ks) < n:
+            if len(ks) == 1:
+                where = variant_where(variants[ks[0]][0])
+                msg = f"variant {ks[0]}{f' ({where})' if where else ''}: {msg}"
+            else:
+                shown = ", ".join(str(k) for k in ks[:12]) + (", ..." if len(ks) > 12 else "")
+                msg = f"variants {shown}: {msg}"
+        out.append({"message": msg, "kind": key[1], "keys": list(rec.get("keys", [])),
+                    "variants": list(ks)})
+    return out
+
+
+def _axes_of(cfg) -> tuple[list, list]:
+    """Train names and irregularity realisation ids of a configuration."""
+    names = [t.name for t in cfg.trains()]
+    irr = cfg.resolved()["irregularity"]
+    ids = [int(s) for s in irr.get("seeds", [])] if irr.get("kind") == "psd" else [-1]
+    return names, ids
+
+
+def _same_axes(variants) -> list[str]:
+    """Errors for variants whose trains or realisations differ from variant 0's (they are
+    the study's axes, the same for every variant)."""
+    names0, ids0 = _axes_of(variants[0][1])
+    errors = []
+    for n, (lab, vcfg) in enumerate(variants[1:], start=1):
+        names, ids = _axes_of(vcfg)
+        if names != names0 or ids != ids0:
+            what = (f"the trains ({', '.join(names)} instead of {', '.join(names0)})"
+                    if names != names0 else
+                    f"the irregularity realisations ({ids} instead of {ids0})")
+            errors.append(f"study.vary (variant {n}: {variant_where(lab)}): changes {what}; "
+                          "the trains and the realisations are axes of the study, the same "
+                          "for every variant: list the trains in train.preset and the seeds "
+                          "in irregularity.seeds, and vary bridge, track, contact, solver or "
+                          "vehicle data")
+    return errors

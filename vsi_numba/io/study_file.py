@@ -60,8 +60,9 @@ class StudyFile:
         Largest wheel and vehicle counts over the trains.
     n_time : int or None
         Time steps + 1 of the longest run that keeps histories (None: no histories).
-    dt : float
-        Time step (s).
+    dt : float or sequence of float
+        Time step (s), or one per variant: when they differ, ``time`` is the step index
+        and ``variant_time`` (variant, time) each variant's time (s).
     trains_info : list of dict
         Per variant: ``wheel_position`` and ``static_wheel_load`` (lists per train, m and
         N), ``vehicle_name`` (lists per train), ``regular_length``, ``status``,
@@ -91,6 +92,8 @@ class StudyFile:
                         **{k: ("variant", *d) for k, d in _COORDS.items() if k != "speed_kmh"}}
             if not all(np.array_equal(points[0], p) for p in points):
                 self.aux["point_position"] = ("variant", "point")
+            if np.unique(np.atleast_1d(np.asarray(dt, float))).size > 1:
+                self.aux["variant_time"] = ("variant", "time")
         speeds_kmh = np.asarray(speeds_kmh, float)
         n_s, n_t, n_i = speeds_kmh.size, len(trains), len(irregularities)
         self.lead = ("variant",) if variants is not None else ()
@@ -178,7 +181,14 @@ class StudyFile:
         coord("mode", ("mode",), np.arange(1, n_m + 1, dtype=np.int64), "i8",
               attrs_for("mode"))
         if n_time is not None:
-            coord("time", ("time",), np.arange(n_time) * dt, "f8", attrs_for("time"))
+            dts = np.atleast_1d(np.asarray(dt, float))
+            if np.all(dts == dts[0]):
+                coord("time", ("time",), np.arange(n_time) * dts[0], "f8", attrs_for("time"))
+            else:  # variants of different time steps: each its own time axis
+                coord("time", ("time",), np.arange(n_time, dtype=np.int64), "i8",
+                      {"units": "1", "long_name": "time step index (time: variant_time)"})
+                self._float("variant_time", ("variant", "time"), attrs_for("time"))[...] = \
+                    dts[:, None] * np.arange(n_time)[None, :]
 
         wps, q0s, names = [], [], []
         for info in trains_info:

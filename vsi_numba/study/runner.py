@@ -84,6 +84,10 @@ from vsi_numba.study.store import (
 
 BACKENDS = ("serial", "threads", "processes", "dask")
 
+#: Global attribute value (``track_type``, ``dt``) of a study whose variants differ in it:
+#: each variant's value is in its ``variant_config_json``.
+VARIES = "varies by variant"
+
 #: Environment variable of the tests: hold the study (sleep until interrupted) once this
 #: many batches were stored in this run, so an interruption never races the machine.
 HOLD_ENV = "VSI_STUDY_HOLD_AFTER"
@@ -194,9 +198,14 @@ def track_type_of(cfg) -> str:
 
 
 def _global_attrs(model: StudyModel, config_json: str, sha: str, grid: StudyGrid,
-                  n_failed: int, failed: list[str], command: str) -> dict:
+                  n_failed: int, failed: list[str], command: str, records=None,
+                  track_type: str | None = None) -> dict:
+    """Global attributes of a results file; ``records`` (the warnings) and ``track_type``
+    default to those of ``model.config``."""
     cfg = model.config
-    warnings = list(getattr(cfg, "warnings", []) or [])
+    if records is None:
+        records = _records(cfg)
+    warnings = [str(r["message"]) for r in records]
     attrs = {
         "Conventions": CONVENTIONS,
         "title": str(cfg.title or "vsi_numba study"),
@@ -213,7 +222,7 @@ def _global_attrs(model: StudyModel, config_json: str, sha: str, grid: StudyGrid
         ),
         "config_json": config_json,
         "config_sha256": sha,
-        "track_type": track_type_of(cfg),
+        "track_type": track_type if track_type is not None else track_type_of(cfg),
         "bridge_length": float(model.bridge.length),
         "bridge_description": str(model.bridge.description or ""),
         "n_cases": len(grid.cases),
@@ -226,18 +235,28 @@ def _global_attrs(model: StudyModel, config_json: str, sha: str, grid: StudyGrid
     }
     if warnings:
         attrs["config_warnings"] = "\n".join(str(w) for w in warnings)
-    attrs["warnings_json"] = warnings_json(cfg)
+    attrs["warnings_json"] = json.dumps(records, ensure_ascii=False)
     return attrs
 
 
-def warnings_json(cfg) -> str:
-    """The configuration's warnings as a JSON list of {"message", "kind", "keys"} (kind
-    "resolution": the checks computed from the results are not reliable)."""
-    records = getattr(cfg, "warning_records", None)
+def _records(cfg, base: bool = True) -> list[dict]:
+    """The warnings of a configuration as records {"message", "kind", "keys"}: of its own
+    values (``base``), or of the study it describes (with ``study.vary``: every variant's,
+    marked per variant, see :func:`vsi_numba.config.variants.merge_variant_warnings`)."""
+    records = getattr(cfg, "base_warning_records" if base else "warning_records", None)
+    if records is None:
+        records = getattr(cfg, "warning_records", None)
     if records is None:
         records = [{"message": str(w), "kind": "input", "keys": []}
                    for w in getattr(cfg, "warnings", []) or []]
-    return json.dumps(records, ensure_ascii=False)
+    return [dict(r) for r in records]
+
+
+def warnings_json(cfg, base: bool = True) -> str:
+    """The configuration's warnings as a JSON list of {"message", "kind", "keys"} (kind
+    "resolution": the checks computed from the results are not reliable; with
+    ``base=False`` and ``study.vary``: every variant's, with their ``variants``)."""
+    return json.dumps(_records(cfg, base), ensure_ascii=False)
 
 
 @dataclass(frozen=True)
@@ -245,6 +264,7 @@ class _Study:
     """What :func:`execute_study` derives from a configuration before it runs: one spec
     and model per variant (a single one without ``study.vary``), the grid and the plan."""
 
+    config: object  # the configuration as loaded (with its variants)
     specs: list
     models: list
     grid: StudyGrid
@@ -383,7 +403,10 @@ def execute_study(config, output=None, workers=None, scheduler=None, progress=Fa
     for k, m in enumerate(models[1:], start=1):
         if [t.name for t in m.trains] != list(grid.trains) or list(m.profiles) != list(
                 grid.irregularities):
-            raise StudyError(f"variant {k} ({variants[k][0]}) changes the trains or the "
+            from vsi_numba.config.variants import variant_where
+
+            raise StudyError(f"variant {k} ({variant_where(variants[k][0])}) changes the "
+                             "trains or the "
                              "irregularity realisations: vary the bridge, track, contact "
                              "or vehicle data, not the study's axes")
     plan: list[Batch] = []
@@ -401,7 +424,7 @@ def execute_study(config, output=None, workers=None, scheduler=None, progress=Fa
         "".join(model_fingerprint(m) for m in models).encode()).hexdigest())
     store = CaseStore(spath, sha, config_json, fresh=fresh,
                       model_sha256=model_sha, plan_sha256=plan_fingerprint(plan))
-    study = _Study(specs, models, grid, plan, [lab for lab, _ in variants] or None,
+    study = _Study(cfg, specs, models, grid, plan, [lab for lab, _ in variants] or None,
                    config_json, sha, command)
     try:
         with store:
@@ -483,7 +506,9 @@ def _write_results(output: Path, store: CaseStore, study: _Study,
     try:
         f = StudyFile(tmp, grid.speeds_kmh, grid.trains, grid.irregularities,
                       [m.output_points for m in models], [m.bridge.frequencies for m in models],
-                      n_wheel, n_vehicle, n_time, model.settings.dt, infos, variants,
+                      n_wheel, n_vehicle, n_time,
+                      [m.settings.dt for m in models] if labels is not None else
+                      model.settings.dt, infos, variants,
                       deck_x=[deck_grid(m.bridge, m.output_points) for m in models],
                       supports=[m.bridge.supports for m in models])
         hold = _hold_after() == "write"
@@ -502,12 +527,22 @@ def _write_results(output: Path, store: CaseStore, study: _Study,
                         failed.append(key if b.variant is None else f"v{b.variant:04d}_{key}")
                 del data
             failed.sort()
-            attrs = _global_attrs(model, study.config_json, study.sha, grid, len(failed),
-                                  failed, study.command)
+            if labels is None:
+                attrs = _global_attrs(model, study.config_json, study.sha, grid, len(failed),
+                                      failed, study.command)
+            else:  # every variant's warnings, marked; one track type or "varies"
+                types = {track_type_of(m.config) for m in models}
+                attrs = _global_attrs(model, study.config_json, study.sha, grid, len(failed),
+                                      failed, study.command,
+                                      records=_records(study.config, base=False),
+                                      track_type=types.pop() if len(types) == 1 else
+                                      VARIES)
             if labels is not None:
                 attrs["n_cases"] = study.n_runs
                 attrs["n_variants"] = len(models)
                 attrs["varied_keys"] = " ".join(labels[0])
+                if len({m.settings.dt for m in models}) > 1:
+                    attrs["dt"] = VARIES
             if labels is None:  # per variant otherwise (damping_rule(variant))
                 _bridge_rules(attrs, model.config)
             f.close(attrs)

@@ -92,12 +92,14 @@ def _remember(spec: StudySpec, model: StudyModel) -> None:
 
 
 def _build_model(cfg) -> StudyModel:
+    from vsi_numba.config.physics import train_extent
     from vsi_numba.solver.simulate import deck_operators, default_points
 
     bridge = cfg.build_bridge()
     trains = tuple(cfg.trains())
     settings = cfg.solver_settings()
-    x_range = profile_range(bridge.length, [t.length for t in trains], settings.approach,
+    x_range = profile_range(bridge.length, [train_extent(t) for t in trains],
+                            settings.approach,
                             settings.free_vibration)
     profiles = dict(cfg.irregularities(*x_range))
     points = default_points(bridge, cfg.output_points)

@@ -25,7 +25,7 @@ from vsi_numba.analysis.report.document import (
     write_markdown,
 )
 from vsi_numba.analysis.report.echo import fmt_number, input_echo, title_block
-from vsi_numba.analysis.report.text import _version
+from vsi_numba.analysis.report.text import _version, _warnings_block, stored_warnings
 
 #: Units of the columns of :func:`vsi_numba.analysis.variants.variant_table` (CSV/XLSX
 #: headers carry them).
@@ -106,13 +106,16 @@ def write_variants_report(ds: xr.Dataset, outdir, source_path=None, **kwargs) ->
     chart = Figure(buf.getvalue(), "design_chart.png", caption)
 
     title = ds.attrs.get("title") or "vsi_numba study of variants"
-    n_fail = int((table["result"].astype(str) == "FAIL").sum())
+    n_fail = int(table["result"].astype(str).str.startswith("FAIL").sum())
     generated = f"vsi_numba {_version()}"
     intro = (f"A study of {ds.sizes['variant']} variants ({ds.attrs.get('varied_keys', '')}), "
              f"{ds.sizes['speed']} speeds × {ds.sizes['train']} trains × "
              f"{ds.sizes['irregularity']} track realisations"
              + (f": `{Path(source_path).name}`." if source_path else "."))
     head = [Section("", [intro], level=0), title_block(view, generated)]
+    warn = Section.from_markdown(_warnings_block(stored_warnings(ds)))  # marked per variant
+    if warn is not None:
+        head.append(warn)
     rules = [f"- {ds.attrs[key]}" for key in ("damping_rule", "additional_damping_rule")
              if ds.attrs.get(key)]
     if "damping_rule" in ds and any(str(r) for r in ds["damping_rule"].values):
@@ -123,7 +126,9 @@ def write_variants_report(ds: xr.Dataset, outdir, source_path=None, **kwargs) ->
     v_gov = float(ds["speed_kmh"].values[int(np.nanargmax(g.values))])
     envelope = [
         f"- **Governing variant {gov}** ({label}): peak deck acceleration "
-        f"**{float(g.max()):.3g} m/s²** at {v_gov:g} km/h; its full report: "
+        f"**{float(g.max()):.3g} m/s²** at {v_gov:g} km/h (limit "
+        f"{var.variant_limit(ds, gov):g} m/s², {var.variant_track_type(ds, gov)} track; the "
+        "governing variant uses the most of its own limit); its full report: "
         f"[governing_variant/report.html](governing_variant/report.html) "
         f"([Markdown](governing_variant/{sub.name})).",
         f"- Variants that FAIL the deck-acceleration check: **{n_fail}** of {len(table)}.",

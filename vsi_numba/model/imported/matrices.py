@@ -45,8 +45,57 @@ def _read_mtx(path: Path, key, name, p: _Problems):
         p.add(key, name, f"a Matrix Market file readable by scipy.io.mmread "
                          f"({type(exc).__name__}: {' '.join(str(exc).split())[:160]})")
         return None
+    if np.iscomplexobj(a):
+        coo = scipy.sparse.coo_matrix(a)
+        im = np.abs(coo.data.imag)
+        if im.size and im.max() > 0:
+            k = int(np.argmax(im))
+            p.add(key, name, f"a real matrix (the file holds complex entries, e.g. "
+                             f"({int(coo.row[k])}, {int(coo.col[k])}) = {coo.data[k]:.4g}; "
+                             "export the real stiffness and mass matrices)")
+            return None
+        a = coo.real
     a = scipy.sparse.csr_matrix(a, dtype=float) if not scipy.sparse.issparse(a) else a.tocsr()
     return a.astype(float)
+
+
+def _not_semidefinite(K, M, dof_base, free) -> str | None:
+    """Why the free-DOF stiffness ``K`` (with mass ``M``) is not positive semi-definite,
+    or None when no proof of it is found.
+
+    Looks for a negative diagonal entry, a 2 x 2 principal minor K_ii K_jj < K_ij^2, then
+    counts the negative pivots of the symmetric factorisation of ``K + M`` (Sylvester's
+    law of inertia: as many eigenvalues of K phi = lam M phi below -1 rad^2/s^2; none
+    when K is positive semi-definite and M positive semi-definite).  ``free`` maps the
+    free DOFs back to the file's numbering (``dof_base``).
+    """
+    d = K.diagonal()
+    if np.any(d < 0):
+        i = int(np.argmin(d))
+        return (f"DOF {free[i] + dof_base} has the negative diagonal entry {d[i]:.4g} "
+                f"({int(np.sum(d < 0))} negative)")
+    coo = scipy.sparse.triu(K, k=1).tocoo()
+    minor = d[coo.row] * d[coo.col] - coo.data**2
+    bad = minor < -1e-12 * np.maximum(d[coo.row] * d[coo.col], 1e-300)
+    if bad.any():
+        k = int(np.flatnonzero(bad)[np.argmin(minor[bad])])
+        i, j = int(coo.row[k]), int(coo.col[k])
+        return (f"the entry ({free[i] + dof_base}, {free[j] + dof_base}) = {coo.data[k]:.4g} "
+                f"exceeds sqrt(K_ii K_jj) = {np.sqrt(d[i] * d[j]):.4g} (a 2 x 2 principal "
+                "minor is negative)")
+    try:
+        lu = scipy.sparse.linalg.splu((K + M).tocsc(), permc_spec="MMD_AT_PLUS_A",
+                                      diag_pivot_thresh=0.0,
+                                      options={"SymmetricMode": True})
+    except RuntimeError:  # singular K + M: the eigensolver reports it
+        return None
+    if not np.array_equal(lu.perm_r, lu.perm_c):  # not a symmetric factorisation
+        return None
+    n_neg = int(np.count_nonzero(lu.U.diagonal() < 0))
+    if n_neg:
+        return (f"{n_neg} eigenvalue(s) of K phi = lam M phi below -1 rad^2/s^2 (negative "
+                "pivots of K + M)")
+    return None
 
 
 def _check_matrix(p, key, name, a, what):
@@ -106,6 +155,22 @@ def _lowest_modes(K, M, n_modes, max_frequency):
         if lam_max is None or lam[-1] > lam_max or k >= MAX_MODES:
             return lam, vec
         k = min(2 * k, MAX_MODES, n - 1)
+
+
+def _rigid_body_gap(Kf, Mf, lam) -> bool:
+    """True when the lowest modes are rigid-body modes: eigenvalues at round-off, at
+    least 1e-8 below a higher mode (computed again, up to 12 modes, when too few are)."""
+    lam = np.abs(np.asarray(lam, float))
+    n = Kf.shape[0]
+    if lam.size < 12 and lam.size < n:
+        try:
+            lam = np.abs(np.asarray(_lowest_modes(Kf, Mf, min(12, n), None)[0], float))
+        except (RuntimeError, ValueError, np.linalg.LinAlgError,
+                scipy.sparse.linalg.ArpackError):
+            return True
+    top = float(lam.max(initial=0.0))
+    rigid = int(np.count_nonzero(lam < 1e-8 * top))
+    return 0 < rigid < lam.size
 
 
 def modes_from_matrices(
@@ -207,6 +272,12 @@ def modes_from_matrices(
     free = np.setdiff1d(np.arange(n), fixed)
     Kf = K[free][:, free].tocsc()
     Mf = M[free][:, free].tocsc()
+    why = _not_semidefinite(Kf, Mf, dof_base, free)
+    if why is not None:
+        p.add("stiffness_matrix", names["stiffness"],
+              "a positive semi-definite stiffness matrix on the free DOFs (after "
+              f"bridge.fixed_dofs): {why}")
+        p.raise_if_any()
     up_to = [f for f in (max_frequency, all_up_to) if f is not None]
     try:
         lam, vec = _lowest_modes(Kf, Mf, n_modes, max(up_to) if up_to else None)
@@ -223,6 +294,21 @@ def modes_from_matrices(
               "negative stiffness, or a mass matrix that is not positive definite)")
         p.raise_if_any()
     freqs = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
+    if freqs[0] < RIGID_BODY_HZ and not _rigid_body_gap(Kf, Mf, lam):
+        # every computed mode is low, none at round-off: units or swapped matrices
+        dk = float(np.max(np.abs(K.diagonal())))
+        dm = float(np.max(np.abs(M.diagonal())))
+        hint = (f"max diagonal entries: {dk:.4g} in {names['stiffness']}, {dm:.4g} in "
+                f"{names['mass']}; check the units, N/m and N m/rad for the stiffness, kg "
+                "and kg m^2 for the mass"
+                + (", and that bridge.stiffness_matrix and bridge.mass_matrix are not "
+                   "swapped (the masses are larger than the stiffnesses)" if dm > dk else
+                   ""))
+        p.add("stiffness_matrix", names["stiffness"],
+              f"a stiffness matrix in SI units that, with the mass matrix "
+              f"{names['mass']}, gives the frequencies of a bridge: the lowest modes are "
+              f"{freqs[0]:.3g} .. {freqs[-1]:.3g} Hz with no rigid-body gap ({hint})")
+        p.raise_if_any()
     if freqs[0] < RIGID_BODY_HZ:
         nr = int(np.count_nonzero(freqs < RIGID_BODY_HZ))
         p.add("fixed_dofs", (fixed + dof_base).tolist(),

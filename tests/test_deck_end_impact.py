@@ -147,7 +147,8 @@ def test_deck_end__impulse_matches_event_driven_reference(case, dt, shift):
     assert len(got) == 2  # the wheel's two ends (the force has no contact)
     for g, c in zip(got, crossings, strict=True):
         if c.impulse > 0:
-            # the velocities at the end are HHT's (O(dt^2)): 2 % of the impulse
-            assert g == pytest.approx(c.impulse, rel=0.02), (name, got, c)
+            # the velocities at the end are HHT's, O(dt^2): measured 2.6e-4 at 0.2 ms and
+            # 7e-5 at 0.1 ms; an impulse taken a step off the kink would be ~10 % off
+            assert g == pytest.approx(c.impulse, rel=2e-3), (name, got, c)
         else:
             assert g == 0.0  # released: no tensile impulse

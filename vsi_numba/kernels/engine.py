@@ -1139,7 +1139,8 @@ def crossing_step(br, veh, pr, prm, st, wk, t0, t1):
     a step spent on the rail it was on; the impact there (:func:`impact_update`, an LCP
     whose crossing wheel may only be pushed) then sees the true velocity jump of the
     rail: a plastic impact where the rail turns towards the wheel (a hogging deck end),
-    a free separation where it turns away.  Pieces shorter than
+    a free separation where it turns away.  The rest of the step after the last event
+    is taken in 2^CROSSING_LEVELS substeps.  Pieces shorter than
     ``CROSSING_MIN_FRACTION`` dt are not integrated: the event is taken at the start
     of the piece (the impact on the state there) or the state stands for ``t1``.
     The pieces' vehicle blocks are inverted here (``level = -1``).
@@ -1185,14 +1186,24 @@ def crossing_step(br, veh, pr, prm, st, wk, t0, t1):
                     wk.imp[i] += wk.impulse[i]
         t = tc
     if t1 - t > eta:
-        for i in range(n_w):
-            wk.was_active[i] = wk.active[i]
-        status, it = vsi_step(br, veh, pr, prm, st, wk, t1, t1 - t, -1)
-        total += it
-        if status != OK:
-            return status, total
-        for i in range(n_w):
-            wk.imp[i] += wk.impulse[i]
+        # the rest of the step in 2^CROSSING_LEVELS substeps (at most max_sub halvings):
+        # a wheel the kink released (the rail turning away by a little) lands again
+        # within microseconds; landing at the end of a whole step would leave its
+        # impact transient in the step's recorded force
+        m = 1 << min(prm.max_sub, CROSSING_LEVELS) if t > t0 else 1
+        while m > 1 and (t1 - t) / m <= eta:
+            m //= 2
+        h = (t1 - t) / m
+        for k in range(m):
+            for i in range(n_w):
+                wk.was_active[i] = wk.active[i]
+            tk = t1 if k == m - 1 else t + (k + 1) * h
+            status, it = vsi_step(br, veh, pr, prm, st, wk, tk, h, -1)
+            total += it
+            if status != OK:
+                return status, total
+            for i in range(n_w):
+                wk.imp[i] += wk.impulse[i]
     for i in range(n_w):
         wk.impulse[i] = wk.imp[i]  # the step's impulses, all pieces
     return OK, total

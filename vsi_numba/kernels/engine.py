@@ -1552,9 +1552,10 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
         if prm.contact_model == 0 and br.track == 0 and crosses_deck_end(
                 br, veh, n * dt, (n + 1) * dt, prm.speed):
             # a wheel meets the velocity jump of the rail at a deck end in this step
-            if wk.khv.shape[0] == veh.start.shape[0] - 1:
+            if wk.khv.shape[0] == veh.start.shape[0] - 1 and prm.max_sub > 0:
                 # split at the crossing times: the impact sees the exact jump (design
-                # note 1.4); a failure is retried in halvings below
+                # note 1.4); a failure is retried in halvings below (max_sub = 0: no
+                # step is ever split, the crossing is one step)
                 status, iters = crossing_step(br, veh, pr, prm, st, wk, n * dt,
                                               (n + 1) * dt)
             else:

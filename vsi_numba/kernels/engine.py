@@ -204,6 +204,9 @@ class Output(NamedTuple):
     iters: np.ndarray  # (n_slots, n_steps + 1) int16
     # pitch acceleration of each reported body (0 without a pitch DOF), rad/s2
     body_pitch: np.ndarray = np.zeros((0, 0, 0))  # (n_slots, n_steps + 1, n_veh)
+    # total modal force of the step (the F of the mode-acceleration load effects), N
+    # per unit mode; (0, 0, 0) when the load effects are off
+    fq: np.ndarray = np.zeros((0, 0, 0))  # (n_slots, n_steps + 1, n_m)
 
 
 class Reduce(NamedTuple):
@@ -244,6 +247,30 @@ class Reduce(NamedTuple):
     gacc_t: np.ndarray  # (n_runs,) s
     gacc_i: np.ndarray  # (n_runs,) int64: grid point of the maximum
     gwork: np.ndarray  # (n_g,) scratch: accelerations on the grid
+    # Load effects by the mode-acceleration method (le_static, le_finish), on n_c
+    # channels: bending moment at the n_s sections (ascending x), shear force at the
+    # sections, reactions and rotations at the n_sup supports.  n_c = 0: off.
+    # effect = sum_k P_k G(x_k) (exact static beam) + sum_j E[j, c] (q_j - F_j / w_j^2)
+    le_sup: np.ndarray = np.zeros(0)  # (n_sup,) support abscissae, m
+    le_L: np.ndarray = np.zeros(0)  # (n_span,) span lengths, m
+    le_EI: np.ndarray = np.zeros(0)  # (n_span,) N m2
+    le_A: np.ndarray = np.zeros((0, 0))  # (n_span, n_sup) support-moment influence
+    le_B: np.ndarray = np.zeros((0, 0))  # (n_span, n_sup)  xi (1 - xi) (A + B xi)
+    le_X: np.ndarray = np.zeros(0)  # (n_s,) section abscissa in its span, m
+    le_span: np.ndarray = np.zeros(0, np.int64)  # (n_s,) span of each section
+    le_E: np.ndarray = np.zeros((0, 0))  # (n_m, n_c) effect of q_j = 1
+    le_w2inv: np.ndarray = np.zeros(0)  # (n_m,) 1 / w_j^2
+    le_order: np.ndarray = np.zeros(0, np.int64)  # (n_l,) moving loads by x0 ascending
+    le_val: np.ndarray = np.zeros(0)  # (n_c,) scratch: effects of the step
+    le_Ms: np.ndarray = np.zeros(0)  # (n_sup,) scratch: support moments, N m
+    le_acc: np.ndarray = np.zeros((4, 0))  # (4, n_span) scratch: span reactions, slopes
+    le_lx: np.ndarray = np.zeros(0)  # (n_l + n_w,) scratch: loads on the deck, m
+    le_lp: np.ndarray = np.zeros(0)  # (n_l + n_w,) scratch: their forces, N (down)
+    le_ls: np.ndarray = np.zeros(0, np.int64)  # (n_l + n_w,) scratch: their spans
+    le_max: np.ndarray = np.zeros((0, 0))  # (n_runs, n_c) maximum over time
+    le_max_t: np.ndarray = np.zeros((0, 0))  # (n_runs, n_c) s
+    le_min: np.ndarray = np.zeros((0, 0))  # (n_runs, n_c) minimum over time
+    le_min_t: np.ndarray = np.zeros((0, 0))  # (n_runs, n_c) s
 
 
 class Initial(NamedTuple):
@@ -1500,10 +1527,15 @@ def record(veh, st, wk, red, r, n, t, speed, out, h, iters):
                 red.body_x[r, b] = veh.body_pt_d[k]
     if iters > red.iters[r]:
         red.iters[r] = iters
+    if red.le_E.shape[1] > 0:
+        le_record(veh, st, red, r, n, t, speed)
     if h >= 0:
         for j in range(n_m):
             out.q[h, n, j] = st.q[j]
             out.qdd[h, n, j] = st.qdd[j]
+        if out.fq.shape[0] > 0:
+            for j in range(n_m):
+                out.fq[h, n, j] = st.fq_tot[j]
         for i in range(veh.wheel_dof.shape[0]):
             out.X[h, n, i] = wk.xout[i]
             out.contact[h, n, i] = wk.active[i]
@@ -1516,6 +1548,160 @@ def record(veh, st, wk, red, r, n, t, speed, out, h, iters):
                     pa = st.udd[veh.body_pt_pitch[k]]
             out.body_pitch[h, n, b] = pa
         out.iters[h, n] = iters
+
+
+@njit
+def le_static(red, nl):
+    """Static load effects of the ``nl`` point loads ``red.le_lx`` (m, ascending, on
+    the deck) of forces ``red.le_lp`` (N, down) into ``red.le_val``: exact
+    Euler-Bernoulli beam on point supports (vsi_numba.model.influence).
+
+    Each load adds its span's simply supported reactions and end slopes and, on a
+    continuous deck, the support moments of its influence cubic; the sections are then
+    swept left to right (one pass over sections and loads: O(n_s + nl)),
+    M = R_A X - sum_{a_k <= X} P_k (X - a_k) + the support moments interpolated,
+    V = dM/dx (the value just right of a load or support).
+    """
+    sup = red.le_sup
+    L = red.le_L
+    EI = red.le_EI
+    n_span = L.shape[0]
+    n_sup = n_span + 1
+    n_s = red.le_X.shape[0]
+    val = red.le_val
+    Ms = red.le_Ms
+    acc = red.le_acc
+    lx = red.le_lx
+    lp = red.le_lp
+    ls = red.le_ls
+    for i in range(n_sup):
+        Ms[i] = 0.0
+    for k in range(n_span):
+        acc[0, k] = 0.0
+        acc[1, k] = 0.0
+        acc[2, k] = 0.0
+        acc[3, k] = 0.0
+    s = 0
+    for k in range(nl):
+        x = lx[k]
+        p = lp[k]
+        while s < n_span - 1 and x >= sup[s + 1]:
+            s += 1
+        ls[k] = s
+        Ls = L[s]
+        a = x - sup[s]
+        b = Ls - a
+        acc[0, s] += p * b / Ls
+        acc[1, s] += p * a / Ls
+        c = p * a * b / (6.0 * EI[s] * Ls)
+        acc[2, s] += c * (Ls + b)
+        acc[3, s] -= c * (Ls + a)
+        if n_span > 1:
+            xi = a / Ls
+            g = p * xi * (1.0 - xi)
+            for i in range(1, n_sup - 1):
+                Ms[i] += g * (red.le_A[s, i] + red.le_B[s, i] * xi)
+    kk = 0
+    cur = -1
+    s0 = 0.0
+    s1 = 0.0
+    for q in range(n_s):
+        sp = red.le_span[q]
+        X = red.le_X[q]
+        Ls = L[sp]
+        if sp != cur:
+            cur = sp
+            s0 = 0.0
+            s1 = 0.0
+            while kk < nl and ls[kk] < sp:
+                kk += 1
+        while kk < nl and ls[kk] == sp and lx[kk] - sup[sp] <= X:
+            s0 += lp[kk]
+            s1 += lp[kk] * (lx[kk] - sup[sp])
+            kk += 1
+        ra = acc[0, sp] - s0
+        xi = X / Ls
+        val[q] = X * ra + s1 + Ms[sp] * (1.0 - xi) + Ms[sp + 1] * xi
+        val[n_s + q] = ra + (Ms[sp + 1] - Ms[sp]) / Ls
+    o = 2 * n_s
+    for k in range(n_sup):
+        v = 0.0
+        if k < n_span:
+            v += acc[0, k] + (Ms[k + 1] - Ms[k]) / L[k]
+        if k > 0:
+            v += acc[1, k - 1] - (Ms[k] - Ms[k - 1]) / L[k - 1]
+        val[o + k] = v
+    o += n_sup
+    for k in range(n_span):
+        c = L[k] / (6.0 * EI[k])
+        val[o + k] = acc[2, k] + c * (2.0 * Ms[k] + Ms[k + 1])
+    k = n_span - 1
+    c = L[k] / (6.0 * EI[k])
+    val[o + n_span] = acc[3, k] - c * (Ms[k] + 2.0 * Ms[k + 1])
+
+
+@njit
+def le_finish(red, q, f, r, n, t):
+    """Add the modal correction sum_j E[j, c] (q_j - f_j / w_j^2) to the static effects
+    in ``red.le_val`` and fold them into the envelopes of run ``r`` (step ``n``, time
+    ``t``)."""
+    val = red.le_val
+    E = red.le_E
+    n_c = E.shape[1]
+    for j in range(q.shape[0]):
+        cj = q[j] - f[j] * red.le_w2inv[j]
+        for c in range(n_c):
+            val[c] += E[j, c] * cj
+    mx = red.le_max
+    mn = red.le_min
+    if n == 0:
+        for c in range(n_c):
+            mx[r, c] = val[c]
+            mn[r, c] = val[c]
+            red.le_max_t[r, c] = t
+            red.le_min_t[r, c] = t
+        return
+    for c in range(n_c):
+        v = val[c]
+        if v > mx[r, c]:
+            mx[r, c] = v
+            red.le_max_t[r, c] = t
+        elif v < mn[r, c]:
+            mn[r, c] = v
+            red.le_min_t[r, c] = t
+
+
+@njit
+def le_record(veh, st, red, r, n, t, speed):
+    """Load effects of step ``n`` of the general time loop: the moving forces and the
+    contact forces of the wheels on the deck (at the deck line), with the step's total
+    modal force ``st.fq_tot``."""
+    length = red.le_sup[red.le_sup.shape[0] - 1]
+    nl = 0
+    for i in range(veh.wheel_dof.shape[0] - 1, -1, -1):
+        x = veh.wheel_x0[i] + speed * t
+        if st.X[i] != 0.0 and x >= 0.0 and x <= length:
+            red.le_lx[nl] = x
+            red.le_lp[nl] = st.X[i]
+            nl += 1
+    for k in range(veh.load_x0.shape[0] - 1, -1, -1):
+        x = veh.load_x0[k] + speed * t
+        if x >= 0.0 and x <= length:
+            red.le_lx[nl] = x
+            red.le_lp[nl] = veh.load_p[k]
+            nl += 1
+    for k in range(1, nl):  # insertion sort (the train's order: nearly sorted)
+        x = red.le_lx[k]
+        p = red.le_lp[k]
+        m = k - 1
+        while m >= 0 and red.le_lx[m] > x:
+            red.le_lx[m + 1] = red.le_lx[m]
+            red.le_lp[m + 1] = red.le_lp[m]
+            m -= 1
+        red.le_lx[m + 1] = x
+        red.le_lp[m + 1] = p
+    le_static(red, nl)
+    le_finish(red, st.q, st.fq_tot, r, n, t)
 
 
 @njit(inline="always")
@@ -1707,6 +1893,11 @@ def mf_time_loop(br, veh, prm, st, wk, red, r, out, h, on, off, cs, sums):
     hq = out.q
     hqdd = out.qdd
     hit = out.iters
+    hfq = out.fq
+    le_on = red.le_E.shape[1] > 0
+    order = red.le_order
+    lo = n_l  # moving loads on the bridge: order[lo:hi] (ascending x: a window)
+    hi = n_l
     first = 0  # loads before ``first`` have left the bridge for good
     nxt = 0  # next step at which the loads on the bridge change (sine modes)
     k1 = br.sine_k[0] if br.kind == 1 and n_m > 0 else 0.0
@@ -1794,11 +1985,27 @@ def mf_time_loop(br, veh, prm, st, wk, red, r, out, h, on, off, cs, sums):
                         gacc_t[r] = t
                         gacc_i[r] = p
                         break
+        if le_on:
+            while lo > 0 and on[order[lo - 1]] <= n:
+                lo -= 1
+            while hi > lo and off[order[hi - 1]] <= n:
+                hi -= 1
+            nl = 0
+            for i in range(lo, hi):
+                k = order[i]
+                red.le_lx[nl] = load_x0[k] + speed * t1
+                red.le_lp[nl] = load_p[k]
+                nl += 1
+            le_static(red, nl)
+            le_finish(red, q, fq, r, n + 1, t)
         if h >= 0:
             for j in range(n_m):
                 hq[h, n + 1, j] = q[j]
                 hqdd[h, n + 1, j] = qdd[j]
             hit[h, n + 1] = 1
+            if hfq.shape[0] > 0:
+                for j in range(n_m):
+                    hfq[h, n + 1, j] = fq[j]
     if prm.n_steps > 0 and red.iters[r] < 1:
         red.iters[r] = 1  # the contact "solve" with no wheels: one pass per step
     return OK, prm.n_steps

@@ -1359,3 +1359,145 @@ def quarter_car_elastic_joint(
         wq_x, g, _ = under_wheel(t, y[:n_modes])
         force[k] = (y[2 * n_modes + 2] - wq_x) / g
     return JointResult(t=sol.t, force=force, x=x_start + speed * sol.t, static_force=P0)
+
+
+# ------------------------------------ deck-end crossings of the event-driven quarter car
+
+
+@dataclass
+class DeckEndCrossing:
+    """The wheel of a :class:`FlexibleEventDriven` solution passing an end of the span."""
+
+    t: float  # s
+    x: float  # m (0 or L)
+    in_contact: bool  # on the rail just before the end
+    rail_velocity_before: float  # m/s, down, on the side the wheel comes from
+    rail_velocity_after: float  # m/s, down, on the side it goes to
+    impulse: float  # N s: m_w (before - after); > 0 a plastic impact, <= 0 a lift-off
+
+
+def deck_end_crossings(sol: FlexibleEventDriven) -> list[DeckEndCrossing]:
+    """Both ends of the span as the wheel of ``sol`` passes them, from its dense output.
+
+    Phi = 0 at the supports, so the rail's down velocity there is v phi'(x) q on the
+    deck and 0 on the rigid approach; a wheel on the rail keeps the velocity of the side
+    it comes from until the end, and the impulse that keeps it on the other side is
+    m_w (before - after) (the deck takes none: phi = 0).  ``sol`` applied it where it is
+    compressive (an upward kink of the running surface) and let the wheel fly where not.
+    """
+    out = []
+    n = sol.n_modes
+    for xm in (0.0, sol.L):
+        t = (xm - sol.x_start) / sol.speed
+        j = sol.pieces.index(t)
+        if sol.pieces.t0[j] >= t:  # the segment before the end
+            j -= 1
+        s = sol.pieces.sols[j](t)
+        contact = sol.pieces.tags[j] == "contact"
+        q, qd = (s[2:2 + n], s[2 + n:]) if contact else (s[4:4 + n], s[4 + n:])
+        _, before, _ = sol._rail(t, q, qd, -1.0)
+        _, after, _ = sol._rail(t, q, qd, +1.0)
+        out.append(DeckEndCrossing(t, xm, contact, float(before), float(after),
+                                   float(sol.wheel_mass * (before - after))))
+    return out
+
+
+# -------------------------------------- vehicles with nonlinear suspensions on a rigid rail
+
+
+def bump_stop_force(d, d_on, k_stop):
+    """Force (N) of a bump stop closing at compression ``d_on`` (m): k (d - d_on)+."""
+    return k_stop * np.maximum(d - d_on, 0.0)
+
+
+def blowoff_damper_force(dd, c, f_blow, c_post):
+    """Force (N) of a damper with a blow-off valve: c dd up to |f| = f_blow, then
+    f_blow + c_post (|dd| - f_blow / c), odd in the rate dd (m/s)."""
+    v_b = f_blow / c
+    a = np.abs(dd)
+    return np.sign(dd) * np.where(a <= v_b, c * a, f_blow + c_post * (a - v_b))
+
+
+@dataclass
+class RigidRailRun:
+    """Output of :func:`vehicle_on_rigid_rail` at the times ``t``."""
+
+    t: np.ndarray  # (n_t,) s
+    u: np.ndarray  # (n_t, n) displacements (m, rad), positive down
+    a: np.ndarray  # (n_t, n) accelerations
+    wheel_force: np.ndarray  # (n_t, n_w) N, compression
+    element: np.ndarray  # (n_t, n_e) compression of each nonlinear element, m
+    element_rate: np.ndarray  # (n_t, n_e) m/s
+
+
+def vehicle_on_rigid_rail(M, C, K, gravity, wheel_dofs, wheel_x0, speed, profile, forces,
+                          t_eval, rtol=1e-10, atol=1e-13) -> RigidRailRun:
+    """A vehicle whose wheels follow a rigid rail (bilateral contact), with nonlinear
+    suspension elements, integrated by ``solve_ivp`` (DOP853).
+
+    Parameters
+    ----------
+    M, C, K, gravity : the linear vehicle (positive down).
+    wheel_dofs : wheel DOFs; wheel ``i`` is at ``wheel_x0[i] + speed t`` and its
+        displacement is the rail's, ``profile(x)`` (derivatives by ``derivative=``).
+    forces : list of (row, f) with ``f(d, dd)`` the element force (N) beyond the linear
+        K, C at compression ``d = row @ u`` and rate ``dd = row @ v``; it acts as
+        ``row^T f``.
+    t_eval : output times, starting at 0 with the free DOFs in static equilibrium on a
+        level rail (the elements must be inactive there).
+
+    Notes
+    -----
+    The free DOFs obey M_ff a_f = g_f - (K u + C v + sum row f)_f - M_fw a_w with the
+    wheel motions prescribed; the wheel forces are
+    X_w = g_w - (M a + K u + C v + sum row f)_w.  The element forces are continuous
+    with kinks (the bump stop closing, the valve opening): DOP853 at rtol 1e-10 meets
+    them by step rejection.
+    """
+    n = M.shape[0]
+    wheel_dofs = np.asarray(wheel_dofs)
+    wheel_x0 = np.asarray(wheel_x0, float)
+    free = np.setdiff1d(np.arange(n), wheel_dofs)
+    Mff = M[np.ix_(free, free)]
+
+    def rail(t):
+        x = wheel_x0 + speed * t
+        return (profile(x), speed * profile(x, 1), speed**2 * profile(x, 2))
+
+    def full(t, y):
+        u = np.zeros(n)
+        v = np.zeros(n)
+        a = np.zeros(n)
+        r, rd, rdd = rail(t)
+        u[free], v[free] = y[:free.size], y[free.size:]
+        u[wheel_dofs], v[wheel_dofs], a[wheel_dofs] = r, rd, rdd
+        f = K @ u + C @ v
+        for row, law in forces:
+            f = f + row * law(row @ u, row @ v)
+        a[free] = np.linalg.solve(Mff, gravity[free] - f[free] - M[free][:, wheel_dofs]
+                                  @ a[wheel_dofs])
+        return u, v, a, f
+
+    def rhs(t, y):
+        _, v, a, _ = full(t, y)
+        return np.concatenate([v[free], a[free]])
+
+    u0 = np.zeros(n)
+    u0[free] = np.linalg.solve(K[np.ix_(free, free)], gravity[free])
+    y0 = np.concatenate([u0[free], np.zeros(free.size)])
+    t_eval = np.asarray(t_eval, float)
+    sol = scipy.integrate.solve_ivp(rhs, (t_eval[0], t_eval[-1]), y0, method="DOP853",
+                                    rtol=rtol, atol=atol, t_eval=t_eval)
+    if not sol.success:
+        raise RuntimeError(sol.message)
+    U, A, X = [], [], []
+    E, ED = [], []
+    for t, y in zip(sol.t, sol.y.T, strict=True):
+        u, v, a, f = full(t, y)
+        U.append(u)
+        A.append(a)
+        X.append((gravity - M @ a - f)[wheel_dofs])
+        E.append([row @ u for row, _ in forces])
+        ED.append([row @ v for row, _ in forces])
+    return RigidRailRun(sol.t, np.array(U), np.array(A), np.array(X),
+                        np.array(E).reshape(len(U), -1), np.array(ED).reshape(len(U), -1))

@@ -56,11 +56,64 @@ _VEHICLE_FIELDS: dict[str, dict[str, _Num]] = {
 }
 _USER_KEYS = ("M", "C", "K", "wheel_dofs", "wheel_positions", "gravity", "body_dof")
 _COMMON_VEHICLE_KEYS = ("kind", "offset", "name")
+# nonlinear suspension elements: key -> (model class, fields, the damping key it needs)
+_BUMP_STOP_FIELDS = {
+    "gap": _Num("a clearance > 0 m (compression beyond the static position)", gt=0),
+    "stiffness": _Num("a stiffness > 0 N/m (added beyond the gap)", gt=0),
+}
+_BLOWOFF_FIELDS = {
+    "force": _Num("a blow-off force > 0 N", gt=0),
+    "post_damping": _Num("a damping >= 0 N s/m beyond the blow-off", ge=0, default=0.0),
+}
+_NONLINEAR_KEYS: dict[str, dict[str, tuple]] = {
+    "sprung_mass": {
+        "bump_stop": (_veh.BumpStop, _BUMP_STOP_FIELDS, None),
+        "damper_blowoff": (_veh.DamperBlowoff, _BLOWOFF_FIELDS, "damping"),
+    },
+    "car": {
+        "primary_bump_stop": (_veh.BumpStop, _BUMP_STOP_FIELDS, None),
+        "primary_damper_blowoff": (_veh.DamperBlowoff, _BLOWOFF_FIELDS, "primary_damping"),
+        "secondary_bump_stop": (_veh.BumpStop, _BUMP_STOP_FIELDS, None),
+        "secondary_damper_blowoff": (_veh.DamperBlowoff, _BLOWOFF_FIELDS,
+                                     "secondary_damping"),
+    },
+}
 
 
 def _vehicle_keys(kind):
     extra = _USER_KEYS if kind == "user" else tuple(_VEHICLE_FIELDS[kind])
-    return set(_COMMON_VEHICLE_KEYS) | set(extra)
+    return set(_COMMON_VEHICLE_KEYS) | set(extra) | set(_NONLINEAR_KEYS.get(kind, ()))
+
+
+def _nonlinear(chk, v, path, kind, vals, res):
+    """The vehicle's nonlinear suspension elements (``{key: BumpStop | DamperBlowoff}``),
+    or ``_BAD``; their resolved tables go to ``res``."""
+    out = {}
+    for key, (cls, fields, damping_key) in _NONLINEAR_KEYS.get(kind, {}).items():
+        if key not in v:
+            continue
+        kp = f"{path}.{key}"
+        tbl = v[key]
+        what = " (" + ", ".join(f"{k} = ..." for k in fields) + ")"
+        if not isinstance(tbl, Mapping):
+            out[key] = chk.error(kp, tbl, f"a table{what}")
+            continue
+        chk.table(tbl, kp, set(fields))
+        got = chk.numbers(tbl, kp, fields)
+        if not _ok(*got.values()):
+            out[key] = _BAD
+            continue
+        if damping_key is not None:
+            c = vals.get(damping_key)
+            if _ok(c) and not got["post_damping"] < c:
+                out[key] = chk.error(
+                    f"{kp}.post_damping" if "post_damping" in tbl else kp, dict(tbl),
+                    f"a blow-off on a damper: {path}.{damping_key} = {c!r} N s/m must be > "
+                    f"post_damping = {got['post_damping']!r} N s/m")
+                continue
+        out[key] = cls(**got)
+        res[key] = dict(got)
+    return out
 
 
 def _matrix(chk, value, path, n=None):
@@ -176,19 +229,20 @@ def _vehicle(chk, v, path, index):
         return veh, offset, res
     vals = chk.numbers(v, path, _VEHICLE_FIELDS[kind])
     res.update(_drop_none(vals))
-    if not _ok(*vals.values(), name):
+    nonlinear = _nonlinear(chk, v, path, kind, vals, res)
+    if not _ok(*vals.values(), *nonlinear.values(), name):
         return _BAD, offset, res
     if kind == "force":
         veh = _veh.point_loads([0.0], [vals["load"]], name=name)
     elif kind == "sprung_mass":
         veh = _veh.sprung_mass(vals["mass"], vals["stiffness"], vals["damping"],
-                               vals["wheel_mass"], name=name)
+                               vals["wheel_mass"], name=name, **nonlinear)
     else:
-        veh = _car(chk, vals, path, name)
+        veh = _car(chk, vals, path, name, nonlinear)
     return veh, offset, res
 
 
-def _car(chk, vals, path, name):
+def _car(chk, vals, path, name, nonlinear=None):
     if vals["bogie_spacing"] <= vals["wheelbase"]:
         return chk.error(f"{path}.bogie_spacing", vals["bogie_spacing"],
                          f"a distance between bogie centres > the wheelbase "
@@ -197,7 +251,8 @@ def _car(chk, vals, path, name):
     if cg is not None and cg > vals["bogie_spacing"]:
         return chk.error(f"{path}.body_cg_to_front_bogie", cg,
                          f"a distance between 0 and bogie_spacing = {vals['bogie_spacing']:g} m")
-    return _veh.railway_car(**{k: vals[k] for k in _VEHICLE_FIELDS["car"]}, name=name)
+    return _veh.railway_car(**{k: vals[k] for k in _VEHICLE_FIELDS["car"]}, name=name,
+                            **(nonlinear or {}))
 
 
 @dataclass(frozen=True)

@@ -19,6 +19,13 @@ X_i         contact force of wheel i (>= 0, compression), generalised force -B_i
 K^          effective stiffness a0 M + (1 + alpha)(a1 C + K): diagonal for the modes,
             a dense block per vehicle, inverted once per analysis
 S           Schur complement B K^-1 B^T on the contact forces
+a_e         row of nonlinear suspension element e over its vehicle's DOFs: the element's
+            compression delta_e = a_e u (velocity a_e udot); its force beyond the linear
+            spring-dashpot (already in K, C) is f_e(delta_e, deltadot_e), piecewise linear
+            (bump stop: k_s (delta - delta_on) above delta_on; damper blow-off: the
+            damper force saturated at F_b plus c2 beyond); on branch b of each element
+            f_e = k_t delta + c_t deltadot + f_0 (Eq. (3) of the 2014 paper: R(u) solved by
+            Newton with the tangent K_t = K + sum_e k_t a_e^T a_e, C_t likewise)
 
 Status codes returned by the kernels (translated to messages by the solver wrapper)
 0 ok, 1 contact iterations not converged, 2 singular contact (Schur) system,
@@ -86,6 +93,15 @@ class VehicleArrays(NamedTuple):
     body_pt_start: np.ndarray = np.zeros(1, np.int64)  # (n_b + 1,)
     body_pt_pitch: np.ndarray = np.zeros(0, np.int64)  # (n_pt,) global pitch DOF or -1
     body_pt_d: np.ndarray = np.zeros(0)  # (n_pt,) m ahead of the centre of gravity
+    # nonlinear suspension elements (see the legend), grouped by vehicle: vehicle b has
+    # the elements nl_start[b] .. nl_start[b + 1] - 1; none: every vehicle is linear and
+    # the step is the linear one, bit for bit
+    nl_veh: np.ndarray = np.zeros(0, np.int64)  # (n_e,) vehicle index
+    nl_start: np.ndarray = np.zeros(1, np.int64)  # (n_veh + 1,)
+    nl_kind: np.ndarray = np.zeros(0, np.int64)  # (n_e,) NL_BUMP_STOP | NL_BLOWOFF
+    nl_a: np.ndarray = np.zeros((0, 1))  # (n_e, nb) a_e over the vehicle's local DOFs
+    # bump stop: (delta_on m, k_s N/m, 0); blow-off: (c N s/m, F_b N, c2 N s/m)
+    nl_p: np.ndarray = np.zeros((0, 3))  # (n_e, 3)
 
 
 class ProfileArrays(NamedTuple):
@@ -151,6 +167,16 @@ class Work(NamedTuple):
     lw: np.ndarray  # (n_w,) LCP complement w (separation velocity or acceleration)
     lin: np.ndarray  # (n_w,) int: LCP set (1: z free, w = 0)
     impulse: np.ndarray  # (n_w,) compressive impact impulse of the step, N s (diagnostic)
+    # effective-stiffness inverses of the vehicle blocks for steps that are not dt/2^k
+    # (deck-end events) or whose nonlinear elements are off their linear branch
+    # (:func:`prepare_khat`); empty: deck-end crossings fall back to uniform substeps
+    khv: np.ndarray = np.zeros((0, 0, 0))  # (n_veh, nb, nb)
+    kh_dt: np.ndarray = np.zeros(0)  # (n_veh,) step size of the stored block (0: none)
+    kh_sig: np.ndarray = np.zeros(0, np.int64)  # (n_veh,) branch signature of the block
+    kscr: np.ndarray = np.zeros((0, 0))  # (nb, nb) scratch of the inversion
+    nlb: np.ndarray = np.zeros(0, np.int64)  # (n_e,) branch of each nonlinear element
+    nbk: np.ndarray = np.zeros(0)  # (4 n_m + 4 n_v + n_w,) state at the start of a step
+    imp: np.ndarray = np.zeros(0)  # (n_w,) impulses summed over the pieces of a step, N s
 
 
 class State(NamedTuple):
@@ -863,6 +889,355 @@ def consistent_accelerations(br, veh, wk, st, speed, scale, dt, max_iter, tol_fo
     return OK
 
 
+# ----------------------------------------------- variable steps and nonlinear elements
+
+# Deck-end events closer than this share of dt to the start or the end of a step piece
+# are taken at that end: a piece of ~1e-4 dt still resolves its accelerations (round-off
+# of the gap constraint, ~1e-18 m, over (1e-4 dt)^2), and the event moves by <= 1e-4 dt.
+CROSSING_MIN_FRACTION = 1e-4
+NL_BUMP_STOP, NL_BLOWOFF = 0, 1
+
+
+@njit
+def invert_small(A, n, out):
+    """Inverse of ``A[:n, :n]`` into ``out[:n, :n]`` by Gauss-Jordan elimination with
+    partial pivoting (``A`` is destroyed).  Returns 0, or 1 if ``A`` is singular."""
+    for i in range(n):
+        for j in range(n):
+            out[i, j] = 1.0 if i == j else 0.0
+    for c in range(n):
+        p = c
+        big = abs(A[c, c])
+        for r in range(c + 1, n):
+            if abs(A[r, c]) > big:
+                big = abs(A[r, c])
+                p = r
+        if not big > 0.0 or not np.isfinite(big):
+            return 1
+        if p != c:
+            for j in range(n):
+                A[c, j], A[p, j] = A[p, j], A[c, j]
+                out[c, j], out[p, j] = out[p, j], out[c, j]
+        piv = A[c, c]
+        for j in range(n):
+            A[c, j] /= piv
+            out[c, j] /= piv
+        for r in range(n):
+            if r != c:
+                f = A[r, c]
+                if f != 0.0:
+                    for j in range(n):
+                        A[r, j] -= f * A[c, j]
+                        out[r, j] -= f * out[c, j]
+    return 0
+
+
+@njit(inline="always")
+def nl_law(kind, p, branch):
+    """(k_t, c_t, f_0) of a nonlinear element on ``branch``: its force beyond the linear
+    spring-dashpot is k_t delta + c_t deltadot + f_0 (N; see the legend)."""
+    if branch == 0:
+        return 0.0, 0.0, 0.0
+    if kind == NL_BUMP_STOP:  # p = (delta_on, k_s, -)
+        return p[1], 0.0, -p[1] * p[0]
+    # blow-off, p = (c, F_b, c2): F_b + c2 (deldot - F_b / c) beyond +F_b / c, minus c deldot
+    return 0.0, p[2] - p[0], branch * (p[1] - p[2] * p[1] / p[0])
+
+
+@njit(inline="always")
+def nl_branch(kind, p, d, dd):
+    """Branch of a nonlinear element at compression ``d`` and its rate ``dd``: bump stop
+    0 open, 1 closed; blow-off 0 linear, +1 / -1 blown off in compression / extension."""
+    if kind == NL_BUMP_STOP:
+        return 1 if d > p[0] else 0
+    f = p[0] * dd
+    if f > p[1]:
+        return 1
+    if f < -p[1]:
+        return -1
+    return 0
+
+
+@njit(inline="always")
+def nl_strain(veh, e, x):
+    """a_e x: the compression (or its rate, its acceleration) of element ``e``."""
+    b = veh.nl_veh[e]
+    s0 = veh.start[b]
+    s = 0.0
+    for c in range(veh.start[b + 1] - s0):
+        s += veh.nl_a[e, c] * x[s0 + c]
+    return s
+
+
+@njit(inline="always")
+def nl_signature(veh, wk, b):
+    """Branch set of vehicle ``b`` as one integer (0: every element on its linear
+    branch)."""
+    sig = 0
+    w = 1
+    for e in range(veh.nl_start[b], veh.nl_start[b + 1]):
+        k = wk.nlb[e]
+        sig += (k if k >= 0 else 2) * w
+        w *= 3
+    return sig
+
+
+@njit
+def prepare_khat(veh, wk, level, dt, alpha):
+    """Fill ``wk.khv`` with the effective-stiffness inverse of every vehicle block for
+    the step size ``dt`` and the elements' branches ``wk.nlb``: the packed
+    ``Khat_inv[level]`` where that is the one (``level >= 0``, linear branches), else
+    a0 M + (1 + alpha)(a1 (C + C_t) + K + K_t) inverted here.  A block is refactored
+    only when its step size or branch set changed.  Returns 0, or 1 if one is singular.
+    """
+    a0, a1, a2, a3, cv, ca, gamma, scale = hht_coefficients(alpha, dt)
+    has_nl = veh.nl_veh.shape[0] > 0
+    for b in range(veh.start.shape[0] - 1):
+        sig = nl_signature(veh, wk, b) if has_nl else 0
+        if wk.kh_dt[b] == dt and wk.kh_sig[b] == sig:
+            continue
+        n = veh.start[b + 1] - veh.start[b]
+        if sig == 0 and level >= 0:
+            for r in range(n):
+                for c in range(n):
+                    wk.khv[b, r, c] = veh.Khat_inv[level, b, r, c]
+        else:
+            A = wk.kscr
+            for r in range(n):
+                for c in range(n):
+                    A[r, c] = a0 * veh.M[b, r, c] + scale * (a1 * veh.C[b, r, c]
+                                                             + veh.K[b, r, c])
+            if has_nl:
+                for e in range(veh.nl_start[b], veh.nl_start[b + 1]):
+                    kt, ct, f0 = nl_law(veh.nl_kind[e], veh.nl_p[e], wk.nlb[e])
+                    w = scale * (kt + a1 * ct)
+                    if w != 0.0:
+                        for r in range(n):
+                            for c in range(n):
+                                A[r, c] += w * veh.nl_a[e, r] * veh.nl_a[e, c]
+            if invert_small(A, n, wk.khv[b]) != 0:
+                return 1
+        wk.kh_dt[b] = dt
+        wk.kh_sig[b] = sig
+    return 0
+
+
+@njit
+def nl_residual(veh, wk, st, dt, alpha):
+    """Add the nonlinear elements to the HHT residual of the vehicles (``wk.rv``):
+    -(1 + alpha) a_e (k_t delta_n + c_t a_e v* + f_0) + alpha a_e f_e(delta_n, deltadot_n)
+    on the branches ``wk.nlb`` (v* = udot_{n+1} - a1 Delta u, the part of the new
+    velocity known at t_n); the rest, (1 + alpha)(k_t + a1 c_t) a_e^T a_e Delta u, is in
+    the block of :func:`prepare_khat`."""
+    a0, a1, a2, a3, cv, ca, gamma, scale = hht_coefficients(alpha, dt)
+    beta = 0.25 * (1.0 - alpha) ** 2
+    wv = 1.0 - gamma / beta
+    wa = dt * (1.0 - 0.5 * gamma / beta)
+    for e in range(veh.nl_veh.shape[0]):
+        kind = veh.nl_kind[e]
+        p = veh.nl_p[e]
+        d = nl_strain(veh, e, st.u)
+        dd = nl_strain(veh, e, st.ud)
+        vs = wv * dd + wa * nl_strain(veh, e, st.udd)
+        k0, c0, f00 = nl_law(kind, p, nl_branch(kind, p, d, dd))
+        kt, ct, f0 = nl_law(kind, p, wk.nlb[e])
+        g = alpha * (k0 * d + c0 * dd + f00) - scale * (kt * d + ct * vs + f0)
+        b = veh.nl_veh[e]
+        s0 = veh.start[b]
+        for c in range(veh.start[b + 1] - s0):
+            wk.rv[s0 + c] += veh.nl_a[e, c] * g
+
+
+@njit
+def nl_update_branches(veh, wk, st, tol):
+    """Newton update of the branches from the state just computed: an element whose
+    assumed branch gives a force more than ``tol`` (N) off its law moves to the branch
+    of its new compression and rate.  Returns True if any moved."""
+    changed = False
+    for e in range(veh.nl_veh.shape[0]):
+        kind = veh.nl_kind[e]
+        p = veh.nl_p[e]
+        d = nl_strain(veh, e, st.u)
+        dd = nl_strain(veh, e, st.ud)
+        bn = nl_branch(kind, p, d, dd)
+        if bn != wk.nlb[e]:
+            kt, ct, f0 = nl_law(kind, p, wk.nlb[e])
+            kn, cn, fn = nl_law(kind, p, bn)
+            if abs((kt - kn) * d + (ct - cn) * dd + f0 - fn) > tol:
+                wk.nlb[e] = bn
+                changed = True
+    return changed
+
+
+@njit
+def save_state(st, buf):
+    """State at the start of a step into the flat buffer ``buf``."""
+    k = 0
+    for a in (st.q, st.qd, st.qdd, st.fq_tot):
+        for j in range(a.shape[0]):
+            buf[k] = a[j]
+            k += 1
+    for a in (st.u, st.ud, st.udd, st.fv_tot):
+        for j in range(a.shape[0]):
+            buf[k] = a[j]
+            k += 1
+    for j in range(st.X.shape[0]):
+        buf[k] = st.X[j]
+        k += 1
+
+
+@njit
+def restore_state(buf, st):
+    """Inverse of :func:`save_state`."""
+    k = 0
+    for a in (st.q, st.qd, st.qdd, st.fq_tot):
+        for j in range(a.shape[0]):
+            a[j] = buf[k]
+            k += 1
+    for a in (st.u, st.ud, st.udd, st.fv_tot):
+        for j in range(a.shape[0]):
+            a[j] = buf[k]
+            k += 1
+    for j in range(st.X.shape[0]):
+        st.X[j] = buf[k]
+        k += 1
+
+
+@njit
+def vsi_step(br, veh, pr, prm, st, wk, t1, dt, level):
+    """One step of the coupled system: :func:`hht_step` when every vehicle is linear
+    (bit for bit); with nonlinear elements, Newton on their branches (Eq. (3) of the 2014
+    paper with the tangent stiffness and damping of each branch): solve the step with
+    the assumed branches, move the elements whose law the result violates, and solve it
+    again from the saved state until no element moves (a piecewise-linear law: the
+    iteration ends when the branch set is consistent; the vehicle blocks whose branch
+    set changed are refactored).  Returns (status, contact iterations summed)."""
+    if veh.nl_veh.shape[0] == 0:
+        return hht_step(br, veh, pr, prm, st, wk, t1, dt, level)
+    save_state(st, wk.nbk)
+    total = 0
+    for _ in range(prm.max_iter):
+        status, iters = hht_step(br, veh, pr, prm, st, wk, t1, dt, level)
+        total += iters
+        if status != OK:
+            return status, total
+        if not nl_update_branches(veh, wk, st, prm.tol_force):
+            return OK, total
+        restore_state(wk.nbk, st)
+        for i in range(veh.wheel_dof.shape[0]):
+            wk.onb[i] = wk.onb_prev[i]
+    return NOT_CONVERGED, total
+
+
+@njit
+def next_deck_end(br, veh, t, t1, speed):
+    """Earliest time in (t, t1] at which a wheel is on the other side of an end of the
+    deck than at ``t`` (the first float time whose abscissa x0 + v t the on-bridge test
+    of :func:`eval_modes` puts there); > t1 if none."""
+    best = t1 + 1.0
+    length = br.length
+    for i in range(veh.wheel_dof.shape[0]):
+        x0 = veh.wheel_x0[i]
+        xa = x0 + speed * t
+        xb = x0 + speed * t1
+        if xa < 0.0 <= xb:
+            tc = (0.0 - x0) / speed
+            while x0 + speed * tc < 0.0:
+                tc = np.nextafter(tc, np.inf)
+            while tc > t and x0 + speed * np.nextafter(tc, -np.inf) >= 0.0:
+                tc = np.nextafter(tc, -np.inf)
+        elif xa <= length < xb:
+            tc = (length - x0) / speed
+            while not x0 + speed * tc > length:
+                tc = np.nextafter(tc, np.inf)
+            while tc > t and x0 + speed * np.nextafter(tc, -np.inf) > length:
+                tc = np.nextafter(tc, -np.inf)
+        else:
+            continue
+        if tc < best:
+            best = tc
+    return best
+
+
+@njit
+def crossing_step(br, veh, pr, prm, st, wk, t0, t1):
+    """A step (t0, t1] in which wheels pass an end of the deck on the rigid track,
+    split at every crossing time (event-driven).
+
+    Each piece ends exactly where a wheel meets the kink of the running surface, after
+    a step spent on the rail it was on; the impact there (:func:`impact_update`, an LCP
+    whose crossing wheel may only be pushed) then sees the true velocity jump of the
+    rail: a plastic impact where the rail turns towards the wheel (a hogging deck end),
+    a free separation where it turns away.  The rest of the step after the last event
+    is taken in 2^CROSSING_LEVELS substeps.  Pieces shorter than
+    ``CROSSING_MIN_FRACTION`` dt are not integrated: the event is taken at the start
+    of the piece (the impact on the state there) or the state stands for ``t1``.
+    The pieces' vehicle blocks are inverted here (``level = -1``).
+    Returns (status, contact iterations summed).
+    """
+    eta = CROSSING_MIN_FRACTION * prm.dt
+    n_w = veh.wheel_dof.shape[0]
+    t = t0
+    total = 0
+    for i in range(n_w):
+        wk.imp[i] = 0.0
+    while True:
+        tc = next_deck_end(br, veh, t, t1, prm.speed)
+        if tc > t1:
+            break
+        for i in range(n_w):
+            wk.was_active[i] = wk.active[i]
+        if tc - t > eta:
+            status, it = vsi_step(br, veh, pr, prm, st, wk, tc, tc - t, -1)
+            total += it
+            if status != OK:
+                return status, total
+            for i in range(n_w):
+                wk.imp[i] += wk.impulse[i]
+        else:
+            # the wheels crossed within eta of t: the impact on the state at t
+            for i in range(n_w):
+                wk.onb_prev[i] = wk.onb[i]
+                wk.X[i] = st.X[i]
+                wk.xout[i] = st.X[i]
+                wk.impulse[i] = 0.0
+            contact_search(br, veh, pr, tc, prm.speed, wk)
+            landing = False
+            for i in range(n_w):
+                if wk.active[i] == 1 and wk.onb[i] != wk.onb_prev[i]:
+                    landing = True
+            if landing:
+                status = impact_update(br, veh, prm, st, wk, prm.dt)
+                if status != OK:
+                    return status, total
+                update_force_totals(br, veh, wk, st)
+                for i in range(n_w):
+                    wk.imp[i] += wk.impulse[i]
+        t = tc
+    if t1 - t > eta:
+        # the rest of the step in 2^CROSSING_LEVELS substeps (at most max_sub halvings):
+        # a wheel the kink released (the rail turning away by a little) lands again
+        # within microseconds; landing at the end of a whole step would leave its
+        # impact transient in the step's recorded force
+        m = 1 << min(prm.max_sub, CROSSING_LEVELS) if t > t0 else 1
+        while m > 1 and (t1 - t) / m <= eta:
+            m //= 2
+        h = (t1 - t) / m
+        for k in range(m):
+            for i in range(n_w):
+                wk.was_active[i] = wk.active[i]
+            tk = t1 if k == m - 1 else t + (k + 1) * h
+            status, it = vsi_step(br, veh, pr, prm, st, wk, tk, h, -1)
+            total += it
+            if status != OK:
+                return status, total
+            for i in range(n_w):
+                wk.imp[i] += wk.impulse[i]
+    for i in range(n_w):
+        wk.impulse[i] = wk.imp[i]  # the step's impulses, all pieces
+    return OK, total
+
+
 # --------------------------------------------------------------------------- time loop
 
 
@@ -914,7 +1289,14 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
     n_v = st.u.shape[0]
     n_w = veh.wheel_dof.shape[0]
     speed = prm.speed
-    khat_v = veh.Khat_inv[level]
+    if level < 0 or veh.nl_veh.shape[0] > 0:
+        # a step that is not dt/2^level, or nonlinear elements: the blocks of this step
+        # size and branch set (refactored only where they changed)
+        if prepare_khat(veh, wk, level, dt, alpha) != 0:
+            return SINGULAR_SCHUR, 0
+        khat_v = wk.khv
+    else:
+        khat_v = veh.Khat_inv[level]
 
     for i in range(n_w):
         wk.onb_prev[i] = wk.onb[i]
@@ -935,6 +1317,8 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
     block_matvec(veh, veh.M, wk.hv, wk.rv, True, 1.0)
     block_matvec(veh, veh.C, wk.vv, wk.rv, True, -1.0)
     block_matvec(veh, veh.K, st.u, wk.rv, True, -1.0)
+    if veh.nl_veh.shape[0] > 0:
+        nl_residual(veh, wk, st, dt, alpha)
     block_matvec(veh, khat_v, wk.rv, wk.yv, False, 1.0)
 
     # predictor gaps, Schur matrix, active set
@@ -998,47 +1382,64 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
             if wk.active[i] == 1 and (wk.was_active[i] == 0 or wk.onb[i] != wk.onb_prev[i]):
                 landing = True
     if landing:
-        # A landing is a plastic, unilateral impact (design note 1.4): make the
-        # velocities compatible with the rail with compressive impulses only (an LCP:
-        # a wheel whose rail moves away is released, whatever its gap), then the
-        # accelerations consistent with the HHT equilibrium  M a1 + (1+alpha) B^T X1 = h
-        # and X1 >= 0 (a wheel whose force would be tensile is released too).  h of
-        # the completed step is h_step = M a1 + (1+alpha) B^T X_step; the velocity jump
-        # dv changes it by -(1+alpha) C dv.
-        for j in range(n_m):
-            wk.vq[j] = st.qd[j]
-            wk.hq[j] = st.qdd[j]
-        for k in range(n_v):
-            wk.vv[k] = st.ud[k]
-            wk.av[k] = st.udd[k]
-        block_matvec(veh, veh.M, st.udd, wk.hv, False, 1.0)
-        for i in range(n_w):
-            xi = wk.X[i]
-            wk.hv[veh.wheel_dof[i]] += scale * xi
-            for j in range(n_m):
-                wk.hq[j] -= scale * wk.phi[i, j] * xi
-        s = project_velocities(br, veh, wk, st, speed, dt, alpha, prm.max_iter,
-                               prm.tol_force, prm.tol_gap)
+        s = impact_update(br, veh, prm, st, wk, dt)
         if s != OK:
             return s, iters
-        for j in range(n_m):
-            cq = 2.0 * br.zeta[j] * br.omega[j]
-            wk.hq[j] -= scale * cq * (st.qd[j] - wk.vq[j])
-        for k in range(n_v):
-            wk.vv[k] = st.ud[k] - wk.vv[k]
-        block_matvec(veh, veh.C, wk.vv, wk.hv, True, -scale)
-        s = consistent_accelerations(br, veh, wk, st, speed, scale, dt, prm.max_iter,
-                                     prm.tol_force, prm.tol_gap)
-        if s != OK:
-            return s, iters
-        for i in range(n_w):
-            if wk.active[i] == 0:
-                wk.xout[i] = 0.0  # released in the impact: separated at t_{n+1}
-                if veh.wheel_massless[i] == 1:
-                    d = veh.wheel_dof[i]
-                    st.udd[d] = wk.av[d]
     update_force_totals(br, veh, wk, st)
     return OK, iters
+
+
+@njit
+def impact_update(br, veh, prm, st, wk, dt):
+    """The plastic unilateral impact of the wheels that land or cross a deck end in a
+    step of size ``dt`` just completed (``st`` at its end, ``wk.X`` its contact forces,
+    ``wk.onb_prev``/``wk.was_active`` the flags at its start).  Returns a status code."""
+    alpha = prm.alpha
+    scale = 1.0 + alpha
+    speed = prm.speed
+    n_m = st.q.shape[0]
+    n_v = st.u.shape[0]
+    n_w = veh.wheel_dof.shape[0]
+    # A landing is a plastic, unilateral impact (design note 1.4): make the
+    # velocities compatible with the rail with compressive impulses only (an LCP:
+    # a wheel whose rail moves away is released, whatever its gap), then the
+    # accelerations consistent with the HHT equilibrium  M a1 + (1+alpha) B^T X1 = h
+    # and X1 >= 0 (a wheel whose force would be tensile is released too).  h of
+    # the completed step is h_step = M a1 + (1+alpha) B^T X_step; the velocity jump
+    # dv changes it by -(1+alpha) C dv.
+    for j in range(n_m):
+        wk.vq[j] = st.qd[j]
+        wk.hq[j] = st.qdd[j]
+    for k in range(n_v):
+        wk.vv[k] = st.ud[k]
+        wk.av[k] = st.udd[k]
+    block_matvec(veh, veh.M, st.udd, wk.hv, False, 1.0)
+    for i in range(n_w):
+        xi = wk.X[i]
+        wk.hv[veh.wheel_dof[i]] += scale * xi
+        for j in range(n_m):
+            wk.hq[j] -= scale * wk.phi[i, j] * xi
+    s = project_velocities(br, veh, wk, st, speed, dt, alpha, prm.max_iter,
+                           prm.tol_force, prm.tol_gap)
+    if s != OK:
+        return s
+    for j in range(n_m):
+        cq = 2.0 * br.zeta[j] * br.omega[j]
+        wk.hq[j] -= scale * cq * (st.qd[j] - wk.vq[j])
+    for k in range(n_v):
+        wk.vv[k] = st.ud[k] - wk.vv[k]
+    block_matvec(veh, veh.C, wk.vv, wk.hv, True, -scale)
+    s = consistent_accelerations(br, veh, wk, st, speed, scale, dt, prm.max_iter,
+                                 prm.tol_force, prm.tol_gap)
+    if s != OK:
+        return s
+    for i in range(n_w):
+        if wk.active[i] == 0:
+            wk.xout[i] = 0.0  # released in the impact: separated at t_{n+1}
+            if veh.wheel_massless[i] == 1:
+                d = veh.wheel_dof[i]
+                st.udd[d] = wk.av[d]
+    return OK
 
 
 @njit(inline="always")
@@ -1372,13 +1773,20 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
         level = 0
         if prm.contact_model == 0 and br.track == 0 and crosses_deck_end(
                 br, veh, n * dt, (n + 1) * dt, prm.speed):
-            # a wheel meets the velocity jump of the rail at a deck end in this step:
-            # take it in 2^CROSSING_LEVELS substeps (at most max_sub halvings), so that
-            # where the event falls on the time grid hardly matters (design note 1.4)
-            status, iters = NOT_CONVERGED, 0
-            level = min(prm.max_sub, CROSSING_LEVELS) - 1
+            # a wheel meets the velocity jump of the rail at a deck end in this step
+            if wk.khv.shape[0] == veh.start.shape[0] - 1 and prm.max_sub > 0:
+                # split at the crossing times: the impact sees the exact jump (design
+                # note 1.4); a failure is retried in halvings below (max_sub = 0: no
+                # step is ever split, the crossing is one step)
+                status, iters = crossing_step(br, veh, pr, prm, st, wk, n * dt,
+                                              (n + 1) * dt)
+            else:
+                # no workspace for variable steps: 2^CROSSING_LEVELS substeps (at most
+                # max_sub halvings)
+                status, iters = NOT_CONVERGED, 0
+                level = min(prm.max_sub, CROSSING_LEVELS) - 1
         else:
-            status, iters = hht_step(br, veh, pr, prm, st, wk, (n + 1) * dt, dt, 0)
+            status, iters = vsi_step(br, veh, pr, prm, st, wk, (n + 1) * dt, dt, 0)
         while status != OK and level < prm.max_sub:
             level += 1
             copy_state(bk, st)
@@ -1391,7 +1799,7 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
             for k in range(sub):
                 for i in range(n_w):
                     wk.was_active[i] = wk.active[i]
-                status, it = hht_step(br, veh, pr, prm, st, wk, n * dt + (k + 1) * h_sub,
+                status, it = vsi_step(br, veh, pr, prm, st, wk, n * dt + (k + 1) * h_sub,
                                       h_sub, level)
                 iters += it
                 if status != OK:
@@ -1704,6 +2112,13 @@ def reset_work(wk):
     wk.lw[:] = 0.0
     wk.lin[:] = 0
     wk.impulse[:] = 0.0
+    wk.khv[:, :, :] = 0.0
+    wk.kh_dt[:] = 0.0
+    wk.kh_sig[:] = 0
+    wk.kscr[:, :] = 0.0
+    wk.nlb[:] = 0
+    wk.nbk[:] = 0.0
+    wk.imp[:] = 0.0
 
 
 @njit

@@ -13,6 +13,9 @@ Conventions (see the design note, section 2)
 
 A vehicle is the tuple (M, C, K, wheel DOFs, wheel positions, gravity loads).  The only
 exception is the moving force, which has no DOFs and is carried as a point load.
+Suspensions may add nonlinear elements (:class:`BumpStop`, :class:`DamperBlowoff`) on top
+of the linear spring-dashpots; the kernels solve them by Newton with the tangent
+stiffness of each element's branch.
 """
 
 from __future__ import annotations
@@ -56,6 +59,89 @@ def check_masses(M: np.ndarray, vehicle: str = "") -> None:
                                  (i, i))
 
 
+def _positive(value, what: str, allow_zero: bool = False) -> float:
+    v = float(value)
+    if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
+        raise ValueError(f"{what} = {value!r}: expected a finite number "
+                         f"{'>=' if allow_zero else '>'} 0")
+    return v
+
+
+@dataclass(frozen=True)
+class BumpStop:
+    """A bump stop in parallel with a suspension spring.
+
+    Parameters
+    ----------
+    gap : float
+        Clearance (m, > 0) in compression measured from the static position (the
+        vehicle standing on a level rail): beyond it the stop acts.
+    stiffness : float
+        Stiffness (N/m, > 0) the stop adds beyond the gap; the element's force is
+        ``stiffness * (compression - static compression - gap)`` there, 0 before.
+    """
+
+    gap: float
+    stiffness: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "gap", _positive(self.gap, "bump stop gap"))
+        object.__setattr__(self, "stiffness", _positive(self.stiffness,
+                                                        "bump stop stiffness"))
+
+
+@dataclass(frozen=True)
+class DamperBlowoff:
+    """A blow-off valve on a suspension damper (linear coefficient ``c``).
+
+    Parameters
+    ----------
+    force : float
+        Blow-off force (N, > 0): the damper force ``c * rate`` is capped at this level
+        in compression and in extension (blow-off rate ``force / c``).
+    post_damping : float
+        Damping (N s/m, 0 <= post_damping < c) beyond the blow-off rate: the force is
+        ``force + post_damping * (rate - force / c)`` there (0: saturated).
+    """
+
+    force: float
+    post_damping: float = 0.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "force", _positive(self.force, "blow-off force"))
+        object.__setattr__(self, "post_damping", _positive(
+            self.post_damping, "blow-off post_damping", allow_zero=True))
+
+
+#: Kernel codes of the nonlinear elements (vsi_numba.kernels.engine.NL_*).
+NL_KINDS = {"bump_stop": 0, "damper_blowoff": 1}
+
+
+@dataclass(frozen=True)
+class NonlinearElement:
+    """A nonlinear suspension element as the kernels take it.
+
+    Parameters
+    ----------
+    kind : str
+        ``"bump_stop"`` or ``"damper_blowoff"``.
+    label : str
+        Which suspension it belongs to (e.g. ``"primary wheelset1"``).
+    row : ndarray, shape (n,)
+        Compression of the element (m, positive when the upper body moves down
+        relative to the lower) as ``row @ u`` over the vehicle's DOFs.
+    params : tuple of 3 float
+        Bump stop: (compression at which the stop closes, m, from unstretched springs;
+        stiffness N/m; 0).  Blow-off: (linear damping c N s/m; blow-off force N;
+        post-blow-off damping N s/m).
+    """
+
+    kind: str
+    label: str
+    row: np.ndarray
+    params: tuple[float, float, float]
+
+
 @dataclass(frozen=True)
 class Vehicle:
     """A linear vehicle subsystem.
@@ -90,6 +176,8 @@ class Vehicle:
         bounce only).  Empty (the default, e.g. a sprung mass or a user vehicle): the
         centre of gravity only.  :class:`MultibodyBuilder` puts them at the centre and over
         every pivot of the body's suspension (see :meth:`MultibodyBuilder.build`).
+    nonlinear : tuple of NonlinearElement
+        Bump stops and damper blow-offs acting on top of M, C, K (empty: linear).
     """
 
     name: str
@@ -106,6 +194,7 @@ class Vehicle:
     dof_names: tuple[str, ...] = ()
     status: str = ""
     comfort_points: tuple = ()
+    nonlinear: tuple[NonlinearElement, ...] = ()
 
     def __post_init__(self):
         n = np.asarray(self.M).shape[0] if np.asarray(self.M).size else 0
@@ -136,6 +225,9 @@ class Vehicle:
             for th, d in pts:
                 if not -1 <= int(th) < n or not np.isfinite(d):
                     raise ValueError(f"vehicle {self.name!r}: bad comfort point ({th}, {d})")
+        for el in self.nonlinear:
+            if el.kind not in NL_KINDS or np.shape(el.row) != (n,) or len(el.params) != 3:
+                raise ValueError(f"vehicle {self.name!r}: bad nonlinear element {el.label!r}")
 
     def body_comfort_points(self, k: int) -> tuple[tuple[int, float], ...]:
         """Comfort points ``(pitch_dof, d)`` of reported body ``k`` (default: its centre
@@ -200,6 +292,8 @@ class MultibodyBuilder:
         self._bodies: dict[str, tuple[int, int, float]] = {}  # name -> (z, theta|-1, p_cg)
         self._translational: list[int] = []
         self._springs: list[tuple[tuple[str, str, float], float, float]] = []
+        # (upper, lower, position, damping, bump stop, blow-off, label)
+        self._nonlinear: list[tuple] = []
         self._wheels: list[tuple[int, float]] = []
 
     def _new_dof(self, label: str, mass: float) -> int:
@@ -235,12 +329,43 @@ class MultibodyBuilder:
             raise ValueError(f"body {body!r} has no pitch DOF: attach at its centre")
         return e
 
-    def connect(self, upper: str, lower: str, position: float, stiffness: float, damping: float):
-        """Join ``upper`` and ``lower`` by a vertical spring-dashpot at ``position``."""
+    def connect(self, upper: str, lower: str, position: float, stiffness: float, damping: float,
+                bump_stop: BumpStop | None = None, blowoff: DamperBlowoff | None = None,
+                label: str = ""):
+        """Join ``upper`` and ``lower`` by a vertical spring-dashpot at ``position``,
+        optionally with a bump stop on the spring and a blow-off on the dashpot."""
         for body in (upper, lower):
             if body not in self._bodies:
                 raise ValueError(f"connect: unknown body {body!r}")
         self._springs.append(((upper, lower, float(position)), float(stiffness), float(damping)))
+        if blowoff is not None and not blowoff.post_damping < damping:
+            raise ValueError(
+                f"{label or 'suspension'}: a damper blow-off needs damping > post_damping "
+                f"(damping = {damping!r} N s/m, post_damping = {blowoff.post_damping!r})")
+        if bump_stop is not None or blowoff is not None:
+            self._nonlinear.append((upper, lower, float(position), float(damping), bump_stop,
+                                    blowoff, label or f"{upper}-{lower}"))
+
+    def _nonlinear_elements(self, K: np.ndarray, g: np.ndarray) -> tuple:
+        """The kernels' elements; bump-stop gaps count from the static compression on a
+        level rigid rail (wheels held, K_ff u_f = g_f)."""
+        n = K.shape[0]
+        if not self._nonlinear:
+            return ()
+        free = np.ones(n, bool)
+        free[[w[0] for w in self._wheels]] = False
+        u = np.zeros(n)
+        u[free] = np.linalg.solve(K[np.ix_(free, free)], g[free])
+        out = []
+        for upper, lower, pos, c, stop, blow, label in self._nonlinear:
+            e = self._point(upper, pos, n) - self._point(lower, pos, n)
+            if stop is not None:
+                out.append(NonlinearElement("bump_stop", label, e,
+                                            (float(e @ u) + stop.gap, stop.stiffness, 0.0)))
+            if blow is not None:
+                out.append(NonlinearElement("damper_blowoff", label, e,
+                                            (c, blow.force, blow.post_damping)))
+        return tuple(out)
 
     def _comfort_points(self, body: str) -> tuple[tuple[int, float], ...]:
         """Centre, then every point where a spring-dashpot attaches to ``body`` (its
@@ -288,6 +413,7 @@ class MultibodyBuilder:
             dof_names=tuple(self._names),
             status=status,
             comfort_points=tuple(self._comfort_points(b) for b in bodies),
+            nonlinear=self._nonlinear_elements(K, g),
         )
 
 
@@ -320,16 +446,20 @@ def sprung_mass(
     damping: float = 0.0,
     wheel_mass: float = 0.0,
     name: str = "sprung_mass",
+    bump_stop: BumpStop | None = None,
+    damper_blowoff: DamperBlowoff | None = None,
 ) -> Vehicle:
     """Sprung mass on a spring-dashpot over a wheel (quarter car).
 
     ``wheel_mass = 0`` gives the classical moving sprung mass whose massless contact
     point follows the rail.  DOFs: 0 = sprung mass (the "body"), 1 = wheel.
+    ``bump_stop`` and ``damper_blowoff`` make the suspension nonlinear.
     """
     b = MultibodyBuilder(name)
     b.add_body("body", mass, 0.0)
     b.add_wheel("wheel", wheel_mass, 0.0)
-    b.connect("body", "wheel", 0.0, stiffness, damping)
+    b.connect("body", "wheel", 0.0, stiffness, damping, bump_stop, damper_blowoff,
+              "suspension")
     return b.build(body="body")
 
 
@@ -348,6 +478,10 @@ def railway_car(
     body_cg_to_front_bogie: float | None = None,
     name: str = "car",
     status: str = "",
+    primary_bump_stop: BumpStop | None = None,
+    primary_damper_blowoff: DamperBlowoff | None = None,
+    secondary_bump_stop: BumpStop | None = None,
+    secondary_damper_blowoff: DamperBlowoff | None = None,
 ) -> Vehicle:
     """The 10-DOF planar railway car (whole-vehicle values).
 
@@ -355,7 +489,9 @@ def railway_car(
     four wheelset bounces.  Primary stiffness/damping per wheelset, secondary per bogie.
     ``bogie_spacing`` is the distance between bogie centres, ``wheelbase`` the axle
     distance within a bogie; the body's centre of gravity is ``body_cg_to_front_bogie``
-    behind the front bogie centre (default: midway).
+    behind the front bogie centre (default: midway).  The optional bump stops and
+    damper blow-offs apply to every primary (per wheelset) or secondary (per bogie)
+    suspension.
     """
     if body_cg_to_front_bogie is None:
         body_cg_to_front_bogie = 0.5 * bogie_spacing
@@ -375,9 +511,11 @@ def railway_car(
     for tag, _, pos in wheels:
         b.add_wheel(tag, wheelset_mass, pos)
     for tag, pb in (("bogie1", pb1), ("bogie2", pb2)):
-        b.connect("body", tag, pb, secondary_stiffness, secondary_damping)
+        b.connect("body", tag, pb, secondary_stiffness, secondary_damping,
+                  secondary_bump_stop, secondary_damper_blowoff, f"secondary {tag}")
     for tag, bogie, pos in wheels:
-        b.connect(bogie, tag, pos, primary_stiffness, primary_damping)
+        b.connect(bogie, tag, pos, primary_stiffness, primary_damping, primary_bump_stop,
+                  primary_damper_blowoff, f"primary {tag}")
     return b.build(body="body", status=status)
 
 

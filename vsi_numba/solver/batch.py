@@ -36,9 +36,14 @@ def acceleration_cutoff(frequencies: np.ndarray) -> float:
     return frequency_cutoff(frequencies)
 
 
-def _workspace(n_m, n_v, n_w) -> ek.Work:
+def _workspace(n_m, n_v, n_w, veh: ek.VehicleArrays | None = None) -> ek.Work:
     z = np.zeros
+    # variable steps (deck-end events) and nonlinear suspensions need per-vehicle blocks
+    n_veh, nb = (veh.M.shape[0], veh.M.shape[1]) if veh is not None else (0, 0)
+    n_e = veh.nl_veh.shape[0] if veh is not None else 0
     return ek.Work(
+        khv=z((n_veh, nb, nb)), kh_dt=z(n_veh), kh_sig=z(n_veh, np.int64), kscr=z((nb, nb)),
+        nlb=z(n_e, np.int64), nbk=z(4 * n_m + 4 * n_v + n_w), imp=z(n_w),
         phi=z((n_w, n_m)), dphi=z((n_w, n_m)), d2phi=z((n_w, n_m)),
         onb=z(n_w, np.int64), rr=z((n_w, 3)), S=z((n_w, n_w)), L=z((n_w, n_w)),
         idx=z(n_w, np.int64), rhs=z(n_w), sol=z(n_w), gstar=z(n_w), X=z(n_w),
@@ -385,7 +390,7 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     init = initial_states(packed, profile, speeds)
     st = ek.State(*(np.empty_like(a[0]) for a in init))
     bk = ek.State(*(np.empty_like(a[0]) for a in init))
-    wk = _workspace(n_m, n_v, n_w)
+    wk = _workspace(n_m, n_v, n_w, veh)
     status = np.zeros(n_r, np.int64)
     reached = np.zeros(n_r, np.int64)
     t0 = _time.perf_counter()

@@ -12,7 +12,7 @@ import numpy as np
 from vsi_numba.kernels import engine as ek
 from vsi_numba.model.bridge import ModalBridge
 from vsi_numba.model.irregularity import Profile, no_irregularity
-from vsi_numba.model.vehicle import Train
+from vsi_numba.model.vehicle import NL_KINDS, Train
 from vsi_numba.solver.settings import CONTACT_MODELS, SolverSettings
 
 
@@ -140,6 +140,7 @@ def pack(
     Mi = np.zeros_like(M)
     grav, wdof, wveh, wpos, wmassless, body, body_names = [], [], [], [], [], [], []
     pt_start, pt_pitch, pt_d = [0], [], []
+    nl_start, nl_veh, nl_kind, nl_rows, nl_p = [0], [], [], [], []
     inverses: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
     for b, (_, v, off) in enumerate(dyn):
         n = v.n_dof
@@ -165,6 +166,14 @@ def pack(
                 pt_pitch.append(start[b] + th if th >= 0 else -1)
                 pt_d.append(dist)
             pt_start.append(len(pt_d))
+        for el in v.nonlinear:  # nonlinear suspension elements, vehicle by vehicle
+            row = np.zeros(nb)
+            row[:n] = el.row
+            nl_veh.append(b)
+            nl_kind.append(NL_KINDS[el.kind])
+            nl_rows.append(row)
+            nl_p.append(el.params)
+        nl_start.append(len(nl_veh))
     lpos, lp = [], []
     for v, off in zip(train.vehicles, train.offsets, strict=True):
         lpos.extend(off + v.load_positions)
@@ -187,6 +196,11 @@ def pack(
         body_pt_start=np.asarray(pt_start, dtype=np.int64),
         body_pt_pitch=np.asarray(pt_pitch, dtype=np.int64),
         body_pt_d=np.asarray(pt_d, dtype=np.float64),
+        nl_veh=np.asarray(nl_veh, dtype=np.int64),
+        nl_start=np.asarray(nl_start, dtype=np.int64),
+        nl_kind=np.asarray(nl_kind, dtype=np.int64),
+        nl_a=np.ascontiguousarray(np.reshape(nl_rows, (len(nl_veh), nb)), dtype=np.float64),
+        nl_p=np.ascontiguousarray(np.reshape(nl_p, (len(nl_veh), 3)), dtype=np.float64),
     )
     compliance = np.zeros((len(wdof), len(wdof)))
     if bridge.track is not None and len(wdof):

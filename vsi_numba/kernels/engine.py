@@ -86,6 +86,13 @@ class VehicleArrays(NamedTuple):
     body_pt_start: np.ndarray = np.zeros(1, np.int64)  # (n_b + 1,)
     body_pt_pitch: np.ndarray = np.zeros(0, np.int64)  # (n_pt,) global pitch DOF or -1
     body_pt_d: np.ndarray = np.zeros(0)  # (n_pt,) m ahead of the centre of gravity
+    # damped (or massive) elastic track: the rail deflection under each wheel is the
+    # element track_mt y'' + track_ct y' + track_kt y = X_i (vsi_numba.model.track,
+    # ElasticTrack.wheel_element) instead of the elastic G(0) = 1 / track_kt on the
+    # diagonal of ``compliance``; track_ct = track_mt = 0: no element (N/m, N s/m, kg)
+    track_kt: float = 0.0
+    track_ct: float = 0.0
+    track_mt: float = 0.0
 
 
 class ProfileArrays(NamedTuple):
@@ -151,6 +158,10 @@ class Work(NamedTuple):
     lw: np.ndarray  # (n_w,) LCP complement w (separation velocity or acceleration)
     lin: np.ndarray  # (n_w,) int: LCP set (1: z free, w = 0)
     impulse: np.ndarray  # (n_w,) compressive impact impulse of the step, N s (diagnostic)
+    # track element under each wheel (VehicleArrays.track_*): y, y', y'' at t_n and the
+    # step's known part r_n of the HHT residual; trk0: y, y', y'' kept for step retries
+    trk: np.ndarray  # (n_w, 4)
+    trk0: np.ndarray  # (n_w, 3)
 
 
 class State(NamedTuple):
@@ -871,6 +882,48 @@ def hht_coefficients(alpha, dt):
     return a0, a1, a2, a3, cv, ca, gamma, 1.0 + alpha
 
 
+@njit(inline="always")
+def track_predict(veh, wk, st, alpha, a0, a1, a2, a3, cv, ca, scale):
+    """Damped/massive track: the rail deflection under wheel i at t_{n+1} is, by the
+    step's HHT-alpha rule on m y'' + c y' + k y = X_i,
+    y_{n+1} = y_n + (r_n + (1 + alpha) X_{n+1}) / khat with khat = a0 m + (1 + alpha)
+    (a1 c + k) and r_n = -alpha X_n + m (a2 y'_n + a3 y''_n) - c (cv y'_n + ca y''_n)
+    - k y_n: the known part goes into the predictor gap and 1 / khat replaces the
+    elastic G(0) / (1 + alpha) on the diagonal of S (which holds C / (1 + alpha))."""
+    k = veh.track_kt
+    c = veh.track_ct
+    m = veh.track_mt
+    khat = a0 * m + scale * (a1 * c + k)
+    diag = 1.0 / khat - 1.0 / (k * scale)
+    for i in range(veh.wheel_dof.shape[0]):
+        y = wk.trk[i, 0]
+        yd = wk.trk[i, 1]
+        ydd = wk.trk[i, 2]
+        r = (-alpha * st.X[i] + m * (a2 * yd + a3 * ydd) - c * (cv * yd + ca * ydd)
+             - k * y)
+        wk.trk[i, 3] = r
+        wk.gstar[i] += y + r / khat
+        wk.S[i, i] += diag
+
+
+@njit(inline="always")
+def track_update(veh, wk, dt, a0, a1, a2, a3, gamma, scale):
+    """Newmark update of the track elements with the step's contact forces ``wk.X``."""
+    khat = a0 * veh.track_mt + scale * (a1 * veh.track_ct + veh.track_kt)
+    for i in range(veh.wheel_dof.shape[0]):
+        dy = (wk.trk[i, 3] + scale * wk.X[i]) / khat
+        acc = a0 * dy - a2 * wk.trk[i, 1] - a3 * wk.trk[i, 2]
+        wk.trk[i, 1] += dt * ((1.0 - gamma) * wk.trk[i, 2] + gamma * acc)
+        wk.trk[i, 2] = acc
+        wk.trk[i, 0] += dy
+
+
+@njit(inline="always")
+def track_element(veh):
+    """True if the track under the wheels has damping or mass (the element is used)."""
+    return veh.track_kt > 0.0 and (veh.track_ct > 0.0 or veh.track_mt > 0.0)
+
+
 @njit
 def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
     """Advance the state by one HHT-alpha step of size ``dt`` to time ``t1``.
@@ -923,6 +976,8 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
         for i in range(n_w):
             for k in range(n_w):
                 wk.S[i, k] += veh.compliance[i, k] * inv
+    if track_element(veh):
+        track_predict(veh, wk, st, alpha, a0, a1, a2, a3, cv, ca, scale)
     if prm.contact_model == 1:
         for i in range(n_w):
             wk.X[i] = st.X[i]
@@ -958,6 +1013,8 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
         st.ud[k] = st.ud[k] + dt * ((1.0 - gamma) * st.udd[k] + gamma * acc)
         st.udd[k] = acc
         st.u[k] += du
+    if track_element(veh):
+        track_update(veh, wk, dt, a0, a1, a2, a3, gamma, scale)
 
     # Velocity jumps of the rail under a wheel in contact are impacts: a landing, and
     # a wheel crossing an end of the deck, where the rail velocity v phi'(x) q jumps
@@ -1139,6 +1196,12 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
         wk.xout[i] = st.X[i]
         red.run_len[i] = 0
     contact_search(br, veh, pr, 0.0, prm.speed, wk)  # on-bridge flags at t = 0
+    track = track_element(veh)
+    if track:
+        for i in range(n_w):  # the static start: y = G(0) X, at rest
+            wk.trk[i, 0] = st.X[i] / veh.track_kt
+            wk.trk[i, 1] = 0.0
+            wk.trk[i, 2] = 0.0
     dt = prm.dt
     record(veh, st, wk, red, r, 0, 0.0, prm.speed, out, h, 0)
     for n in range(prm.n_steps):
@@ -1147,6 +1210,10 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
             wk.was_active[i] = wk.active[i]
             wk.act0[i] = wk.active[i]  # the set at t_n, for retries
             wk.onb0[i] = wk.onb[i]
+        if track:
+            for i in range(n_w):
+                for c in range(3):
+                    wk.trk0[i, c] = wk.trk[i, c]
         level = 0
         if prm.contact_model == 0 and br.track == 0 and crosses_deck_end(
                 br, veh, n * dt, (n + 1) * dt, prm.speed):
@@ -1163,6 +1230,10 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
             for i in range(n_w):
                 wk.active[i] = wk.act0[i]
                 wk.onb[i] = wk.onb0[i]
+            if track:
+                for i in range(n_w):
+                    for c in range(3):
+                        wk.trk[i, c] = wk.trk0[i, c]
             sub = 1 << level
             h_sub = dt / sub
             iters = 0
@@ -1438,6 +1509,8 @@ def reset_work(wk):
     wk.lw[:] = 0.0
     wk.lin[:] = 0
     wk.impulse[:] = 0.0
+    wk.trk[:, :] = 0.0
+    wk.trk0[:, :] = 0.0
 
 
 @njit

@@ -201,6 +201,10 @@ def pack(
                                                    / (3.0 * np.cbrt(q0)))
     if np.any(compliance != 0.0):
         veh = veh._replace(compliance=np.ascontiguousarray(compliance))
+    if bridge.track is not None and len(wdof):
+        k_t, c_t, m_t = bridge.track.wheel_element
+        if c_t > 0.0 or m_t > 0.0:  # damped or massive: the element under each wheel
+            veh = veh._replace(track_kt=float(k_t), track_ct=float(c_t), track_mt=float(m_t))
     all_pos = np.concatenate([wpos, lpos])
     last = all_pos.max() if all_pos.size else 0.0
     run_length = bridge.length + settings.approach + last

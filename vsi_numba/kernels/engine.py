@@ -86,10 +86,11 @@ class VehicleArrays(NamedTuple):
     body_pt_start: np.ndarray = np.zeros(1, np.int64)  # (n_b + 1,)
     body_pt_pitch: np.ndarray = np.zeros(0, np.int64)  # (n_pt,) global pitch DOF or -1
     body_pt_d: np.ndarray = np.zeros(0)  # (n_pt,) m ahead of the centre of gravity
-    # damped (or massive) elastic track: the rail deflection under each wheel is the
-    # element track_mt y'' + track_ct y' + track_kt y = X_i (vsi_numba.model.track,
-    # ElasticTrack.wheel_element) instead of the elastic G(0) = 1 / track_kt on the
-    # diagonal of ``compliance``; track_ct = track_mt = 0: no element (N/m, N s/m, kg)
+    # damped (or massive) elastic track: each wheel drives an element
+    # track_mt z'' + track_ct z' + track_kt z = X_i (vsi_numba.model.track,
+    # ElasticTrack.wheel_element) and the rail deflects by track_kt G z instead of G X
+    # (G: the rail part of ``compliance``); track_ct = track_mt = 0: no element
+    # (N/m, N s/m, kg)
     track_kt: float = 0.0
     track_ct: float = 0.0
     track_mt: float = 0.0
@@ -158,8 +159,8 @@ class Work(NamedTuple):
     lw: np.ndarray  # (n_w,) LCP complement w (separation velocity or acceleration)
     lin: np.ndarray  # (n_w,) int: LCP set (1: z free, w = 0)
     impulse: np.ndarray  # (n_w,) compressive impact impulse of the step, N s (diagnostic)
-    # track element under each wheel (VehicleArrays.track_*): y, y', y'' at t_n and the
-    # step's known part r_n of the HHT residual; trk0: y, y', y'' kept for step retries
+    # track element of each wheel (VehicleArrays.track_*): z, z', z'' at t_n and the
+    # step's known part r_n of the HHT residual; trk0: z, z', z'' kept for step retries
     trk: np.ndarray  # (n_w, 4)
     trk0: np.ndarray  # (n_w, 3)
 
@@ -884,26 +885,35 @@ def hht_coefficients(alpha, dt):
 
 @njit(inline="always")
 def track_predict(veh, wk, st, alpha, a0, a1, a2, a3, cv, ca, scale):
-    """Damped/massive track: the rail deflection under wheel i at t_{n+1} is, by the
-    step's HHT-alpha rule on m y'' + c y' + k y = X_i,
-    y_{n+1} = y_n + (r_n + (1 + alpha) X_{n+1}) / khat with khat = a0 m + (1 + alpha)
-    (a1 c + k) and r_n = -alpha X_n + m (a2 y'_n + a3 y''_n) - c (cv y'_n + ca y''_n)
-    - k y_n: the known part goes into the predictor gap and 1 / khat replaces the
-    elastic G(0) / (1 + alpha) on the diagonal of S (which holds C / (1 + alpha))."""
+    """Damped/massive track.  Each wheel drives an element m z'' + c z' + k z = X_i
+    (k = 1 / G(0)); the rail deflection under wheel i is y_i = k sum_k G_ik z_k (the
+    static deflection basins, each delayed by its wheel's element: the compliance
+    matrix times one passive transfer function, so the coupling between wheels stays
+    passive at every frequency).  By the step's HHT-alpha rule
+    z_{n+1} = z_n + (r_n + (1 + alpha) X_{n+1}) / khat, khat = a0 m + (1 + alpha)
+    (a1 c + k), r_n = -alpha X_n + m (a2 z'_n + a3 z''_n) - c (cv z'_n + ca z''_n) - k z_n:
+    the known part goes into the predictor gaps and the rail block of S (which holds
+    C / (1 + alpha)) becomes G k / khat.  ``wk.trk[:, 3]`` receives r_n."""
     k = veh.track_kt
     c = veh.track_ct
     m = veh.track_mt
+    n_w = veh.wheel_dof.shape[0]
     khat = a0 * m + scale * (a1 * c + k)
-    diag = 1.0 / khat - 1.0 / (k * scale)
-    for i in range(veh.wheel_dof.shape[0]):
-        y = wk.trk[i, 0]
-        yd = wk.trk[i, 1]
-        ydd = wk.trk[i, 2]
-        r = (-alpha * st.X[i] + m * (a2 * yd + a3 * ydd) - c * (cv * yd + ca * ydd)
-             - k * y)
-        wk.trk[i, 3] = r
-        wk.gstar[i] += y + r / khat
-        wk.S[i, i] += diag
+    change = k / khat - 1.0 / scale
+    for i in range(n_w):
+        z = wk.trk[i, 0]
+        zd = wk.trk[i, 1]
+        zdd = wk.trk[i, 2]
+        wk.trk[i, 3] = (-alpha * st.X[i] + m * (a2 * zd + a3 * zdd)
+                        - c * (cv * zd + ca * zdd) - k * z)
+    for i in range(n_w):
+        acc = 0.0
+        for j in range(n_w):
+            g = 1.0 / k if j == i else veh.compliance[i, j]  # the rail's G_ij
+            if g != 0.0:
+                acc += g * (wk.trk[j, 0] + wk.trk[j, 3] / khat)
+                wk.S[i, j] += g * change
+        wk.gstar[i] += k * acc
 
 
 @njit(inline="always")
@@ -1198,7 +1208,7 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
     contact_search(br, veh, pr, 0.0, prm.speed, wk)  # on-bridge flags at t = 0
     track = track_element(veh)
     if track:
-        for i in range(n_w):  # the static start: y = G(0) X, at rest
+        for i in range(n_w):  # the static start: k z = X, at rest
             wk.trk[i, 0] = st.X[i] / veh.track_kt
             wk.trk[i, 1] = 0.0
             wk.trk[i, 2] = 0.0

@@ -94,6 +94,9 @@ class VehicleArrays(NamedTuple):
     track_kt: float = 0.0
     track_ct: float = 0.0
     track_mt: float = 0.0
+    # (n_w,) the elements' static state z = X_static / track_kt, m (the static contact
+    # forces of the start; the start's X holds the forces with the rail's accelerations)
+    track_z0: np.ndarray = np.zeros(0)
 
 
 class ProfileArrays(NamedTuple):
@@ -1208,8 +1211,8 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
     contact_search(br, veh, pr, 0.0, prm.speed, wk)  # on-bridge flags at t = 0
     track = track_element(veh)
     if track:
-        for i in range(n_w):  # the static start: k z = X, at rest
-            wk.trk[i, 0] = st.X[i] / veh.track_kt
+        for i in range(n_w):  # the static start, at rest
+            wk.trk[i, 0] = veh.track_z0[i]
             wk.trk[i, 1] = 0.0
             wk.trk[i, 2] = 0.0
     dt = prm.dt

@@ -99,7 +99,8 @@ def _engine(track, profile, dt, t_end):
     return ds
 
 
-def test_track_damping__bogie_on_german_low_at_400_kmh_matches_the_damped_fd_rail():
+@pytest.mark.parametrize("rail_mass", [0.0, pytest.param(120.0, marks=pytest.mark.slow)])
+def test_track_damping__bogie_on_german_low_at_400_kmh_matches_the_damped_fd_rail(rail_mass):
     """Acceptance case: a bogie of an ICE3 end car (5 DOFs, two 1800 kg wheelsets) at
     400 km/h over a 20 m span (f1 = 5 Hz, 1 % damping) on German-low track with
     wavelengths 1-80 m, default damped track (c = 1.96e5 N s/m per m), linearised Hertz
@@ -114,9 +115,13 @@ def test_track_damping__bogie_on_german_low_at_400_kmh_matches_the_damped_fd_rai
     of the reference's dQ/Q0 (measured 0.023): the wheel element is the first-order
     receptance of the rail, so the ~45 Hz wheel-on-track mode (where w c / k = 0.65) is
     reproduced to a few % (see the receptance test), not exactly.  Also checks that the
-    damping matters here: the undamped track's engine run is well off the reference."""
+    damping matters here: the undamped track's engine run is well off the reference.
+
+    With ``rail_mass`` = 120 kg/m (two UIC60 rails; marked slow: the reference's rail
+    with mass takes minutes): deck acceleration measured within 2.0 %, contact forces
+    5.4-6.3 % of Q0 rms (tolerance 8 %), dQ/Q0 within 0.025."""
     M, C, K, g, offs = _bogie()
-    track = ElasticTrack()
+    track = ElasticTrack(rail_mass=rail_mass)
     profile = _profile(1)
     t_end = (L_SPAN + APPROACH + offs.max() + 1.0) / SPEED
     q0 = 9.81 * (M[0, 0] + M[1, 1]) / 2 + 9.81 * M[3, 3]
@@ -136,7 +141,7 @@ def test_track_damping__bogie_on_german_low_at_400_kmh_matches_the_damped_fd_rai
     assert abs(a_eng / a_ref - 1) < 0.15
     rms = np.sqrt(np.mean((X - np.stack([np.interp(t, ref.t, ref.force[:, i])
                                          for i in range(2)], 1)) ** 2, axis=0)) / q0
-    assert np.all(rms < 0.06)
+    assert np.all(rms < (0.06 if rail_mass == 0.0 else 0.08))
     dq = ds["max_wheel_unloading"].values
     assert abs(dq.max() - dq_ref.max()) < 0.05
     # without the damping the same case is far off the damped reference

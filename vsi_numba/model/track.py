@@ -45,9 +45,10 @@ Foundation damping and rail mass (``foundation_damping`` c, N s/m per metre, and
 ``rail_mass`` m', kg per metre of track).  With a Kelvin-Voigt foundation and a rail
 with mass the point receptance of the infinite rail is
 
-    G(w) = beta_w / (2 k_w),  k_w = k + i w c - w^2 m',  i.e.  G(0) (1 + i w c / k - w^2 m' / k)^(-3/4)
+    G(w) = beta_w / (2 k_w),  k_w = k + i w c - w^2 m',  beta_w^4 = k_w / (4 EI),
+    i.e.  G(w) = G(0) (1 + i w c / k - w^2 m' / k)^(-3/4),
 
-(beta^4 = (k + i w c - w^2 m') / (4 EI)), so to first order in w c / k and
+so to first order in w c / k and
 w^2 m' / k the rail deflection y_i under wheel i is that of a Kelvin element with a mass,
 
     m_t y'' + c_t y' + k_t y = X_i,   k_t = 1 / G(0),  c_t = (3/4) (c / k) k_t,

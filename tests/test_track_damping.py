@@ -237,8 +237,8 @@ def test_track_damping__short_approach_warns():
 
 def test_track_damping__rail_restraint_is_bounded_and_reported_for_short_spans():
     """The rail stiffness left out of the deck (:meth:`ElasticTrack.restraint_ratio`,
-    the foundation's work on phi - phit over the modal stiffness) is above 1 % for an
-    8 m span (f1 = 13 Hz) and warns, naming the value and the mode; it is below 0.2 % for
+    the foundation's work on phi - phit over the modal stiffness) is above 2 % (1 % on
+    the frequency) for an 8 m span (f1 = 13 Hz) and warns, naming the value and the mode; it is below 0.2 % for
     the 25 m span of study 1 and silent.  Bounded independently from below by the
     far-from-the-ends closed form for a sine mode, (EI_r k_j^4 / (1 + EI_r k_j^4 / k))
     int phi_j^2 dx / w_j^2 with int phi_j^2 dx = 1 / m (the rail's bending added to the
@@ -247,7 +247,7 @@ def test_track_damping__rail_restraint_is_bounded_and_reported_for_short_spans()
     short = br.simply_supported(8.0, 8.0e8, 6000.0, n_modes=3)
     long = br.simply_supported(25.0, 7.16e10, 18000.0, n_modes=3)
     r_short, r_long = t.restraint_ratio(short), t.restraint_ratio(long)
-    assert r_short.max() > 0.01 and r_long.max() < 2e-3
+    assert r_short.max() > 0.02 and r_long.max() < 2e-3
     for b, m, r in ((short, 6000.0, r_short), (long, 18000.0, r_long)):
         kj4 = (np.pi * np.arange(1, 4) / b.length) ** 4 * t.rail_EI
         bending = kj4 / (1 + kj4 / t.foundation_stiffness) / m / (2 * np.pi * b.frequencies)**2

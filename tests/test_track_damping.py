@@ -109,10 +109,13 @@ def test_track_damping__bogie_on_german_low_at_400_kmh_matches_the_damped_fd_rai
     Kelvin-Voigt foundation over the deck and the approaches, the deck loaded by the
     foundation force, solve_ivp Radau).
 
-    Tolerances: the peak midspan deck acceleration within 15 % (measured 0.5 %); the
+    Tolerances: the peak midspan deck acceleration within 15 % (measured 0.35 %); the
     contact forces: rms difference over the run below 6 % of Q0 (measured 3.4 %, the
     dynamic part itself being 18-24 % rms) and the largest wheel unloading within 0.05
-    of the reference's dQ/Q0 (measured 0.023): the wheel element is the first-order
+    of the reference's dQ/Q0 (measured 0.023).  The reference's own error: h = 0.25 ->
+    0.2 m moves its peak acceleration by 0.6 % and its smallest force by 0.02 Q0
+    (O(h^2): ~0.04 Q0 left at h = 0.2 m, hence 0.05 and not less; rtol 1e-5 instead of
+    1e-4 changes nothing visible).  The wheel element is the first-order
     receptance of the rail, so the ~45 Hz wheel-on-track mode (where w c / k = 0.65) is
     reproduced to a few % (see the receptance test), not exactly.  Also checks that the
     damping matters here: the undamped track's engine run is well off the reference.
@@ -129,7 +132,7 @@ def test_track_damping__bogie_on_german_low_at_400_kmh_matches_the_damped_fd_rai
         L_SPAN, EI_DECK, M_DECK, N_MODES, ZETA, track.foundation_stiffness,
         track.foundation_damping, track.rail_EI, track.rail_mass, M, C, K, g, [3, 4], offs,
         1.5 * np.cbrt(q0) / HERTZ_G, profile, SPEED, -APPROACH, t_end,
-        points=(L_SPAN / 2,), h=0.2, rtol=1e-5)
+        points=(L_SPAN / 2,), h=0.2, rtol=1e-4)
     np.testing.assert_allclose(ref.static_force, q0, rtol=1e-9)  # static start
     a_ref = np.abs(ref.deck_acceleration[:, 0]).max()
     dq_ref = 1 - ref.force.min(axis=0) / q0

@@ -242,8 +242,8 @@ def test_track_damping__rail_restraint_is_bounded_and_reported_for_short_spans()
     """The rail stiffness left out of the deck (:meth:`ElasticTrack.restraint_ratio`,
     the foundation's work on phi - phit over the modal stiffness) is above 2 % (1 % on
     the frequency) for an 8 m span (f1 = 13 Hz) and warns, naming the value and the
-    mode; it is below 0.2 % for the 25 m span of study 1 and silent.  Bounded independently from below by the
-    far-from-the-ends closed form for a sine mode, (EI_r k_j^4 / (1 + EI_r k_j^4 / k))
+    mode; it is below 0.2 % for the 25 m span of study 1 and silent.  Bounded
+    independently from below by the far-from-the-ends closed form for a sine mode, (EI_r k_j^4 / (1 + EI_r k_j^4 / k))
     int phi_j^2 dx / w_j^2 with int phi_j^2 dx = 1 / m (the rail's bending added to the
     deck; the restraint of the end rotations comes on top)."""
     t = ElasticTrack()

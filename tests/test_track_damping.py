@@ -243,9 +243,10 @@ def test_track_damping__rail_restraint_is_bounded_and_reported_for_short_spans()
     the foundation's work on phi - phit over the modal stiffness) is above 2 % (1 % on
     the frequency) for an 8 m span (f1 = 13 Hz) and warns, naming the value and the
     mode; it is below 0.2 % for the 25 m span of study 1 and silent.  Bounded
-    independently from below by the far-from-the-ends closed form for a sine mode, (EI_r k_j^4 / (1 + EI_r k_j^4 / k))
-    int phi_j^2 dx / w_j^2 with int phi_j^2 dx = 1 / m (the rail's bending added to the
-    deck; the restraint of the end rotations comes on top)."""
+    independently from below by the far-from-the-ends closed form for a sine mode,
+    (EI_r k_j^4 / (1 + EI_r k_j^4 / k)) int phi_j^2 dx / w_j^2 with int phi_j^2 dx = 1 / m
+    (the rail's bending added to the deck; the restraint of the end rotations comes on
+    top)."""
     t = ElasticTrack()
     short = br.simply_supported(8.0, 8.0e8, 6000.0, n_modes=3)
     long = br.simply_supported(25.0, 7.16e10, 18000.0, n_modes=3)

@@ -538,6 +538,14 @@ def _measure_a(b: Bench, res: StudyResult):
                                 grid, local / yw, "ratio", 1.5, 1.0,
                                 f"{fmt_s(local)} / {fmt_s(yw)}; envelopes = yardstick's to "
                                 f"{agree:.1e}"))
+    # the dynamic load effects (on by default): the same sweep without them
+    off_cfg = {**cfg, "study": {**cfg["study"], "load_effects": False}}
+    off_path = b.write(off_cfg, "hslm_no_load_effects")
+    off, *_ = b.repeated("a. vsi sweep, [study] load_effects = false", off_path, grid,
+                         p.repeat, warm=warm)
+    res.measures.append(Measure("a3", "HSLM sweep: load effects on / off (whole command)",
+                                grid, local / off, "ratio", 1.3, 1.1,
+                                f"{fmt_s(local)} / {fmt_s(off)}"))
     if p.dask:
         dask, *_ = b.repeated("a. vsi sweep --workers 2 (Dask)", path, grid, p.repeat,
                               workers=2, warm=warm)

@@ -463,32 +463,37 @@ def test_hostile__absurd_models_are_refused_with_their_cause(name, changes, key)
     assert not any("singular" in m for m in msgs), (name, msgs)
 
 
-def test_hostile__store_lock_is_released_last(tmp_path):
-    """While the store is removed its lock stays held: a second run cannot adopt a store
-    that is half gone."""
+def test_hostile__store_lock_is_released_last(tmp_path, monkeypatch):
+    """While the store is removed its lock stays held, and the store has left its name
+    (renamed to its tombstone) before anything is deleted: a second run cannot adopt a
+    store that is half gone."""
     import fcntl
     import os
+    import shutil
 
-    from vsi_numba.study.store import CaseStore
+    from vsi_numba.study.store import CaseStore, tombstone_path
 
     store = CaseStore(tmp_path / "s.cases", "abc", "{}").open()
     store.write("t000_i000_s0000-0000", {"status": np.zeros(1, np.int32)})
-    original = store._clear
+    original = shutil.rmtree
     seen = []
 
-    def clear_then_probe(keep_lock):
-        original(keep_lock)
-        fd = os.open(store.path / ".lock", os.O_RDWR)
-        try:
-            with pytest.raises(BlockingIOError):
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            seen.append("locked")
-        finally:
-            os.close(fd)
+    def probe_then_rmtree(path, *args, **kwargs):
+        if Path(path) == tombstone_path(store.path) and not seen:
+            assert not store.path.exists()
+            fd = os.open(Path(path) / ".lock", os.O_RDWR)
+            try:
+                with pytest.raises(BlockingIOError):
+                    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                seen.append("locked")
+            finally:
+                os.close(fd)
+        return original(path, *args, **kwargs)
 
-    store._clear = clear_then_probe
+    monkeypatch.setattr(shutil, "rmtree", probe_then_rmtree)
     store.remove()
     assert seen == ["locked"] and not store.path.exists()
+    assert not tombstone_path(store.path).exists()
 
 
 def test_hostile__dask_keeps_its_scratch_space_out_of_the_temp_dir(tmp_path, monkeypatch):

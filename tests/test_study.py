@@ -187,8 +187,8 @@ def test_study_file__documented_names_and_attrs(study_config, serial_result):
     path = study_config.parent / "serial.nc"
     with open_results(path) as ds:
         assert dict(ds.sizes) == {"speed": 3, "train": 2, "irregularity": 2, "point": 1,
-                                  "wheel": 8, "vehicle": 2, "mode": 2,
-                                  "time": ds.sizes["time"]}
+                                  "wheel": 8, "vehicle": 2, "mode": 2, "deck_x": 33,
+                                  "support": 2, "time": ds.sizes["time"]}
         for name in (*ENVELOPES, *HISTORIES, "status", "max_iterations", "message",
                      "static_wheel_load", "max_static_deck_displacement",
                      "train_regular_length", "train_status", "frequency", "wheel_position"):

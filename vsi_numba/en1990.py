@@ -65,3 +65,15 @@ def comfort_level(bv: float) -> str:
         if bv <= value:
             return name
     return "not acceptable"
+
+
+# ------------------------------------------------------------------ deck-end rotation
+
+#: Clause of the deck-end rotation limits of ballasted track.
+END_ROTATION_CLAUSE = "EN 1990 A2.4.4.2.3, EN 1991-2 6.5.4.5.2 [R]"
+#: Ballasted track, EN 1991-2 6.5.4.5.2 [R]: the rotation of a deck end relative to the
+#: adjacent abutment (rad), under LM71 x Phi x alpha ...
+END_ROTATION_LIMIT_ABUTMENT = 6.5e-3
+#: ... and the sum theta_1 + theta_2 of the rotations of two consecutive decks at the joint
+#: between them (rad) [R].
+END_ROTATION_LIMIT_DECKS = 10e-3

@@ -131,3 +131,82 @@ def irregularity_allowance(speed, length: float, n0: float) -> np.ndarray:
         -((length / 20.0) ** 2)
     )
     return np.maximum(a * bracket, 0.0)
+
+
+# ------------------------------------------------------------------ LM71, Phi, alpha
+
+#: Clause of the static load model LM71.
+LM71_CLAUSE = "EN 1991-2 6.3.2, Fig. 6.1 [R]"
+#: LM71 point forces Q_vk (N): four axles ...
+LM71_AXLE_LOAD = 250e3
+#: ... at this spacing (m) ...
+LM71_AXLE_SPACING = 1.6
+#: ... in a zone of this length (m), centred on the axle group (0.8 m beyond the outer
+#: axles) ...
+LM71_AXLE_ZONE = 6.4
+#: ... and the distributed load q_vk (N/m) on both sides of the zone, unlimited in length,
+#: applied only where it is unfavourable.
+LM71_UDL = 80e3
+#: Axle offsets (m) from the centre of the LM71 axle group.
+LM71_AXLE_OFFSETS = (-2.4, -0.8, 0.8, 2.4)
+
+#: Clause and range of the load classification factor alpha, EN 1991-2 6.3.2(3) [R]:
+#: one of 0.75, 0.83, 0.91, 1.00, 1.10, 1.21, 1.33, 1.46 (any value in the range is
+#: accepted; the National Annex chooses).
+ALPHA_CLAUSE = "EN 1991-2 6.3.2(3) [R]"
+ALPHA_RANGE = (0.75, 1.46)
+ALPHA_VALUES = (0.75, 0.83, 0.91, 1.00, 1.10, 1.21, 1.33, 1.46)
+
+#: Clause of the dynamic factors Phi_2, Phi_3.
+PHI_CLAUSE = "EN 1991-2 6.4.5.2 [R]"
+#: Track maintenance standard -> dynamic factor: "careful" maintenance Phi_2,
+#: "standard" maintenance Phi_3, EN 1991-2 6.4.5.2(2)/(3) [R].
+TRACK_MAINTENANCE = {"careful": "Phi2", "standard": "Phi3"}
+#: (a, b, upper bound) of Phi = a / (sqrt(L_phi) - 0.2) + b, 1.00 <= Phi <= upper [R].
+_PHI_COEFFICIENTS = {"Phi2": (1.44, 0.82, 1.67), "Phi3": (2.16, 0.73, 2.00)}
+
+
+def dynamic_factor(length, maintenance: str = "standard"):
+    """Dynamic factor Phi_2 (careful maintenance) or Phi_3 (standard maintenance) of
+    EN 1991-2 6.4.5.2 [R].
+
+    ``Phi_2 = 1.44 / (sqrt(L_phi) - 0.2) + 0.82`` with ``1.00 <= Phi_2 <= 1.67``;
+    ``Phi_3 = 2.16 / (sqrt(L_phi) - 0.2) + 0.73`` with ``1.00 <= Phi_3 <= 2.00``.
+    For a very short L_phi (sqrt(L_phi) <= 0.2 m^0.5) the upper bound applies.
+
+    Parameters
+    ----------
+    length : float or array_like
+        Determinant length L_phi (m), > 0 (EN 1991-2 Table 6.2 [R],
+        :func:`continuous_determinant_length`).
+    maintenance : {"standard", "careful"}
+        Track maintenance standard (:data:`TRACK_MAINTENANCE`).
+
+    Returns
+    -------
+    float or ndarray
+        Phi (-), same shape as ``length``.
+    """
+    if maintenance not in TRACK_MAINTENANCE:
+        raise ValueError(f"maintenance = {maintenance!r}: expected one of "
+                         f"{', '.join(map(repr, TRACK_MAINTENANCE))}")
+    L = np.asarray(length, float)
+    if not np.all(np.isfinite(L) & (L > 0)):
+        raise ValueError(f"determinant length = {length!r}: expected a length > 0 m")
+    a, b, upper = _PHI_COEFFICIENTS[TRACK_MAINTENANCE[maintenance]]
+    root = np.sqrt(L) - 0.2
+    with np.errstate(divide="ignore"):
+        phi = np.where(root > 0, a / np.where(root > 0, root, 1.0) + b, upper)
+    phi = np.clip(phi, 1.0, upper)
+    return float(phi) if phi.ndim == 0 else phi
+
+
+# ------------------------------------------------------------------------------ HSLM-B
+
+#: HSLM-B: N point forces of this load (N) at a uniform spacing d (m), EN 1991-2
+#: 6.4.6.1.1, Fig. 6.13 [R]; N and d as functions of the span are read from Fig. 6.13,
+#: whose curve values are not available here [NF]: give them (train.hslm_b).
+HSLM_B_LOAD = 170e3
+HSLM_B_CLAUSE = "EN 1991-2 6.4.6.1.1, Annex E, Fig. 6.13 [R]"
+#: HSLM-B applies to simply supported spans shorter than this (m) [R].
+HSLM_B_MAX_SPAN = 7.0

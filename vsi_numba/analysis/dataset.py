@@ -144,11 +144,44 @@ def prepare(ds: xr.Dataset) -> xr.Dataset:
     for name, da in out.data_vars.items():
         if name == "status" or not set(CASE_DIMS) <= set(da.dims):
             continue
+        if "time" in da.dims:
+            # time histories stay lazy (a file read lazily is never loaded whole): a
+            # failed case's histories are NaN in the file already, and the report reads
+            # them one case at a time
+            continue
         if np.issubdtype(da.dtype, np.number) and not bool(ok.all()):
             out[name] = da.where(ok)
             out[name].attrs.update(da.attrs)
     out.attrs["_vsi_prepared"] = 1
     return out
+
+
+def envelopes(ds: xr.Dataset) -> xr.Dataset:
+    """The prepared results without the time histories, loaded into memory.
+
+    Everything on the ``time`` dim is dropped; the rest (envelopes, per-case scalars,
+    train and bridge data) is small whatever the study (no dim grows with the run
+    length), so the checks and tables work on this while the histories stay in the file,
+    read one case at a time.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Results, read lazily or in memory (:func:`prepare` is applied first).
+
+    Returns
+    -------
+    xarray.Dataset
+        Prepared, in memory, without ``time`` and the variables on it.
+    """
+    ds = prepare(ds)
+    timed = [n for n, v in ds.variables.items() if "time" in v.dims]
+    return ds.drop_vars(timed).load()
+
+
+def has_histories(ds: xr.Dataset) -> bool:
+    """True when ``ds`` has a ``time`` dim and some variable on it."""
+    return "time" in ds.dims and any("time" in v.dims for v in ds.data_vars.values())
 
 
 def status_meanings(ds: xr.Dataset) -> dict[int, str]:

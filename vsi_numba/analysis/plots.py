@@ -44,6 +44,24 @@ def train_colors(trains) -> dict:
     return {n: cmap(i % cmap.N) for i, n in enumerate(names)}
 
 
+#: Line styles cycled over the trains with the colours, so curves stay apart in print
+#: (and in grey): solid, dashed, dash-dot, dotted, long dash, dash-dot-dot.
+LINE_STYLES = ("-", (0, (5, 2)), (0, (6, 2, 1.5, 2)), (0, (1.2, 1.6)), (0, (10, 3)),
+               (0, (6, 2, 1.5, 2, 1.5, 2)))
+
+#: Markers cycled over the trains (drawn every few points), a third distinction.
+MARKERS = ("o", "s", "^", "D", "v", "P", "X", "<", ">", "h")
+
+
+def train_styles(trains) -> dict:
+    """Per train name: ``color``, ``linestyle`` and ``marker`` (colour, dash and marker
+    all differ between neighbours of the list)."""
+    colors = train_colors(trains)
+    names = [str(t) for t in trains]
+    return {n: {"color": colors[n], "linestyle": LINE_STYLES[i % len(LINE_STYLES)],
+                "marker": MARKERS[i % len(MARKERS)]} for i, n in enumerate(names)}
+
+
 def new_figure(height: float = HEIGHT) -> Figure:
     """A print-sized Figure on an Agg canvas."""
     fig = Figure(figsize=(WIDTH, height), layout="constrained")
@@ -71,13 +89,23 @@ def _lines(ax, ds, check: xr.Dataset, var: str = "value", scale: float = 1.0,
 
     ``trains``: the trains to draw (default all); colours stay those of the whole study.
     """
-    colors = train_colors(ds["train"].values)
+    styles = train_styles(ds["train"].values)
+    colors = {n: st["color"] for n, st in styles.items()}
     x = ds["speed_kmh"].values
     handles = []
+    every = max(1, x.size // 10)
     for train in (ds["train"].values if trains is None else trains):
         name = str(train)
         y = check[var].sel(train=train).values * scale
-        (h,) = ax.plot(x, y, color=colors[name], linewidth=1.3, label=name, **_marker(ds))
+        if not np.isfinite(y).any():
+            continue  # no curve: no legend entry
+        st = styles[name]
+        marker = _marker(ds) or {"marker": st["marker"], "markersize": 3.5,
+                                 "markevery": (list(styles).index(name) % every, every)}
+        if "marker" in marker:
+            marker = {**marker, "marker": st["marker"]}
+        (h,) = ax.plot(x, y, color=st["color"], linestyle=st["linestyle"], linewidth=1.3,
+                       label=name, markerfacecolor="white", markeredgewidth=0.9, **marker)
         handles.append(h)
         if band and "ci_low" in check and bool(check["ci_low"].sel(train=train).notnull().any()):
             ax.fill_between(x, check["ci_low"].sel(train=train).values * scale,
@@ -104,8 +132,9 @@ def _limit(ax, value: float, text: str, color: str = LIMIT_COLOR, style: str = "
     return Line2D([], [], color=color, linestyle=style, linewidth=1.2, label=text)
 
 
-def _resonances(ax, ds, k_max: int = 4):
-    """Marks v_i = f1 D / i of every train with D > 0 along the top edge of ``ax``."""
+def _resonances(ax, ds, k_max: int = 4, handles=None):
+    """Marks v_i = f1 D / i of every train with D > 0 along the top edge of ``ax``
+    (only the trains with a curve among ``handles``, when given)."""
     f = bridge_frequencies(ds)
     if not f.size or "train_regular_length" not in ds:
         return None
@@ -113,7 +142,10 @@ def _resonances(ax, ds, k_max: int = 4):
     lo, hi = float(ds["speed_kmh"].min()), float(ds["speed_kmh"].max())
     tr = blended_transform_factory(ax.transData, ax.transAxes)
     marked = False
+    drawn = None if handles is None else {h.get_label() for h in handles if h is not None}
     for train in ds["train"].values:
+        if drawn is not None and str(train) not in drawn:
+            continue
         D = float(ds["train_regular_length"].sel(train=train))
         res = resonance_speeds(f[0], D, k_max)
         v = res["speed_kmh"].to_numpy()
@@ -143,9 +175,12 @@ def _governing(ax, check: xr.Dataset, scale: float = 1.0, fmt: str = "{:.3g}",
             markeredgewidth=0.6, zorder=7, linestyle="none")
     lo, hi = ax.get_xlim()
     right_half = x > 0.5 * (lo + hi)
+    y_lo, y_hi = ax.get_ylim()
+    low = y < y_lo + 0.5 * (y_hi - y_lo)  # box above a low point: clear of the tick labels
     ax.annotate(f"max {fmt.format(y)} {units}\n{a['governing_train']}, {x:.0f} km/h",
-                (x, y), xytext=(-40 if right_half else 40, -28), textcoords="offset points",
-                ha="right" if right_half else "left", va="top", fontsize=7.5, zorder=8,
+                (x, y), xytext=(-40 if right_half else 40, 28 if low else -28),
+                textcoords="offset points", ha="right" if right_half else "left",
+                va="bottom" if low else "top", fontsize=7.5, zorder=8,
                 bbox={"boxstyle": "round,pad=0.25", "fc": "white", "ec": "0.5", "alpha": 0.95},
                 arrowprops={"arrowstyle": "-", "color": "0.4", "linewidth": 0.8})
 
@@ -155,8 +190,11 @@ def _legend(fig, ax, handles):
     handles = [h for h in handles if h is not None]
     trains = sum(1 for h in handles if h.get_label() and not h.get_label().startswith(
         ("limit", "required", "resonance", "φ")))
+    # as many columns as fit the figure's width (a legend wider than the figure is cut)
+    longest = max((len(h.get_label()) for h in handles), default=1)
+    fit = max(1, int(fig.get_figwidth() / (0.055 * longest + 0.45)))
     fig.legend(handles=handles, fontsize=7, loc="outside lower center",
-               ncols=max(1, min(5, trains if trains > 1 else 2)), frameon=False)
+               ncols=max(1, min(5, trains if trains > 1 else 2, fit)), frameon=False)
 
 
 def _headroom(ax, top_fraction: float = 0.12):
@@ -174,7 +212,7 @@ def plot_deck_acceleration(ds: xr.Dataset, check: xr.Dataset) -> Figure:
                                            "EN 1990 A2.4.4.2.1)"))
     ax.set_ylim(bottom=0)
     _headroom(ax, 0.18)
-    handles.append(_resonances(ax, ds))
+    handles.append(_resonances(ax, ds, handles=handles))
     _governing(ax, check, units="m/s²")
     ax.set_ylabel("Peak deck acceleration [m/s²]", fontsize=9)
     title = "Vertical deck acceleration"
@@ -196,7 +234,7 @@ def plot_dynamic_amplification(ds: xr.Dataset, dyn: xr.Dataset) -> Figure:
         handles.append(h)
     ax.axhline(0.0, color="0.4", linewidth=0.8)
     _headroom(ax, 0.18)
-    handles.append(_resonances(ax, ds))
+    handles.append(_resonances(ax, ds, handles=handles))
     _governing(ax, dyn, fmt="{:.3f}")
     ax.set_ylabel("Dynamic increment φ'$_{dyn}$ [–]", fontsize=9)
     ax.set_title("Dynamic increment of the deck displacement, "
@@ -205,8 +243,14 @@ def plot_dynamic_amplification(ds: xr.Dataset, dyn: xr.Dataset) -> Figure:
     return fig
 
 
-def plot_wheel_unloading(ds: xr.Dataset, wu: xr.Dataset) -> Figure:
-    """Minimum contact force (top) and wheel unloading dQ/Q0 (bottom) vs speed."""
+def plot_wheel_unloading(ds: xr.Dataset, wu: xr.Dataset, zones: xr.Dataset | None = None
+                         ) -> Figure:
+    """Minimum contact force (top) and wheel unloading dQ/Q0 (bottom) vs speed.
+
+    ``zones`` (:func:`vsi_numba.analysis.report.tables.wheel_unloading_by_zone`): dQ/Q0
+    of the axles whose minimum lay on the approach track is drawn too (thin, dotted), so
+    an approach-track maximum is not read as the bridge's.
+    """
     ds = prepare(ds)
     has_force = "min_contact_force" in wu
     fig, axes = _figure(2 if has_force else 1, 6.0 if has_force else HEIGHT)
@@ -231,6 +275,22 @@ def plot_wheel_unloading(ds: xr.Dataset, wu: xr.Dataset) -> Figure:
     ax = axes[-1]
     h2 = _lines(ax, ds, wu, trains=trains)
     handles = handles or h2
+    if zones is not None:
+        styles = train_styles(ds["train"].values)
+        x = ds["speed_kmh"].values
+        several = ds.sizes.get("irregularity", 1) > 1
+        for zone, style, text in (("deck", (0, (4, 1.5, 1, 1.5)), "on the deck"),
+                                  ("approach", ":", "off the deck")):
+            if not bool(zones[zone].notnull().any()):
+                continue
+            for train in trains:
+                y = zones[zone].sel(train=train).values
+                if np.isfinite(y).any():
+                    ax.plot(x, y, color=styles[str(train)]["color"], linestyle=style,
+                            linewidth=0.9)
+            handles = [*handles, Line2D(
+                [], [], color="0.3", linestyle=style, linewidth=0.9,
+                label=f"ΔQ/Q₀, minimum {text}" + (" (worst realisation)" if several else ""))]
     a = wu.attrs
     lim = _limit(ax, a["limit"], f"limit ΔQ/Q₀ = {a['limit']:g} (EN 14363 practice)")
     ax.set_ylim(0, max(1.0, ax.get_ylim()[1]))
@@ -261,7 +321,7 @@ def plot_comfort(ds: xr.Dataset, cf: xr.Dataset) -> Figure:
     peak = float(cf["value"].max()) if bool(cf["value"].notnull().any()) else 0.0
     top = max(2.45, 1.2 * peak)  # room above the 2.0 level for its label and the markers
     ax.set_ylim(0, top)
-    handles.append(_resonances(ax, ds))
+    handles.append(_resonances(ax, ds, handles=handles))
     _governing(ax, cf, units="m/s²")
     ax.set_ylabel("Car-body acceleration $b_v$ [m/s²]", fontsize=9)
     ax.set_title("Passenger comfort: vertical car-body acceleration", fontsize=10)

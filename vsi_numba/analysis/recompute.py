@@ -89,6 +89,7 @@ class CaseRunner:
         from vsi_numba.model.irregularity import profile_range
 
         bridge = cfg.build_bridge()
+        self._bridge_for = cfg.bridge_for  # + EN 1991-2 additional damping (moving forces)
         trains = {t.name: t for t in cfg.trains()}
         settings = cfg.solver_settings()
         x_range = profile_range(bridge.length, [t.length for t in trains.values()],
@@ -130,6 +131,7 @@ class CaseRunner:
                                  f"stored configuration ({', '.join(map(str, profiles))})")
         from vsi_numba.solver.simulate import simulate
 
+        bridge = self._bridge_for(trains[str(train)])  # the bridge the train ran on
         sim = simulate(bridge, trains[str(train)], float(speed), profiles[int(irregularity)],
                        settings, output_points=self.points, save_histories=True)
         if int(sim.attrs.get("status", 0)) != 0:

@@ -67,6 +67,8 @@ def variant_view(ds: xr.Dataset, k: int) -> xr.Dataset:
             attrs["additional_damping_rule"] = rules[1]
     attrs["variant"] = int(k)
     attrs["variant_label"] = variant_label(ds, k)
+    if "bridge_description" in attrs:  # the file's is the first variant's bridge
+        attrs["bridge_description"] = f"variant {k} ({attrs['variant_label']})"
     v = v.drop_vars([n for n in (*_PER_VARIANT, *varied_coords(ds), "variant") if n in v.variables])
     if "point_position" in v.variables:
         pos = np.asarray(v["point_position"].values, float)
@@ -91,8 +93,8 @@ def peak_deck_acceleration(ds: xr.Dataset) -> xr.DataArray:
     realisations and the deck (the whole-deck envelope when the file has it, else the
     output points)."""
     a = ds["max_deck_acceleration"].max(["train", "irregularity", "point"])
-    if "max_deck_acceleration_deck" in ds:
-        a = np.fmax(a, ds["max_deck_acceleration_deck"].max(["train", "irregularity"]))
+    if "max_deck_acceleration_whole_deck" in ds:
+        a = np.fmax(a, ds["max_deck_acceleration_whole_deck"].max(["train", "irregularity"]))
     return a
 
 
@@ -131,36 +133,100 @@ def governing_variant(ds: xr.Dataset) -> int:
     return int(np.nanargmax(a.values))
 
 
-def design_charts(ds: xr.Dataset, path, x_key: str | None = None):
-    """Heat maps of the peak deck acceleration over (a varied key x speed), one panel per
-    combination of the other varied keys, with the limit's contour; saved to ``path``.
+def _determined(ds: xr.Dataset, key: str, by: list[str]) -> bool:
+    """Whether the values of ``key`` are a function of the values of ``by`` (e.g. the
+    EI of a ``vary_together`` group given its span and label)."""
+    seen: dict = {}
+    for k in range(ds.sizes["variant"]):
+        at = tuple(str(ds[b].values[k]) for b in by)
+        if seen.setdefault(at, str(ds[key].values[k])) != str(ds[key].values[k]):
+            return False
+    return True
 
-    Returns the figure's caption.
+
+def chart_layout(ds: xr.Dataset, x_key: str | None = None):
+    """How the design chart shows the variants: ``(x_key, panel_keys, panels)``.
+
+    ``x_key`` is the varied numeric key on the x axis and ``panels`` a list of
+    ``(panel values, variant indices)``: one panel per combination of ``panel_keys``, the
+    varied keys that are not determined by ``x_key`` and the keys already chosen (a
+    ``vary_together`` group contributes one key: its ``label`` when it has one, else its
+    first key).  A layout needs at least two distinct x values in every panel and no x
+    value twice in a panel; the first numeric key (in the file's order) that gives one is
+    taken.  ``x_key`` is None when none does: the chart then draws one line per variant
+    over the speed.
+    """
+    keys = varied_coords(ds)
+    numeric = [n for n in keys if ds[n].dtype.kind in "fiu"]
+    candidates = [x_key] if x_key else numeric
+    order = (["label"] if "label" in keys else []) + [n for n in keys if n != "label"]
+    for x in candidates:
+        others: list[str] = []
+        for k in order:
+            if k != x and not _determined(ds, k, [x, *others]):
+                others.append(k)
+        groups: dict = {}
+        for k in range(ds.sizes["variant"]):
+            groups.setdefault(tuple(ds[n].values[k] for n in others), []).append(k)
+        ok = all(len({float(ds[x].values[k]) for k in ks}) == len(ks) >= 2
+                 for ks in groups.values())
+        if ok:
+            return x, others, list(groups.items())
+    return None, [], [((), list(range(ds.sizes["variant"])))]
+
+
+def design_chart_figure(ds: xr.Dataset, x_key: str | None = None, max_panels: int = 9):
+    """The design chart of a study of variants (see :func:`design_charts`).
+
+    Returns
+    -------
+    (matplotlib.figure.Figure, str)
+        The figure (close it when done) and its caption.
     """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    keys = varied_coords(ds)
-    numeric = [n for n in keys if ds[n].dtype.kind == "f"]
-    x_key = x_key or (numeric[0] if numeric else None)
-    peak = peak_deck_acceleration(ds)
+    peak = peak_deck_acceleration(ds).transpose("variant", "speed")
     limit = chk.DECK_ACCELERATION_LIMITS.get(track_type(ds), 3.5)
-    speeds = ds["speed_kmh"].values
-    # with a label (study.vary_together), its groups are the panels: the other keys of
-    # the group are functions of x and the label
-    others = ["label"] if "label" in keys and x_key != "label" else \
-        [n for n in keys if n != x_key]
-    if x_key is None:  # no numeric key: the variant index
-        groups = {(): list(range(ds.sizes["variant"]))}
-        xs_all = np.arange(ds.sizes["variant"], dtype=float)
-    else:
-        groups: dict = {}
-        for k in range(ds.sizes["variant"]):
-            groups.setdefault(tuple(ds[n].values[k] for n in others), []).append(k)
-        xs_all = ds[x_key].values
-    panels = list(groups.items())[:9]
+    speeds = np.asarray(ds["speed_kmh"].values, float)
+    x_key, others, groups = chart_layout(ds, x_key)
+    panels = groups[:max_panels]
+
+    def name(k):
+        return ds[k].attrs.get("key_path", k)
+
+    def show(k, v):
+        return f"{name(k)} = {v:.4g}" if isinstance(v, float | np.floating) else \
+            f"{name(k)} = {v}"
+
+    if x_key is None:  # no heat map possible: peak acceleration over speed per variant
+        fig, ax = plt.subplots(figsize=(8.0, 4.8), constrained_layout=True)
+        ks = list(range(ds.sizes["variant"]))
+        if len(ks) > 12:  # the envelope and the governing variant
+            env = np.nanmax(peak.values, axis=0)
+            ax.plot(speeds, env, "k-", lw=1.8, label=f"envelope of {len(ks)} variants")
+            gov = governing_variant(ds)
+            ax.plot(speeds, peak.values[gov], "C1--", label=f"governing: {variant_label(ds, gov)}")
+        else:
+            styles = ["-", "--", "-.", ":"]
+            for j, k in enumerate(ks):
+                text = (str(ds["label"].values[k]) if "label" in ds.coords
+                        and len(set(map(str, ds["label"].values))) == len(ks)
+                        else variant_label(ds, k))
+                ax.plot(speeds, peak.values[k], color=f"C{j % 10}", ls=styles[j // 10 % 4],
+                        marker=".", label=text)
+        ax.axhline(limit, color="red", lw=1.2, ls="--", label=f"limit {limit:g} m/s²")
+        ax.set_xlabel("speed [km/h]")
+        ax.set_ylabel("peak deck acceleration [m/s²]")
+        ax.legend(fontsize=8, loc="upper left")
+        ax.grid(alpha=0.3)
+        caption = ("Design chart: peak deck acceleration (max over trains, realisations and "
+                   f"the deck) over the speed, one line per variant; red: the {limit:g} m/s² "
+                   f"limit ({track_type(ds)} track).")
+        return fig, caption
+
     n = len(panels)
     cols = min(n, 3)
     rows = int(np.ceil(n / cols))
@@ -171,37 +237,50 @@ def design_charts(ds: xr.Dataset, path, x_key: str | None = None):
     vmax = min(vmax, 3.0 * limit)
     mesh = None
     for ax, (other_vals, ks) in zip(axes.flat, panels, strict=False):
-        ks = sorted(ks, key=lambda k: xs_all[k])
-        x = np.asarray([xs_all[k] for k in ks], float)
-        z = np.asarray(peak.isel(variant=ks).transpose("speed", "variant").values, float)
-        if x.size >= 2:
-            mesh = ax.pcolormesh(x, speeds, z, shading="nearest", cmap="viridis", vmin=0,
-                                 vmax=vmax)
-            if np.nanmin(z) < limit < np.nanmax(z):
-                cs = ax.contour(x, speeds, z, levels=[limit], colors="red", linewidths=1.5)
-                ax.clabel(cs, fmt={limit: f"{limit:g} m/s²"}, fontsize=8)
-        else:
-            ax.plot(z[:, 0], speeds)
-        xlabel = (ds[x_key].attrs.get("key_path", x_key) + f" [{ds[x_key].attrs.get('units')}]"
-                  if x_key else "variant")
-        ax.set_xlabel(xlabel)
+        ks = sorted(ks, key=lambda k: float(ds[x_key].values[k]))
+        x = np.asarray([ds[x_key].values[k] for k in ks], float)
+        z = np.asarray(peak.values[ks], float).T  # (speed, x)
+        mesh = ax.pcolormesh(x, speeds, z, shading="nearest", cmap="viridis", vmin=0,
+                             vmax=vmax)
+        if np.nanmin(z) < limit < np.nanmax(z):
+            cs = ax.contour(x, speeds, z, levels=[limit], colors="red", linewidths=1.5)
+            ax.clabel(cs, fmt={limit: f"{limit:g} m/s²"}, fontsize=8)
+        if "label" in ds.coords and "label" not in others and "label" != x_key:
+            top = ax.secondary_xaxis("top")  # the label of each x (its vary_together group)
+            top.set_xticks(x, [str(ds["label"].values[k]) for k in ks], fontsize=7)
+        if x.size <= 8:
+            ax.set_xticks(x)
+        units = ds[x_key].attrs.get("units")
+        ax.set_xlabel(name(x_key) + (f" [{units}]" if units else ""))
         ax.set_ylabel("speed [km/h]")
-        title = ", ".join(f"{ds[o].attrs.get('key_path', o)} = {val:.4g}"
-                          if isinstance(val, float | np.floating) else f"{o} = {val}"
-                          for o, val in zip(others, other_vals, strict=True))
-        ax.set_title(title or "peak deck acceleration", fontsize=9)
+        ax.set_title(", ".join(show(o, v) for o, v in zip(others, other_vals, strict=True))
+                     or "peak deck acceleration", fontsize=9)
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
-    if mesh is not None:
-        fig.colorbar(mesh, ax=axes, label="peak deck acceleration [m/s²]", extend="max")
+    fig.colorbar(mesh, ax=axes, label="peak deck acceleration [m/s²]", extend="max")
+    caption = (f"Design chart: peak deck acceleration (max over trains, realisations and the "
+               f"deck) over {name(x_key)} and speed; red: the {limit:g} m/s² limit "
+               f"({track_type(ds)} track)"
+               + (f"; one panel per {', '.join(name(o) for o in others)}" if others else "")
+               + (f" (first {len(panels)} of {len(groups)})" if len(groups) > len(panels)
+                  else "") + ".")
+    return fig, caption
+
+
+def design_charts(ds: xr.Dataset, path, x_key: str | None = None):
+    """Heat maps of the peak deck acceleration over (a varied key x speed), one panel per
+    combination of the other varied keys (:func:`chart_layout`), with the limit's
+    contour; without a key that spans a heat map, the peak over the speed per variant.
+    Saved to ``path``.
+
+    Returns the figure's caption.
+    """
+    import matplotlib.pyplot as plt
+
+    fig, caption = design_chart_figure(ds, x_key)
     fig.savefig(path, dpi=110)
     plt.close(fig)
-    return (f"Design chart: peak deck acceleration (max over trains, realisations and the "
-            f"deck) over {ds[x_key].attrs.get('key_path', x_key) if x_key else 'variant'} "
-            f"and speed; red: the {limit:g} m/s² limit ({track_type(ds)} track)"
-            + (f"; one panel per {', '.join(ds[o].attrs.get('key_path', o) for o in others)}"
-               if others else "") + (f" (first {len(panels)} of {len(groups)})"
-                                     if len(groups) > len(panels) else "") + ".")
+    return caption
 
 
 def write_variants_report(ds: xr.Dataset, outdir, source_path=None, **kwargs):
@@ -215,7 +294,7 @@ def write_variants_report(ds: xr.Dataset, outdir, source_path=None, **kwargs):
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     table = variant_table(ds)
-    table.to_csv(outdir / "variants.csv", index=False)
+    table.to_csv(outdir / "variants.csv", index=False, float_format="%.10g")
     gov = governing_variant(ds)
     sub = write_report(variant_view(ds, gov), outdir / "governing_variant",
                        source_path=source_path, **kwargs)

@@ -13,12 +13,36 @@ app = typer.Typer(
     add_completion=False,
     no_args_is_help=True,
     help="vsi_numba: vehicle-structure interaction for railway bridges (direct method).",
+    # plain help: flags read "-q, --quiet" (the rich help of typer 0.2x labels every flag,
+    # --help included, "<bool>"), and the text greps as it reads
+    rich_markup_mode=None,
 )
+
+
+def _version(value: bool) -> None:
+    if value:
+        import platform
+
+        import numba
+
+        from vsi_numba import __version__
+
+        typer.echo(f"vsi_numba {__version__} (numba {numba.__version__}, Python "
+                   f"{platform.python_version()})")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def _main(
+    version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
+                                 help="print the version and exit"),
+):
+    """vsi_numba: vehicle-structure interaction for railway bridges (direct method)."""
 
 
 @app.command()
 def run(
-    config: Path = typer.Argument(..., help="TOML configuration file"),
+    config: Path = typer.Argument(..., metavar="CONFIG", help="TOML configuration file"),
     output: Path | None = typer.Option(None, "-o", "--output", help="netCDF output file"),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress output"),
 ):
@@ -30,7 +54,7 @@ def run(
 
 @app.command()
 def sweep(
-    config: Path = typer.Argument(..., help="TOML configuration file"),
+    config: Path = typer.Argument(..., metavar="CONFIG", help="TOML configuration file"),
     output: Path | None = typer.Option(None, "-o", "--output", help="netCDF output file"),
     workers: int | None = typer.Option(
         None, "--workers", "-w", help="start a Dask LocalCluster (127.0.0.1) with N workers"
@@ -54,6 +78,30 @@ def sweep(
 
 
 @app.command()
+def check(
+    config: Path = typer.Argument(..., metavar="CONFIG", help="TOML configuration file"),
+    workers: int | None = typer.Option(
+        None, "--workers", "-w", help="estimate for N workers (default: the cores)"),
+):
+    """Validate a configuration, print its study size and estimated time, memory and
+    disk; run nothing."""
+    from vsi_numba.cli.check import check_command
+
+    raise typer.Exit(check_command(config, workers))
+
+
+@app.command()
+def init(
+    path: Path = typer.Argument(Path("study.toml"), metavar="PATH",
+                                help="file to write (never overwritten)"),
+):
+    """Write a commented starter configuration that validates and runs as is."""
+    from vsi_numba.cli.init import init_command
+
+    raise typer.Exit(init_command(path))
+
+
+@app.command()
 def trains(name: str | None = typer.Argument(None, help="train name: print its axle table")):
     """List the train library, or print one train's axles."""
     from vsi_numba.cli.trains import trains_command
@@ -63,7 +111,7 @@ def trains(name: str | None = typer.Argument(None, help="train name: print its a
 
 @app.command()
 def modes(
-    config: Path = typer.Argument(..., help="TOML configuration file"),
+    config: Path = typer.Argument(..., metavar="CONFIG", help="TOML configuration file"),
     output: Path | None = typer.Option(None, "-o", "--output",
                                        help="plot the mode shapes to this PNG"),
 ):
@@ -75,7 +123,8 @@ def modes(
 
 @app.command()
 def report(
-    results: Path = typer.Argument(..., help="netCDF results of `vsi run` or `vsi sweep`"),
+    results: Path = typer.Argument(..., metavar="RESULTS",
+                                   help="netCDF results of `vsi run` or `vsi sweep`"),
     outdir: Path | None = typer.Option(None, "-o", "--output", help="report directory"),
 ):
     """Write the EN 1990 A2 checks, figures and a Markdown report for a results file."""
@@ -86,7 +135,7 @@ def report(
 
 @app.command()
 def profile(
-    config: Path = typer.Argument(..., help="TOML configuration file"),
+    config: Path = typer.Argument(..., metavar="CONFIG", help="TOML configuration file"),
     plot: Path | None = typer.Option(None, "--plot", help="draw the profiles into this PNG"),
 ):
     """Show the track irregularity profiles a configuration would use."""

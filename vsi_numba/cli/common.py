@@ -87,15 +87,16 @@ def load_config_and_output(config, output, printer: Printer):
     """``(cfg, output path)`` of a command that writes results (``vsi run``, ``vsi
     sweep``), both checked before any computation; None after printing why not.
 
-    The output defaults to the configuration's ``study.output``; it must not be the
-    configuration itself, a directory or in a place that cannot be written
-    (:func:`output_problem`).
+    The output defaults to the configuration's ``study.output``; it must not be a file
+    the configuration reads (the configuration itself, a profile, modes, matrix or train
+    file), a directory, device, FIFO or socket, a name too long for the file system, or
+    in a place that cannot be written (:func:`output_problem`).
     """
     cfg = load_config(config, printer)
     if cfg is None:
         return None
     out_path = Path(output) if output is not None else Path(cfg.output_path)
-    problem = output_problem(config, out_path)
+    problem = output_problem(config, out_path, cfg)
     if problem is not None:
         printer.error(problem)
         return None
@@ -112,16 +113,19 @@ def same_file(a: Path, b: Path) -> bool:
         return False
 
 
-def output_problem(config: Path, out_path: Path) -> str | None:
+def output_problem(config: Path, out_path: Path, cfg=None) -> str | None:
     """Why ``out_path`` cannot take the results of ``config`` (checked before any
-    computation): the input itself, a directory, an unwritable location; else None."""
+    computation): an input of the configuration, not a regular file, a name too long,
+    an unwritable location (see :func:`vsi_numba.io.paths.output_conflict`); else None."""
+    from vsi_numba.io.paths import output_conflict
     from vsi_numba.study.store import OutputNotWritableError, check_writable
 
+    problem = output_conflict(out_path, cfg)
+    if problem is not None:
+        return problem
     if same_file(Path(config), out_path):
         return (f"the output {out_path} is the configuration file itself: refusing to "
                 "overwrite the input; choose another output (-o PATH, ending in .nc)")
-    if out_path.is_dir():
-        return f"the output {out_path} is a directory; give a file path (-o PATH)"
     try:
         check_writable(out_path.parent if str(out_path.parent) else Path("."),
                        "results file")

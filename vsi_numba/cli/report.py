@@ -10,7 +10,9 @@ from vsi_numba.cli.common import EXIT_USAGE, Printer
 
 
 def report_command(results: Path, outdir: Path | None = None) -> int:
-    """CLI entry of ``vsi report RESULTS.nc [-o DIR]``.
+    """CLI entry of ``vsi report RESULTS.nc [-o DIR]``: ``report.html``, ``report.md``
+    and the tables (:func:`vsi_numba.analysis.report.write_report`). The file is read
+    lazily: memory does not grow with the study.
 
     Parameters
     ----------
@@ -51,10 +53,12 @@ def report_command(results: Path, outdir: Path | None = None) -> int:
               f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})")
         return EXIT_USAGE
     with ds:
+        # ds stays lazy: the report loads the envelopes and reads the time histories one
+        # case at a time (memory independent of the study's size)
         if "variant" in ds.dims:  # a parametric study: the report over the variants
-            from vsi_numba.analysis.variants import write_variants_report
+            from vsi_numba.analysis.report.variants import write_variants_report
 
-            writer, data = write_variants_report, ds.load()
+            writer, data = write_variants_report, ds
         else:
             try:
                 data = prepare(ds)
@@ -85,5 +89,7 @@ def report_command(results: Path, outdir: Path | None = None) -> int:
         except OSError as exc:
             error(f"cannot write the report to '{outdir}': {exc}")
             return 1
-    pr.line(f"report written to {path}")
+    pr.line(f"report written to {path.with_suffix('.html')} (and {path.name}, "
+            f"{'variants.csv' if path.parent.joinpath('variants.csv').is_file() else 'tables/'}"
+            ", tables.xlsx)")
     return 0

@@ -101,8 +101,29 @@ def sweep_command(config: Path, output: Path | None, workers: int | None,
         code = fail(f"{n_failed} of {outcome.n_runs} cases failed numerically "
                     "(status != 0, outputs NaN); see the 'status' and 'message' variables",
                     1)
+    _print_governing(out_path, pr)
     if report_dir is not None:  # 0 or 1 here: the results file is written
         from vsi_numba.cli.report import report_command
 
         code = code or report_command(out_path, report_dir)
     return code
+
+
+def _print_governing(path: Path, pr: Printer) -> None:
+    """The governing result of every check (:func:`vsi_numba.cli.governing.governing_lines`)
+    on stdout; a results file the checks cannot read gives one error line (the sweep's
+    exit code stays that of the sweep)."""
+    import xarray as xr
+
+    from vsi_numba.cli.governing import governing_lines
+
+    try:
+        with xr.open_dataset(path) as ds:
+            lines = governing_lines(ds)
+    except Exception as exc:  # noqa: BLE001 - the results are written; say why, go on
+        pr.error(f"{path}: the governing results cannot be computed ({type(exc).__name__}: "
+                 f"{exc}); `vsi report {path}` shows the checks")
+        return
+    pr.line(f"governing results ({path}):")
+    for line in lines:
+        pr.line(f"  {line}")

@@ -27,8 +27,13 @@ def trains_command(name: str | None = None) -> int:
 
     pr = Printer()
     out = pr.out
+    from vsi_numba.model.library import extra
+
     if name is None:
-        df = lib.library_table()
+        import pandas as pd
+
+        df = pd.concat([lib.library_table(), pd.DataFrame([extra.hslm_b_row()])],
+                       ignore_index=True)
         table = Table(title="vsi_numba train library", box=None, padding=(0, 1, 0, 0),
                       header_style="bold underline", title_justify="left",
                       caption="static whole-axle loads; D = regular coach length; HSLM-A: "
@@ -43,6 +48,10 @@ def trains_command(name: str | None = None) -> int:
         style = {"suspect": "red", "reconstruction": "yellow", "secondary": "yellow"}
         for r in df.itertuples(index=False):
             st = f"[{style[r.status]}]{r.status}[/]" if r.status in style else r.status
+            if r.name == extra.HSLM_B_NAME:  # no axle data: N and d from the config
+                table.add_row(r.name, r.status, "N", "-", "-", f"{r.max_axle_load_kN:.1f}",
+                              "d")
+                continue
             table.add_row(
                 r.name, st, str(r.axles), f"{r.length_m:.3f}", f"{r.total_mass_t:.1f}",
                 f"{r.max_axle_load_kN:.1f}",
@@ -54,6 +63,12 @@ def trains_command(name: str | None = None) -> int:
         if flagged:
             out.print(f"[yellow]Uncertain data (suspect / reconstruction): {', '.join(flagged)}."
                       " `vsi trains NAME` shows the documented doubts.[/]")
+        out.print(f"HSLM-B: {extra.HSLM_B_MISSING}.", highlight=False, markup=False)
+        return 0
+    if name.strip().casefold() == extra.HSLM_B_NAME.casefold():
+        out.print(f"[bold]{extra.HSLM_B_NAME}[/] - status: {extra.HSLM_B_STATUS}",
+                  highlight=False)
+        out.print(f"{extra.HSLM_B_MISSING}.", highlight=False, markup=False)
         return 0
     try:
         canon, kind, spec = _spec(name)

@@ -40,7 +40,11 @@ a warning says how many modes keep 95 % of the rail's static flexibility).
 (user train TOML, see :func:`vsi_numba.model.library.load_user_trains`) or
 ``[[train.vehicles]]`` (one train, ``name``: default ``title``, else "custom"); ``model`` =
 interaction | moving_force for presets (default: interaction where the library has
-vehicle dynamics, moving forces for the HSLM load models).  A vehicle has ``kind`` =
+vehicle dynamics, moving forces for the HSLM load models); ``hslm_b`` = {``N``, ``d``}
+(required with the preset "HSLM-B": N forces of 170 kN at spacing d m, EN 1991-2 Fig.
+6.13 [R]); ``axles`` = {``file``, ``load_unit`` ("kN" | "N"), ``name``} adds a moving-force
+train from an axle-load CSV (columns ``position`` m behind the first axle, ``load``), alone
+or next to presets / a file.  A vehicle has ``kind`` =
 force (``load``, N) | sprung_mass (``mass``, ``stiffness``, ``damping`` 0,
 ``wheel_mass`` 0) | car (the [whole] values of ``data/trains.toml`` plus
 ``body_cg_to_front_bogie``, default mid-way) | user (``M``, ``C``, ``K``, ``wheel_dofs``,
@@ -66,7 +70,23 @@ and ``rail_mass`` (kg per metre of track moving with the rail, 0 .. 2000; 0).  N
 ``[study]`` ``speeds_kmh`` (list, or {start, stop, step} with stop included when on the
 grid) or ``line_speed_kmh`` (then 140 .. 1.2 x line speed, step 5, 1.2 x line speed
 included); ``output`` (results/<stem>.nc); ``save_time_histories`` (true);
-``history_speeds_kmh`` (all).
+``history_speeds_kmh`` (all); ``classification_factor`` (alpha of LM71, 1.0, in
+[0.75, 1.46], EN 1991-2 6.3.2(3) [R]) and ``track_maintenance`` ("standard": Phi_3,
+"careful": Phi_2, EN 1991-2 6.4.5.2 [R]) for the load-effect checks of `vsi report`;
+``load_effects`` (true: bending moment, shear, reactions and rotations reduced in the
+runs).
+Also: ``[bridge]`` ``track_type`` = ballasted (default) | direct_fastening (the EN 1990 A2
+deck-acceleration limit); ``damping_ratio`` = "EN1991-2" with ``deck_type`` (Table 6.6
+lower bound for the span); ``additional_damping`` (false; EN 1991-2 6.4.6.3.1, moving
+forces only).  ``[solver]`` ``allow_coarse_dt``, ``allow_implausible``,
+``allow_large_problem`` (false; accept what the checks refuse).  ``[study]``
+``refine_resonance`` (false; adds the resonance speeds of the trains), ``vary`` (a table
+of key paths, each with a list of values), ``vary_together`` (tables of key paths varied
+together, optional ``label``), ``mass_bounds`` (factors on ``mass_per_length``): the
+variants of a parametric study.
+The stored configuration of a results file (attribute config_json, :meth:`Config.resolved`) is
+written in these keys, defaults filled in and rules kept as rules, so that it reloads to
+the same configuration.
 
 Modules
 -------

@@ -407,7 +407,7 @@ def _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes, fmax,
         base = chk.get_number(d, path, "dof_base", _Num(
             "0 (DOFs numbered from 0) or 1 (from 1)", ge=0, le=1, integer=True, default=0))
         sign = chk.get_number(d, path, "rotation_sign", _Num(
-            "1 (rotation DOF = +dw/dx) or -1 (= -dw/dx)", default=1))
+            "1 (rotation DOF = +dw/dx) or -1 (= -dw/dx)", default=1.0))
         if _ok(sign) and sign not in (1, -1):
             sign = chk.error("bridge.rotation_sign", d["rotation_sign"],
                              "1 (rotation DOF = +dw/dx) or -1 (= -dw/dx)")

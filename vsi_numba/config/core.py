@@ -23,7 +23,7 @@ from vsi_numba.config._check import (
     _ok,
     _show,
 )
-from vsi_numba.config.bridge import MIN_SPAN, _bridge_section, _BridgeSpec
+from vsi_numba.config.bridge import EN_DAMPING, MIN_SPAN, _bridge_section, _BridgeSpec
 from vsi_numba.config.irregularity import (
     _check_file_coverage,
     _defect_profile,
@@ -36,6 +36,7 @@ from vsi_numba.config.physics import (
     _refuse,
     _track_plausibility,
 )
+from vsi_numba.config.report import _report_section
 from vsi_numba.config.solver import (
     SOLVER_OVERRIDES,
     _contact_section,
@@ -69,7 +70,7 @@ class Config:
 
     def __init__(self, *, title: str, path: Path | None, base_dir: Path, resolved: dict,
                  bridge: _BridgeSpec, train: _TrainSpec, irregularity: _IrregularitySpec,
-                 solver: dict, study: _StudySpec, warnings):
+                 solver: dict, study: _StudySpec, warnings, derived: dict | None = None):
         self.title: str = title
         self.path: Path | None = path
         self.base_dir: Path = base_dir
@@ -84,6 +85,9 @@ class Config:
         self._irregularity = irregularity
         self._solver = solver
         self._study = study
+        #: what the rules of the input derive (Table 6.6 damping, refined speeds, ...):
+        #: not part of the stored configuration, which keeps the rules themselves
+        self._derived: dict = dict(derived or {})
         self._built = None  # the bridge with its track (build_bridge)
         #: ``[(labels, Config)]``: the variants of ``study.vary`` (empty: none)
         self.variants: list = []
@@ -138,19 +142,27 @@ class Config:
     def additional_damping(self) -> float:
         """EN 1991-2 6.4.6.3.1 additional damping (fraction) for moving-force trains
         (0 unless ``bridge.additional_damping = true`` and L < 30 m)."""
-        return float(self._resolved["bridge"].get("additional_damping", 0.0))
+        return float(self._derived.get("additional_damping", 0.0))
 
     @property
     def damping_rule(self) -> str | None:
         """The EN 1991-2 Table 6.6 rule ``damping_ratio = 'EN1991-2'`` applied (text), or
         None."""
-        return self._resolved["bridge"].get("damping_rule")
+        return self._derived.get("damping_rule")
 
     @property
     def additional_damping_rule(self) -> str | None:
         """The EN 1991-2 6.4.6.3.1 rule ``additional_damping = true`` applied (text), or
         None."""
-        return self._resolved["bridge"].get("additional_damping_rule")
+        return self._derived.get("additional_damping_rule")
+
+    @property
+    def damping_ratio(self):
+        """The bridge's damping ratio as used: a number or one per mode (the Table 6.6
+        value for ``damping_ratio = 'EN1991-2'``); None for a rigid bridge."""
+        if "damping_ratio" in self._derived:
+            return self._derived["damping_ratio"]
+        return self._resolved["bridge"].get("damping_ratio")
 
     def bridge_for(self, train) -> _bridge.ModalBridge:
         """The bridge a train runs on: :meth:`build_bridge`, with the additional damping
@@ -211,7 +223,8 @@ class Config:
     @property
     def speeds_kmh(self) -> np.ndarray:
         """Speeds of the study (km/h), shape (n_speeds,)."""
-        return np.asarray(self._study.resolved["speeds_kmh"], float)
+        return np.asarray(self._derived.get("speeds_kmh", self._study.resolved["speeds_kmh"]),
+                          float)
 
     @property
     def output_path(self) -> Path:
@@ -222,6 +235,11 @@ class Config:
     def save_time_histories(self) -> bool:
         """Whether time histories are written (envelopes always are)."""
         return bool(self._study.resolved["save_time_histories"])
+
+    @property
+    def load_effects(self) -> bool:
+        """Whether the dynamic load effects are computed (when the bridge gives them)."""
+        return bool(self._study.resolved.get("load_effects", True))
 
     @property
     def history_speeds_kmh(self) -> np.ndarray | None:
@@ -243,8 +261,16 @@ class Config:
     def resolved(self) -> dict:
         """Return the configuration with every default filled in (JSON-serialisable).
 
-        Paths stay as written (relative to :attr:`base_dir`), so
-        ``load_config(cfg.resolved(), base_dir=cfg.base_dir)`` gives the same config.
+        This is the stored configuration (``config_json`` of every results file): the
+        input in the input's own keys, so that
+        ``load_config(cfg.resolved(), base_dir=cfg.base_dir)`` gives the same
+        configuration (same :attr:`sha256`, same study).  Paths stay as written (relative
+        to :attr:`base_dir`).  Rules stay rules: ``damping_ratio = "EN1991-2"`` with its
+        ``deck_type``, ``additional_damping = true``, ``refine_resonance = true`` next to
+        the speeds it refines; what they derive is in :attr:`damping_ratio`,
+        :attr:`damping_rule`, :attr:`additional_damping`, :attr:`speeds_kmh` (and in the
+        results file's variables).  Reloading it is a fixed point:
+        ``load_config(cfg.resolved()).resolved() == cfg.resolved()``.
         """
         return json.loads(json.dumps(self._resolved))
 
@@ -348,7 +374,8 @@ def load_config(path_or_mapping, base_dir=None) -> Config:
 
 def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     chk = _Checker()
-    top = {"title", "bridge", "train", "irregularity", "solver", "contact", "track", "study"}
+    top = {"title", "bridge", "train", "irregularity", "solver", "contact", "track", "study",
+           "report"}
     chk.table(data, "", top)
     default_title = path.stem if path is not None else "untitled"
     title = chk.string(data, "", "title", "a title (string)", default=None, nonempty=False)
@@ -370,6 +397,7 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     irr = _irregularity_section(chk, data.get("irregularity", _MISSING), base)
     stem = path.stem if path is not None else "run"
     study = _study_section(chk, data.get("study", _MISSING), f"results/{stem}.nc", base)
+    report = _report_section(chk, data.get("report", _MISSING))
 
     if _ok(bridge, solver, irr) and irr.file_profile is not None:
         _check_file_coverage(chk, irr, -solver["approach"], bridge.length)
@@ -384,6 +412,7 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
 
         raise ConfigError(sorted(chk.errors, key=rank), source=source)
 
+    stored_speeds = list(study.resolved["speeds_kmh"])  # before the refinement
     if study.resolved.get("refine_resonance"):
         _refine_resonance(study.resolved, bridge, train)
     spans = bridge.resolved.get("spans") or []
@@ -398,20 +427,49 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     _track_plausibility(chk, train, solver, track)
     if chk.errors:  # checks of the whole model (time step, budget, plausibility)
         raise ConfigError(chk.errors, source=source)
+    stored_bridge, derived = _stored_bridge(bridge.resolved)
+    if study.axes and "output_points" not in data["bridge"]:
+        # the default points are the variants' mid-spans: they follow the varied spans
+        stored_bridge.pop("output_points", None)
+    if stored_bridge.get("kind") == "modes_file" and "damping_ratio" not in data["bridge"]:
+        # not given: the file's damping ratios (else 0), which an explicit 0 would replace
+        stored_bridge.pop("damping_ratio", None)
+    stored_study = dict(study.resolved)
+    if stored_study.get("refine_resonance"):
+        derived["speeds_kmh"] = stored_study["speeds_kmh"]
+        stored_study["speeds_kmh"] = stored_speeds
     resolved = {
         "title": title if title is not None else default_title,
-        "bridge": bridge.resolved,
+        "bridge": stored_bridge,
         "train": train.resolved,
         "irregularity": irr.resolved,
         "solver": _drop_none(dict(solver)),
         "contact": contact,
         # (none with the FE track layer of [bridge.track]: that layer is the track)
         **({"track": track} if track["model"] != "bridge_layer" else {}),
-        "study": dict(study.resolved),
+        "study": stored_study,
+        **({"report": report} if report else {}),
     }
     cfg = Config(
         title=resolved["title"], path=path, base_dir=base, resolved=resolved, bridge=bridge,
         train=train, irregularity=irr, solver=solver, study=study, warnings=chk.warnings,
+        derived=derived,
     )
     cfg.warning_records = [dict(r) for r in chk.records]
     return cfg
+
+
+def _stored_bridge(resolved: dict) -> tuple[dict, dict]:
+    """The ``[bridge]`` of the stored configuration (the rules as the input states them)
+    and what the rules derived (``damping_ratio``, ``damping_rule``,
+    ``additional_damping``, ``additional_damping_rule``)."""
+    stored, derived = dict(resolved), {}
+    if "damping_rule" in stored:  # damping_ratio = "EN1991-2" with deck_type
+        derived["damping_rule"] = stored.pop("damping_rule")
+        derived["damping_ratio"] = stored["damping_ratio"]
+        stored["damping_ratio"] = EN_DAMPING
+    if "additional_damping_rule" in stored:  # additional_damping = true
+        derived["additional_damping_rule"] = stored.pop("additional_damping_rule")
+        derived["additional_damping"] = stored["additional_damping"]
+        stored["additional_damping"] = True
+    return stored, derived

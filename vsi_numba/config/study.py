@@ -23,7 +23,12 @@ from vsi_numba.config._check import (
 )
 from vsi_numba.config.limits import MAX_SPEEDS
 from vsi_numba.config.variants import _vary_axes
-from vsi_numba.en1991 import resonance_speeds_kmh
+from vsi_numba.en1991 import (
+    ALPHA_CLAUSE,
+    ALPHA_RANGE,
+    TRACK_MAINTENANCE,
+    resonance_speeds_kmh,
+)
 from vsi_numba.model.irregularity import SPEED_BOUND_KMH
 
 #: Orders i of the resonance speeds v_i = f1 D / i that study.refine_resonance adds.
@@ -62,7 +67,8 @@ def _study_section(chk, d, default_output: str, base_dir: Path) -> _StudySpec | 
     path = "study"
     allowed = {"speeds_kmh", "output", "save_time_histories", "line_speed_kmh",
                "history_speeds_kmh", "vary", "vary_together", "mass_bounds",
-               "refine_resonance"}
+               "refine_resonance", "classification_factor", "track_maintenance",
+               "load_effects"}
     if d is _MISSING:
         return chk.error(path, _MISSING, "a table [study] with speeds_kmh (km/h) or "
                                          "line_speed_kmh")
@@ -136,13 +142,24 @@ def _study_section(chk, d, default_output: str, base_dir: Path) -> _StudySpec | 
                     break
     axes = _vary_axes(chk, d)
     refine = chk.boolean(d, path, "refine_resonance", False)
-    if not _ok(line, speeds, output, save, hist, out_full, axes, refine):
+    lo, hi = ALPHA_RANGE
+    alpha = chk.get_number(d, path, "classification_factor", _Num(
+        f"a load classification factor alpha of LM71 in [{lo:g}, {hi:g}] ({ALPHA_CLAUSE})",
+        ge=lo, le=hi, default=None))
+    maint = chk.choice(d, path, "track_maintenance", tuple(TRACK_MAINTENANCE), default=None,
+                       note=" (the dynamic factor of LM71: 'careful' maintenance Phi_2, "
+                            "'standard' Phi_3, EN 1991-2 6.4.5.2 [R])")
+    effects = chk.boolean(d, path, "load_effects", True)
+    if not _ok(line, speeds, output, save, hist, out_full, axes, refine, alpha, maint,
+               effects):
         return _BAD
     vary = {k: d[k] for k in ("vary", "vary_together", "mass_bounds") if k in d}
     if refine:
         vary["refine_resonance"] = True
     resolved = _drop_none({"speeds_kmh": speeds, "line_speed_kmh": line, "output": output,
-                           "save_time_histories": save, "history_speeds_kmh": hist, **vary})
+                           "save_time_histories": save, "history_speeds_kmh": hist,
+                           "classification_factor": alpha, "track_maintenance": maint,
+                           "load_effects": None if effects else False, **vary})
     return _StudySpec(resolved=resolved, output_path=out_full, axes=axes)
 
 

@@ -25,6 +25,7 @@ from vsi_numba.config._check import (
 from vsi_numba.config.limits import MAX_USER_DOFS, MAX_VEHICLES
 from vsi_numba.model import library as _lib
 from vsi_numba.model import vehicle as _veh
+from vsi_numba.model.library import extra as _extra
 
 VEHICLE_KINDS = ("force", "sprung_mass", "car", "user")
 TRAIN_MODELS = _lib.MODELS
@@ -247,17 +248,17 @@ def _get_preset(chk, name, path, model):
 
 def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
     path = "train"
-    allowed = {"preset", "model", "vehicles", "file", "name"}
+    allowed = {"preset", "model", "vehicles", "file", "name", "hslm_b", "axles"}
     ignored = {"name": "it names the train of [[train.vehicles]]; presets keep their names"}
     if isinstance(d, Mapping) and "vehicles" in d:
         ignored = {"model": "it applies to library presets, not to [[train.vehicles]]"}
     if chk.table(d, path, allowed - set(ignored), ignored=ignored,
                  what=" [train] with preset, vehicles or file") is _BAD:
         return _BAD
-    given = [k for k in ("preset", "vehicles", "file") if k in d]
+    given = [k for k in ("preset", "vehicles", "file", "axles") if k in d]
     if not given:
         return chk.error(path, _MISSING, "one of train.preset (library names), "
-                                         "[[train.vehicles]] or train.file")
+                                         "[[train.vehicles]], train.file or train.axles")
     if "vehicles" in d and len(given) > 1:
         other = [k for k in given if k != "vehicles"][0]
         return chk.error(f"train.{other}", d[other],
@@ -271,6 +272,26 @@ def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
     model = chk.choice(d, path, "model", TRAIN_MODELS, default=None)
     if model is not None and model is not _BAD:
         res["model"] = model
+    extra = []
+    if "axles" in d:
+        extra.append(_axle_train(chk, d["axles"], base_dir, res))
+    raw = _as_list(d.get("preset", []))
+    names_given = [raw] if isinstance(raw, str) else (raw if isinstance(raw, list) else [])
+    wants_b = any(isinstance(n, str) and n.strip().casefold() == "hslm-b"
+                  for n in names_given)
+    hslm_b = _BAD
+    if "hslm_b" in d:
+        if not wants_b:
+            chk.error("train.hslm_b", d["hslm_b"], "only with 'HSLM-B' in train.preset "
+                      "(N and d of the HSLM-B train)")
+        else:
+            hslm_b = _hslm_b(chk, d["hslm_b"], model, res)
+    elif wants_b:
+        chk.error("train.hslm_b", _MISSING, _extra.HSLM_B_MISSING)
+    if "preset" not in d and "file" not in d:
+        if not _ok(model, *extra):
+            return _BAD
+        return _TrainSpec(resolved=res, trains=extra)
 
     user_trains: dict = {}
     if "file" in d:
@@ -292,16 +313,69 @@ def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
         res["preset"] = list(names)
         if model is _BAD or user_trains is _BAD:
             return _BAD
-        trains = [_get_preset(chk, n, p, model) for n, p in zip(names, paths, strict=True)]
-        if not _ok(*trains):
+        trains = [hslm_b if n.strip().casefold() == "hslm-b" else _get_preset(chk, n, p, model)
+                  for n, p in zip(names, paths, strict=True)]
+        if not _ok(*trains, *extra):
             return _BAD
-        return _TrainSpec(resolved=res, trains=trains)
+        for t in extra:
+            if t.name in names:
+                return chk.error("train.axles.name", t.name, "a train name other than the "
+                                 "presets' (train.preset has it)")
+        return _TrainSpec(resolved=res, trains=trains + extra)
     if user_trains is _BAD or not _ok(model):
         return _BAD
     if not user_trains:
         return chk.error("train.file", d.get("file"), "a file defining at least one train")
     trains = [_get_preset(chk, n, "train.file", model) for n in user_trains]
-    return _TrainSpec(resolved=res, trains=trains) if _ok(*trains) else _BAD
+    return _TrainSpec(resolved=res, trains=trains + extra) if _ok(*trains, *extra) else _BAD
+
+
+def _hslm_b(chk, v, model, res):
+    """``train.hslm_b = {N, d}``: the HSLM-B train, or ``_BAD``."""
+    path = "train.hslm_b"
+    if not isinstance(v, Mapping):
+        return chk.error(path, v, "a table {N = <number of forces>, d = <spacing in m>} "
+                                  "read from EN 1991-2 Fig. 6.13 [R]")
+    if chk.table(v, path, {"N", "d"}) is _BAD:
+        return _BAD
+    missing = [k for k in ("N", "d") if k not in v]
+    for k in missing:
+        chk.error(f"{path}.{k}", _MISSING, _extra.HSLM_B_MISSING)
+    if missing:
+        return _BAD
+    vals = chk.numbers(v, path, {
+        "N": _Num("a whole number of point forces >= 1 (EN 1991-2 Fig. 6.13 [R])", ge=1,
+                  le=10_000, integer=True),
+        "d": _Num("a uniform spacing > 0 m (EN 1991-2 Fig. 6.13 [R])", gt=0, le=1_000)})
+    if not _ok(*vals.values()):
+        return _BAD
+    if model == "interaction":
+        return chk.error("train.model", model, "'moving_force' (HSLM-B is a load model: "
+                                               "moving forces, no vehicle dynamics)")
+    res["hslm_b"] = {"N": int(vals["N"]), "d": float(vals["d"])}
+    return _extra.hslm_b_train(int(vals["N"]), float(vals["d"]))
+
+
+def _axle_train(chk, v, base_dir, res):
+    """``train.axles = {file, load_unit, name}``: a moving-force train from an axle-load
+    CSV file (columns position, load), or ``_BAD``."""
+    path = "train.axles"
+    if not isinstance(v, Mapping):
+        return chk.error(path, v, "a table {file = \"axles.csv\", load_unit = \"kN\"} "
+                                  "(CSV columns position in m behind the first axle, load)")
+    if chk.table(v, path, {"file", "load_unit", "name"}) is _BAD:
+        return _BAD
+    given, full = chk.file(v, path, "file", base_dir, "axle loads (CSV: position, load)")
+    unit = chk.choice(v, path, "load_unit", tuple(_extra.LOAD_UNITS), default="kN")
+    name = chk.string(v, path, "name", "a train name (string)", default=None)
+    if not _ok(given, full, unit, name):
+        return _BAD
+    try:
+        train = _extra.axle_list_train(full, unit, name)
+    except _extra.AxleFileError as exc:
+        return chk.error(f"{path}.file", given, f"a valid axle-load file ({exc})")
+    res["axles"] = _drop_none({"file": given, "load_unit": unit, "name": name})
+    return train
 
 
 def _load_user_trains(chk, full: Path, given: str):

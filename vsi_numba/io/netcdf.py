@@ -102,7 +102,12 @@ def _fsync_dir(directory: Path) -> None:
 
 
 def _temp_path(path: Path) -> Path:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    from vsi_numba.io.paths import fitting_name, name_max
+
+    # mkstemp adds 8 random characters and the suffix: the prefix leaves room for them
+    prefix = fitting_name(path.name, prefix=".", suffix=".",
+                          limit=name_max(path.parent) - 12)
+    fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=path.parent)
     os.close(fd)
     _default_mode(tmp)
     return Path(tmp)

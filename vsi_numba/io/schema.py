@@ -6,12 +6,73 @@ envelopes are one value per case).  Studies add the leading dims ``speed``, ``tr
 ``irregularity`` to every variable (see ``vsi_numba.study``).
 
 Signs: deck displacement/acceleration and vehicle accelerations are positive DOWN;
-contact forces are positive in compression.
+contact forces are positive in compression.  Load effects (:data:`LOAD_EFFECTS`): bending
+moment positive sagging, shear force V = dM/dx, support reactions positive upward,
+rotations dw/dx with w positive down (see :mod:`vsi_numba.model.influence`).
 """
 
 from __future__ import annotations
 
 DOWN = {"positive": "down"}
+
+#: Dynamic load effects: name -> (dim, units, long name, sign attrs).  The mode-
+#: acceleration method (static beam response to the current loads on the deck + the
+#: modal inertia and damping correction), see :mod:`vsi_numba.model.influence`.
+LOAD_EFFECTS = {
+    "bending_moment": (
+        "point", "N m", "bending moment of the deck",
+        {"positive": "sagging", "sign_convention": "positive sagging: tension in the "
+         "bottom fibre (EI w'' = -M with w positive down)"},
+    ),
+    "shear_force": (
+        "point", "N", "shear force of the deck",
+        {"sign_convention": "V = dM/dx (positive just right of the left support of a "
+         "span under downward load); at a section holding a load or a support the value "
+         "just right of it, at the right end of the deck the value just left of it"},
+    ),
+    "bending_moment_whole_deck": (
+        "deck_x", "N m", "bending moment of the deck on the whole-deck grid",
+        {"positive": "sagging", "sign_convention": "positive sagging: tension in the "
+         "bottom fibre (EI w'' = -M with w positive down)"},
+    ),
+    "shear_force_whole_deck": (
+        "deck_x", "N", "shear force of the deck on the whole-deck grid",
+        {"sign_convention": "V = dM/dx (positive just right of the left support of a "
+         "span under downward load); at a section holding a load or a support the value "
+         "just right of it, at the right end of the deck the value just left of it"},
+    ),
+    "support_reaction": (
+        "support", "N", "vertical support reaction",
+        {"positive": "up", "sign_convention": "positive upward: the support pushes the "
+         "deck up"},
+    ),
+    "end_rotation": (
+        "support", "rad", "rotation of the deck at the support",
+        {"sign_convention": "dw/dx with w positive down: positive at the left end of a "
+         "sagging span, negative at its right end"},
+    ),
+}
+
+#: Load-effect histories: name -> (envelope name in LOAD_EFFECTS, dim).
+LOAD_EFFECT_HISTORIES = {
+    "bending_moment": ("bending_moment", "point"),
+    "shear_force": ("shear_force", "point"),
+    "support_reaction": ("support_reaction", "support"),
+    "rotation": ("end_rotation", "support"),
+}
+
+
+def _load_effect_envelopes() -> dict:
+    out = {}
+    for name, (dim, units, long_name, sign) in LOAD_EFFECTS.items():
+        for ext, word, cell in (("max", "maximum", "time: maximum"),
+                                ("min", "minimum", "time: minimum")):
+            out[f"{ext}_{name}"] = ((dim,), units, f"{word} {long_name}",
+                                    {**sign, "cell_methods": cell})
+            out[f"time_of_{ext}_{name}"] = ((dim,), "s", f"time of the {word} {long_name}",
+                                            {})
+    return out
+
 
 #: Time histories (optional in sweeps).
 HISTORIES = {
@@ -32,6 +93,8 @@ HISTORIES = {
         ("time", "vehicle"), "m s-2", "vertical car-body acceleration at the centre of gravity",
         DOWN,
     ),
+    **{name: (("time", dim), LOAD_EFFECTS[env][1], LOAD_EFFECTS[env][2], LOAD_EFFECTS[env][3])
+       for name, (env, dim) in LOAD_EFFECT_HISTORIES.items()},
 }
 
 #: Envelopes (always present).
@@ -107,6 +170,7 @@ ENVELOPES = {
         (), "m", "deck abscissa of the maximum absolute deck acceleration over the whole "
         "deck (distance from the left end of the bridge)", {},
     ),
+    **_load_effect_envelopes(),
 }
 
 #: Per-case diagnostics.
@@ -173,6 +237,9 @@ COORDS = {
     "frequency": ("Hz", "natural frequency", {}),
     "vehicle_name": ("1", "vehicle name", {}),
     "mode": ("1", "mode number", {}),
+    "deck_x": ("m", "whole-deck section of the load-effect envelopes: distance from the "
+               "left end of the bridge", {}),
+    "support": ("m", "support: distance from the left end of the bridge", {}),
 }
 
 

@@ -66,6 +66,10 @@ class StudyFile:
         Per variant: ``wheel_position`` and ``static_wheel_load`` (lists per train, m and
         N), ``vehicle_name`` (lists per train), ``regular_length``, ``status``,
         ``max_static_deck_displacement`` (n_train, n_point).
+    deck_x, supports : list of ndarray, optional
+        Per variant: the whole-deck grid of the load-effect envelopes and the support
+        abscissae (m), for the ``deck_x`` and ``support`` dims (default: none; the
+        load-effect variables then have those dims of length 0).
     variants : dict, optional
         A study of variants: ``coords`` maps a coordinate name to ``(values, attrs)``
         (one value per variant), ``bridge_length`` and ``acceleration_cutoff`` (one per
@@ -73,7 +77,8 @@ class StudyFile:
     """
 
     def __init__(self, path, speeds_kmh, trains, irregularities, points, frequencies,
-                 n_wheel, n_vehicle, n_time, dt, trains_info, variants=None):
+                 n_wheel, n_vehicle, n_time, dt, trains_info, variants=None, deck_x=None,
+                 supports=None):
         import netCDF4
 
         self.nc = netCDF4.Dataset(path, "w", format="NETCDF4")
@@ -96,6 +101,12 @@ class StudyFile:
         n_m = max(len(f) for f in frequencies)
         sizes = {"speed": n_s, "train": n_t, "irregularity": n_i, "point": n_p,
                  "wheel": n_wheel, "vehicle": n_vehicle, "mode": n_m}
+        deck_x = [np.zeros(0)] * n_v if deck_x is None else [np.asarray(a, float)
+                                                              for a in deck_x]
+        supports = [np.zeros(0)] * n_v if supports is None else [np.asarray(a, float)
+                                                                  for a in supports]
+        sizes["deck_x"] = max(a.size for a in deck_x)
+        sizes["support"] = max(a.size for a in supports)
         if variants is not None:
             sizes = {"variant": n_v, **sizes}
         if n_time is not None:
@@ -152,6 +163,14 @@ class StudyFile:
                   {"units": "1", "long_name": "output point index (x: point_position)"})
             self._float("point_position", (*lead, "point"), attrs_for("point"))[...] = \
                 per_variant(points, (n_p,))
+        for dim, per in (("deck_x", deck_x), ("support", supports)):
+            if all(np.array_equal(per[0], a) for a in per):
+                coord(dim, (dim,), per[0], "f8", attrs_for(dim))
+            else:  # they move with the spans: an index, and their x per variant
+                coord(dim, (dim,), np.arange(sizes[dim], dtype=np.int64), "i8",
+                      {"units": "1", "long_name": f"{dim} index (x: {dim}_position)"})
+                self._float(f"{dim}_position", (*lead, dim), attrs_for(dim))[...] = \
+                    per_variant(per, (sizes[dim],))
         coord("wheel", ("wheel",), np.arange(n_wheel, dtype=np.int64), "i8",
               attrs_for("wheel"))
         coord("vehicle", ("vehicle",), np.arange(n_vehicle, dtype=np.int64), "i8",
@@ -247,9 +266,11 @@ class StudyFile:
             if not dims:  # one value per case
                 self.vars[name][(*v, slice(s0, s1), i_t, i_i)] = np.asarray(data[name], float)
                 continue
-            width = {"point": n_p, "wheel": n_wheel, "vehicle": n_vehicle}[dims[0]]
-            self.vars[name][(*v, slice(s0, s1), i_t, i_i, slice(0, width))] = \
-                data[name][:, :width]
+            width = min({"point": n_p, "wheel": n_wheel, "vehicle": n_vehicle}.get(
+                dims[0], data[name].shape[1]), data[name].shape[1])
+            if width:  # 0: not computed (load effects off or not available)
+                self.vars[name][(*v, slice(s0, s1), i_t, i_i, slice(0, width))] = \
+                    data[name][:, :width]
         for name in DIAGNOSTICS:
             self.vars[name][(*v, slice(s0, s1), i_t, i_i)] = data[name].astype(np.int32)
         self.vars["message"][(*v, slice(s0, s1), i_t, i_i)] = np.array(
@@ -260,6 +281,8 @@ class StudyFile:
                 s = s0 + int(r)
                 n = int(n)
                 for name in HISTORIES:
+                    if data.get(name) is None:  # not computed (load effects off)
+                        continue
                     block = data[name][h, :n]
                     if block.shape[1]:  # moving forces only: no contact histories
                         self.vars[name][(*v, s, i_t, i_i, slice(0, n),

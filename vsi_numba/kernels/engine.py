@@ -193,6 +193,9 @@ class Output(NamedTuple):
     iters: np.ndarray  # (n_slots, n_steps + 1) int16
     # pitch acceleration of each reported body (0 without a pitch DOF), rad/s2
     body_pitch: np.ndarray = np.zeros((0, 0, 0))  # (n_slots, n_steps + 1, n_veh)
+    # total modal force of the step (the F of the mode-acceleration load effects), N
+    # per unit mode; (0, 0, 0) when the load effects are off
+    fq: np.ndarray = np.zeros((0, 0, 0))  # (n_slots, n_steps + 1, n_m)
 
 
 class Reduce(NamedTuple):
@@ -233,6 +236,32 @@ class Reduce(NamedTuple):
     gacc_t: np.ndarray  # (n_runs,) s
     gacc_i: np.ndarray  # (n_runs,) int64: grid point of the maximum
     gwork: np.ndarray  # (n_g,) scratch: accelerations on the grid
+    # Load effects by the mode-acceleration method (le_static, le_finish), on n_c
+    # channels: bending moment at the n_s sections (ascending x), shear force at the
+    # sections, reactions and rotations at the n_sup supports.  n_c = 0: off.
+    # effect = sum_k P_k G(x_k) (exact static beam) + sum_j E[j, c] (q_j - F_j / w_j^2)
+    le_sup: np.ndarray = np.zeros(0)  # (n_sup,) support abscissae, m
+    le_L: np.ndarray = np.zeros(0)  # (n_span,) span lengths, m
+    le_Linv: np.ndarray = np.zeros(0)  # (n_span,) 1 / L, 1/m
+    le_c6: np.ndarray = np.zeros(0)  # (n_span,) 1 / (6 EI L), 1/(N m3)
+    le_xi: np.ndarray = np.zeros(0)  # (n_s,) section abscissa / its span length
+    le_A: np.ndarray = np.zeros((0, 0))  # (n_span, n_sup) support-moment influence
+    le_B: np.ndarray = np.zeros((0, 0))  # (n_span, n_sup)  xi (1 - xi) (A + B xi)
+    le_X: np.ndarray = np.zeros(0)  # (n_s,) section abscissa in its span, m
+    le_sec0: np.ndarray = np.zeros(1, np.int64)  # (n_span + 1,) first section of a span
+    le_E: np.ndarray = np.zeros((0, 0))  # (n_m, n_c) effect of q_j = 1
+    le_w2inv: np.ndarray = np.zeros(0)  # (n_m,) 1 / w_j^2
+    le_order: np.ndarray = np.zeros(0, np.int64)  # (n_l,) moving loads by x0 ascending
+    le_val: np.ndarray = np.zeros(0)  # (n_c,) scratch: effects of the step
+    le_Ms: np.ndarray = np.zeros(0)  # (n_sup,) scratch: support moments, N m
+    le_acc: np.ndarray = np.zeros((4, 0))  # (4, n_span) scratch: span reactions, slopes
+    le_lx: np.ndarray = np.zeros(0)  # (n_l + n_w,) scratch: loads on the deck, m
+    le_lp: np.ndarray = np.zeros(0)  # (n_l + n_w,) scratch: their forces, N (down)
+    le_ls: np.ndarray = np.zeros(0, np.int64)  # (n_l + n_w,) scratch: their spans
+    le_max: np.ndarray = np.zeros((0, 0))  # (n_runs, n_c) maximum over time (from -inf)
+    le_max_t: np.ndarray = np.zeros((0, 0))  # (n_runs, n_c) s
+    le_min: np.ndarray = np.zeros((0, 0))  # (n_runs, n_c) minimum over time (from +inf)
+    le_min_t: np.ndarray = np.zeros((0, 0))  # (n_runs, n_c) s
 
 
 class Initial(NamedTuple):
@@ -1169,10 +1198,16 @@ def record(veh, st, wk, red, r, n, t, speed, out, h, iters):
                 red.body_x[r, b] = veh.body_pt_d[k]
     if iters > red.iters[r]:
         red.iters[r] = iters
+    if red.le_E.shape[1] > 0:
+        le_record(red, veh.wheel_x0, st.X, veh.load_x0, veh.load_p, st.q, st.fq_tot, r, n,
+                  t, speed)
     if h >= 0:
         for j in range(n_m):
             out.q[h, n, j] = st.q[j]
             out.qdd[h, n, j] = st.qdd[j]
+        if out.fq.shape[0] > 0:
+            for j in range(n_m):
+                out.fq[h, n, j] = st.fq_tot[j]
         for i in range(veh.wheel_dof.shape[0]):
             out.X[h, n, i] = wk.xout[i]
             out.contact[h, n, i] = wk.active[i]
@@ -1185,6 +1220,193 @@ def record(veh, st, wk, red, r, n, t, speed, out, h, iters):
                     pa = st.udd[veh.body_pt_pitch[k]]
             out.body_pitch[h, n, b] = pa
         out.iters[h, n] = iters
+
+
+@njit(inline="always")
+def le_static(sup, L, Linv, c6, A, B, X, xi_s, sec0, val, Ms, acc, lx, lp, ls, nl):
+    """Static load effects of the ``nl`` point loads ``lx`` (m, ascending, on the deck)
+    of forces ``lp`` (N, down) into ``val`` (the channels of ``Reduce.le_*``): exact
+    Euler-Bernoulli beam on point supports (vsi_numba.model.influence).
+
+    Each load adds its span's simply supported reactions and end slopes and, on a
+    continuous deck, the support moments of its influence cubic; the sections of each
+    span (``sec0[s] .. sec0[s + 1] - 1``, ascending) are then swept left to right with
+    the loads (one pass: O(n_s + nl)),
+    M(X) = R_A X - sum_{a_k <= X} P_k (X - a_k) + the support moments interpolated,
+    V = dM/dx (the value just right of a load or support).  Arrays as in ``Reduce``
+    (``le_`` dropped; no division in the step: ``Linv`` = 1/L, ``c6`` = 1/(6 EI L),
+    ``xi_s`` = X/L); ``ls`` is scratch.
+    """
+    n_span = L.shape[0]
+    n_sup = n_span + 1
+    n_s = X.shape[0]
+    if n_span == 1:  # one span from x = 0 (the moving-force hot path): no support moment
+        L0 = L[0]
+        li = Linv[0]
+        c0 = c6[0]
+        ra = 0.0
+        rb = 0.0
+        th0 = 0.0
+        th1 = 0.0
+        for k in range(nl):
+            a = lx[k]
+            p = lp[k]
+            b = L0 - a
+            ra += p * li * b
+            rb += p * li * a
+            c = p * a * b * c0
+            th0 += c * (L0 + b)
+            th1 -= c * (L0 + a)
+        kk = 0
+        s0 = 0.0
+        s1 = 0.0
+        for q in range(n_s):
+            Xq = X[q]
+            while kk < nl and lx[kk] <= Xq:
+                s0 += lp[kk]
+                s1 += lp[kk] * lx[kk]
+                kk += 1
+            v = ra - s0
+            val[q] = Xq * v + s1
+            val[n_s + q] = v
+        val[2 * n_s] = ra
+        val[2 * n_s + 1] = rb
+        val[2 * n_s + 2] = th0
+        val[2 * n_s + 3] = th1
+        return
+    for i in range(n_sup):
+        Ms[i] = 0.0
+    for k in range(n_span):
+        acc[0, k] = 0.0
+        acc[1, k] = 0.0
+        acc[2, k] = 0.0
+        acc[3, k] = 0.0
+    s = 0
+    for k in range(nl):
+        x = lx[k]
+        p = lp[k]
+        while s < n_span - 1 and x >= sup[s + 1]:
+            s += 1
+        ls[k] = s
+        Ls = L[s]
+        a = x - sup[s]
+        b = Ls - a
+        pl = p * Linv[s]
+        acc[0, s] += pl * b
+        acc[1, s] += pl * a
+        c = p * a * b * c6[s]
+        acc[2, s] += c * (Ls + b)
+        acc[3, s] -= c * (Ls + a)
+        if n_span > 1:
+            xi = a * Linv[s]
+            g = p * xi * (1.0 - xi)
+            for i in range(1, n_sup - 1):
+                Ms[i] += g * (A[s, i] + B[s, i] * xi)
+    kk = 0
+    for sp in range(n_span):
+        ra = acc[0, sp]
+        x0 = sup[sp]
+        s0 = 0.0
+        s1 = 0.0
+        while kk < nl and ls[kk] < sp:
+            kk += 1
+        for q in range(sec0[sp], sec0[sp + 1]):
+            Xq = X[q]
+            while kk < nl and ls[kk] == sp and lx[kk] - x0 <= Xq:
+                s0 += lp[kk]
+                s1 += lp[kk] * (lx[kk] - x0)
+                kk += 1
+            v = ra - s0
+            val[q] = Xq * v + s1
+            val[n_s + q] = v
+    if n_span > 1:  # the support moments, interpolated in each span
+        for sp in range(n_span):
+            m0 = Ms[sp]
+            m1 = Ms[sp + 1]
+            dv = (m1 - m0) * Linv[sp]
+            for q in range(sec0[sp], sec0[sp + 1]):
+                val[q] += m0 + (m1 - m0) * xi_s[q]
+                val[n_s + q] += dv
+    o = 2 * n_s
+    for k in range(n_sup):
+        v = 0.0
+        if k < n_span:
+            v += acc[0, k] + (Ms[k + 1] - Ms[k]) * Linv[k]
+        if k > 0:
+            v += acc[1, k - 1] - (Ms[k] - Ms[k - 1]) * Linv[k - 1]
+        val[o + k] = v
+    o += n_sup
+    for k in range(n_span):
+        c = L[k] * L[k] * c6[k]  # L / (6 EI)
+        val[o + k] = acc[2, k] + c * (2.0 * Ms[k] + Ms[k + 1])
+    k = n_span - 1
+    c = L[k] * L[k] * c6[k]
+    val[o + n_span] = acc[3, k] - c * (Ms[k] + 2.0 * Ms[k + 1])
+
+
+@njit(inline="always")
+def le_finish(E, w2inv, val, q, f, mx, mxt, mn, mnt, r, n, t):
+    """Add the modal correction sum_j E[j, c] (q_j - f_j / w_j^2) to the static effects
+    in ``val`` and fold them into the envelopes ``mx``/``mn`` (times ``mxt``/``mnt``) of
+    run ``r`` (step ``n``, time ``t``)."""
+    n_c = E.shape[1]
+    for j in range(q.shape[0]):
+        cj = q[j] - f[j] * w2inv[j]
+        for c in range(n_c):
+            val[c] += E[j, c] * cj
+    # most steps raise no envelope: a branch-free test first (the envelopes start at
+    # -inf / +inf, so step 0 sets both)
+    hit = False
+    for c in range(n_c):
+        hit |= (val[c] > mx[r, c]) | (val[c] < mn[r, c])
+    if hit:
+        for c in range(n_c):
+            v = val[c]
+            if v > mx[r, c]:
+                mx[r, c] = v
+                mxt[r, c] = t
+            if v < mn[r, c]:
+                mn[r, c] = v
+                mnt[r, c] = t
+
+
+@njit
+def le_record(red, wheel_x0, X, load_x0, load_p, q, f, r, n, t, speed):
+    """Load effects of step ``n`` of the general time loop: the moving forces and the
+    contact forces ``X`` of the wheels on the deck (at the deck line), with the step's
+    total modal force ``f``."""
+    lx = red.le_lx
+    lp = red.le_lp
+    sup = red.le_sup
+    length = sup[sup.shape[0] - 1]
+    nl = 0
+    for i in range(wheel_x0.shape[0] - 1, -1, -1):
+        x = wheel_x0[i] + speed * t
+        if X[i] != 0.0 and x >= 0.0 and x <= length:
+            lx[nl] = x
+            lp[nl] = X[i]
+            nl += 1
+    for k in range(load_x0.shape[0] - 1, -1, -1):
+        x = load_x0[k] + speed * t
+        if x >= 0.0 and x <= length:
+            lx[nl] = x
+            lp[nl] = load_p[k]
+            nl += 1
+    for k in range(1, nl):  # insertion sort (the train's order: nearly sorted)
+        x = lx[k]
+        p = lp[k]
+        m = k - 1
+        while m >= 0 and lx[m] > x:
+            lx[m + 1] = lx[m]
+            lp[m + 1] = lp[m]
+            m -= 1
+        lx[m + 1] = x
+        lp[m + 1] = p
+    le_static(sup, red.le_L, red.le_Linv, red.le_c6, red.le_A, red.le_B, red.le_X,
+              red.le_xi, red.le_sec0, red.le_val, red.le_Ms, red.le_acc, lx, lp, red.le_ls,
+              nl)
+    le_finish(red.le_E, red.le_w2inv, red.le_val, q, f, red.le_max, red.le_max_t,
+              red.le_min, red.le_min_t, r, n, t)
 
 
 @njit(inline="always")
@@ -1383,6 +1605,32 @@ def mf_time_loop(br, veh, prm, st, wk, red, r, out, h, on, off, cs, sums):
     hq = out.q
     hqdd = out.qdd
     hit = out.iters
+    hfq = out.fq
+    le_on = red.le_E.shape[1] > 0
+    order = red.le_order
+    le_sup = red.le_sup
+    le_L = red.le_L
+    le_Linv = red.le_Linv
+    le_c6 = red.le_c6
+    le_xi = red.le_xi
+    le_A = red.le_A
+    le_B = red.le_B
+    le_X = red.le_X
+    le_sec0 = red.le_sec0
+    le_val = red.le_val
+    le_Ms = red.le_Ms
+    le_acc = red.le_acc
+    le_lx = red.le_lx
+    le_lp = red.le_lp
+    le_ls = red.le_ls
+    le_E = red.le_E
+    le_w2inv = red.le_w2inv
+    le_max = red.le_max
+    le_max_t = red.le_max_t
+    le_min = red.le_min
+    le_min_t = red.le_min_t
+    lo = n_l  # moving loads on the bridge: order[lo:hi] (ascending x: a window)
+    hi = n_l
     first = 0  # loads before ``first`` have left the bridge for good
     nxt = 0  # next step at which the loads on the bridge change (sine modes)
     k1 = br.sine_k[0] if br.kind == 1 and n_m > 0 else 0.0
@@ -1470,11 +1718,29 @@ def mf_time_loop(br, veh, prm, st, wk, red, r, out, h, on, off, cs, sums):
                         gacc_t[r] = t
                         gacc_i[r] = p
                         break
+        if le_on:
+            while lo > 0 and on[order[lo - 1]] <= n:
+                lo -= 1
+            while hi > lo and off[order[hi - 1]] <= n:
+                hi -= 1
+            nl = 0
+            for i in range(lo, hi):
+                k = order[i]
+                le_lx[nl] = load_x0[k] + speed * t1
+                le_lp[nl] = load_p[k]
+                nl += 1
+            le_static(le_sup, le_L, le_Linv, le_c6, le_A, le_B, le_X, le_xi, le_sec0, le_val,
+                      le_Ms, le_acc, le_lx, le_lp, le_ls, nl)
+            le_finish(le_E, le_w2inv, le_val, q, fq, le_max, le_max_t, le_min, le_min_t, r,
+                      n + 1, t)
         if h >= 0:
             for j in range(n_m):
                 hq[h, n + 1, j] = q[j]
                 hqdd[h, n + 1, j] = qdd[j]
             hit[h, n + 1] = 1
+            if hfq.shape[0] > 0:
+                for j in range(n_m):
+                    hfq[h, n + 1, j] = fq[j]
     if prm.n_steps > 0 and red.iters[r] < 1:
         red.iters[r] = 1  # the contact "solve" with no wheels: one pass per step
     return OK, prm.n_steps

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vsi_numba.model import hermite
+from vsi_numba.model.influence import StaticDeck, beam_deck
 from vsi_numba.model.track import ElasticTrack
 
 RIGID, SINE, HERMITE = 0, 1, 2
@@ -55,6 +56,11 @@ class ModalBridge:
         the rail's compliance.  None: the rigid-track idealisation (the wheel runs on
         the deck line itself and on a rigid approach; a kink at the deck ends).  The
         config's default is an elastic track; a bridge built directly has none.
+    static : StaticDeck or None
+        What the static load effects of the deck need (bending stiffness per span, or
+        the FE stiffness), see :mod:`vsi_numba.model.influence`; None when the model has
+        none (a modes table, rigid track): then only deflections and rotations are
+        available, from the modes.
     """
 
     kind: int
@@ -69,6 +75,7 @@ class ModalBridge:
     effective_mass_fraction: np.ndarray | None = None
     deck: ModalBridge | None = None
     track: ElasticTrack | None = None
+    static: StaticDeck | None = None
 
     @property
     def n_modes(self) -> int:
@@ -137,6 +144,12 @@ def n_modes_kept(freqs, n_modes, max_frequency):
     return n
 
 
+def _num(value) -> str:
+    """A number for a description: ``25``, ``7.16e10``, ``18000`` (4 significant digits)."""
+    v = float(value)
+    return f"{v:.4g}".replace("e+", "e") if abs(v) >= 1e5 else f"{v:.6g}"
+
+
 def simply_supported(
     length: float,
     EI: float,
@@ -161,7 +174,9 @@ def simply_supported(
         damping=per_mode(damping_ratio, n, "damping_ratio"),
         values=amp[None, :],
         supports=np.array([0.0, length]),
-        description=f"simply supported, L={length} m, EI={EI} N m2, m={mass_per_length} kg/m",
+        description=(f"simply supported, L = {_num(length)} m, EI = {_num(EI)} N m2, "
+                     f"m = {_num(mass_per_length)} kg/m"),
+        static=beam_deck([length], EI, mass_per_length),
     )
 
 
@@ -234,7 +249,9 @@ def continuous(
         values=np.ascontiguousarray(full[0::2]),
         slopes=np.ascontiguousarray(full[1::2]),
         supports=supports,
-        description=f"continuous deck, spans={list(np.atleast_1d(spans))} m",
+        description="continuous deck, spans " + " + ".join(
+            _num(x) for x in np.atleast_1d(spans)) + " m",
+        static=beam_deck(spans, EI, mass_per_length),
     )
 
 
@@ -528,6 +545,7 @@ def continuous_with_track(
         values=np.ascontiguousarray(rail[0::2, :keep]),
         slopes=np.ascontiguousarray(rail[1::2, :keep]),
         supports=tm.supports,
+        static=beam_deck(spans, EI),
         deck=ModalBridge(
             kind=HERMITE, length=length, frequencies=freqs[:keep].copy(), damping=zeta,
             nodes=tm.deck_nodes.copy(), values=np.ascontiguousarray(deck[0::2, :keep]),

@@ -12,7 +12,13 @@ from vsi_numba.en1990 import frequency_cutoff
 from vsi_numba.kernels import engine as ek
 from vsi_numba.model.bridge import ModalBridge
 from vsi_numba.model.irregularity import Profile
-from vsi_numba.solver.pack import ModelError, Packed, initial_states
+from vsi_numba.solver.pack import (
+    LoadEffectTables,
+    ModelError,
+    Packed,
+    initial_states,
+    load_effect_tables,
+)
 from vsi_numba.solver.settings import SolverSettings
 
 STATUS_MESSAGES = {
@@ -46,13 +52,15 @@ def _workspace(n_m, n_v, n_w) -> ek.Work:
     )
 
 
-def _history_buffers(n_slots, n_t, n_m, n_w, n_b) -> ek.Output:
+def _history_buffers(n_slots, n_t, n_m, n_w, n_b, effects: bool = False) -> ek.Output:
     return ek.Output(
         q=np.full((n_slots, n_t, n_m), np.nan), qdd=np.full((n_slots, n_t, n_m), np.nan),
         X=np.full((n_slots, n_t, n_w), np.nan), contact=np.zeros((n_slots, n_t, n_w), np.int8),
         body_acc=np.full((n_slots, n_t, n_b), np.nan),
         iters=np.zeros((n_slots, n_t), np.int16),
         body_pitch=np.full((n_slots, n_t, n_b), np.nan),
+        fq=(np.full((n_slots, n_t, n_m), np.nan) if effects and n_slots
+            else np.zeros((0, 0, 0))),
     )
 
 
@@ -85,18 +93,24 @@ def deck_grid(bridge: ModalBridge, points=(), intervals: int = DECK_GRID_INTERVA
     return grid[(grid >= 0.0) & (grid <= bridge.length)]
 
 
-def deck_operators(bridge: ModalBridge, points, settings: SolverSettings):
-    """Mode shapes of the deck line at ``points`` and on the whole-deck grid.
+def deck_operators(bridge: ModalBridge, points, settings: SolverSettings,
+                   load_effects: bool = True):
+    """Mode shapes of the deck line at ``points`` and on the whole-deck grid, and the
+    load-effect tables.
 
     Returns
     -------
     tuple
-        ``(phi_d, phi_a, cutoff, grid_x, phi_g)``: ``phi_d`` (n_p, n_m) at the points;
+        ``(phi_d, phi_a, cutoff, grid_x, phi_g, effects)``: ``phi_d`` (n_p, n_m) at the
+        points;
         ``phi_a`` the same with zero columns for the modes above the EN 1990
         A2.4.4.2.1 cut-off (Hz, ``cutoff``), so ``phi_a @ qdd`` is the band-limited deck
         acceleration; ``grid_x`` (n_g,) the whole-deck grid (:func:`deck_grid`) and
         ``phi_g`` (n_ka, n_g) its band-limited shapes, transposed, for the first ``n_ka``
-        modes (those up to the last mode below the cut-off).
+        modes (those up to the last mode below the cut-off); ``effects`` the
+        :class:`~vsi_numba.solver.pack.LoadEffectTables` at the points and on the
+        whole-deck grid (:func:`deck_grid`), None when ``load_effects`` is false or the
+        bridge has no static deck (:mod:`vsi_numba.model.influence`).
     """
     points = np.atleast_1d(np.asarray(points, float))
     phi_d = np.ascontiguousarray(bridge.output_shapes(points), dtype=np.float64)
@@ -111,7 +125,9 @@ def deck_operators(bridge: ModalBridge, points, settings: SolverSettings):
     shapes = np.asarray(bridge.output_shapes(grid_x), float).reshape(grid_x.size,
                                                                       bridge.n_modes)
     phi_g = np.ascontiguousarray(np.where(keep[None, :n_ka], shapes[:, :n_ka], 0.0).T)
-    return phi_d, phi_a, float(cutoff), grid_x, phi_g
+    effects = (load_effect_tables(bridge, points, deck_grid(bridge, points))
+               if load_effects else None)
+    return phi_d, phi_a, float(cutoff), grid_x, phi_g, effects
 
 
 @dataclass
@@ -131,6 +147,8 @@ class BatchResult:
     cutoff: float
     elapsed: float
     grid_x: np.ndarray | None = None  # (n_g,) whole-deck grid, m
+    effects: LoadEffectTables | None = None  # load effects (None: not computed)
+    static_deck: object | None = None  # bridge.static (the effects' static deck)
 
     @property
     def static_loads(self) -> np.ndarray:
@@ -192,11 +210,79 @@ class BatchResult:
                          "time_of_max_deck_acceleration_whole_deck",
                          "position_of_max_deck_acceleration_whole_deck"):
                 data[name] = np.full(n_r, np.nan)
+        data.update(self._effect_envelopes())
         failed = self.status != ek.OK
         if failed.any():
             for a in data.values():
                 a[failed] = np.nan
         return data
+
+    def _effect_channels(self) -> dict[str, np.ndarray]:
+        """Kernel channel of each load-effect envelope's columns (see
+        :class:`~vsi_numba.solver.pack.LoadEffectTables`)."""
+        e = self.effects
+        n_s, k = e.n_sections, np.arange(e.n_supports)
+        return {"bending_moment": e.point_index, "shear_force": n_s + e.point_index,
+                "bending_moment_whole_deck": e.grid_index,
+                "shear_force_whole_deck": n_s + e.grid_index,
+                "support_reaction": 2 * n_s + k, "end_rotation": 2 * n_s + e.n_supports + k}
+
+    def _effect_envelopes(self) -> dict[str, np.ndarray]:
+        """Load-effect envelopes (:data:`vsi_numba.io.schema.LOAD_EFFECTS`); zero
+        columns when the load effects were not computed."""
+        from vsi_numba.io.schema import LOAD_EFFECTS
+
+        n_r = self.speeds.size
+        if self.effects is None:
+            return {f"{pre}{ext}_{name}": np.zeros((n_r, 0)) for name in LOAD_EFFECTS
+                    for ext in ("max", "min") for pre in ("", "time_of_")}
+        red = self.red
+        data = {}
+        for name, cols in self._effect_channels().items():
+            data[f"max_{name}"] = red.le_max[:, cols]
+            data[f"min_{name}"] = red.le_min[:, cols]
+            data[f"time_of_max_{name}"] = red.le_max_t[:, cols]
+            data[f"time_of_min_{name}"] = red.le_min_t[:, cols]
+        return data
+
+    def effect_histories(self, r: int) -> dict[str, np.ndarray]:
+        """Load-effect histories of run ``r`` (which must have a slot), by the same
+        mode-acceleration formula as the kernel but from the stored modal coordinates,
+        modal forces and contact forces, with the static part from
+        :func:`vsi_numba.model.influence.influence`: ``bending_moment``,
+        ``shear_force`` (time, point), ``support_reaction``, ``rotation``
+        (time, support).  Empty when the load effects were not computed."""
+        from vsi_numba.model.influence import influence
+
+        e = self.effects
+        h = int(self.slots[r])
+        if e is None or h < 0:
+            return {}
+        pk = self.packed
+        n = int(self.n_steps[r]) + 1
+        t = np.arange(n) * pk.params.dt
+        veh = pk.vehicles
+        x0 = np.concatenate([veh.wheel_x0, veh.load_x0])
+        force = np.concatenate([self.out.X[h, :n],
+                                np.broadcast_to(veh.load_p, (n, veh.load_p.size))], axis=1)
+        x = x0[None, :] + self.speeds[r] * t[:, None]  # (n, n_load)
+        c = self.out.q[h, :n] - self.out.fq[h, :n] * e.w2inv  # q - F / w^2
+        static = self.static_deck
+        points = e.sections[e.point_index]
+        k = np.arange(e.n_supports)
+        chan = self._effect_channels()
+        out = {}
+        for name, effect, at, cols in (
+                ("bending_moment", "moment", points, chan["bending_moment"]),
+                ("shear_force", "shear", points, chan["shear_force"]),
+                ("support_reaction", "reaction", k, chan["support_reaction"]),
+                ("rotation", "rotation", k, chan["end_rotation"])):
+            g = influence(static, effect, at, x.ravel()).reshape(len(at), *x.shape)
+            out[name] = np.einsum("atk,tk->ta", g, force) + c @ e.E[:, cols]
+        if self.status[r] != ek.OK:
+            for a in out.values():
+                a[...] = np.nan
+        return out
 
     def comfort_points(self) -> tuple[np.ndarray, np.ndarray]:
         """Comfort points of the reported car bodies: (body index, m ahead of the centre
@@ -237,7 +323,8 @@ class BatchResult:
             for a in (disp, acc, X, body):
                 a[...] = np.nan
         return {"deck_displacement": disp, "deck_acceleration": acc, "contact_force": X,
-                "in_contact": contact, "carbody_acceleration": body}
+                "in_contact": contact, "carbody_acceleration": body,
+                **self.effect_histories(r)}
 
 
 def run_batch(packed: Packed, profile: Profile, speeds, points, settings: SolverSettings,
@@ -269,6 +356,7 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     deck = deck if deck is not None else deck_operators(bridge, points, settings)
     phi_d, phi_a, cutoff = deck[:3]
     grid_x, phi_g = (deck[3], deck[4]) if len(deck) > 3 else (np.zeros(0), np.zeros((0, 0)))
+    eff = deck[5] if len(deck) > 5 else None
     grid_x = np.ascontiguousarray(grid_x, dtype=np.float64)
     phi_g = (np.ascontiguousarray(phi_g, dtype=np.float64) if grid_x.size
              else np.zeros((0, 0)))
@@ -279,7 +367,7 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     slots = np.full(n_r, -1, np.int64)
     slots[keep] = np.arange(int(keep.sum()))
     n_t = int(n_steps[keep].max()) + 1 if keep.any() else 0
-    out = _history_buffers(int(keep.sum()), n_t, n_m, n_w, n_b)
+    out = _history_buffers(int(keep.sum()), n_t, n_m, n_w, n_b, eff is not None)
     z = np.zeros
     red = ek.Reduce(
         phi_d=phi_d, phi_a=phi_a,
@@ -292,6 +380,7 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
         phi_g=phi_g, phi_gmax=np.abs(phi_g).max(axis=1, initial=0.0) * (1.0 + 1e-12),
         gacc=z(n_r), gacc_t=z(n_r), gacc_i=z(n_r, np.int64),
         gwork=z(grid_x.size),
+        **_effect_fields(eff, packed, n_r),
     )
     init = initial_states(packed, profile, speeds)
     st = ek.State(*(np.empty_like(a[0]) for a in init))
@@ -305,7 +394,31 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     elapsed = _time.perf_counter() - t0
     _flag_non_finite(status, reached, n_steps, slots, red, out)
     return BatchResult(packed, speeds, n_steps, status, reached, slots, red, out, phi_d,
-                       phi_a, cutoff, elapsed, np.asarray(grid_x, float))
+                       phi_a, cutoff, elapsed, np.asarray(grid_x, float), eff,
+                       bridge.static if eff is not None else None)
+
+
+def _effect_fields(eff: LoadEffectTables | None, packed: Packed, n_r: int) -> dict:
+    """The load-effect fields of :class:`~vsi_numba.kernels.engine.Reduce` (none: off)."""
+    if eff is None:
+        return {}
+    f64 = np.float64
+    n_c = eff.E.shape[1]
+    n_load = packed.vehicles.load_x0.size + packed.vehicles.wheel_dof.size
+    c = np.ascontiguousarray
+    return dict(
+        le_sup=c(eff.supports, f64), le_L=c(eff.spans, f64), le_Linv=1.0 / eff.spans,
+        le_c6=1.0 / (6.0 * eff.EI * eff.spans), le_xi=c(eff.X / eff.spans[eff.span], f64),
+        le_A=c(eff.A, f64), le_B=c(eff.B, f64), le_X=c(eff.X, f64),
+        le_sec0=c(np.searchsorted(eff.span, np.arange(eff.spans.size + 1)), np.int64),
+        le_E=c(eff.E, f64), le_w2inv=c(eff.w2inv, f64),
+        le_order=c(np.argsort(packed.vehicles.load_x0, kind="stable"), np.int64),
+        le_val=np.zeros(n_c), le_Ms=np.zeros(eff.n_supports),
+        le_acc=np.zeros((4, eff.spans.size)), le_lx=np.zeros(n_load),
+        le_lp=np.zeros(n_load), le_ls=np.zeros(n_load, np.int64),
+        le_max=np.full((n_r, n_c), -np.inf), le_max_t=np.zeros((n_r, n_c)),
+        le_min=np.full((n_r, n_c), np.inf), le_min_t=np.zeros((n_r, n_c)),
+    )
 
 
 #: Largest magnitude a result may have: histories are stored as float32.
@@ -342,7 +455,7 @@ def run_kernel(packed: Packed, profile: Profile):
     """
     bridge_points = np.zeros((0, packed.bridge.omega.size))
     res = _run_packed(packed, profile, bridge_points)
-    out = ek.Output(*(a[0] for a in res.out))
+    out = ek.Output(*(a[0] if a.shape[0] else a.reshape(a.shape[1:]) for a in res.out))
     return int(res.status[0]), int(res.reached[0]), out, res.elapsed
 
 

@@ -372,3 +372,104 @@ def initial_states(packed: Packed, profile: Profile, speeds) -> ek.Initial:
         init.fv_tot[r] = fv
         init.X[r] = Xr
     return init
+
+
+# -------------------------------------------------------------------------- load effects
+
+
+@dataclass(frozen=True)
+class LoadEffectTables:
+    """What the kernels need for the dynamic load effects (mode-acceleration method).
+
+    Channels (``n_c = 2 n_s + 2 n_sup``): bending moment at the ``n_s`` sections, shear
+    force at the sections, support reactions, rotations at the supports.  Sections are
+    the output points and the whole-deck grid, sorted and merged; ``point_index`` and
+    ``grid_index`` map them back.  Signs as in :mod:`vsi_numba.model.influence`.
+
+    Attributes
+    ----------
+    sections : ndarray, shape (n_s,)
+        Section abscissae (m), ascending.
+    point_index, grid_index : ndarray of int
+        Section of each output point / whole-deck grid point.
+    grid : ndarray, shape (n_g,)
+        Whole-deck grid (m).
+    supports : ndarray, shape (n_sup,)
+        Support abscissae (m).
+    spans, EI : ndarray, shape (n_span,)
+        Span lengths (m) and bending stiffness (N m^2).
+    A, B : ndarray, shape (n_span, n_sup)
+        Support-moment influence lines: a unit load at ``xi = a / L`` of span s gives
+        the support moment ``M_i = xi (1 - xi) (A[s, i] + B[s, i] xi)`` (N m/N; exact: the
+        influence line of a support moment is a cubic in each span, zero at supports).
+    X : ndarray, shape (n_s,)
+        Section abscissa from the left support of its span (m).
+    span : ndarray of int, shape (n_s,)
+        Span of each section (the span to the right of a support; the last span at the
+        right end of the deck).
+    E : ndarray, shape (n_m, n_c)
+        Effect of a unit modal coordinate on each channel
+        (:func:`vsi_numba.model.influence.modal_effects`).
+    w2inv : ndarray, shape (n_m,)
+        1 / omega_j^2 (s^2).
+    """
+
+    sections: np.ndarray
+    point_index: np.ndarray
+    grid_index: np.ndarray
+    grid: np.ndarray
+    supports: np.ndarray
+    spans: np.ndarray
+    EI: np.ndarray
+    A: np.ndarray
+    B: np.ndarray
+    X: np.ndarray
+    span: np.ndarray
+    E: np.ndarray
+    w2inv: np.ndarray
+
+    @property
+    def n_sections(self) -> int:
+        return int(self.sections.size)
+
+    @property
+    def n_supports(self) -> int:
+        return int(self.supports.size)
+
+
+def load_effect_tables(bridge: ModalBridge, points, grid) -> LoadEffectTables | None:
+    """:class:`LoadEffectTables` of a bridge at the output ``points`` and on the
+    whole-deck ``grid`` (m); None when the bridge has no static beam deck (modes tables,
+    rigid track, FE matrices: see :mod:`vsi_numba.model.influence`)."""
+    from vsi_numba.model import influence as inf
+
+    st = bridge.static
+    if st is None or "moment" not in st.effects or bridge.n_modes == 0:
+        return None
+    f64 = np.float64
+    points = np.atleast_1d(np.asarray(points, f64))
+    grid = np.atleast_1d(np.asarray(grid, f64))
+    sections, inv = np.unique(np.concatenate([points, grid]), return_inverse=True)
+    sup = np.asarray(st.supports, f64)
+    spans = np.asarray(st.spans, f64)
+    n_span = spans.size
+    span = np.clip(np.searchsorted(sup, sections, side="right") - 1, 0, n_span - 1)
+    A = np.zeros((n_span, sup.size))
+    B = np.zeros((n_span, sup.size))
+    if n_span > 1:
+        xi = np.array([1.0 / 3.0, 2.0 / 3.0])
+        for s in range(n_span):
+            u = inf.support_moments(st, sup[s] + xi * spans[s]) * 4.5  # / (xi (1 - xi))
+            B[s] = 3.0 * (u[:, 1] - u[:, 0])
+            A[s] = u[:, 0] - B[s] / 3.0
+    k = np.arange(sup.size)
+    E = np.concatenate([inf.modal_effects(bridge, "moment", sections),
+                        inf.modal_effects(bridge, "shear", sections),
+                        inf.modal_effects(bridge, "reaction", k),
+                        inf.modal_effects(bridge, "rotation", k)], axis=0)
+    return LoadEffectTables(
+        sections=sections, point_index=inv[: points.size].astype(np.int64),
+        grid_index=inv[points.size:].astype(np.int64), grid=grid, supports=sup,
+        spans=spans, EI=np.asarray(st.EI, f64), A=A, B=B,
+        X=np.ascontiguousarray(sections - sup[span]), span=span.astype(np.int64),
+        E=np.ascontiguousarray(E.T), w2inv=1.0 / np.asarray(bridge.omega, f64) ** 2)

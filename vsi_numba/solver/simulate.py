@@ -99,7 +99,10 @@ def to_dataset(bridge, train, res: BatchResult, profile, settings, points,
     attrs)."""
     import xarray as xr
 
-    from vsi_numba.io.schema import ENVELOPES, HISTORIES
+    from vsi_numba.io.schema import ENVELOPES, HISTORIES, LOAD_EFFECTS
+
+    effect_names = {f"{p}{e}_{n}" for n in LOAD_EFFECTS for e in ("max", "min")
+                    for p in ("", "time_of_")}
 
     packed = res.packed
     dt = settings.dt
@@ -118,7 +121,13 @@ def to_dataset(bridge, train, res: BatchResult, profile, settings, points,
         "vehicle_name": ("vehicle", np.array(packed.vehicle_names, dtype=str),
                          attrs_for("vehicle_name")),
     }
+    eff = res.effects
+    if eff is not None:  # load effects: the whole-deck grid and the supports
+        coords["deck_x"] = ("deck_x", eff.grid, attrs_for("deck_x"))
+        coords["support"] = ("support", eff.supports, attrs_for("support"))
     for name, val in res.envelopes().items():
+        if eff is None and name in effect_names:
+            continue  # no load effects for this bridge
         variables[name] = (ENVELOPES[name][0], np.asarray(val[r], float), attrs_for(name))
     if save_histories:
         n = int(res.n_steps[r]) + 1

@@ -16,11 +16,14 @@ alone writes the results, so workers never write to a shared file system.
   batches in flight are dropped.
 * ``ProcessBackend`` - ``concurrent.futures.ProcessPoolExecutor`` with the **spawn**
   start method (numba's GNU OpenMP layer is not fork-safe, stack notes 2.5), fed with
-  whole batches; each worker rebuilds the model once.  Workers die with their parent
-  (``PR_SET_PDEATHSIG`` on Linux).
+  whole batches; each worker rebuilds the model once.  Workers die with their parent,
+  also when it dies while they start (``PR_SET_PDEATHSIG`` on Linux, a parent-pid check
+  and a watchdog thread); the multiprocessing resource tracker then ends too and
+  removes the pool's semaphores from ``/dev/shm``.
 * ``DaskBackend`` - a ``dask.distributed`` cluster with batches as tasks: a
   ``LocalCluster`` of ``n`` worker threads in this process (``--workers N``; in-process
-  transport, no network listener but a dashboard on 127.0.0.1), or an existing scheduler
+  transport; the only network listeners, the scheduler's dashboard and the workers' HTTP
+  servers, are bound to 127.0.0.1), or an existing scheduler
   (``--scheduler ADDR``).  Remote workers rebuild the model once per process from the
   configuration, so the files a config names (imported bridge, profile CSV, user train
   file) must exist at the same absolute paths on every worker, and the workers should set
@@ -33,6 +36,9 @@ import os
 import sys
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any
+
+#: The only interface a local Dask cluster listens on (scheduler, workers, dashboards).
+LOOPBACK = "127.0.0.1"
 
 #: Environment of worker processes: serial kernels, one thread each.
 WORKER_ENV = {
@@ -60,22 +66,50 @@ def available_cores() -> int:
         return os.cpu_count() or 1
 
 
-def _die_with_parent() -> None:
-    """Ask Linux to kill this process when its parent dies (no orphaned workers)."""
+#: Seconds between two looks of a worker's watchdog at its parent.
+WATCHDOG_PERIOD = 0.5
+
+
+def _die_with_parent(parent_pid: int | None) -> None:
+    """Make this worker process end when its parent ``parent_pid`` dies.
+
+    Linux kills it (``PR_SET_PDEATHSIG``) when the parent dies from now on; a parent that
+    died earlier, while this process was still starting (interpreter start-up and
+    imports take about a second), is seen here by the parent pid having changed (the
+    orphan was adopted by another process): exit at once.  A daemon thread also checks
+    the parent every :data:`WATCHDOG_PERIOD` seconds (other systems, and the signal is
+    tied to the parent's thread that started the worker, not to the whole process).
+    """
+    import signal
+    import threading
+
     try:
         import ctypes
-        import signal
 
         libc = ctypes.CDLL(None, use_errno=True)
         libc.prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
     except (OSError, AttributeError):  # pragma: no cover - not Linux
         pass
+    if parent_pid is None:
+        return
+    if os.getppid() != parent_pid:
+        os._exit(1)
+
+    def watch():
+        import time
+
+        while True:
+            time.sleep(WATCHDOG_PERIOD)
+            if os.getppid() != parent_pid:
+                os._exit(1)
+
+    threading.Thread(target=watch, daemon=True, name="vsi-parent-watchdog").start()
 
 
-def _init_worker(env: dict[str, str]) -> None:
+def _init_worker(env: dict[str, str], parent_pid: int | None = None) -> None:
     """Set up a local worker process: one thread for numba/BLAS/OpenMP, dies with its
-    parent."""
-    _die_with_parent()
+    parent ``parent_pid`` (even if that died while the worker was starting)."""
+    _die_with_parent(parent_pid)
     os.environ.update(env)
     if "numba" in sys.modules:  # imported while unpickling; env var came too late
         import numba
@@ -194,7 +228,7 @@ class ProcessBackend:
             max_workers=self.n_workers,
             mp_context=multiprocessing.get_context("spawn"),
             initializer=_init_worker,
-            initargs=(worker_env(),),
+            initargs=(worker_env(), os.getpid()),
         )
         return self
 
@@ -255,6 +289,14 @@ class DaskBackend:
             return self._n or 0
         return len(self._client.scheduler_info(n_workers=-1).get("workers", {}))
 
+    @property
+    def n_threads(self) -> int:
+        """Threads of the cluster's workers (as the scheduler reports them)."""
+        if self._client is None:
+            return self._n or 0
+        workers = self._client.scheduler_info(n_workers=-1).get("workers", {})
+        return int(sum(w.get("nthreads", 0) for w in workers.values()))
+
     def __enter__(self):
         import dask
         from dask.distributed import Client, LocalCluster
@@ -275,7 +317,8 @@ class DaskBackend:
                 kw["local_directory"] = str(self.local_directory)
             self._cluster = LocalCluster(
                 n_workers=self._n, threads_per_worker=1, processes=False,
-                dashboard_address="127.0.0.1:0", **kw,
+                dashboard_address=f"{LOOPBACK}:0",
+                worker_dashboard_address=f"{LOOPBACK}:0", **kw,
             )
             self._client = Client(self._cluster)
         return self

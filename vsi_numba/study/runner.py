@@ -46,6 +46,7 @@ from vsi_numba.io.netcdf import (
     history_line,
     source_string,
 )
+from vsi_numba.io.paths import output_conflict
 from vsi_numba.study.backends import (
     DaskBackend,
     ProcessBackend,
@@ -74,10 +75,11 @@ from vsi_numba.study.spec import (
 from vsi_numba.study.store import (
     CaseStore,
     OutputNotWritableError,
-    StoreWriteError,
     StudyError,
     check_writable,
+    final_write_error,
     store_path,
+    study_need,
 )
 
 BACKENDS = ("serial", "threads", "processes", "dask")
@@ -361,8 +363,9 @@ def execute_study(config, output=None, workers=None, scheduler=None, progress=Fa
         if output is None:
             raise StudyError("no output file: give one (-o PATH) or set study.output")
     output = Path(output)
-    if output.exists() and output.is_dir():
-        raise OutputNotWritableError(f"the output {output} is a directory")
+    problem = output_conflict(output, cfg)  # an input, a device, a name too long, ...
+    if problem is not None:
+        raise OutputNotWritableError(problem)
     variants = list(getattr(cfg, "variants", []) or []) if not first_case else []
     vcfgs = [v for _, v in variants] or [cfg]
     specs = [study_spec(c) for c in vcfgs] if variants else [spec]
@@ -392,10 +395,11 @@ def execute_study(config, output=None, workers=None, scheduler=None, progress=Fa
                    f"workers={workers!r}, scheduler={scheduler!r}, backend={backend!r})")
 
     check_writable(output.parent if str(output.parent) else Path("."), "results file")
-    store_existed = store_path(output).exists()
+    spath = store_path(output, "run" if first_case else "sweep")  # never the other's
+    store_existed = spath.exists()
     model_sha = (model_fingerprint(model) if not variants else hashlib.sha256(
         "".join(model_fingerprint(m) for m in models).encode()).hexdigest())
-    store = CaseStore(store_path(output), sha, config_json, fresh=fresh,
+    store = CaseStore(spath, sha, config_json, fresh=fresh,
                       model_sha256=model_sha, plan_sha256=plan_fingerprint(plan))
     study = _Study(specs, models, grid, plan, [lab for lab, _ in variants] or None,
                    config_json, sha, command)
@@ -421,6 +425,10 @@ def _execute(store, study: _Study, output, backend, workers, scheduler, progress
     n_runs = study.n_runs
     n_todo = sum(b.n_runs for b in pending)
     n_s, n_t, n_i = study.grid.shape
+    need = study_need(study, pending)  # refused now if the disk cannot hold the study
+    space_warning = store.check_space(need, output)
+    if space_warning:
+        _say(quiet, f"warning: {space_warning}")
     if pending:
         be = _choose_backend(backend, workers, scheduler, len(pending),
                              store.path / "dask-scratch")
@@ -428,21 +436,23 @@ def _execute(store, study: _Study, output, backend, workers, scheduler, progress
         _say(quiet, f"{n_runs} runs in {len(study.plan)} batches ({nv}{n_s} speeds x {n_t} "
                     f"trains x {n_i} irregularities): {n_runs - n_todo} done earlier, "
                     f"{n_todo} to run ({be.name}"
-                    f"{'' if be.name == 'serial' else f', {workers or be.n_workers} workers'}"
-                    ")")
-        _run_pending(be, study.task_spec, pending, store, progress, n_runs, n_runs - n_todo)
+                    f"{_workers_note(be, workers, scheduler)})")
+        _run_pending(be, study.task_spec, pending, store, progress, n_runs, n_runs - n_todo,
+                     quiet)
     else:
         _say(quiet, f"{n_runs} runs: all done earlier, writing {output}")
-    n_failed = _write_results(output, store, study)
+    n_failed = _write_results(output, store, study, need.final_max)
     if not keep_cases:
         store.remove()
     _say(quiet, f"wrote {output}: {n_runs} runs, {n_failed} failed")
     return StudyOutcome(output, n_runs, n_failed, len(study.plan))
 
 
-def _write_results(output: Path, store: CaseStore, study: _Study) -> int:
+def _write_results(output: Path, store: CaseStore, study: _Study,
+                   need_bytes: int | None = None) -> int:
     """Stream the stored batches into the results file; returns the failed-run count."""
     from vsi_numba.io.study_file import StudyFile
+    from vsi_numba.solver.batch import deck_grid
 
     specs, models, grid, plan, labels = (study.specs, study.models, study.grid, study.plan,
                                          study.labels)
@@ -454,7 +464,9 @@ def _write_results(output: Path, store: CaseStore, study: _Study) -> int:
     model = models[0]
     variants = None
     if labels is not None:
-        rules = [m.config.resolved().get("bridge", {}) for m in models]
+        rules = [{k: getattr(m.config, k, None) for k in ("damping_rule",
+                                                          "additional_damping_rule")}
+                 for m in models]
         variants = {"coords": variant_coords(labels),
                     "bridge_length": [m.bridge.length for m in models],
                     "acceleration_cutoff": [m.deck[2] for m in models],
@@ -471,7 +483,9 @@ def _write_results(output: Path, store: CaseStore, study: _Study) -> int:
     try:
         f = StudyFile(tmp, grid.speeds_kmh, grid.trains, grid.irregularities,
                       [m.output_points for m in models], [m.bridge.frequencies for m in models],
-                      n_wheel, n_vehicle, n_time, model.settings.dt, infos, variants)
+                      n_wheel, n_vehicle, n_time, model.settings.dt, infos, variants,
+                      deck_x=[deck_grid(m.bridge, m.output_points) for m in models],
+                      supports=[m.bridge.supports for m in models])
         hold = _hold_after() == "write"
         try:
             for b in plan:
@@ -505,14 +519,9 @@ def _write_results(output: Path, store: CaseStore, study: _Study) -> int:
         os.replace(tmp, output)
         _fsync_dir(output.parent)
     except (OSError, RuntimeError) as exc:
+        error = final_write_error(exc, output, store, need_bytes, tmp)
         tmp.unlink(missing_ok=True)
-        n = len(store.done())
-        msg = (f"cannot write {output}: {getattr(exc, 'strerror', None) or exc}. The {n} "
-               f"finished batches are kept in {store.path}; re-run the same command once "
-               "fixed.")
-        if isinstance(exc, PermissionError):
-            raise OutputNotWritableError(msg) from exc
-        raise StoreWriteError(msg) from exc
+        raise error from exc
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
@@ -521,11 +530,10 @@ def _write_results(output: Path, store: CaseStore, study: _Study) -> int:
 
 def _bridge_rules(attrs: dict, cfg) -> None:
     """The EN 1991-2 damping rules a config applied, as attributes of the results."""
-    resolved = cfg.resolved() if hasattr(cfg, "resolved") else {}
-    bridge = resolved.get("bridge", {}) if isinstance(resolved, dict) else {}
     for key in ("damping_rule", "additional_damping_rule"):
-        if bridge.get(key):
-            attrs[key] = str(bridge[key])
+        rule = getattr(cfg, key, None)
+        if rule:
+            attrs[key] = str(rule)
 
 
 def _hold_after() -> int | str | None:
@@ -547,13 +555,30 @@ def _hold(store: CaseStore) -> None:
         _time.sleep(0.05)
 
 
-def _run_pending(be, spec, pending, store, progress, n_runs, n_done) -> None:
+def _workers_note(be, workers, scheduler) -> str:
+    """``, 2 workers`` (local backends) or ``, scheduler ADDRESS`` (its workers are counted
+    once connected)."""
+    if be.name == "serial":
+        return ""
+    if be.name == "dask" and scheduler is not None:
+        return f", scheduler {scheduler}"
+    return f", {workers or be.n_workers} workers"
+
+
+def _run_pending(be, spec, pending, store, progress, n_runs, n_done, quiet=True) -> None:
     errors: list[tuple[Batch, BaseException]] = []
     order = sorted(pending, key=lambda b: (-b.cost, b.index))
     hold = _hold_after()
     stored = 0
     with _Progress(progress, n_runs, n_done, "runs") as bar:
         with be:
+            if be.name == "dask" and getattr(be, "scheduler", None) is not None:
+                n_w, n_t = be.n_workers, be.n_threads
+                _say(quiet, f"connected to the Dask scheduler {be.scheduler}: {n_w} "
+                            f"worker{'' if n_w == 1 else 's'}, {n_t} thread"
+                            f"{'' if n_t == 1 else 's'}"
+                     + ("" if n_w else "; no worker yet: the batches wait until one "
+                                       "connects (dask worker " + be.scheduler + ")"))
             try:
                 for batch, result in be.run(run_batch_task, spec, order):
                     if isinstance(result, BaseException):

@@ -3,8 +3,8 @@ speed, through the study engine (:func:`vsi_numba.study.runner.execute_study` wi
 ``first_case=True``): the same batches, kernels and writer as ``vsi sweep``, so the file
 has the study layout (dims ``speed``, ``train`` and ``irregularity``, the last two of
 length one) and the same variables and attributes.  Nothing is resumed: the finished
-batches live in ``<output>.cases/`` while the run goes and are removed once the file is
-written (an interrupted run keeps them there)."""
+batches live in ``<output>.run-cases/`` (never the store of a sweep of that output) while
+the run goes and are removed once the file is written."""
 
 from __future__ import annotations
 

@@ -103,7 +103,8 @@ def _build_model(cfg) -> StudyModel:
     points = default_points(bridge, cfg.output_points)
     return StudyModel(cfg, bridge, trains, settings, points, profiles, x_range,
                       np.asarray(cfg.speeds_kmh, float),
-                      deck_operators(bridge, points, settings))
+                      deck_operators(bridge, points, settings,
+                                     load_effects=cfg.load_effects))
 
 
 def model_fingerprint(model: StudyModel) -> str:

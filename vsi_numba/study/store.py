@@ -1,6 +1,10 @@
 """The batch store: one file per finished batch, next to the study output.
 
-A study writing ``out.nc`` keeps its finished batches in ``out.nc.cases/``:
+A study writing ``out.nc`` keeps its finished batches in ``out.nc.cases/`` (``vsi sweep``,
+resumable) or ``out.nc.run-cases/`` (``vsi run``, never resumed: a run started on the
+output of an interrupted sweep never touches the sweep's batches).  When ``out.nc`` is
+so long a name that the suffix would not fit the file system, the store's name is
+shortened with a hash of the output name (:func:`vsi_numba.io.paths.fitting_name`).
 
 ``store.json``
     manifest: store format, ``config_sha256`` and the resolved configuration of the study
@@ -21,6 +25,13 @@ Resume is "skip every batch whose file exists".  A store is only ever reused by 
 whose configuration, model data and batch plan are the same: anything else is refused
 with :class:`StoreMismatchError` (never silently mixed).  After the final file is written
 the store is removed (its content is all in the final file).
+
+Removal is safe against a kill at any point: the store directory is first renamed,
+atomically, to a hidden tombstone ``.out.nc.cases.removing`` (so it is either the
+complete store, which a re-run resumes, or no store at all), then deleted; the next run
+on that output deletes a tombstone left behind.  Clearing a store for ``--fresh``
+deletes the batches first and the manifest last, so an interrupted clear leaves a valid
+store with fewer batches, never batches without a manifest.
 """
 
 from __future__ import annotations
@@ -37,7 +48,13 @@ from pathlib import Path
 
 import numpy as np
 
-from vsi_numba.io.netcdf import package_version, write_atomic, write_bytes_atomic
+from vsi_numba.io.netcdf import (
+    _fsync_dir,
+    package_version,
+    write_atomic,
+    write_bytes_atomic,
+)
+from vsi_numba.io.paths import fitting_name, name_max
 
 STORE_FORMAT = 2
 MANIFEST = "store.json"
@@ -75,16 +92,47 @@ class StoreWriteError(StudyError):
     exit_code = 1
 
 
+class InsufficientSpaceError(StudyError):
+    """The disk of the output has too little free space for the study (checked before
+    it starts)."""
+
+    exit_code = 2
+
+
 class CorruptBatchError(StudyError):
     """A stored batch cannot be read or is not the batch its name says."""
 
     exit_code = 1
 
 
-def store_path(output: str | os.PathLike) -> Path:
-    """Case store directory of a study output: ``<output>.cases`` beside it."""
+#: Suffix of the store of each command (``vsi sweep`` / ``run_study``, ``vsi run``).
+STORE_SUFFIX = {"sweep": ".cases", "run": ".run-cases"}
+TOMBSTONE_SUFFIX = ".removing"
+
+
+def store_path(output: str | os.PathLike, command: str = "sweep") -> Path:
+    """Case store directory of a study output: ``<output>.cases`` beside it
+    (``<output>.run-cases`` for ``command="run"``), shortened with a hash of the output
+    name when that would be too long a file name."""
     output = Path(output)
-    return output.with_name(output.name + ".cases")
+    limit = name_max(output.parent if str(output.parent) else ".")
+    return output.with_name(fitting_name(output.name, suffix=STORE_SUFFIX[command],
+                                         limit=limit))
+
+
+def tombstone_path(store: str | os.PathLike) -> Path:
+    """Where a store being removed is renamed first: ``.<store name>.removing``."""
+    store = Path(store)
+    limit = name_max(store.parent if str(store.parent) else ".")
+    return store.with_name(fitting_name(store.name, prefix=".", suffix=TOMBSTONE_SUFFIX,
+                                        limit=limit))
+
+
+def remove_tombstone(store: str | os.PathLike) -> None:
+    """Finish the removal of a store that a killed run had begun (if any)."""
+    tomb = tombstone_path(store)
+    if tomb.is_dir() and not tomb.is_symlink():
+        shutil.rmtree(tomb, ignore_errors=True)
 
 
 def _is_permission(exc: OSError) -> bool:
@@ -139,6 +187,7 @@ class CaseStore:
         """Create or adopt the store, refusing one made by another configuration."""
         if self.path.exists() and not self.path.is_dir():
             raise StoreMismatchError(f"{self.path} exists and is not a case store directory")
+        remove_tombstone(self.path)
         check_writable(self.path, "case store")
         self._lock()
         try:
@@ -180,14 +229,61 @@ class CaseStore:
         self.close()
 
     def remove(self) -> None:
-        """Delete the store (after its batches went into the final file); the lock is
-        held until the store is gone, so no other run can adopt it half-removed."""
-        self._clear(keep_lock=True)
-        with contextlib.suppress(OSError):
-            (self.path / LOCK).unlink()
-        with contextlib.suppress(OSError):
-            self.path.rmdir()
+        """Delete the store (after its batches went into the final file).
+
+        The directory is renamed to its tombstone (:func:`tombstone_path`) in one atomic
+        step, then deleted: a kill before the rename leaves the whole store (a re-run
+        resumes it), a kill after it leaves only the tombstone, which the next run on
+        this output deletes.  The lock is held until the end.
+        """
+        remove_tombstone(self.path)  # left by an earlier, killed removal
+        tomb = tombstone_path(self.path)
+        try:
+            os.rename(self.path, tomb)
+        except FileNotFoundError:
+            self.close()
+            return
+        except OSError:  # the parent cannot take a new name: delete in place, manifest last
+            with contextlib.suppress(OSError):
+                self._clear(keep_lock=False)
+                self.path.rmdir()
+            self.close()
+            return
+        _fsync_dir(self.path.parent)
+        shutil.rmtree(tomb, ignore_errors=True)
         self.close()
+
+    def check_space(self, need, output: Path) -> str | None:
+        """Refuse a study that cannot fit on the disk of its store, before it starts.
+
+        ``need`` is a :class:`vsi_numba.io.space.DiskNeed`.  Raises
+        :class:`InsufficientSpaceError` when the free space is below ``need.minimum``;
+        returns a warning when it is below ``need.maximum`` (the compressed histories may
+        not fit), else None.
+        """
+        from vsi_numba.io.space import megabytes
+
+        try:
+            free = shutil.disk_usage(self.path).free
+        except OSError:  # pragma: no cover - cannot tell: let the writes decide
+            return None
+        n = len(self.done())
+        kept = (f" The {n} finished batch(es) stay in {self.path}; re-run the same command "
+                "to resume." if n else "")
+        if free < need.minimum:
+            raise InsufficientSpaceError(
+                f"not enough disk space for {output}: the study needs about "
+                f"{megabytes(need.minimum)} ({megabytes(need.store)} of case store for the "
+                f"batches still to run, then at least {megabytes(need.final_min)} for the "
+                f"results file), but only {megabytes(free)} are free on the disk of "
+                f"{self.path}. Free some space, write to another disk (-o PATH), or save "
+                f"fewer time histories (study.history_speeds_kmh).{kept}")
+        if free < need.maximum:
+            return (f"the disk of {output} has {megabytes(free)} free; the study needs "
+                    f"{megabytes(need.minimum)} to {megabytes(need.maximum)} (depending on "
+                    "how well its time histories compress): it may run out of space at the "
+                    "final write (the finished batches would be kept for a resume)")
+        return None
 
     # -------------------------------------------------------------- content
     def done(self) -> set[str]:
@@ -205,7 +301,8 @@ class CaseStore:
 
     def temp_path(self, name: str) -> Path:
         """A path for a file being written inside the store (removed if left behind)."""
-        return self.path / f".{name}.{os.getpid()}.tmp"
+        return self.path / fitting_name(name, prefix=".", suffix=f".{os.getpid()}.tmp",
+                                        limit=name_max(self.path))
 
     def write(self, key: str, arrays: dict) -> Path:
         """Store one finished batch atomically (``arrays``: name -> numpy array)."""
@@ -321,14 +418,113 @@ class CaseStore:
                     p.unlink()
 
     def _clear(self, keep_lock: bool) -> None:
-        for p in self.path.iterdir():
-            if keep_lock and p.name == LOCK:
-                continue
-            if p.is_dir():
+        """Delete the content: the manifest last (an interrupted clear leaves a valid
+        store with fewer batches), the lock only if not ``keep_lock``."""
+        last = [self.path / MANIFEST] + ([] if keep_lock else [self.path / LOCK])
+        for p in [p for p in self.path.iterdir() if p.name not in (MANIFEST, LOCK)] + last:
+            if p.is_dir() and not p.is_symlink():
                 shutil.rmtree(p)
             else:
-                p.unlink()
+                p.unlink(missing_ok=True)
 
+
+def study_need(study, pending):
+    """Disk need (:class:`vsi_numba.io.space.DiskNeed`) of a study (``runner._Study``)
+    with the batches ``pending`` still to run."""
+    from vsi_numba.io.schema import DIAGNOSTICS
+    from vsi_numba.io.space import (
+        NC_OVERHEAD,
+        NC_VARIABLE_OVERHEAD,
+        DiskNeed,
+        batch_bytes,
+        envelope_row_bytes,
+        history_row_bytes,
+        n_file_variables,
+    )
+    from vsi_numba.solver.batch import deck_grid
+    from vsi_numba.study.spec import _packed_trains
+
+    grid = study.grid
+    # load effects: the whole-deck grid and the supports (upper bound: always counted)
+    n_x = max(deck_grid(m.bridge, m.output_points).size for m in study.models)
+    n_s = max(np.asarray(m.bridge.supports).size for m in study.models)
+    packed = [_packed_trains(sp, m) for sp, m in zip(study.specs, study.models, strict=True)]
+    speeds = [float(v) / 3.6 for v in grid.speeds_kmh]
+
+    def dims(b):
+        p = packed[b.variant or 0][b.i_train]
+        return (study.models[b.variant or 0].output_points.size,
+                p.wheel_positions.size + p.load_positions.size,
+                p.vehicles.wheel_dof.size, p.vehicles.body_dof.size, p)
+
+    store = 0
+    for b in pending:
+        n_p, n_w, n_wd, n_v, p = dims(b)
+        steps = [p.n_steps(speeds[s]) + 1
+                 for s, h in zip(b.speeds, b.histories, strict=True) if h]
+        store += batch_bytes(b.n_runs, steps, n_p, n_w, n_wd, n_v, n_x, n_s)
+    n_p = max(m.output_points.size for m in study.models)
+    shapes = [dims(b)[1:4] for b in study.plan]
+    n_w = max((d[0] for d in shapes), default=0)  # the file's wheel dim: all the wheels
+    n_v = max((d[2] for d in shapes), default=0)
+    n_runs = study.n_runs
+    final_min = NC_OVERHEAD + n_runs * (envelope_row_bytes(n_p, n_w, n_v, n_x, n_s)
+                                        + 4 * len(DIAGNOSTICS))
+    hist = [dims(b)[4].n_steps(speeds[s]) + 1 for b in study.plan
+            for s, h in zip(b.speeds, b.histories, strict=True) if h]
+    final_max = final_min + (len(hist) * max(hist, default=0)
+                             * history_row_bytes(n_p, n_w, n_v, n_s)) + (
+        NC_VARIABLE_OVERHEAD * n_file_variables())
+    return DiskNeed(store=int(store), final_min=int(final_min), final_max=int(final_max))
+
+
+def final_write_error(exc: BaseException, output: Path, store: CaseStore,
+                      need_bytes: int | None = None, partial: Path | None = None
+                      ) -> StudyError:
+    """The error of a failed write of the results file ``output`` (written as the temp
+    file ``partial`` in ``store``, then renamed; call this before deleting it): what
+    happened, which file, the space needed and the space that was free for it, and that
+    the finished batches are kept."""
+    from vsi_numba.io.space import megabytes
+
+    try:
+        n = len(store.done())
+    except OSError:
+        n = 0
+    keep = (f"The {n} finished batch(es) are kept in the case store {store.path}; re-run "
+            "the same command to resume once this is fixed (only the results file is "
+            "written again).")
+    try:
+        free = shutil.disk_usage(store.path if store.path.is_dir() else output.parent).free
+        if partial is not None and partial.exists():  # what the failed write had taken
+            free += partial.stat().st_blocks * 512
+    except OSError:
+        free = None
+    errno_ = getattr(exc, "errno", None)
+    reason = getattr(exc, "strerror", None) or str(exc)
+    cause = exc.__cause__ if exc.__cause__ is not None else exc
+    hdf = isinstance(cause, RuntimeError) or "HDF error" in str(exc)
+    if hdf and isinstance(cause, RuntimeError):
+        reason = str(cause)
+    space = ""
+    if need_bytes is not None or free is not None:
+        space = (f" The results file needs up to about {megabytes(need_bytes)}"
+                 if need_bytes is not None else " The results file")
+        space += (f"; {megabytes(free)} were free for it on the disk of {store.path}."
+                  if free is not None else ".")
+    if isinstance(exc, OSError) and _is_permission(exc):
+        return OutputNotWritableError(f"cannot write {output} (the results file): {reason}. "
+                                      f"{keep}")
+    if errno_ in (errno.ENOSPC, errno.EDQUOT):
+        what = "the disk is full (no space left on the device)"
+    elif errno_ == errno.EFBIG:
+        what = "a file size limit was reached (file too large)"
+    elif hdf:
+        what = (f"the netCDF library failed ({reason}), most likely because the disk is "
+                "full or a file size limit was reached")
+    else:
+        what = reason
+    return StoreWriteError(f"cannot write {output} (the results file): {what}.{space} {keep}")
 
 
 def _write_error(exc: OSError, target: Path, store: CaseStore) -> StudyError:

@@ -1,27 +1,44 @@
-"""``vsi report``: checks, figures and a Markdown report of a results file.
+"""``vsi report``: checks, figures and the report of a results file, as one
+self-contained HTML file and as Markdown, with CSV/XLSX tables.
 
 :func:`write_report` runs every check of :mod:`vsi_numba.analysis.checks` that the file
-allows, draws the figures of :mod:`vsi_numba.analysis.plots` and writes ``report.md``
-(plus ``summary.csv``) into one directory. The time-history figures show the governing
-cases of the deck acceleration and wheel unloading checks; a case whose history the file
-does not hold is re-run from the file's ``config_json`` (:mod:`.recompute`).
+allows, draws the figures of :mod:`vsi_numba.analysis.plots` and writes ``report.html``,
+``report.md`` (plus the PNGs), ``summary.csv``, ``tables/*.csv`` and ``tables.xlsx`` into
+one directory. It loads the envelopes only and reads time histories one case at a time.
+The time-history figures show the governing cases of the deck acceleration and wheel
+unloading checks; a case whose history the file does not hold is re-run from the file's
+``config_json`` (:mod:`.recompute`).
 The command ``vsi report`` is :func:`vsi_numba.cli.report.report_command`.
 
-Modules: :mod:`.text` (the Markdown sections), :mod:`.figures` (the figures and the
-re-run governing cases); :func:`write_report` here puts them together.
+Modules: :mod:`.document` (sections of text, tables and figures; the Markdown and HTML
+writers), :mod:`.text` (the Markdown sections), :mod:`.echo` (input echo, title block),
+:mod:`.tables` (maxima, deck / approach wheel unloading, CSV/XLSX), :mod:`.figures` (the
+figures and the re-run governing cases), :mod:`.variants` (parametric studies);
+:func:`write_report` here puts them together.
 """
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
 
 from vsi_numba.analysis import checks as chk
-from vsi_numba.analysis.dataset import prepare, require
+from vsi_numba.analysis.dataset import envelopes, prepare, require
 from vsi_numba.analysis.recompute import CaseRunner
+from vsi_numba.analysis.report import tables as tbl
+from vsi_numba.analysis.report.document import (
+    Figure,
+    Section,
+    Table,
+    write_html,
+    write_markdown,
+)
+from vsi_numba.analysis.report.echo import input_echo, title_block
 from vsi_numba.analysis.report.figures import _figures
+from vsi_numba.analysis.report.load_effects import load_effects_section
 from vsi_numba.analysis.report.text import (
     FIGURE_NAMES,
     MAX_ONE_STEP_ROWS,
@@ -37,6 +54,7 @@ from vsi_numba.analysis.report.text import (
     _statistics,
     _summary,
     _trains,
+    _version,
     _warnings_block,
     mark_unreliable,
     stored_warnings,
@@ -44,6 +62,10 @@ from vsi_numba.analysis.report.text import (
 
 __all__ = [
     "FIGURE_NAMES",
+    "REPORT_FILES",
+    "Figure",
+    "Section",
+    "Table",
     "MAX_ONE_STEP_ROWS",
     "NOT_RELIABLE",
     "REQUIRED_VARIABLES",
@@ -54,18 +76,33 @@ __all__ = [
 ]
 
 
+#: Files of the report besides the figures (an earlier report's are replaced).
+REPORT_FILES = ("report.md", "report.html", "summary.csv", "tables.xlsx")
+
+
 def write_report(
     ds: xr.Dataset, outdir: Path | str, *, q: float = chk.DEFAULT_Q,
     comfort_level: str = "very good", n_boot: int = 2000, seed: int = 0,
     source_path: Path | str | None = None, determinant_length: float | None = None,
     recompute: bool = True, config_dir: Path | str | None = None,
+    sections: list | None = None, variant_note: str = "",
 ) -> Path:
-    """Write ``report.md``, ``summary.csv`` and the PNG figures into ``outdir``.
+    """Write the report of a results file into ``outdir``.
+
+    Files: ``report.html`` (one self-contained file: figures embedded, prints to PDF from
+    a browser), ``report.md`` with the figures as PNG beside it (for diffs),
+    ``summary.csv`` (one row per check), ``tables/<quantity>.csv`` (speed x train, units
+    in every header) and ``tables.xlsx`` (the same plus the tables of maxima).
+
+    Only the envelopes are loaded (:func:`vsi_numba.analysis.dataset.envelopes`); the
+    time histories are read from ``ds`` one case at a time, so a file opened lazily
+    (``xarray.open_dataset``) is reported in memory that does not grow with the study.
 
     Parameters
     ----------
     ds : xarray.Dataset
-        Results of ``vsi run`` / ``vsi sweep`` (or the same layout built in memory).
+        Results of ``vsi run`` / ``vsi sweep`` (or the same layout built in memory);
+        best opened lazily.
     outdir : path
         Directory, created if needed; existing report files are overwritten.
     q : float
@@ -75,7 +112,7 @@ def write_report(
     n_boot, seed : int
         Bootstrap settings of the realisation statistics.
     source_path : path, optional
-        The results file, named in the provenance.
+        The results file, named in the provenance (by its name only).
     determinant_length : float, optional
         L_phi (m) for phi''; wins over the file's attribute and the EN 1991-2 Table 6.2
         [R] rule (:func:`vsi_numba.analysis.checks.determinant_length`).
@@ -87,6 +124,14 @@ def write_report(
         Directory the stored configuration's relative paths (train file, profile)
         resolve against; default: tried from the results file's directory upwards, then
         the working directory.
+    sections : list, optional
+        More sections, placed before the figures: each a
+        :class:`~vsi_numba.analysis.report.document.Section`, or a callable
+        ``f(envelopes, results) -> Section | None`` (``results`` as returned by
+        :func:`vsi_numba.analysis.checks.run_checks`).
+    variant_note : str, optional
+        Markdown shown at the top of the input echo (e.g. which variant of a parametric
+        study this is).
 
     Returns
     -------
@@ -98,49 +143,141 @@ def write_report(
     ResultsError
         If ``ds`` lacks :data:`REQUIRED_VARIABLES` or a ``speed`` coordinate.
     """
-    ds = prepare(ds)
-    require(ds, REQUIRED_VARIABLES, "the report")
+    full = prepare(ds)
+    require(full, REQUIRED_VARIABLES, "the report")
+    env = envelopes(full)
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     for name in FIGURE_NAMES:  # no stale figure of an earlier report may stay behind
         (outdir / name).unlink(missing_ok=True)
-    lphi = chk.determinant_length(ds, determinant_length)
-    results = chk.run_checks(ds, q=q, comfort_level_required=comfort_level, n_boot=n_boot,
+    lphi = chk.determinant_length(env, determinant_length)
+    results = chk.run_checks(env, q=q, comfort_level_required=comfort_level, n_boot=n_boot,
                              seed=seed, length=determinant_length)
-    records = stored_warnings(ds)
+    records = stored_warnings(env)
     table = mark_unreliable(chk.summary_table(results), records)
-    table.to_csv(outdir / "summary.csv", index=False)
-    runner = (CaseRunner(ds, base_dir=config_dir, source_path=source_path) if recompute
+    # 10 significant digits: the same results give the same file (the last bits of a
+    # float may differ between machines and thread schedules)
+    table.to_csv(outdir / "summary.csv", index=False, float_format="%.10g")
+    runner = (CaseRunner(env, base_dir=config_dir, source_path=source_path) if recompute
               else None)
-    figures, figure_notes = _figures(ds, results, outdir, runner)
+    figures, figure_notes = _figures(env, results, runner, histories=full)
     wu = results.get("wheel_unloading")
     applicable = None if wu is None or isinstance(wu, str) else wu["applicable"]
+    zones = tbl.wheel_unloading_by_zone(env)
+    per_train = tbl.maxima_per_train(env, results, zones)
+    per_point = tbl.maxima_per_point(env)
+    zone_table = tbl.wheel_unloading_zones_table(zones) if zones is not None else None
+    speed_tables = tbl.speed_train_tables(env, results, zones)
+    extra = {"summary": table, "maxima_per_train": tbl.ascii_units(per_train),
+             "maxima_per_point": tbl.ascii_units(per_point)}
+    if zone_table is not None:
+        extra["wheel_unloading_zones"] = tbl.ascii_units(zone_table)
+    load_effects = load_effects_section(env, outdir, length=determinant_length,
+                                        save_figure=False)
+    extra.update(load_effects.tables)
+    tbl.write_tables(speed_tables, extra, outdir)
 
-    title = ds.attrs.get("title") or "vsi_numba results"
-    lines = [f"# {title}", "",
-             "Railway vehicle–bridge interaction: dynamic checks of the results "
-             + (f"`{Path(source_path).name}`." if source_path else "in memory."), ""]
-    lines += _warnings_block(records)
-    flagged = _flagged_trains(ds)
+    title = env.attrs.get("title") or "vsi_numba results"
+    generated = f"vsi_numba {_version()}"
+    intro = ("Railway vehicle–bridge interaction: dynamic checks of the results "
+             + (f"`{Path(source_path).name}`." if source_path else "in memory."))
+    head = [Section("", [intro], level=0), title_block(env, generated)]
+    warn = Section.from_markdown(_warnings_block(records))
+    if warn is not None:
+        head.append(warn)
+    flagged = _flagged_trains(env)
     if flagged:
-        lines += [f"> ⚠ **WARNING: results for train(s) {', '.join(flagged)} rest on vehicle "
-                  "data of doubtful status — see [Trains](#trains).**", ""]
-    lines += _provenance(ds, Path(source_path) if source_path else None)
-    lines += _bridge(ds, lphi)
-    lines += _summary(results, table, np.asarray(ds["point"].values, float))
-    lines += _deck_end_note(ds)
-    lines += _one_step_losses(results)
-    lines += _trains(ds, applicable)
-    lines += _cases(ds)
-    lines += _statistics(results, ds)
-    lines += ["## Figures", ""]
-    for i, (name, caption) in enumerate(figures, 1):
-        lines += [f"![Figure {i}]({name})", "", f"*Figure {i}: {caption}*", ""]
+        head.append(Section("", [f"> ⚠ **WARNING: results for train(s) {', '.join(flagged)} "
+                                 "rest on vehicle data of doubtful status — see "
+                                 "[Trains](#trains).**"], level=0))
+    body: list[Section] = []
+
+    def add(lines):
+        sec = Section.from_markdown(lines)
+        if sec is not None:
+            body.append(sec)
+
+    summary = _summary(results, table, np.asarray(env["point"].values, float))
+    at = len(summary) - 1 if summary and not summary[-1] else len(summary)
+    add(summary[:at] + _zone_lines(zone_table) + summary[at:] + _deck_end_note(env)
+        + _one_step_losses(results))
+    body.append(input_echo(env, variant_note))
+    add(_bridge(env, lphi))
+    body.append(_maxima_section(env, per_train, per_point, zone_table, zones, speed_tables))
+    add(_trains(env, applicable))
+    add(_cases(env))
+    add(_statistics(results, env))
+    body.append(load_effects.section)
+    for extra_section in sections or []:
+        sec = extra_section(env, results) if callable(extra_section) else extra_section
+        if sec is not None:
+            body.append(sec)
+    fig_blocks: list = list(figures)
     if figure_notes:
-        lines += [*figure_notes, ""]
-    path = outdir / "report.md"
-    path.write_text("\n".join(lines), encoding="utf-8")
+        fig_blocks.append("\n".join(figure_notes))
+    if fig_blocks:
+        body.append(Section("Figures", fig_blocks))
+    # the results file relative to the report (never the absolute path of this machine)
+    add(_provenance(env, Path(os.path.relpath(Path(source_path).resolve(), outdir.resolve()))
+                    if source_path else None))
+
+    path = write_markdown(head + body, outdir / "report.md", title=title)
+    write_html(body, outdir / "report.html", title=title, header=head)
     return path
+
+
+def _zone_lines(zone_table) -> list[str]:
+    """Summary bullet: the governing wheel unloading on the deck and on the approach."""
+    if zone_table is None:
+        return []
+    parts = []
+    for _, r in zone_table.iterrows():
+        where = ("on the deck" if "deck" in r["Minimum contact force"] else
+                 "off the deck (approach or exit track)")
+        if not np.isfinite(r["ΔQ/Q₀ max"]):
+            parts.append(f"{where}: none")
+            continue
+        parts.append(f"{where} **{r['ΔQ/Q₀ max']:.3f}** ({r['Train']}, "
+                     f"{r['Speed [km/h]']:.0f} km/h, axle {r['Axle']} at "
+                     f"x = {r['x of the axle [m]']:.1f} m)")
+    return ["- Wheel unloading by where the axle was at its minimum contact force (largest "
+            "over the realisations): " + "; ".join(parts) + ". See [Maxima](#maxima)."]
+
+
+def _maxima_section(env, per_train, per_point, zone_table, zones, speed_tables) -> Section:
+    """Tables of maxima per train, per output point, wheel unloading by zone."""
+    blocks: list = []
+    n_real = env.sizes.get("irregularity", 1)
+    basis = ("largest over the speeds" + (" and the track realisations" if n_real > 1 else "")
+             + "; the checks above use the characteristic value over realisations"
+             if n_real > 1 else "largest over the speeds")
+    blocks.append(f"Maxima per train ({basis}). Deck acceleration a at the deck abscissa x "
+                  "of its peak (whole deck where the file has it); δ the total deck "
+                  "displacement (positive down) at the output point x; φ'dyn the dynamic "
+                  "increment; ΔQ/Q₀ split by where the axle was at its minimum contact "
+                  "force (deck 0 ≤ x ≤ L, approach x < 0 or x > L); b_v the car-body "
+                  "acceleration.")
+    deck, vehicles = tbl.split_per_train(per_train)
+    blocks.append(Table(deck, "Maxima per train: deck"))
+    if vehicles is not None:
+        blocks.append(Table(vehicles, "Maxima per train: wheels and car bodies (trains "
+                                      "with an interaction model)"))
+    if zone_table is not None:
+        length = zones.attrs["bridge_length"]
+        blocks.append(
+            "Wheel unloading on the deck and on the approach track, separately "
+            f"(deck 0 ≤ x ≤ {length:g} m; x from `position_of_min_contact_force`). The file "
+            "keeps one minimum contact force per run and axle: a record whose minimum lay on "
+            "the approach bounds that axle's unloading on the deck from above but does not "
+            "give it.")
+        blocks.append(Table(zone_table, "Governing wheel unloading by zone"))
+    blocks.append(Table(per_point, "Maxima per output point (over speeds, trains and "
+                                   "realisations)"))
+    if speed_tables:
+        files = ", ".join(f"`tables/{n}.csv`" for n in speed_tables)
+        blocks.append(f"Speed × train tables (units in every header): {files}; all of them "
+                      "and the tables above in `tables.xlsx`.")
+    return Section("Maxima", blocks)
 
 
 def __getattr__(name):

@@ -4,8 +4,6 @@ histories of the governing cases (re-run when the file holds none,
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import xarray as xr
 
@@ -15,6 +13,8 @@ from vsi_numba.analysis.dataset import (
     nanargmax_case,
 )
 from vsi_numba.analysis.recompute import CaseRunner, RecomputeError
+from vsi_numba.analysis.report.document import Figure
+from vsi_numba.analysis.report.tables import wheel_unloading_by_zone
 from vsi_numba.analysis.report.text import _fmt
 
 # --------------------------------------------------------------------------------------
@@ -42,6 +42,9 @@ class _Histories:
         ds = self.ds
         if "time" not in ds.dims or name not in ds:
             return False
+        if "status" in ds and int(ds["status"].sel(train=train, speed=speed,
+                                                   irregularity=irr)) != 0:
+            return False  # a failed case: its outputs are not results
         return bool(ds[name].sel(train=train, speed=speed, irregularity=irr, **where)
                     .notnull().any())
 
@@ -104,6 +107,8 @@ def _deck_history(ds, results, hist: _Histories, applicable):
             return None, (f"the file holds no time histories and the governing case could "
                           f"not be re-run ({reason})")
         stored = ds["deck_acceleration"].sel(train=train, point=point).notnull().any("time")
+        if "status" in ds:
+            stored = stored & (ds["status"].sel(train=train) == 0)
         peak = ds["max_deck_acceleration"].sel(train=train, point=point).where(stored)
         alt = nanargmax_case(peak)
         if alt is None:
@@ -175,14 +180,19 @@ def _wheel_history(ds, results, hist: _Histories):
     return fig, caption
 
 
-def _figures(ds: xr.Dataset, results: dict, outdir: Path,
-             runner: CaseRunner | None = None) -> tuple[list[tuple[str, str]], list[str]]:
-    """Write the PNGs; return (file name, caption) pairs and notes on figures not drawn."""
+def _figures(ds: xr.Dataset, results: dict, runner: CaseRunner | None = None,
+             histories: xr.Dataset | None = None) -> tuple[list[Figure], list[str]]:
+    """The figures as report blocks, and notes on figures not drawn.
+
+    ``ds`` holds the envelopes (:func:`vsi_numba.analysis.dataset.envelopes`);
+    ``histories`` the whole prepared file, read lazily (default ``ds``): the time-history
+    figures read one case from it.
+    """
     made, notes = [], []
+    histories = ds if histories is None else histories
 
     def put(fig, name, caption):
-        plots.save(fig, outdir / name)
-        made.append((name, caption))
+        made.append(Figure(fig, name, caption))
 
     acc = results.get("deck_acceleration")
     if not isinstance(acc, str):
@@ -201,9 +211,12 @@ def _figures(ds: xr.Dataset, results: dict, outdir: Path,
         applicable = wu["applicable"]
     if not isinstance(wu, str) and "note" not in wu.attrs:
         skipped = wu.attrs.get("not_applicable_trains", "")
-        put(plots.plot_wheel_unloading(ds, wu), "wheel_unloading.png",
+        put(plots.plot_wheel_unloading(ds, wu, wheel_unloading_by_zone(ds)),
+            "wheel_unloading.png",
             "Minimum wheel–rail contact force and wheel unloading ΔQ/Q₀ (max over axles) "
-            "against speed, with the 0.6 limit (EN 14363 practice [R])"
+            "against speed, with the 0.6 limit (EN 14363 practice [R]); thin dash-dot / "
+            "dotted: ΔQ/Q₀ of the axles whose minimum contact force lay on the deck / on the "
+            "approach or exit track (largest over realisations)"
             + (f"; not drawn: {skipped} (prescribed moving forces, not applicable)"
                if skipped else "") + ".")
     cf = results.get("comfort")
@@ -211,11 +224,11 @@ def _figures(ds: xr.Dataset, results: dict, outdir: Path,
         put(plots.plot_comfort(ds, cf), "comfort.png",
             "Vertical car-body acceleration (max over vehicles) against speed with the "
             "levels of comfort of EN 1990 Table A2.9 [R].")
-    hist = _Histories(ds, runner)
-    for name, make in (("time_history.png", lambda: _deck_history(ds, results, hist,
+    hist = _Histories(histories, runner)
+    for name, make in (("time_history.png", lambda: _deck_history(histories, results, hist,
                                                                   applicable)),
-                       ("wheel_unloading_history.png", lambda: _wheel_history(ds, results,
-                                                                              hist))):
+                       ("wheel_unloading_history.png", lambda: _wheel_history(
+                           histories, results, hist))):
         fig, caption = make()
         if fig is not None:
             put(fig, name, caption)

@@ -4,7 +4,7 @@ and one function per section (provenance, bridge, summary, trains, cases, statis
 from __future__ import annotations
 
 import json
-from datetime import UTC, datetime
+import re
 from importlib import metadata
 from pathlib import Path
 
@@ -134,17 +134,33 @@ def _version() -> str:
 # --------------------------------------------------------------------------------------
 
 
+def _shown(path) -> str:
+    """A path as a report may show it: as given when relative, the name when absolute."""
+    path = Path(path)
+    return path.name if path.is_absolute() else str(path)
+
+
 def _provenance(ds: xr.Dataset, source_path: Path | None) -> list[str]:
+    """The provenance table.  Its content follows from the results alone (no clock, no
+    machine): the results file as given (relative to the report directory), the command
+    of the last history step without its time stamp (the results file's ``history``
+    keeps the times) and with absolute paths cut to their file names, the config hash
+    and the versions; a report of the same results is the same file."""
     a = ds.attrs
     history = str(a.get("history", "")).strip().splitlines()
+    command = re.sub(r"^\d{4}-\d\d-\d\dT[\d:.]+Z?\s+", "", history[-1]) if history else "–"
+    # absolute paths of the machine it ran on: the file name only
+    command = " ".join(f"…/{Path(t).name}" if t.startswith("/") and len(t) > 1 else t
+                       for t in command.split(" "))
     rows = [
-        ["results file", f"`{source_path}`" if source_path else "(in memory)"],
+        # relative to the report, or the name alone: a report must not carry the paths of
+        # the machine it was made on
+        ["results file", f"`{_shown(source_path)}`" if source_path else "(in memory)"],
         ["source", a.get("source", "–")],
         ["config SHA-256", f"`{a['config_sha256']}`" if a.get("config_sha256") else "–"],
         ["conventions", a.get("Conventions", "–")],
-        ["history (last step)", history[-1] if history else "–"],
-        ["report", f"vsi_numba {_version()}, "
-                   f"{datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')}"],
+        ["command (last step)", command],
+        ["report", f"vsi_numba {_version()}"],
     ]
     out = ["## Provenance", ""] + _table(["", ""], rows)
     if not a.get("config_json"):
@@ -160,11 +176,30 @@ def _flagged_trains(ds: xr.Dataset) -> list[str]:
             if str(s) in WARN_STATUSES]
 
 
+def _bridge_description(ds: xr.Dataset) -> str:
+    """``simply supported, spans 20 + 20 m, EI = 1.508e10 N m², m = 15000 kg/m`` from the
+    stored config, else the file's ``bridge_description``."""
+    from vsi_numba.analysis.report.echo import fmt_list
+
+    bridge = _config_section(ds, "bridge") or {}
+    if not bridge.get("kind"):
+        return str(ds.attrs.get("bridge_description", "–"))
+    parts = [str(bridge["kind"]).replace("_", " ")]
+    if bridge.get("spans"):
+        parts.append(("spans " if len(bridge["spans"]) > 1 else "span ")
+                     + fmt_list(bridge["spans"], "m", " + "))
+    if "EI" in bridge:
+        parts.append("EI = " + fmt_list(bridge["EI"], "N m²"))
+    if "mass_per_length" in bridge:
+        parts.append("m = " + fmt_list(bridge["mass_per_length"], "kg/m"))
+    return ", ".join(parts)
+
+
 def _bridge(ds: xr.Dataset, lphi: chk.DeterminantLength | None = None) -> list[str]:
     a = ds.attrs
     f = bridge_frequencies(ds)
     out = ["## Bridge", ""]
-    out.append(f"- Description: {a.get('bridge_description', '–')}")
+    out.append(f"- Description: {_bridge_description(ds)}")
     if "bridge_length" in a:
         out.append(f"- Length: {float(a['bridge_length']):g} m")
     if lphi is not None:

@@ -30,6 +30,7 @@ from vsi_numba.model.imported.common import (
     _spline_slopes,
     _supports_from,
 )
+from vsi_numba.model.influence import StaticDeck
 
 # ------------------------------------------------------------------------------ matrices
 
@@ -94,7 +95,12 @@ def _lowest_modes(K, M, n_modes, max_frequency):
         if op is None:
             lu = scipy.sparse.linalg.splu((K - SIGMA * M).tocsc())
             op = scipy.sparse.linalg.LinearOperator((n, n), matvec=lu.solve, dtype=float)
-        lam, vec = scipy.sparse.linalg.eigsh(K, k=k, M=M, sigma=SIGMA, which="LM", OPinv=op)
+        # a fixed start vector (ARPACK's default is random): the same matrices give the
+        # same modes bit for bit, so a study's model fingerprint (resume) and every
+        # worker's model are the same
+        v0 = np.random.default_rng(0).standard_normal(n)
+        lam, vec = scipy.sparse.linalg.eigsh(K, k=k, M=M, sigma=SIGMA, which="LM", OPinv=op,
+                                             v0=v0)
         o = np.argsort(lam)
         lam, vec = lam[o], vec[:, o]
         if lam_max is None or lam[-1] > lam_max or k >= MAX_MODES:
@@ -307,6 +313,10 @@ def modes_from_matrices(
         damping=zeta, nodes=xs, values=np.ascontiguousarray(values),
         slopes=np.ascontiguousarray(slopes), supports=np.asarray(supports, float),
         description=desc, effective_mass_fraction=eff,
+        static=StaticDeck(kind="matrices", supports=np.asarray(supports, float),
+                          spans=np.diff(np.asarray(supports, float)), K=K, fixed=fixed,
+                          stations=xs, dofs=dofs, rotation_dofs=rot,
+                          rotation_sign=float(rotation_sign)),
     )
     return ImportResult(bridge, freqs.copy(), tuple(warnings), (line,) if line else ())
 

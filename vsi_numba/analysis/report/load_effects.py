@@ -1,0 +1,219 @@
+"""The "Load effects" section of the report: envelopes of M, V, R and theta (dynamic,
+static crawl, LM71 x Phi x alpha), phi'_dyn per effect and train, the EN 1991-2
+6.4.6.5(3) verdict with its margin, the deck-end rotation check and a figure of the M and
+V envelopes along the deck.
+
+:func:`load_effects_section` is self-contained: it returns a document section (text,
+tables, figure) for the Markdown and HTML writers, the same as Markdown lines, the figure
+file and the tables as :class:`pandas.DataFrame` (SI units) for CSV/XLSX.  Files without
+load-effect variables (older files, bridges that cannot give them) get a short section
+that says why.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+import pandas as pd
+
+from vsi_numba.analysis.checks.load_effects import (
+    EFFECTS,
+    LoadEffectChecks,
+    load_effect_checks,
+)
+from vsi_numba.analysis.report.document import Figure, Section, Table, section_markdown
+from vsi_numba.en1990 import (
+    END_ROTATION_CLAUSE,
+    END_ROTATION_LIMIT_ABUTMENT,
+    END_ROTATION_LIMIT_DECKS,
+)
+from vsi_numba.en1991 import ALPHA_CLAUSE, LM71_CLAUSE, PHI_CLAUSE
+
+#: Title of the section.
+TITLE = "Load effects"
+#: File name of the figure of the M and V envelopes.
+FIGURE_NAME = "load_effects.png"
+#: Display units per SI unit: (factor, label).
+_UNITS = {"N m": (1e-3, "kN m"), "N": (1e-3, "kN"), "m": (1e3, "mm"), "rad": (1e3, "mrad")}
+
+
+class LoadEffectsSection(NamedTuple):
+    """``section`` (a :class:`~vsi_numba.analysis.report.document.Section` of text,
+    tables and the figure, for the Markdown and HTML writers), ``lines`` (the same as
+    Markdown), ``figures`` ((file name, caption) pairs; the PNG is written into
+    ``outdir`` when one is given) and ``tables`` (name -> DataFrame, SI units; empty when
+    the checks could not be made)."""
+
+    section: Section
+    lines: list
+    figures: list
+    tables: dict
+
+
+def _v(value, units) -> str:
+    f, label = _UNITS.get(units, (1.0, units))
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        return str(value)
+    return "–" if not np.isfinite(x) else f"{x * f:.4g} {label}"
+
+
+def _where(effect: str, x: float) -> str:
+    return f"support x = {x:g} m" if EFFECTS[effect][2] == "support" else f"x = {x:g} m"
+
+
+def load_effects_section(ds, outdir: Path | str | None = None, *, checks=None,
+                         alpha: float | None = None, maintenance: str | None = None,
+                         length: float | None = None, save_figure: bool = True
+                         ) -> LoadEffectsSection:
+    """Build the "Load effects" section of a results file.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Results (see :func:`~vsi_numba.analysis.checks.load_effects.load_effect_checks`;
+        the envelopes are enough).
+    outdir : path, optional
+        Report directory: a stale figure of an earlier report is removed, and with
+        ``save_figure`` the figure is written there.
+    checks : LoadEffectChecks or str, optional
+        Precomputed checks (default: computed here with ``alpha``, ``maintenance``,
+        ``length``).
+    save_figure : bool
+        Write the PNG into ``outdir`` (the report's Markdown writer writes it itself).
+
+    Returns
+    -------
+    LoadEffectsSection
+    """
+    if checks is None:
+        checks = load_effect_checks(ds, alpha=alpha, maintenance=maintenance, length=length)
+    if outdir is not None:
+        Path(outdir).mkdir(parents=True, exist_ok=True)
+        (Path(outdir) / FIGURE_NAME).unlink(missing_ok=True)  # no stale figure stays
+    blocks: list = []
+    tables: dict = {}
+    figure = None
+    if isinstance(checks, str):
+        blocks.append(f"Not available: {checks}.")
+    else:
+        blocks, tables, figure = _blocks(checks)
+    section = Section(TITLE, blocks)
+    figs: list = []
+    lines = section_markdown(section, figs, {"figure": 0, "table": 0})
+    written = []
+    if figure is not None:
+        if outdir is not None and save_figure:
+            (Path(outdir) / FIGURE_NAME).write_bytes(figure.png())
+        written.append((FIGURE_NAME, figure.caption))
+    return LoadEffectsSection(section, lines, written, tables)
+
+
+def _blocks(c: LoadEffectChecks):
+    fa = c.factors
+    ph = fa["phi_name"]
+    blocks: list = [
+        f"EN 1991-2 6.4.6.5(3) [R]: per effect, the design value is the more unfavourable "
+        f"of (1 + φ'dyn + φ''/2) × (static effect of the HSLM / real train) and "
+        f"{ph} × α × LM71. LM71 ({LM71_CLAUSE}): 4 × 250 kN at 1.6 m and "
+        f"80 kN/m outside the 6.4 m axle zone where unfavourable, placed most "
+        f"unfavourably; α = {fa['alpha']:g} ({ALPHA_CLAUSE}, `study.classification_factor`); "
+        f"{ph} = {fa['phi']:.4g} ({PHI_CLAUSE}, track maintenance "
+        f"'{fa['maintenance']}', `study.track_maintenance`) with L_Φ = {fa['length']:g} m "
+        f"({fa['length_rule']}); {fa['phi2_note']}, max φ'' = {fa['phi2_max']:.3g}. "
+        "Static effects of the trains: their axle loads crawling over the deck (exact "
+        "influence lines, every placement). Magnitudes |E| (both signs) are compared."]
+    blocks += [f"> ⚠ {n}." for n in fa.get("notes", [])]
+    tables = {"load_effect_envelopes": c.envelopes, "phi_dyn": c.phi_dyn,
+              "phi_dyn_speeds": c.phi_dyn_speeds, "load_effect_verdict": c.verdict,
+              "end_rotation": c.rotation}
+
+    rows = [{"Effect": EFFECTS[r.effect][4], "Governing location": _where(r.effect, r.location),
+             "(1 + φ'dyn + φ''/2) × train": _v(r.real_design, r.units),
+             "Train, speed": f"{r.train} at {r.speed_kmh:g} km/h",
+             f"{ph} × α × LM71": _v(r.lm71_design, r.units), "Ratio": f"{r.ratio:.3f}",
+             "Governs": f"**{r.governs}**", "Margin": f"{r.margin:.3f}"}
+            for r in c.verdict.itertuples(index=False)]
+    blocks += ["### Verdict (EN 1991-2 6.4.6.5(3) [R])",
+               Table(pd.DataFrame(rows), "Load effects: EN 1991-2 6.4.6.5(3) verdict"),
+               "Ratio = (1 + φ'dyn + φ''/2) × train / (Φ × α × LM71), its largest value over "
+               "the locations; margin = how many times the governing model exceeds the "
+               "other (≥ 1)."]
+
+    rows = [{"Effect": EFFECTS[r.effect][4], "Location": _where(r.effect, r.location),
+             "Dynamic max |E|": _v(r.dynamic, r.units),
+             "Train, speed": f"{r.train} at {r.speed_kmh:g} km/h",
+             "Static crawl max |E|": _v(r.static, r.units), "LM71 (static)": _v(r.lm71, r.units),
+             f"{ph} × α × LM71": _v(r.lm71_design, r.units), "Ratio": f"{r.ratio:.3f}"}
+            for r in c.envelopes.itertuples(index=False)]
+    blocks += ["### Envelopes",
+               Table(pd.DataFrame(rows), "Load-effect envelopes: dynamic, static crawl, LM71"),
+               "Dynamic: max over speeds and trains (deterministic track); static crawl: max "
+               "over the trains; deflection: downward only."]
+
+    if not c.phi_dyn.empty:
+        piv = c.phi_dyn.pivot(index="train", columns="effect", values="phi_dyn")
+        spd = c.phi_dyn.pivot(index="train", columns="effect", values="speed_kmh")
+        eff = [e for e in EFFECTS if e in piv.columns]
+        rows = [{"Train": t, **{EFFECTS[e][4]: f"{piv.loc[t, e]:.3f} ({spd.loc[t, e]:g} km/h)"
+                                for e in eff}} for t in piv.index]
+        blocks += ["### Dynamic increment φ'dyn per effect",
+                   Table(pd.DataFrame(rows), "φ'dyn per effect and train (max over speeds, "
+                                             "at the speed given)"),
+                   "φ'dyn = max over locations of max|E_dyn| / max over locations of "
+                   "max|E_static crawl| − 1."]
+
+    blocks.append(f"### Deck-end rotation ({END_ROTATION_CLAUSE})")
+    if c.rotation.empty:
+        blocks.append("Not available: the results hold no end rotations.")
+    else:
+        rows = [{"Deck end": f"x = {r.support:g} m",
+                 f"θ under {ph} × α × LM71": _v(r.theta_lm71_design, "rad"),
+                 "θ (1 + φ'dyn + φ''/2) × train": _v(r.theta_real_design, "rad"),
+                 "Design θ (the larger)": _v(r.theta_design, "rad"),
+                 "Limit (ballasted, deck to abutment)": _v(r.limit, "rad"),
+                 "Utilisation": f"{r.utilisation:.3f}",
+                 "Result": "**FAIL**" if r.result == "FAIL" else r.result}
+                for r in c.rotation.itertuples(index=False)]
+        blocks += [Table(pd.DataFrame(rows), "Deck-end rotation"),
+                   f"Limits recalled [R]: {_v(END_ROTATION_LIMIT_ABUTMENT, 'rad')} between a "
+                   f"deck end and the abutment, {_v(END_ROTATION_LIMIT_DECKS, 'rad')} for "
+                   "θ₁ + θ₂ between two consecutive decks (not checked: one deck)."]
+    figure = None
+    if c.deck:
+        fig = _figure(c)
+        if fig is not None:
+            figure = Figure(fig, FIGURE_NAME,
+                            f"Bending moment and shear force envelopes along the deck: "
+                            f"dynamic max/min of the governing train against {ph} × α × "
+                            f"LM71 (α = {fa['alpha']:g}, {ph} = {fa['phi']:.3g}).")
+            blocks.append(figure)
+    return blocks, tables, figure
+
+
+def _figure(c: LoadEffectChecks):
+    from matplotlib.figure import Figure as MplFigure
+
+    effects = [e for e in ("moment", "shear") if e in c.deck]
+    if not effects:
+        return None
+    fig = MplFigure(figsize=(7.5, 3.0 * len(effects)), layout="constrained")
+    x = c.deck["x"]
+    for i, e in enumerate(effects, 1):
+        ax = fig.add_subplot(len(effects), 1, i)
+        d = c.deck[e]
+        f, label = _UNITS["N m" if e == "moment" else "N"]
+        ax.plot(x, d["dyn_max"] * f, color="C0", label=f"dynamic, {d['train']} (max/min)")
+        ax.plot(x, d["dyn_min"] * f, color="C0")
+        ax.plot(x, d["lm71_max"] * f, "--", color="C3",
+                label=f"{c.factors['phi_name']} × α × LM71")
+        ax.plot(x, d["lm71_min"] * f, "--", color="C3")
+        ax.axhline(0.0, color="0.6", lw=0.6)
+        ax.set_ylabel(f"{'M' if e == 'moment' else 'V'} ({label})")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    ax.set_xlabel("x along the deck (m)")
+    return fig

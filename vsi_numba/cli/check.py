@@ -1,0 +1,221 @@
+"""``vsi check``: validate a configuration and estimate its study (size, time, memory,
+disk) without running anything.
+
+The cost model
+--------------
+The study is planned exactly as ``vsi sweep`` plans it (variants, speed x train x
+realisation grid, batches: :mod:`vsi_numba.study.batches`), and every run's number of
+time steps is known from its speed, the train length, the approach and the free
+vibration.  From there:
+
+* **time** = :data:`STARTUP_SECONDS` (interpreter, imports, loading the compiled kernels
+  from the numba cache, the checks printed at the end) + :data:`KERNEL_FACTOR` x the
+  batches' per-step cost (:func:`vsi_numba.study.batches.step_cost`: ~0.01 us per mode
+  and output point for moving forces, ~0.5 + 0.4 per wheel + 0.05 per vehicle DOF + 0.02
+  per mode and point us for interaction models) x their time steps, shared by the
+  workers (one per core, at most one per batch) + :data:`WRITE_SECONDS_PER_MB` per MB
+  written.  A first run compiles the kernels (one to three minutes) on top of that.
+* **memory** (peak RSS) = :data:`BASE_MEMORY_MB` (the imported libraries and the
+  kernels) + the raw time histories of the batches in flight (two per worker); the
+  results file is written one stored batch at a time, so the study's size does not
+  count.
+* **disk** = :data:`FILE_OVERHEAD_BYTES` + the envelopes (float64, one value per run
+  and output point, wheel or vehicle of the widest train) + the time histories kept
+  (float32, compressed: about :data:`HISTORY_COMPRESSION` of the raw size, per real
+  wheel, output point and vehicle).
+
+The constants were measured on this project's 2-core machine with a warm numba cache;
+``tests/test_cli_conveniences.py`` checks the estimate against a real small run.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from vsi_numba.cli.common import EXIT_USAGE, Printer, load_config
+
+#: Seconds of a warm start: interpreter, imports, the numba cache, writing the file.
+STARTUP_SECONDS = 2.0
+#: Measured kernel time / :func:`~vsi_numba.study.batches.step_cost` estimate.
+KERNEL_FACTOR = 1.0
+#: Seconds per MB of results written (netCDF, compression of the histories).
+WRITE_SECONDS_PER_MB = 0.05
+#: Resident memory of a sweep without its batches (MB): Python, numpy, numba, xarray,
+#: dask and the checks printed at its end.
+BASE_MEMORY_MB = 250.0
+#: Bytes of a results file without runs (coordinates, attributes, the stored config).
+FILE_OVERHEAD_BYTES = 90e3
+#: Compressed / raw size of the float32 time histories (zlib level 4 with shuffle).
+HISTORY_COMPRESSION = 0.5
+
+_MB = 2.0**20
+
+
+@dataclass(frozen=True)
+class StudyEstimate:
+    """Size and cost of a study (see the module's cost model).
+
+    Attributes
+    ----------
+    n_variants, n_speeds, n_trains, n_realisations : int
+        The study's axes (``n_variants`` = 1 without ``study.vary``).
+    n_runs, n_batches, n_history_runs : int
+        Runs (speed x train x realisation x variant), kernel batches, runs whose time
+        histories are kept.
+    n_steps : int
+        Time steps of all runs.
+    workers : int
+        Workers of a local sweep (cores, at most one per batch).
+    seconds : float
+        Estimated wall time of ``vsi sweep`` with a warm numba cache on idle cores (s).
+    cpu_seconds : float
+        Estimated CPU time of it (s): the same model with the kernel time summed over
+        the workers instead of shared by them.
+    memory_bytes, disk_bytes : float
+        Estimated peak resident memory and results file size (bytes).
+    """
+
+    n_variants: int
+    n_speeds: int
+    n_trains: int
+    n_realisations: int
+    n_runs: int
+    n_batches: int
+    n_history_runs: int
+    n_steps: int
+    workers: int
+    seconds: float
+    cpu_seconds: float
+    memory_bytes: float
+    disk_bytes: float
+
+
+def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
+    """Plan the study of ``cfg`` as ``vsi sweep`` would and estimate its cost.
+
+    Parameters
+    ----------
+    cfg : vsi_numba.config.Config
+        A loaded configuration.
+    workers : int, optional
+        Workers of the sweep; default: the cores available to this process.
+
+    Returns
+    -------
+    StudyEstimate
+    """
+    import numpy as np
+
+    from vsi_numba.io.schema import ENVELOPES
+    from vsi_numba.study.backends import available_cores
+    from vsi_numba.study.batches import history_bytes
+    from vsi_numba.study.spec import (
+        _build_model,
+        _packed_trains,
+        _remember,
+        study_grid,
+        study_plan,
+        study_spec,
+    )
+
+    vcfgs = [v for _, v in cfg.variants] or [cfg]
+    plan, steps, hist_runs, raw_hist, disk_hist = [], 0, 0, 0.0, 0.0
+    env_width = {"point": 0, "wheel": 0, "vehicle": 0}
+    grid = None
+    for k, c in enumerate(vcfgs):
+        spec = study_spec(c)
+        model = _build_model(c)
+        _remember(spec, model)
+        grid = grid or study_grid(model)
+        batches = study_plan(spec, model, grid, variant=k if cfg.variants else None,
+                             start=len(plan))
+        plan += batches
+        packed = _packed_trains(spec, model)
+        speeds = np.asarray(grid.speeds_kmh, float) / 3.6
+        n_i = len(grid.irregularities)
+        env_width["point"] = max(env_width["point"], model.output_points.size)
+        for p in packed:
+            n_wheel = p.wheel_positions.size + p.load_positions.size
+            env_width["wheel"] = max(env_width["wheel"], n_wheel)
+            env_width["vehicle"] = max(env_width["vehicle"], p.vehicles.body_dof.size)
+            for i_s, v in enumerate(speeds):
+                n = p.n_steps(v)
+                steps += n * n_i
+                if grid.history_speeds[i_s]:
+                    hist_runs += n_i
+                    width = (2 * model.output_points.size + 2 * p.wheel_positions.size
+                             + p.vehicles.body_dof.size)
+                    disk_hist += n_i * (n + 1) * width * 4 * HISTORY_COMPRESSION
+        raw_hist = max([raw_hist] + [sum(history_bytes(packed[b.i_train], int(
+            packed[b.i_train].n_steps(speeds[s]))) for s, h in zip(b.speeds, b.histories,
+                                                                     strict=True) if h)
+            for b in batches])
+    n_s, n_t, n_i = grid.shape
+    n_runs = n_s * n_t * n_i * len(vcfgs)
+    n_workers = max(1, min(workers or available_cores(), len(plan)))
+    per_run = sum(env_width.get(dims[0], 0) if dims else 1
+                  for dims, *_ in ENVELOPES.values())
+    disk_env = 8.0 * n_runs * per_run
+    disk = FILE_OVERHEAD_BYTES + disk_env + disk_hist
+    kernel = KERNEL_FACTOR * sum(b.cost for b in plan)
+    fixed = STARTUP_SECONDS + WRITE_SECONDS_PER_MB * disk / _MB
+    seconds, cpu_seconds = fixed + kernel / n_workers, fixed + kernel
+    memory = BASE_MEMORY_MB * _MB + 2 * n_workers * raw_hist
+    return StudyEstimate(
+        n_variants=len(vcfgs), n_speeds=n_s, n_trains=n_t, n_realisations=n_i,
+        n_runs=n_runs, n_batches=len(plan), n_history_runs=hist_runs, n_steps=int(steps),
+        workers=n_workers, seconds=seconds, cpu_seconds=cpu_seconds, memory_bytes=memory,
+        disk_bytes=disk)
+
+
+def _size(n_bytes: float) -> str:
+    for unit, f in (("GB", 2.0**30), ("MB", _MB), ("kB", 2.0**10)):
+        if n_bytes >= f:
+            return f"{n_bytes / f:.3g} {unit}"
+    return f"{n_bytes:.0f} B"
+
+
+def _duration(s: float) -> str:
+    if s < 90:
+        return f"{s:.2g} s" if s < 10 else f"{s:.0f} s"
+    if s < 5400:
+        return f"{s / 60:.0f} min"
+    return f"{s / 3600:.1f} h"
+
+
+def check_command(config: Path, workers: int | None = None) -> int:
+    """``vsi check CONFIG``: validate, print the warnings, the study size and the estimate.
+
+    Returns
+    -------
+    int
+        0 valid (warnings or not); 2 invalid (every error printed, as for ``vsi sweep``).
+    """
+    pr = Printer()
+    cfg = load_config(config, pr)
+    if cfg is None:
+        return EXIT_USAGE
+    for w in cfg.warnings:
+        pr.warning(w)
+    try:
+        est = estimate_study(cfg, workers)
+    except (ValueError, OSError) as exc:  # e.g. a model that cannot be built
+        pr.error(f"{config}: the study cannot be planned: {exc}")
+        return EXIT_USAGE
+    def n(count: int, word: str, plural: str | None = None) -> str:
+        return f"{count:,} {word if count == 1 else plural or word + 's'}"
+
+    n_v = f"{n(est.n_variants, 'variant')} x " if cfg.variants else ""
+    pr.line(f"{config}: valid configuration ({len(cfg.warnings)} warning"
+            f"{'' if len(cfg.warnings) == 1 else 's'}), config SHA-256 {cfg.sha256[:12]}")
+    pr.line(f"study: {n(est.n_runs, 'run')} = {n_v}{n(est.n_speeds, 'speed')} x "
+            f"{n(est.n_trains, 'train')} x {n(est.n_realisations, 'track realisation')}, in "
+            f"{n(est.n_batches, 'batch', 'batches')}; {n(est.n_steps, 'time step')}; "
+            f"time histories of {n(est.n_history_runs, 'run')}")
+    pr.line(f"estimate (warm numba cache, {est.workers} worker"
+            f"{'' if est.workers == 1 else 's'}): time ~{_duration(est.seconds)}, peak "
+            f"memory ~{_size(est.memory_bytes)}, results file ~{_size(est.disk_bytes)} "
+            f"({cfg.output_path}); a first run adds 1-3 min of compilation")
+    pr.line("nothing was run (vsi sweep runs it)")
+    return 0

@@ -200,7 +200,10 @@ def _track_restraint_warning(chk, bridge, track):
     if not model.n_modes or model.kind == "rigid":
         return
     t = _track.ElasticTrack(track["foundation_stiffness"], track["rail_EI"])
-    ratio = t.restraint_ratio(model)
+    with np.errstate(all="ignore"):  # an absurd deck is refused elsewhere, with its cause
+        ratio = t.restraint_ratio(model)
+    if not (np.all(np.isfinite(ratio)) and ratio.max() < 1.0):
+        return  # not a deck on a rail: left to the plausibility checks
     j = int(np.argmax(ratio))
     if ratio[j] > TRACK_RESTRAINT_WARN:
         chk.warn(

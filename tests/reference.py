@@ -1501,3 +1501,207 @@ def vehicle_on_rigid_rail(M, C, K, gravity, wheel_dofs, wheel_x0, speed, profile
         ED.append([row @ v for row, _ in forces])
     return RigidRailRun(sol.t, np.array(U), np.array(A), np.array(X),
                         np.array(E).reshape(len(U), -1), np.array(ED).reshape(len(U), -1))
+
+
+# ------------------------------------------- vehicle on a damped (massive) track over a span
+
+
+@dataclass
+class DampedTrackResult:
+    """Output of :func:`vehicle_on_damped_track`."""
+
+    t: np.ndarray  # s
+    force: np.ndarray  # (n_t, n_w) N, wheel-rail contact forces (compression, 0 when off)
+    deck_acceleration: np.ndarray  # (n_t, n_p) m/s2 at ``points``, modes summed
+    static_force: np.ndarray  # (n_w,) N, contact forces of the static start
+
+
+def vehicle_on_damped_track(
+    length: float, EI: float, mass_per_length: float, n_modes: int, zeta: float,
+    foundation: float, foundation_damping: float, rail_EI: float, rail_mass: float,
+    M: np.ndarray, C: np.ndarray, K: np.ndarray, gravity: np.ndarray, wheel_dofs,
+    wheel_offsets, contact_stiffness: float, profile: Callable, speed: float,
+    x_start: float, t_end: float, points=(), h: float = 0.1, margin: float = 12.0,
+    rtol: float = 1e-6, n_out: int = 4001,
+) -> DampedTrackResult:
+    """A vehicle (matrices ``M``, ``C``, ``K``, load ``gravity``) on a rail (``rail_EI``,
+    ``rail_mass`` kg/m) on a Kelvin-Voigt foundation (``foundation`` N/m per m,
+    ``foundation_damping`` N s/m per m) bearing on a simply supported beam (modes,
+    damping ratio ``zeta``) where there is deck and on rigid ground elsewhere.
+
+    The rail is discretised by central finite differences on a uniform grid of spacing
+    ``h`` over the wheels' path extended by ``margin`` (clamped ends):
+
+        m' w'' + c (w' - u') + EI w'''' + k (w - u) = sum_i P_i delta(x - x_i),
+        u = sum_j phi_j q_j on the deck, 0 off it,
+
+    the deck's modal force is the foundation force over the deck,
+    sum_n h_n phi_j(x_n) [k (w_n - u_n) + c (w'_n - u'_n)] (trapezoid weights); with a
+    massless rail (``rail_mass = 0``, then ``foundation_damping > 0``) the rail equation
+    is first order in w.  The contact is a unilateral linear spring,
+    P_i = k_c max(0, u_wheel_i - w(x_i) - r(x_i)), with the point load and the rail
+    deflection under the wheel taken with linear-interpolation weights between the two
+    nearest nodes; wheel i is ``wheel_offsets[i]`` behind the first axle, at
+    ``x_start + v t - offset``.  Starts from the static equilibrium (all wheels in
+    contact, at rest); ``profile`` (callable r(x)) must be zero under the wheels at
+    t = 0.  Integrated by ``solve_ivp`` (Radau, the exact sparse Jacobian of the
+    piecewise-linear system, steps below h / v).
+    """
+    import scipy.sparse as sps
+
+    wheel_dofs = np.asarray(wheel_dofs)
+    offs = np.asarray(wheel_offsets, float)
+    n_w, n_v, n_m = wheel_dofs.size, M.shape[0], n_modes
+    x_lo = x_start - offs.max() - margin
+    x_hi = x_start + speed * t_end + margin
+    n = int(np.ceil((x_hi - x_lo) / h))
+    xs = x_lo + h * np.arange(n + 1)
+    N = xs.size
+    c4 = rail_EI / h**4
+    D4 = sps.diags([c4, -4 * c4, 6 * c4, -4 * c4, c4], [-2, -1, 0, 1, 2], shape=(N, N),
+                   format="lil")
+    D4[0, 0] += c4  # clamped: ghost w_{-1} = w_1
+    D4[N - 1, N - 1] += c4
+    D4 = D4.tocsr()
+    Kr = (D4 + foundation * sps.identity(N)).tocsr()
+    omega = ss_omega(length, EI, mass_per_length, n_modes)
+    on = (xs >= 0.0) & (xs <= length)
+    Phi = ss_shapes(length, mass_per_length, n_modes, xs) * on[:, None]  # (N, n_m)
+    trap = np.where(on, h, 0.0)
+    trap[np.flatnonzero(on)[[0, -1]]] *= 0.5
+    PhiT = (Phi * trap[:, None]).T  # (n_m, N): modal force of nodal foundation forces
+    phi_p = ss_shapes(length, mass_per_length, n_modes, np.asarray(points, float))
+    Minv = np.linalg.inv(M)
+    Ew = np.zeros((n_w, n_v))
+    Ew[np.arange(n_w), wheel_dofs] = 1.0
+    massive = rail_mass > 0.0
+    if not massive and foundation_damping <= 0.0:
+        raise ValueError("a massless rail needs foundation damping (first-order rail)")
+    # state layout
+    iw = slice(0, N)
+    iwd = slice(N, 2 * N) if massive else None
+    o = 2 * N if massive else N
+    iq, iqd = slice(o, o + n_m), slice(o + n_m, o + 2 * n_m)
+    iu, iud = slice(o + 2 * n_m, o + 2 * n_m + n_v), slice(o + 2 * n_m + n_v,
+                                                           o + 2 * n_m + 2 * n_v)
+    n_y = o + 2 * n_m + 2 * n_v
+
+    def weights(t):
+        """(W (n_w, N) interpolation of the rail under the wheels, x_i)."""
+        x = x_start + speed * t - offs
+        i = np.floor((x - xs[0]) / h).astype(int)
+        s = (x - xs[i]) / h
+        rows = np.repeat(np.arange(n_w), 2)
+        cols = np.stack([i, i + 1], 1).ravel()
+        vals = np.stack([1.0 - s, s], 1).ravel()
+        return sps.csr_matrix((vals, (rows, cols)), shape=(n_w, N)), x
+
+    def contact(t, y):
+        W, x = weights(t)
+        pen = y[iu][wheel_dofs] - W @ y[iw] - profile(x)
+        act = pen > 0.0
+        return W, np.where(act, contact_stiffness * pen, 0.0), act
+
+    kc = foundation
+    cc = foundation_damping
+    om2 = omega**2
+    c_m = 2 * zeta * omega
+
+    def rhs(t, y):
+        W, P, _ = contact(t, y)
+        w, q, qd, u, ud = y[iw], y[iq], y[iqd], y[iu], y[iud]
+        load = W.T @ P / h  # nodal line load of the wheel forces
+        dy = np.empty(n_y)
+        uq, uqd = Phi @ q, Phi @ qd
+        if massive:
+            wd = y[iwd]
+            dy[iw] = wd
+            dy[iwd] = (load - Kr @ w + kc * uq - cc * (wd - uqd)) / rail_mass
+        else:
+            wd = (load - Kr @ w + kc * uq + cc * uqd) / cc
+            dy[iw] = wd
+        f_found = kc * (w - uq) + cc * (wd - uqd)
+        dy[iq] = qd
+        dy[iqd] = PhiT @ f_found - om2 * q - c_m * qd
+        dy[iu] = ud
+        dy[iud] = Minv @ (gravity - C @ ud - K @ u - Ew.T @ P)
+        return dy
+
+    # Jacobian: a constant part and the contact's (sparse, rank <= 2 n_w) part
+    def block(A, rows, cols):
+        A = sps.coo_matrix(A)
+        return sps.coo_matrix((A.data, (A.row + rows.start, A.col + cols.start)),
+                              shape=(n_y, n_y))
+
+    eye_n = sps.identity(N, format="csr")
+    sPhiT = sps.csr_matrix(PhiT)
+    parts = [block(np.eye(n_m), iq, iqd), block(np.eye(n_v), iu, iud),
+             block(-Minv @ K, iud, iu), block(-Minv @ C, iud, iud)]
+    if massive:
+        parts += [block(eye_n, iw, iwd), block(-Kr / rail_mass, iwd, iw),
+                  block(-cc / rail_mass * eye_n, iwd, iwd),
+                  block(kc * Phi / rail_mass, iwd, iq), block(cc * Phi / rail_mass, iwd, iqd),
+                  block(kc * sPhiT, iqd, iw), block(cc * sPhiT, iqd, iwd),
+                  block(-PhiT @ (kc * Phi) - np.diag(om2), iqd, iq),
+                  block(-PhiT @ (cc * Phi) - np.diag(c_m), iqd, iqd)]
+        r_load = iwd
+        s_load = 1.0 / rail_mass
+    else:
+        # foundation force = k w + c w' - k Phi q - c Phi q' = load - D4 w
+        parts += [block(-Kr / cc, iw, iw), block(kc / cc * Phi, iw, iq), block(Phi, iw, iqd),
+                  block(-(sPhiT @ D4), iqd, iw), block(-np.diag(om2), iqd, iq),
+                  block(-np.diag(c_m), iqd, iqd)]
+        r_load = iw
+        s_load = 1.0 / cc
+    J0 = sum(parts[1:], parts[0]).tocsr()
+    MiEt = Minv @ Ew.T
+
+    def jac(t, y):
+        W, _, act = contact(t, y)
+        ka = sps.diags(act * contact_stiffness)
+        Wa = ka @ W  # -dP/dw
+        Ua = ka @ sps.csr_matrix(Ew)  # dP/du
+        Lw = -(W.T @ Wa) / h  # d load / dw
+        Lu = (W.T @ Ua) / h  # d load / du
+        extra = [block(s_load * Lw, r_load, iw), block(s_load * Lu, r_load, iu),
+                 block(-MiEt @ Ua.toarray(), iud, iu), block(sps.csr_matrix(MiEt) @ Wa, iud, iw)]
+        if not massive:
+            extra += [block(sPhiT @ Lw, iqd, iw), block(sPhiT @ Lu, iqd, iu)]
+        return (J0 + sum(extra[1:], extra[0])).tocsc()
+
+    # static start: all wheels in contact, r = 0 under them, at rest
+    W0, _ = weights(0.0)
+    W0 = W0.toarray()
+    n_s = N + n_m + n_v
+    A = np.zeros((n_s, n_s))
+    b = np.zeros(n_s)
+    kcW = contact_stiffness * W0
+    # rail: Kr w - k Phi q - load = 0, load = W^T P / h, P = k_c (Ew u - W w)
+    A[:N, :N] = Kr.toarray() + W0.T @ kcW / h
+    A[:N, N:N + n_m] = -kc * Phi
+    A[:N, N + n_m:] = -W0.T @ (contact_stiffness * Ew) / h
+    # deck: omega^2 q - PhiT k (w - Phi q) = 0
+    A[N:N + n_m, :N] = -kc * PhiT
+    A[N:N + n_m, N:N + n_m] = np.diag(om2) + kc * PhiT @ Phi
+    # vehicle: K u + Ew^T P = g
+    A[N + n_m:, :N] = -Ew.T @ kcW
+    A[N + n_m:, N + n_m:] = K + contact_stiffness * Ew.T @ Ew
+    b[N + n_m:] = gravity
+    z = np.linalg.solve(A, b)
+    y0 = np.zeros(n_y)
+    y0[iw] = z[:N]
+    y0[iq] = z[N:N + n_m]
+    y0[iu] = z[N + n_m:]
+    P0 = contact(0.0, y0)[1]
+    t_eval = np.linspace(0.0, t_end, n_out)
+    sol = scipy.integrate.solve_ivp(rhs, (0.0, t_end), y0, method="Radau", rtol=rtol,
+                                    atol=1e-10, max_step=h / speed, jac=jac,
+                                    t_eval=t_eval)
+    if not sol.success:
+        raise RuntimeError(sol.message)
+    force = np.empty((sol.t.size, n_w))
+    acc = np.empty((sol.t.size, phi_p.shape[0]))
+    for k, (t, y) in enumerate(zip(sol.t, sol.y.T, strict=True)):
+        force[k] = contact(t, y)[1]
+        acc[k] = phi_p @ rhs(t, y)[iqd]
+    return DampedTrackResult(t=sol.t, force=force, deck_acceleration=acc, static_force=P0)

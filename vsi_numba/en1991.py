@@ -40,15 +40,19 @@ def additional_damping(span: float) -> float:
 
     dzeta = (0.0187 L - 0.00064 L^2) / (1 - 0.0441 L - 0.0044 L^2 + 0.000255 L^3) %
     for L < 30 m, 0 otherwise.  It stands for the vehicle-bridge interaction a
-    moving-force model leaves out, so it is never added to interaction models.
+    moving-force model leaves out, so it is never added to interaction models.  The
+    numerator changes sign at L = 0.0187 / 0.00064 = 29.22 m: the formula is slightly
+    negative (down to -0.006 %) for 29.22 m < L < 30 m, where it is taken as 0 (an
+    additional damping never removes damping).
     """
     if not span > 0:
         raise ValueError(f"span = {span!r}: expected > 0 m")
     if span >= ADDITIONAL_DAMPING_SPAN:
         return 0.0
     L = float(span)
-    return 0.01 * (0.0187 * L - 0.00064 * L**2) / (1 - 0.0441 * L - 0.0044 * L**2
-                                                   + 0.000255 * L**3)
+    dz = 0.01 * (0.0187 * L - 0.00064 * L**2) / (1 - 0.0441 * L - 0.0044 * L**2
+                                                 + 0.000255 * L**3)
+    return max(dz, 0.0)
 
 
 def frequency_band(span: float) -> tuple[float, float]:

@@ -63,8 +63,10 @@ train's first axle; 0) and ``name``.  Vehicles are listed front to back, not ove
 ``[track]`` ``model`` = elastic (default: the rail on a Winkler foundation over the deck
 and the approaches, :mod:`vsi_numba.model.track`) | rigid (the rigid-track idealisation:
 a kink at the deck ends); ``foundation_stiffness`` (N/m per metre of track, both rails;
-8.51e7: 150 kN/mm per axle with UIC60 rails) and ``rail_EI`` (N m^2, both rails; 1.283e7,
-UIC60).  Not with ``[bridge.track]``, whose FE track layer is then the track.
+8.51e7: 150 kN/mm per axle with UIC60 rails), ``rail_EI`` (N m^2, both rails; 1.283e7,
+UIC60), ``foundation_damping`` (N s/m per metre of track, 0 .. 2e6; 1.96e5, ballast)
+and ``rail_mass`` (kg per metre of track moving with the rail, 0 .. 2000; 0).  Not with
+``[bridge.track]``, whose FE track layer is then the track.
 ``[study]`` ``speeds_kmh`` (list, or {start, stop, step} with stop included when on the
 grid) or ``line_speed_kmh`` (then 140 .. 1.2 x line speed, step 5, 1.2 x line speed
 included); ``output`` (results/<stem>.nc); ``save_time_histories`` (true);

@@ -136,7 +136,8 @@ class Config:
         if self.track_model != "elastic":
             return None
         track = self._resolved["track"]
-        return _track.ElasticTrack(track["foundation_stiffness"], track["rail_EI"])
+        return _track.ElasticTrack(track["foundation_stiffness"], track["rail_EI"],
+                                   track["foundation_damping"], track["rail_mass"])
 
     @property
     def track_model(self) -> str:

@@ -41,6 +41,19 @@ _DEFAULT_TRACK = {"foundation_stiffness": _track.FOUNDATION_DEFAULT,
 HERTZ_LOAD_FACTOR = 2.0
 #: Rigid contact with massive wheels needs at least this much numerical damping.
 RIGID_MASSIVE_ALPHA = -0.02
+#: dt x f the wheel-on-track mode needs when the irregularity excites it: for the bogie
+#: of tests/test_track_damping.py (ICE3 wheelsets, 45.9 Hz, German low 1-80 m, 400 km/h,
+#: damped track) dt x f = 0.023 gives the peak deck acceleration within 0.05 % and
+#: dQ/Q0 within 0.004 of the dt -> 0 limit, dt x f = 0.046 (dt = 1 ms) 1.2 % and 0.015;
+#: on the undamped track the mode rings and dt = 1 ms was up to 19 % off
+TRACK_MODE_DT = 0.025
+#: The wheel-on-track mode counts as excited when the irregularity reaches this share
+#: of its frequency (v / shortest wavelength)
+TRACK_MODE_EXCITED = 0.5
+#: Share of a mode's modal stiffness above which the rail stiffness left out of the
+#: deck is reported: 2 %, i.e. 1 % on the mode's frequency (a light 20 m deck with
+#: f1 = 4.8 Hz is at 1.0 % of the stiffness and is not worth a warning)
+TRACK_RESTRAINT_WARN = 0.02
 
 
 def train_extent(train) -> float:
@@ -124,14 +137,95 @@ def _track_warning(chk, train, dt, track, contact):
         return k, np.ones(v.n_wheels, bool)
 
     f_max, where = _highest_wheel_frequency(train, track_and_hertz)
+    spring = "track" if model == "rigid" else "track and Hertz contact"
     if dt * f_max > DT_RESOLUTION:
-        spring = "track" if model == "rigid" else "track and Hertz contact"
         chk.warn(
             f"solver.dt = {dt:g} s: dt x f = {dt * f_max:.3g} for the wheel on the {spring} "
             f"springs ({f_max:.4g} Hz, {where}); above {DT_RESOLUTION} it is under-resolved "
             f"(wheel-rail force peaks too low); use dt <= {DT_RESOLUTION / f_max:.3g} s",
             "resolution", ["solver.dt", "track.foundation_stiffness"]
             + (["contact.hertz_coefficient"] if model != "rigid" else []))
+    return f_max, where, spring
+
+
+def _track_mode_excitation(irr, vmax) -> tuple[float, str] | None:
+    """The highest frequency (Hz) at which the irregularity excites the wheels at
+    ``vmax`` (m/s), and the key that sets it; inf for a profile read from a file or a
+    step (broadband); None without irregularity."""
+    r = irr.resolved
+    found = []
+    if r["kind"] == "psd":
+        found.append((vmax / r["wavelength_min"], "irregularity.wavelength_min"))
+    elif r["kind"] == "cosine":
+        found.append((vmax / r["wavelength"], "irregularity.wavelength"))
+    elif r["kind"] == "file":
+        found.append((math.inf, "irregularity.path"))
+    for i, dfc in enumerate(r.get("defects", [])):
+        if dfc["kind"] == "cosine":
+            found.append((vmax / dfc["wavelength"], f"irregularity.defects[{i}].wavelength"))
+        else:
+            found.append((math.inf, f"irregularity.defects[{i}]"))
+    return max(found) if found else None
+
+
+def _track_mode_warning(chk, dt, f_track, where, spring, irr, vmax):
+    """The wheel-on-track mode excited by the irregularity (its frequency within
+    :data:`TRACK_MODE_EXCITED` of the highest excitation frequency v / wavelength) needs
+    :data:`TRACK_MODE_DT` (dt x f): the deck acceleration and dQ/Q0 follow the wheel
+    forces of that mode, which HHT-alpha under-resolves and damps numerically."""
+    exc = _track_mode_excitation(irr, vmax)
+    if exc is None or f_track <= 0 or exc[0] < TRACK_MODE_EXCITED * f_track:
+        return
+    if dt * f_track <= TRACK_MODE_DT:
+        return
+    f_exc = "broadband" if math.isinf(exc[0]) else f"up to {exc[0]:.4g} Hz at " \
+        f"{vmax * 3.6:g} km/h"
+    chk.warn(
+        f"solver.dt = {dt:g} s: the wheel-on-{spring} mode ({f_track:.4g} Hz, {where}) is "
+        f"excited by the irregularity ({exc[1]}: {f_exc}); dt x f = {dt * f_track:.3g} "
+        f"> {TRACK_MODE_DT} under-resolves the wheel forces of that mode and the deck "
+        f"accelerations they drive; use dt <= {TRACK_MODE_DT / f_track:.3g} s",
+        "resolution", ["solver.dt", exc[1]])
+
+
+def _track_approach_warning(chk, solver, track):
+    """A first axle that starts within the rail's reach of the deck (its static load
+    already spread onto the deck, the train released there at full speed) biases the
+    start: warn below ln(100 sqrt 2) / beta, where the rail's deflection line of a wheel
+    has fallen below 1 % of its peak (|G(x)| <= sqrt 2 exp(-beta x) G(0))."""
+    t = _track.ElasticTrack(track["foundation_stiffness"], track["rail_EI"])
+    need = math.log(100.0 * math.sqrt(2.0)) / t.beta
+    a = solver["approach"]
+    if a < need:
+        chk.warn(
+            f"solver.approach = {a:g} m: the first axle starts within {need:.3g} m of the "
+            f"deck, where the rail still carries more than 1 % of its load onto the deck; "
+            f"the run then starts from a state the train would not have reached at speed "
+            f"(deck acceleration and dQ/Q0 biased by a few %); use solver.approach >= "
+            f"{need:.3g} m", "input", ["solver.approach"])
+
+
+def _track_restraint_warning(chk, bridge, track):
+    """The rail's stiffness the deck's modes leave out
+    (:meth:`vsi_numba.model.track.ElasticTrack.restraint_ratio`), when above
+    :data:`TRACK_RESTRAINT_WARN` of a mode's modal stiffness (short spans)."""
+    model = bridge.model
+    if not model.n_modes or model.kind == "rigid":
+        return
+    t = _track.ElasticTrack(track["foundation_stiffness"], track["rail_EI"])
+    with np.errstate(all="ignore"):  # an absurd deck is refused elsewhere, with its cause
+        ratio = t.restraint_ratio(model)
+    if not (np.all(np.isfinite(ratio)) and ratio.max() < 1.0):
+        return  # not a deck on a rail: left to the plausibility checks
+    j = int(np.argmax(ratio))
+    if ratio[j] > TRACK_RESTRAINT_WARN:
+        chk.warn(
+            f"track: the rail's bending stiffness and its restraint of the deck ends, left "
+            f"out of the deck's modes, are {100 * ratio[j]:.3g} % of the modal stiffness of "
+            f"mode {j + 1} ({float(model.frequencies[j]):.4g} Hz; about "
+            f"{50 * ratio[j]:.2g} % on its frequency): the deck is modelled slightly too "
+            "soft (a short span on a stiff rail)", "input",
+            ["track.rail_EI", "track.foundation_stiffness"])
 
 
 def _rigid_massive_warning(chk, train, alpha):
@@ -154,7 +248,11 @@ def _rigid_massive_warning(chk, train, alpha):
 def _physics_warnings(chk, bridge, train, irr, solver, study, contact, track):
     dt = solver["dt"]
     if track["model"] == "elastic":
-        _track_warning(chk, train, dt, track, contact)
+        f_track, where, spring = _track_warning(chk, train, dt, track, contact)
+        _track_mode_warning(chk, dt, f_track, where, spring, irr,
+                            max(study["speeds_kmh"]) / 3.6)
+        _track_approach_warning(chk, solver, track)
+        _track_restraint_warning(chk, bridge, track)
     elif contact["model"] != "rigid":
         _hertz_warning(chk, train, dt, contact["hertz_coefficient"], contact["model"])
     else:

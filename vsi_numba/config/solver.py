@@ -98,12 +98,13 @@ def _rail_track_section(chk, d, fe_layer: bool) -> dict | _Sentinel:
         return {"model": "bridge_layer"}
     if d is _MISSING:
         d = {}
-    if chk.table(d, "track", {"model", "foundation_stiffness", "rail_EI"},
+    keys = ("foundation_stiffness", "rail_EI", "foundation_damping", "rail_mass")
+    if chk.table(d, "track", {"model", *keys},
                  what=" [track] of track values") is _BAD:
         return _BAD
     model = chk.choice(d, "track", "model", TRACK_MODELS, default="elastic")
     if model == "rigid":
-        for key in ("foundation_stiffness", "rail_EI"):
+        for key in keys:
             if key in d:
                 chk.warn(f"track.{key} is ignored: not used by track.model = 'rigid'")
         return {"model": "rigid"}
@@ -113,6 +114,14 @@ def _rail_track_section(chk, d, fe_layer: bool) -> dict | _Sentinel:
     ei = chk.get_number(d, "track", "rail_EI", _Num(
         "a bending stiffness of both rails > 0 N m^2 (1.283e7 for two UIC60 rails)",
         gt=0, default=_track.RAIL_EI_UIC60))
-    if not _ok(model, k, ei):
+    c = chk.get_number(d, "track", "foundation_damping", _Num(
+        "a foundation damping >= 0 and <= 2e6 N s/m per metre of track (both rails; "
+        f"{_track.FOUNDATION_DAMPING_DEFAULT:.3g} for ballasted track, 0 for an elastic "
+        "foundation)", ge=0, le=2e6, default=_track.FOUNDATION_DAMPING_DEFAULT))
+    mr = chk.get_number(d, "track", "rail_mass", _Num(
+        "a mass >= 0 and <= 2000 kg per metre of track moving with the rail (both rails; "
+        "120 for two UIC60 rails, 0 for a massless rail)", ge=0, le=2000, default=0.0))
+    if not _ok(model, k, ei, c, mr):
         return _BAD
-    return {"model": "elastic", "foundation_stiffness": float(k), "rail_EI": float(ei)}
+    return {"model": "elastic", "foundation_stiffness": float(k), "rail_EI": float(ei),
+            "foundation_damping": float(c), "rail_mass": float(mr)}

@@ -102,6 +102,17 @@ class VehicleArrays(NamedTuple):
     nl_a: np.ndarray = np.zeros((0, 1))  # (n_e, nb) a_e over the vehicle's local DOFs
     # bump stop: (delta_on m, k_s N/m, 0); blow-off: (c N s/m, F_b N, c2 N s/m)
     nl_p: np.ndarray = np.zeros((0, 3))  # (n_e, 3)
+    # damped (or massive) elastic track: each wheel drives an element
+    # track_mt z'' + track_ct z' + track_kt z = X_i (vsi_numba.model.track,
+    # ElasticTrack.wheel_element) and the rail deflects by track_kt G z instead of G X
+    # (G: the rail part of ``compliance``); track_ct = track_mt = 0: no element
+    # (N/m, N s/m, kg)
+    track_kt: float = 0.0
+    track_ct: float = 0.0
+    track_mt: float = 0.0
+    # (n_w,) the elements' static state z = X_static / track_kt, m (the static contact
+    # forces of the start; the start's X holds the forces with the rail's accelerations)
+    track_z0: np.ndarray = np.zeros(0)
 
 
 class ProfileArrays(NamedTuple):
@@ -167,6 +178,10 @@ class Work(NamedTuple):
     lw: np.ndarray  # (n_w,) LCP complement w (separation velocity or acceleration)
     lin: np.ndarray  # (n_w,) int: LCP set (1: z free, w = 0)
     impulse: np.ndarray  # (n_w,) compressive impact impulse of the step, N s (diagnostic)
+    # track element of each wheel (VehicleArrays.track_*): z, z', z'' at t_n and the
+    # step's known part r_n of the HHT residual; trk0: z, z', z'' kept for step retries
+    trk: np.ndarray  # (n_w, 4)
+    trk0: np.ndarray  # (n_w, 3)
     # effective-stiffness inverses of the vehicle blocks for steps that are not dt/2^k
     # (deck-end events) or whose nonlinear elements are off their linear branch
     # (:func:`prepare_khat`); empty: deck-end crossings fall back to uniform substeps
@@ -1115,6 +1130,15 @@ def vsi_step(br, veh, pr, prm, st, wk, t1, dt, level):
     if veh.nl_veh.shape[0] == 0:
         return hht_step(br, veh, pr, prm, st, wk, t1, dt, level)
     save_state(st, wk.nbk)
+    # the track elements under the wheels (damped/massive track) are state too: kept at
+    # the end of the buffer (its last 3 n_w entries)
+    n_w = veh.wheel_dof.shape[0]
+    track = track_element(veh)
+    off = wk.nbk.shape[0] - 3 * n_w
+    if track:
+        for i in range(n_w):
+            for c in range(3):
+                wk.nbk[off + 3 * i + c] = wk.trk[i, c]
     total = 0
     for _ in range(prm.max_iter):
         status, iters = hht_step(br, veh, pr, prm, st, wk, t1, dt, level)
@@ -1124,7 +1148,11 @@ def vsi_step(br, veh, pr, prm, st, wk, t1, dt, level):
         if not nl_update_branches(veh, wk, st, prm.tol_force):
             return OK, total
         restore_state(wk.nbk, st)
-        for i in range(veh.wheel_dof.shape[0]):
+        if track:
+            for i in range(n_w):
+                for c in range(3):
+                    wk.trk[i, c] = wk.nbk[off + 3 * i + c]
+        for i in range(n_w):
             wk.onb[i] = wk.onb_prev[i]
     return NOT_CONVERGED, total
 
@@ -1275,6 +1303,57 @@ def hht_coefficients(alpha, dt):
     return a0, a1, a2, a3, cv, ca, gamma, 1.0 + alpha
 
 
+@njit(inline="always")
+def track_predict(veh, wk, st, alpha, a0, a1, a2, a3, cv, ca, scale):
+    """Damped/massive track.  Each wheel drives an element m z'' + c z' + k z = X_i
+    (k = 1 / G(0)); the rail deflection under wheel i is y_i = k sum_k G_ik z_k (the
+    static deflection basins, each delayed by its wheel's element: the compliance
+    matrix times one passive transfer function, so the coupling between wheels stays
+    passive at every frequency).  By the step's HHT-alpha rule
+    z_{n+1} = z_n + (r_n + (1 + alpha) X_{n+1}) / khat, khat = a0 m + (1 + alpha)
+    (a1 c + k), r_n = -alpha X_n + m (a2 z'_n + a3 z''_n) - c (cv z'_n + ca z''_n) - k z_n:
+    the known part goes into the predictor gaps and the rail block of S (which holds
+    C / (1 + alpha)) becomes G k / khat.  ``wk.trk[:, 3]`` receives r_n."""
+    k = veh.track_kt
+    c = veh.track_ct
+    m = veh.track_mt
+    n_w = veh.wheel_dof.shape[0]
+    khat = a0 * m + scale * (a1 * c + k)
+    change = k / khat - 1.0 / scale
+    for i in range(n_w):
+        z = wk.trk[i, 0]
+        zd = wk.trk[i, 1]
+        zdd = wk.trk[i, 2]
+        wk.trk[i, 3] = (-alpha * st.X[i] + m * (a2 * zd + a3 * zdd)
+                        - c * (cv * zd + ca * zdd) - k * z)
+    for i in range(n_w):
+        acc = 0.0
+        for j in range(n_w):
+            g = 1.0 / k if j == i else veh.compliance[i, j]  # the rail's G_ij
+            if g != 0.0:
+                acc += g * (wk.trk[j, 0] + wk.trk[j, 3] / khat)
+                wk.S[i, j] += g * change
+        wk.gstar[i] += k * acc
+
+
+@njit(inline="always")
+def track_update(veh, wk, dt, a0, a1, a2, a3, gamma, scale):
+    """Newmark update of the track elements with the step's contact forces ``wk.X``."""
+    khat = a0 * veh.track_mt + scale * (a1 * veh.track_ct + veh.track_kt)
+    for i in range(veh.wheel_dof.shape[0]):
+        dy = (wk.trk[i, 3] + scale * wk.X[i]) / khat
+        acc = a0 * dy - a2 * wk.trk[i, 1] - a3 * wk.trk[i, 2]
+        wk.trk[i, 1] += dt * ((1.0 - gamma) * wk.trk[i, 2] + gamma * acc)
+        wk.trk[i, 2] = acc
+        wk.trk[i, 0] += dy
+
+
+@njit(inline="always")
+def track_element(veh):
+    """True if the track under the wheels has damping or mass (the element is used)."""
+    return veh.track_kt > 0.0 and (veh.track_ct > 0.0 or veh.track_mt > 0.0)
+
+
 @njit
 def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
     """Advance the state by one HHT-alpha step of size ``dt`` to time ``t1``.
@@ -1336,6 +1415,8 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
         for i in range(n_w):
             for k in range(n_w):
                 wk.S[i, k] += veh.compliance[i, k] * inv
+    if track_element(veh):
+        track_predict(veh, wk, st, alpha, a0, a1, a2, a3, cv, ca, scale)
     if prm.contact_model == 1:
         for i in range(n_w):
             wk.X[i] = st.X[i]
@@ -1371,6 +1452,8 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
         st.ud[k] = st.ud[k] + dt * ((1.0 - gamma) * st.udd[k] + gamma * acc)
         st.udd[k] = acc
         st.u[k] += du
+    if track_element(veh):
+        track_update(veh, wk, dt, a0, a1, a2, a3, gamma, scale)
 
     # Velocity jumps of the rail under a wheel in contact are impacts: a landing, and
     # a wheel crossing an end of the deck, where the rail velocity v phi'(x) q jumps
@@ -1762,6 +1845,12 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
         wk.xout[i] = st.X[i]
         red.run_len[i] = 0
     contact_search(br, veh, pr, 0.0, prm.speed, wk)  # on-bridge flags at t = 0
+    track = track_element(veh)
+    if track:
+        for i in range(n_w):  # the static start, at rest
+            wk.trk[i, 0] = veh.track_z0[i]
+            wk.trk[i, 1] = 0.0
+            wk.trk[i, 2] = 0.0
     dt = prm.dt
     record(veh, st, wk, red, r, 0, 0.0, prm.speed, out, h, 0)
     for n in range(prm.n_steps):
@@ -1770,6 +1859,10 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
             wk.was_active[i] = wk.active[i]
             wk.act0[i] = wk.active[i]  # the set at t_n, for retries
             wk.onb0[i] = wk.onb[i]
+        if track:
+            for i in range(n_w):
+                for c in range(3):
+                    wk.trk0[i, c] = wk.trk[i, c]
         level = 0
         if prm.contact_model == 0 and br.track == 0 and crosses_deck_end(
                 br, veh, n * dt, (n + 1) * dt, prm.speed):
@@ -1793,6 +1886,10 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
             for i in range(n_w):
                 wk.active[i] = wk.act0[i]
                 wk.onb[i] = wk.onb0[i]
+            if track:
+                for i in range(n_w):
+                    for c in range(3):
+                        wk.trk[i, c] = wk.trk0[i, c]
             sub = 1 << level
             h_sub = dt / sub
             iters = 0
@@ -2119,6 +2216,8 @@ def reset_work(wk):
     wk.nlb[:] = 0
     wk.nbk[:] = 0.0
     wk.imp[:] = 0.0
+    wk.trk[:, :] = 0.0
+    wk.trk0[:, :] = 0.0
 
 
 @njit

@@ -43,7 +43,7 @@ def _workspace(n_m, n_v, n_w, veh: ek.VehicleArrays | None = None) -> ek.Work:
     n_e = veh.nl_veh.shape[0] if veh is not None else 0
     return ek.Work(
         khv=z((n_veh, nb, nb)), kh_dt=z(n_veh), kh_sig=z(n_veh, np.int64), kscr=z((nb, nb)),
-        nlb=z(n_e, np.int64), nbk=z(4 * n_m + 4 * n_v + n_w), imp=z(n_w),
+        nlb=z(n_e, np.int64), nbk=z(4 * n_m + 4 * n_v + 4 * n_w), imp=z(n_w),
         phi=z((n_w, n_m)), dphi=z((n_w, n_m)), d2phi=z((n_w, n_m)),
         onb=z(n_w, np.int64), rr=z((n_w, 3)), S=z((n_w, n_w)), L=z((n_w, n_w)),
         idx=z(n_w, np.int64), rhs=z(n_w), sol=z(n_w), gstar=z(n_w), X=z(n_w),
@@ -53,7 +53,7 @@ def _workspace(n_m, n_v, n_w, veh: ek.VehicleArrays | None = None) -> ek.Work:
         av=z(n_v), act0=z(n_w, np.int64), J=z((n_w, n_w)),
         first=z(n_w, np.int64), onb_prev=z(n_w, np.int64), onb0=z(n_w, np.int64),
         cand=z(n_w, np.int64), lq=z(n_w), lz=z(n_w), lw=z(n_w), lin=z(n_w, np.int64),
-        impulse=z(n_w),
+        impulse=z(n_w), trk=z((n_w, 4)), trk0=z((n_w, 3)),
     )
 
 

@@ -215,6 +215,11 @@ def pack(
                                                    / (3.0 * np.cbrt(q0)))
     if np.any(compliance != 0.0):
         veh = veh._replace(compliance=np.ascontiguousarray(compliance))
+    if bridge.track is not None and len(wdof):
+        k_t, c_t, m_t = bridge.track.wheel_element
+        if c_t > 0.0 or m_t > 0.0:  # damped or massive: the element under each wheel
+            veh = veh._replace(track_kt=float(k_t), track_ct=float(c_t), track_mt=float(m_t),
+                               track_z0=np.zeros(len(wdof)))  # set by initial_states
     all_pos = np.concatenate([wpos, lpos])
     last = all_pos.max() if all_pos.size else 0.0
     run_length = bridge.length + settings.approach + last
@@ -356,6 +361,10 @@ def initial_states(packed: Packed, profile: Profile, speeds) -> ek.Initial:
             X = X_new
             if done:
                 break
+    if veh.track_z0.size:
+        # the damped track's elements start from the static forces (k z = X_static): the
+        # rail then has the static deflection under the wheels the static state assumes
+        veh.track_z0[:] = X / veh.track_kt
     init = ek.Initial(
         q=np.zeros((n_r, n_m)), qd=np.zeros((n_r, n_m)), qdd=np.zeros((n_r, n_m)),
         u=np.zeros((n_r, n_v)), ud=np.zeros((n_r, n_v)), udd=np.zeros((n_r, n_v)),

@@ -213,6 +213,8 @@ def _track_restraint_warning(chk, bridge, track):
     if not model.n_modes or model.kind == "rigid":
         return
     t = _track.ElasticTrack(track["foundation_stiffness"], track["rail_EI"])
+    if not _track_filter_nodes(t, bridge) * model.n_modes <= MAX_TRACK_FILTER:
+        return  # refused by the plausibility checks (the filter's memory), not computed
     with np.errstate(all="ignore"):  # an absurd deck is refused elsewhere, with its cause
         ratio = t.restraint_ratio(model)
     if not (np.all(np.isfinite(ratio)) and ratio.max() < 1.0):
@@ -437,6 +439,12 @@ def _defects_amplitude(r) -> float | None:
     return float(np.max(np.abs(total(x))))
 
 
+def _track_filter_nodes(tr, bridge) -> float:
+    """Rail nodes of the FE filter of the mode shapes (:meth:`ElasticTrack.filtered_shapes`)."""
+    return ((float(bridge.model.length) + 2.0 * tr.reach) * _track.ELEMENTS_PER_LENGTH
+            * tr.beta)
+
+
 def _track_plausibility(chk, train, solver, track, bridge=None):
     """The elastic track: a value outside its physical range (:data:`TRACK_RANGES`), a
     static rail deflection under the heaviest axle above :data:`MAX_TRACK_DEFLECTION`
@@ -455,9 +463,8 @@ def _track_plausibility(chk, train, solver, track, bridge=None):
     tr = _track.ElasticTrack(track["foundation_stiffness"], track["rail_EI"])
     if bridge is not None and bridge.model.n_modes:
         length = float(bridge.model.length)
-        nodes = (length + 2.0 * tr.reach) * _track.ELEMENTS_PER_LENGTH * tr.beta
-        size = nodes * bridge.model.n_modes
-        if not size <= MAX_TRACK_FILTER:
+        nodes = _track_filter_nodes(tr, bridge)
+        if not nodes * bridge.model.n_modes <= MAX_TRACK_FILTER:
             chk.errors.append(
                 f"track.foundation_stiffness = {track['foundation_stiffness']:g}, "
                 f"track.rail_EI = {track['rail_EI']:g}: the rail filter of the mode shapes "

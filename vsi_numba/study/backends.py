@@ -344,24 +344,212 @@ class DaskBackend:
                 shutil.rmtree(self.local_directory, ignore_errors=True)
         return None
 
-    def run(self, fn: Callable, config_json: str, cases: Iterable) -> Iterator[tuple[Any, Any]]:
-        """Submit every case; yield ``(case, result or exception)`` as they finish."""
+    def run(self, fn: Callable, spec, batches: Iterable) -> Iterator[tuple[Any, Any]]:
+        """Run the batches as chunked tasks; yield ``(batch, result or exception)`` as
+        the chunks finish.
+
+        The spec (one per variant: 91 configurations for the catalogue) is scattered to
+        every worker once instead of being pickled into each task, and the batches go in
+        :func:`dask_chunks` of about :func:`chunk_seconds` each, neighbours in the plan
+        together (same variant and train: the worker's model cache hits).
+        """
         from dask.distributed import as_completed
 
-        cases = list(cases)
+        batches = list(batches)
+        if not batches:
+            return
+        client = self._client
+        # a one-element list: the whole spec (a tuple) is one piece of data on the workers
+        spec_ref = client.scatter([spec], broadcast=True, hash=False)[0]
+        chunks = dask_chunks(batches, chunk_seconds(batches, max(self.n_threads, 1)))
         futures = [
-            self._client.submit(fn, config_json, case, key=f"{self.key_prefix}-{case.key}",
-                                pure=False, retries=0, priority=-i)
-            for i, case in enumerate(cases)
+            client.submit(run_chunk, fn, spec_ref, chunk,
+                          key=f"{self.key_prefix}-{chunk[0].key}-n{len(chunk)}",
+                          pure=False, retries=0, priority=-i)
+            for i, chunk in enumerate(chunks)
         ]
         self._futures = futures
-        by_key = {f.key: c for f, c in zip(futures, cases, strict=True)}
+        by_key = {f.key: c for f, c in zip(futures, chunks, strict=True)}
         for fut in as_completed(futures):
-            case = by_key[fut.key]
+            chunk = by_key[fut.key]
             try:
-                result = fut.result()
-            except Exception as exc:
-                result = exc
+                results = fut.result()
+            except Exception as exc:  # the whole task failed (e.g. a worker died)
+                results = [exc] * len(chunk)
             fut.release()
-            yield case, result
+            yield from zip(chunk, results, strict=True)
+        spec_ref.release()
         self._futures = []
+
+
+#: Bounds of the estimated kernel seconds of one Dask task (see :func:`chunk_seconds`).
+CHUNK_SECONDS = (0.25, 2.0)
+#: Tasks per worker thread a chunked study aims at (load balance of the last tasks).
+CHUNKS_PER_THREAD = 8
+
+
+def chunk_seconds(batches, n_threads: int) -> float:
+    """Estimated kernel seconds of one Dask task: the study's estimated cost over
+    :data:`CHUNKS_PER_THREAD` tasks per worker thread, within :data:`CHUNK_SECONDS`.
+
+    A task costs the scheduler, the transport and the worker a few milliseconds whatever
+    its size: the catalogue's 910 batches of ~0.05 s each lost ~10 % to that as one
+    task each.  Eight or more tasks per thread, largest first, keep the last ones short.
+    """
+    lo, hi = CHUNK_SECONDS
+    total = float(sum(b.cost for b in batches))
+    return min(hi, max(lo, total / (CHUNKS_PER_THREAD * max(int(n_threads), 1))))
+
+
+def dask_chunks(batches, seconds: float) -> list[list]:
+    """Group batches into tasks of about ``seconds`` estimated kernel time.
+
+    Batches are taken in plan order (``index``: one variant's trains and speeds are
+    neighbours, so a worker builds each model once), cut when the next batch would pass
+    ``seconds``; a batch that keeps raw histories is a task of its own (its buffers are
+    up to :data:`~vsi_numba.study.batches.BATCH_HISTORY_BYTES`).  The chunks are returned
+    largest first (longest-processing-time order).  The chunks depend on the worker
+    count; the batches, which name the stored results, do not.
+    """
+    chunks: list[list] = []
+    chunk: list = []
+    cost = 0.0
+    for b in sorted(batches, key=lambda b: b.index):
+        alone = any(b.histories)
+        if chunk and (alone or cost + b.cost > seconds):
+            chunks.append(chunk)
+            chunk, cost = [], 0.0
+        chunk.append(b)
+        cost += b.cost
+        if alone:
+            chunks.append(chunk)
+            chunk, cost = [], 0.0
+    if chunk:
+        chunks.append(chunk)
+    return sorted(chunks, key=lambda c: (-sum(b.cost for b in c), c[0].index))
+
+
+def run_chunk(fn: Callable, spec, chunk) -> list:
+    """Run ``fn(spec, batch)`` for every batch of a chunk; a batch's exception is its
+    result (the others still run)."""
+    out = []
+    for batch in chunk:
+        try:
+            out.append(fn(spec, batch))
+        except Exception as exc:  # reported per batch by the runner
+            out.append(exc)
+    return out
+
+
+class LoopbackCluster:
+    """A Dask cluster of separate processes on 127.0.0.1: ``dask scheduler`` and
+    ``n_workers`` x ``dask worker --nthreads 1`` (each a nanny and its worker), as a
+    user starts them by hand; ``address`` is the scheduler's ``tcp://127.0.0.1:PORT``.
+
+    Every listener (scheduler, its dashboard, workers, nannies, their dashboards) is
+    bound to 127.0.0.1 on a free port.  The processes get ``env`` on top of this
+    process's environment (default :func:`worker_env`: one thread each, this process's
+    ``NUMBA_CACHE_DIR``) and are ended on exit (SIGTERM, then SIGKILL after ``grace``
+    seconds), with their process groups.
+
+    Parameters
+    ----------
+    n_workers : int
+        Worker processes (one thread each).
+    directory : path
+        Scratch space of the cluster (scheduler file, worker directories, logs).
+    timeout : float
+        Seconds to wait for the scheduler and every worker.
+    """
+
+    def __init__(self, n_workers: int, directory, env: dict | None = None,
+                 timeout: float = 120.0, grace: float = 10.0):
+        from pathlib import Path
+
+        if n_workers < 1:
+            raise ValueError(f"workers = {n_workers!r}: expected >= 1")
+        self.n_workers = int(n_workers)
+        self.directory = Path(directory)
+        self.env = dict(os.environ)
+        self.env.update(worker_env() if env is None else env)
+        self.timeout, self.grace = float(timeout), float(grace)
+        self.address: str | None = None
+        self._procs: list = []
+
+    def _start(self, args: list[str], name: str):
+        import subprocess
+
+        log = open(self.directory / f"{name}.log", "wb")  # noqa: SIM115 - kept open
+        try:
+            proc = subprocess.Popen([sys.executable, "-m", "dask"]
+                                    + args[1:], env=self.env, cwd=self.directory,
+                                    stdout=log, stderr=subprocess.STDOUT,
+                                    start_new_session=True)
+        finally:
+            log.close()
+        self._procs.append(proc)
+        return proc
+
+    def __enter__(self):
+        import json
+        import time
+
+        self.directory.mkdir(parents=True, exist_ok=True)
+        sched_file = self.directory / "scheduler.json"
+        sched_file.unlink(missing_ok=True)
+        try:
+            self._start(["scheduler", "--host", LOOPBACK, "--port", "0",
+                         "--dashboard-address", f"{LOOPBACK}:0",
+                         "--scheduler-file", str(sched_file)], "scheduler")
+            t_end = time.monotonic() + self.timeout
+            while not sched_file.exists() or not sched_file.stat().st_size:
+                self._check(t_end, "the scheduler")
+                time.sleep(0.05)
+            self.address = json.loads(sched_file.read_text())["address"]
+            for i in range(self.n_workers):
+                self._start(["worker", self.address, "--nthreads", "1",
+                             "--host", LOOPBACK, "--dashboard-address", f"{LOOPBACK}:0",
+                             "--nanny-port", "0", "--worker-port", "0",
+                             "--local-directory", str(self.directory / f"worker{i}"),
+                             "--name", f"vsi-worker-{i}"], f"worker{i}")
+            from dask.distributed import Client
+
+            with Client(self.address, timeout=f"{self.timeout:.0f}s") as client:
+                client.wait_for_workers(self.n_workers, timeout=self.timeout)
+        except BaseException:
+            self.__exit__(None, None, None)
+            raise
+        return self
+
+    def _check(self, t_end: float, what: str) -> None:
+        import time
+
+        dead = [p for p in self._procs if p.poll() is not None]
+        if dead or time.monotonic() > t_end:
+            why = (f"exited with {dead[0].returncode}" if dead
+                   else f"not up after {self.timeout:.0f} s")
+            raise RuntimeError(f"{what} of the loopback Dask cluster {why}; "
+                               f"logs in {self.directory}")
+
+    def __exit__(self, *exc):
+        import signal
+        import subprocess
+
+        procs, self._procs = self._procs[::-1], []  # workers first, then the scheduler
+        for p in procs:
+            if p.poll() is None:
+                try:
+                    os.killpg(p.pid, signal.SIGTERM)
+                except OSError:
+                    pass
+        for p in procs:
+            try:
+                p.wait(timeout=self.grace)
+            except subprocess.TimeoutExpired:
+                pass
+            try:
+                os.killpg(p.pid, signal.SIGKILL)  # the group: a nanny's worker too
+            except OSError:
+                pass
+            p.wait()
+        return None

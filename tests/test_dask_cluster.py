@@ -1,0 +1,127 @@
+"""A Dask cluster of separate processes (``dask scheduler`` + ``dask worker``, all on
+127.0.0.1) gives the same file as the local backend, bit for bit; the chunking of batches
+into Dask tasks covers every batch once.
+
+Reference: the local default backend (threads of one process) on the same configuration;
+both run the same serial kernel on the same inputs, so every variable must be identical
+(no tolerance).  The study is tiny (12 m span, 3 modes, 2 HSLM trains x 3 speeds x 2
+damping variants, dt = 2 ms, one run keeping its histories) so the cost is the cluster's
+start-up (a few seconds) plus the workers' numba cache load.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import textwrap
+
+import numpy as np
+import psutil
+import xarray as xr
+
+from vsi_numba.study.backends import (
+    CHUNK_SECONDS,
+    LoopbackCluster,
+    chunk_seconds,
+    dask_chunks,
+)
+from vsi_numba.study.batches import Batch
+from vsi_numba.study.runner import run_study
+
+CONFIG = """
+title = "separate-process cluster"
+[bridge]
+kind = "simply_supported"
+spans = [12.0]
+EI = 6.0e9
+mass_per_length = 12000.0
+damping_ratio = 0.02
+n_modes = 3
+[train]
+preset = ["HSLM-A1", "HSLM-A3"]
+[solver]
+dt = 2e-3
+approach = 1.0
+free_vibration = 0.1
+[study]
+speeds_kmh = [180.0, 260.0, 340.0]
+save_time_histories = true
+history_speeds_kmh = [260.0]
+[study.vary]
+"bridge.damping_ratio" = [0.01, 0.025]
+"""
+
+
+def _listeners(pids):
+    out = []
+    for pid in pids:
+        try:
+            conns = psutil.Process(pid).net_connections(kind="inet")
+        except psutil.Error:
+            continue
+        out += [(pid, c.laddr.ip) for c in conns if c.status == psutil.CONN_LISTEN]
+    return out
+
+
+def test_dask_cluster__separate_processes_bit_identical_to_local(tmp_path):
+    """``vsi sweep --scheduler`` on 2 separate ``dask worker`` processes: every variable
+    and attribute but the history line equals the local run's; every listener of the
+    cluster is on the loopback interface; no cluster process is left afterwards."""
+    cfg = tmp_path / "study.toml"
+    cfg.write_text(textwrap.dedent(CONFIG))
+    local = run_study(cfg, tmp_path / "local.nc").load()
+    with LoopbackCluster(2, tmp_path / "cluster") as cluster:
+        pids = [p.pid for p in cluster._procs]
+        tree = pids + [c.pid for p in pids for c in psutil.Process(p).children(recursive=True)]
+        assert len(tree) == 5  # scheduler, 2 nannies, 2 workers
+        found = _listeners(tree)
+        dist = run_study(cfg, tmp_path / "cluster.nc", scheduler=cluster.address).load()
+    assert len(found) >= 5, found  # scheduler, nannies, workers (and dashboards)
+    assert all(ipaddress.ip_address(ip).is_loopback for _, ip in found), found
+    assert not [p for p in tree if psutil.pid_exists(p)
+                and psutil.Process(p).status() != psutil.STATUS_ZOMBIE]
+    assert sorted(local.variables) == sorted(dist.variables)
+    for name in local.variables:  # no tolerance: same kernel, same inputs
+        xr.testing.assert_identical(local[name], dist[name])
+    assert np.isfinite(local["max_deck_acceleration"]).all()  # something was computed
+    a, b = dict(local.attrs), dict(dist.attrs)
+    a.pop("history"), b.pop("history")
+    assert a == b
+
+
+def _plan(costs, histories=()):
+    return [Batch(index=i, i_train=i % 3, i_irregularity=0, speeds=(i,),
+                  histories=(i in histories,), cost=c) for i, c in enumerate(costs)]
+
+
+def test_dask_chunks__every_batch_once_in_plan_order_largest_chunk_first():
+    """Chunks hold contiguous plan positions, each batch exactly once, cost within the
+    target unless a single batch exceeds it, history batches alone, largest first."""
+    rng = np.random.default_rng(7)
+    costs = rng.uniform(0.01, 0.3, 200)
+    batches = _plan(costs, histories={5, 6, 50})
+    shuffled = [batches[i] for i in rng.permutation(len(batches))]
+    chunks = dask_chunks(shuffled, 1.0)
+    flat = sorted(b.index for c in chunks for b in c)
+    assert flat == list(range(200))
+    for c in chunks:
+        idx = [b.index for b in c]
+        assert idx == list(range(idx[0], idx[0] + len(idx)))  # contiguous, plan order
+        assert len(c) == 1 or sum(b.cost for b in c) <= 1.0
+        assert len(c) == 1 or not any(b.histories[0] for b in c)
+    sums = [sum(b.cost for b in c) for c in chunks]
+    assert sums == sorted(sums, reverse=True)
+    # greedy cutting: a chunk and the next one's first batch together exceed the target
+    by_start = sorted(chunks, key=lambda c: c[0].index)
+    for c, nxt in zip(by_start, by_start[1:], strict=False):
+        if not (any(b.histories[0] for b in c) or nxt[0].histories[0]):
+            assert sum(b.cost for b in c) + nxt[0].cost > 1.0
+
+
+def test_chunk_seconds__eight_tasks_per_thread_within_bounds():
+    """total cost / (8 x threads), clipped to CHUNK_SECONDS."""
+    lo, hi = CHUNK_SECONDS
+    batches = _plan([0.125] * 80)  # 10 s in all (exact in binary)
+    assert chunk_seconds(batches, 2) == 10.0 / 16
+    assert chunk_seconds(batches, 0) == chunk_seconds(batches, 1) == 10.0 / 8  # no worker
+    assert chunk_seconds(_plan([0.125] * 800), 2) == hi  # 100 / 16 s is above the cap
+    assert chunk_seconds(batches, 16) == lo  # 10 / 128 s is below the floor

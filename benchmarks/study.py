@@ -692,8 +692,142 @@ def _measure_g(b: Bench, res: StudyResult):
                                 "bytes", 1024 * MB, None))
 
 
+def list_schedule(times, n_workers: int, overhead: float = 0.0) -> float:
+    """Makespan of tasks of ``times`` seconds handed out in the given order, each to the
+    worker free first (Dask's order with one thread per worker), each costing
+    ``overhead`` seconds more (scheduler, transport)."""
+    import heapq
+
+    free = [0.0] * max(int(n_workers), 1)
+    for t in times:
+        heapq.heappush(free, heapq.heappop(free) + float(t) + overhead)
+    return max(free)
+
+
+def plan_of(kernel_seconds: dict) -> list:
+    """The batch plan of stored batches, rebuilt from their keys (plan order is the keys'
+    order: variant, train, realisation, speeds) with their measured kernel seconds as
+    costs."""
+    import re
+
+    from vsi_numba.study.batches import Batch
+
+    plan = []
+    for i, key in enumerate(sorted(kernel_seconds)):
+        m = re.fullmatch(r"(?:v(\d+)_)?t(\d+)_i(\d+)_s(\d+)-(\d+)", key)
+        s0, s1 = int(m.group(4)), int(m.group(5))
+        plan.append(Batch(i, int(m.group(2)), int(m.group(3)), tuple(range(s0, s1 + 1)),
+                          (False,) * (s1 - s0 + 1), kernel_seconds[key],
+                          None if m.group(1) is None else int(m.group(1))))
+    return plan
+
+
+def cluster_estimate(plan, kernel_seconds: dict, compute_1: float, fixed: float,
+                     n_workers: int) -> tuple[float, int]:
+    """Wall of the study on ``n_workers`` one-thread workers by the batch plan.
+
+    The measured kernel seconds of every batch are scaled by one factor so that they
+    add up to the measured compute time of a 1-worker cluster (``compute_1``: its wall
+    less ``fixed``, the part that does not parallelise: start-up, planning, the final
+    write - measured as the wall of the same command with every batch already stored);
+    the batches are grouped into the tasks the backend would submit for that many
+    workers (:func:`~vsi_numba.study.backends.dask_chunks`), and the tasks are list-
+    scheduled largest first.  Returns (wall, number of tasks).
+    """
+    from vsi_numba.study.backends import chunk_seconds, dask_chunks
+
+    total = sum(kernel_seconds[b.key] for b in plan)
+    scale = compute_1 / total
+    chunks = dask_chunks(plan, chunk_seconds(plan, n_workers))
+    times = [scale * sum(kernel_seconds[b.key] for b in c) for c in chunks]
+    return fixed + list_schedule(times, n_workers), len(chunks)
+
+
+def _measure_h(b: Bench, res: StudyResult):
+    """The catalogue on a loopback cluster of separate processes (``dask scheduler`` + 1 or
+    2 ``dask worker --nthreads 1``, ``vsi sweep --scheduler``) and on ``--workers 2``,
+    against the local default; 1 -> 2 worker scaling; 16 workers by the batch plan."""
+    from vsi_numba.study.backends import LoopbackCluster
+    from vsi_numba.study.store import store_path
+
+    grid = "catalogue, 51,870 runs"
+    warm = b.write(one_run(hslm_config(("HSLM-A1",), (420.0,))), "h_1run")
+    n = max(b.plan.repeat_other, 1)
+
+    def sweep(out: Path, scheduler=None, workers=None, keep=False):
+        code = ("from vsi_numba.study.runner import execute_study; "
+                f"execute_study({str(STUDY3)!r}, {str(out)!r}, scheduler={scheduler!r}, "
+                f"workers={workers!r}, keep_cases={keep!r}, quiet=True)")
+        cmd = [sys.executable, "-c", code]
+        if not keep:
+            cmd = b.command(STUDY3, out, workers)
+            if scheduler:
+                cmd[-1:-1] = ["--scheduler", scheduler]
+        r = run_command(cmd, b.tmp, b.env, rss_limit=b.rss_limit)
+        if r.aborted or r.returncode != 0 or not out.exists():
+            raise RuntimeError(f"catalogue sweep failed (exit {r.returncode}):\n{r.stderr}")
+        return r.wall
+
+    walls: dict = {"local": [], "workers 2": [], "cluster 1": [], "cluster 2": []}
+    kernel: dict = {}
+    fixed = []
+    for i in range(n):  # interleaved: the load of a shared machine hits every variant alike
+        b.k += 1
+        d = b.tmp / f"h{b.k}"
+        d.mkdir()
+        if i == 0:
+            b.run(warm)
+        walls["local"].append(sweep(d / "local.nc"))
+        walls["workers 2"].append(sweep(d / "w2.nc", workers=2))
+        for nw in (1, 2):
+            with LoopbackCluster(nw, d / f"cluster{nw}", env=None) as cl:
+                out = d / f"c{nw}.nc"
+                keep = nw == 2 and i == 0
+                walls[f"cluster {nw}"].append(sweep(out, scheduler=cl.address, keep=keep))
+                if keep:  # per-batch kernel seconds, then the wall with nothing to compute
+                    for f in store_path(out).glob("batch_*.npz"):
+                        with np.load(f) as z:
+                            kernel[str(z["batch_key"])] = float(z["kernel_seconds"])
+                    fixed.append(sweep(out, scheduler=cl.address))
+        for k, v in walls.items():
+            b.echo(f"[study]   h. {k}: {v[-1]:.2f} s")
+    med = {k: statistics.median(v) for k, v in walls.items()}
+    for k, v in walls.items():
+        b.rows.append([f"h. catalogue, {k}", grid, f"{fmt_s(med[k])} "
+                       f"({', '.join(f'{x:.2f}' for x in v)} s)", "", "", f"{load1():.2f}"])
+    r2, rw = med["cluster 2"] / med["local"], med["workers 2"] / med["local"]
+    res.measures.append(Measure(
+        "h1", "catalogue: loopback cluster of separate processes (scheduler + 2 x `dask "
+        "worker --nthreads 1`) / local default", grid, r2, "ratio", 1.1, None,
+        f"{fmt_s(med['cluster 2'])} / {fmt_s(med['local'])}"))
+    res.measures.append(Measure(
+        "h2", "catalogue: `--workers 2` (LocalCluster) / local default", grid, rw, "ratio",
+        1.1, None, f"{fmt_s(med['workers 2'])} / {fmt_s(med['local'])}"))
+    speedup = med["cluster 1"] / med["cluster 2"]
+    res.measures.append(Measure(
+        "h3", "catalogue: cluster speed-up 1 -> 2 workers (wall 1 / wall 2)", grid, speedup,
+        "ratio", None, None, f"{fmt_s(med['cluster 1'])} / {fmt_s(med['cluster 2'])}"))
+    spec_plan = plan_of(kernel)
+    f0 = statistics.median(fixed)
+    est = {nw: cluster_estimate(spec_plan, kernel, med["cluster 1"] - f0, f0, nw)
+           for nw in (2, 16)}
+    res.measures.append(Measure(
+        "h4", "catalogue: 16-worker cluster by the batch plan (simulated wall)", grid,
+        est[16][0], "s", None, None,
+        f"{est[16][1]} tasks list-scheduled; speed-up {med['cluster 1'] / est[16][0]:.1f} "
+        f"over 1 worker; the same model gives {fmt_s(est[2][0])} for 2 workers "
+        f"(measured {fmt_s(med['cluster 2'])})"))
+    res.details.append(
+        f"Catalogue on Dask (h): fixed part (start-up, planning of 91 variants, final "
+        f"write; the wall with every batch stored) {fmt_s(f0)}; the batches' kernel time "
+        f"{fmt_s(sum(kernel.values()))} of the 1-worker compute time "
+        f"{fmt_s(med['cluster 1'] - f0)}.  16 workers: the measured per-batch times, "
+        f"scaled to that compute time, grouped into the backend's tasks and list-scheduled "
+        f"largest first onto 16 workers, plus the fixed part.")
+
+
 MEASURES = (("a", _measure_a), ("b", _measure_b), ("c", _measure_c), ("d", _measure_d),
-            ("e", _measure_e), ("f", _measure_f), ("g", _measure_g))
+            ("e", _measure_e), ("f", _measure_f), ("g", _measure_g), ("h", _measure_h))
 
 
 def run_study_bench(mode: str = "quick", write: bool = True, report: Path | None = None,
@@ -707,7 +841,8 @@ def run_study_bench(mode: str = "quick", write: bool = True, report: Path | None
     t0 = time.perf_counter()
     skip = {"a": False, "b": not plan.study1, "c": not plan.ice3_seeds,
             "d": not plan.hist_pilots and not plan.hist_full, "e": not plan.scaling,
-            "f": not plan.study1, "g": not plan.study1}
+            "f": not plan.study1, "g": not plan.study1,
+            "h": not plan.dask or not plan.study1}
     with tempfile.TemporaryDirectory(prefix="vsi_study_bench_") as tmp:
         bench = Bench(plan, Path(tmp), echo)
         bench.rows = res.commands

@@ -125,3 +125,18 @@ def test_chunk_seconds__eight_tasks_per_thread_within_bounds():
     assert chunk_seconds(batches, 0) == chunk_seconds(batches, 1) == 10.0 / 8  # no worker
     assert chunk_seconds(_plan([0.125] * 800), 2) == hi  # 100 / 16 s is above the cap
     assert chunk_seconds(batches, 16) == lo  # 10 / 128 s is below the floor
+
+
+def test_list_schedule__hand_computed_makespans():
+    """The 16-worker estimate's scheduler: equal tasks fill the workers evenly; uneven
+    tasks go to the worker free first (worked by hand below)."""
+    from benchmarks.study import list_schedule, plan_of
+
+    assert list_schedule([1.0] * 10, 4) == 3.0  # 4 + 4 + 2 tasks
+    assert list_schedule([1.0] * 10, 4, overhead=0.5) == 4.5
+    # 3 -> w1, 3 -> w2, 2 -> w1 (5), 2 -> w2 (5), 2 -> w1 (7)
+    assert list_schedule([3.0, 3.0, 2.0, 2.0, 2.0], 2) == 7.0
+    assert list_schedule([2.0, 1.0], 16) == 2.0
+    plan = plan_of({"v0001_t000_i000_s0000-0056": 2.0, "v0000_t009_i000_s0000-0056": 1.0})
+    assert [(b.variant, b.i_train, b.speeds[-1], b.cost) for b in plan] == [
+        (0, 9, 56, 1.0), (1, 0, 56, 2.0)]

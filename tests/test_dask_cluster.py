@@ -72,7 +72,7 @@ def test_dask_cluster__separate_processes_bit_identical_to_local(tmp_path):
     with LoopbackCluster(2, tmp_path / "cluster") as cluster:
         pids = [p.pid for p in cluster._procs]
         tree = pids + [c.pid for p in pids for c in psutil.Process(p).children(recursive=True)]
-        assert len(tree) == 5  # scheduler, 2 nannies, 2 workers
+        assert len(tree) >= 5  # scheduler, 2 nannies, 2 workers (+ resource trackers)
         found = _listeners(tree)
         dist = run_study(cfg, tmp_path / "cluster.nc", scheduler=cluster.address).load()
     assert len(found) >= 5, found  # scheduler, nannies, workers (and dashboards)

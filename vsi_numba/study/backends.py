@@ -481,9 +481,8 @@ class LoopbackCluster:
 
         log = open(self.directory / f"{name}.log", "wb")  # noqa: SIM115 - kept open
         try:
-            proc = subprocess.Popen([sys.executable, "-m", "dask"]
-                                    + args[1:], env=self.env, cwd=self.directory,
-                                    stdout=log, stderr=subprocess.STDOUT,
+            proc = subprocess.Popen([sys.executable, "-m", "dask", *args], env=self.env,
+                                    cwd=self.directory, stdout=log, stderr=subprocess.STDOUT,
                                     start_new_session=True)
         finally:
             log.close()

@@ -743,24 +743,24 @@ def cluster_estimate(plan, kernel_seconds: dict, compute_1: float, fixed: float,
     return fixed + list_schedule(times, n_workers), len(chunks)
 
 
-def _measure_h(b: Bench, res: StudyResult):
+def _measure_h(b: Bench, res: StudyResult, config: Path = STUDY3,
+               grid: str = "catalogue, 51,870 runs"):
     """The catalogue on a loopback cluster of separate processes (``dask scheduler`` + 1 or
     2 ``dask worker --nthreads 1``, ``vsi sweep --scheduler``) and on ``--workers 2``,
     against the local default; 1 -> 2 worker scaling; 16 workers by the batch plan."""
     from vsi_numba.study.backends import LoopbackCluster
     from vsi_numba.study.store import store_path
 
-    grid = "catalogue, 51,870 runs"
     warm = b.write(one_run(hslm_config(("HSLM-A1",), (420.0,))), "h_1run")
     n = max(b.plan.repeat_other, 1)
 
     def sweep(out: Path, scheduler=None, workers=None, keep=False):
         code = ("from vsi_numba.study.runner import execute_study; "
-                f"execute_study({str(STUDY3)!r}, {str(out)!r}, scheduler={scheduler!r}, "
+                f"execute_study({str(config)!r}, {str(out)!r}, scheduler={scheduler!r}, "
                 f"workers={workers!r}, keep_cases={keep!r}, quiet=True)")
         cmd = [sys.executable, "-c", code]
         if not keep:
-            cmd = b.command(STUDY3, out, workers)
+            cmd = b.command(config, out, workers)
             if scheduler:
                 cmd[-1:-1] = ["--scheduler", scheduler]
         r = run_command(cmd, b.tmp, b.env, rss_limit=b.rss_limit)

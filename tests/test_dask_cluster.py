@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import ipaddress
 import textwrap
+import time
 
 import numpy as np
 import psutil
@@ -62,6 +63,22 @@ def _listeners(pids):
     return out
 
 
+def _alive(pids, wait: float) -> list[int]:
+    """The processes of ``pids`` still running after up to ``wait`` seconds."""
+    t_end = time.monotonic() + wait
+    while True:
+        alive = []
+        for pid in pids:
+            try:
+                if psutil.Process(pid).status() != psutil.STATUS_ZOMBIE:
+                    alive.append(pid)
+            except psutil.NoSuchProcess:
+                pass
+        if not alive or time.monotonic() > t_end:
+            return alive
+        time.sleep(0.1)
+
+
 def test_dask_cluster__separate_processes_bit_identical_to_local(tmp_path):
     """``vsi sweep --scheduler`` on 2 separate ``dask worker`` processes: every variable
     and attribute but the history line equals the local run's; every listener of the
@@ -77,8 +94,7 @@ def test_dask_cluster__separate_processes_bit_identical_to_local(tmp_path):
         dist = run_study(cfg, tmp_path / "cluster.nc", scheduler=cluster.address).load()
     assert len(found) >= 5, found  # scheduler, nannies, workers (and dashboards)
     assert all(ipaddress.ip_address(ip).is_loopback for _, ip in found), found
-    assert not [p for p in tree if psutil.pid_exists(p)
-                and psutil.Process(p).status() != psutil.STATUS_ZOMBIE]
+    assert not _alive(tree, wait=10.0)
     assert sorted(local.variables) == sorted(dist.variables)
     for name in local.variables:  # no tolerance: same kernel, same inputs
         xr.testing.assert_identical(local[name], dist[name])

@@ -20,7 +20,8 @@ alone writes the results, so workers never write to a shared file system.
   also when it dies while they start (``PR_SET_PDEATHSIG`` on Linux, a parent-pid check
   and a watchdog thread); the multiprocessing resource tracker then ends too and
   removes the pool's semaphores from ``/dev/shm``.
-* ``DaskBackend`` - a ``dask.distributed`` cluster with batches as tasks: a
+* ``DaskBackend`` - a ``dask.distributed`` cluster with chunks of neighbouring batches
+  as tasks (:func:`dask_chunks`) and the spec scattered to every worker once: a
   ``LocalCluster`` of ``n`` worker threads in this process (``--workers N``; in-process
   transport; the only network listeners, the scheduler's dashboard and the workers' HTTP
   servers, are bound to 127.0.0.1), or an existing scheduler

@@ -360,6 +360,8 @@ class DaskBackend:
         if not batches:
             return
         client = self._client
+        if not self.n_workers:  # scatter needs a worker: wait for one (no time limit), as
+            client.wait_for_workers(1)  # the tasks would; later workers fetch the spec
         # a one-element list: the whole spec (a tuple) is one piece of data on the workers
         spec_ref = client.scatter([spec], broadcast=True, hash=False)[0]
         chunks = dask_chunks(batches, chunk_seconds(batches, max(self.n_threads, 1)))

@@ -20,11 +20,15 @@ stiffness of each element's branch.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
 
 GRAVITY = 9.81  # m s-2, as in the published train data (TTB-2D ``Calc.Cte.grav``)
+
+# car-body length over bogie spacing when a car gives no body length (railway_car)
+BODY_LENGTH_PER_BOGIE_SPACING = 1.45
 
 
 class VehicleMatrixError(ValueError):
@@ -176,6 +180,11 @@ class Vehicle:
         bounce only).  Empty (the default, e.g. a sprung mass or a user vehicle): the
         centre of gravity only.  :class:`MultibodyBuilder` puts them at the centre and over
         every pivot of the body's suspension (see :meth:`MultibodyBuilder.build`).
+    end_points : tuple
+        The car-body ends of each reported body, in the form of ``comfort_points``
+        (front end first); empty (the default): no end points known, the car-end
+        envelope is not evaluated (NaN).  :func:`railway_car` sets them from the body
+        length.
     nonlinear : tuple of NonlinearElement
         Bump stops and damper blow-offs acting on top of M, C, K (empty: linear).
     """
@@ -195,6 +204,7 @@ class Vehicle:
     status: str = ""
     comfort_points: tuple = ()
     nonlinear: tuple[NonlinearElement, ...] = ()
+    end_points: tuple = ()
 
     def __post_init__(self):
         n = np.asarray(self.M).shape[0] if np.asarray(self.M).size else 0
@@ -235,6 +245,12 @@ class Vehicle:
         if self.comfort_points and self.comfort_points[k]:
             return tuple((int(th), float(d)) for th, d in self.comfort_points[k])
         return ((-1, 0.0),)
+
+    def body_end_points(self, k: int) -> tuple[tuple[int, float], ...]:
+        """Car-body end points ``(pitch_dof, d)`` of reported body ``k`` (empty: none)."""
+        if self.end_points and k < len(self.end_points):
+            return tuple((int(th), float(d)) for th, d in self.end_points[k])
+        return ()
 
     @property
     def body_dofs(self) -> tuple[int, ...]:
@@ -482,6 +498,7 @@ def railway_car(
     primary_damper_blowoff: DamperBlowoff | None = None,
     secondary_bump_stop: BumpStop | None = None,
     secondary_damper_blowoff: DamperBlowoff | None = None,
+    body_length: float | None = None,
 ) -> Vehicle:
     """The 10-DOF planar railway car (whole-vehicle values).
 
@@ -492,7 +509,15 @@ def railway_car(
     behind the front bogie centre (default: midway).  The optional bump stops and
     damper blow-offs apply to every primary (per wheelset) or secondary (per bogie)
     suspension.
+
+    The car-body ends (``Vehicle.end_points``, the car-end comfort envelope) are
+    ``body_length / 2`` ahead of and behind the midpoint of the bogie centres (the
+    bogies placed symmetrically in the body); ``body_length`` defaults to
+    ``BODY_LENGTH_PER_BOGIE_SPACING`` times ``bogie_spacing`` (the ratio of an ICE3 end
+    car, 25.8 m over 17.4 m, and of a UIC-Z coach, 26.4 m over 19.0 m, ~1.4-1.5).
     """
+    if body_length is None:
+        body_length = BODY_LENGTH_PER_BOGIE_SPACING * bogie_spacing
     if body_cg_to_front_bogie is None:
         body_cg_to_front_bogie = 0.5 * bogie_spacing
     half = 0.5 * wheelbase
@@ -516,7 +541,11 @@ def railway_car(
     for tag, bogie, pos in wheels:
         b.connect(bogie, tag, pos, primary_stiffness, primary_damping, primary_bump_stop,
                   primary_damper_blowoff, f"primary {tag}")
-    return b.build(body="body", status=status)
+    car = b.build(body="body", status=status)
+    th, pcg = b._bodies["body"][1], b._bodies["body"][2]
+    mid = pb1 + 0.5 * bogie_spacing
+    ends = ((th, pcg - (mid - 0.5 * body_length)), (th, pcg - (mid + 0.5 * body_length)))
+    return dataclasses.replace(car, end_points=(ends,))
 
 
 def user_vehicle(

@@ -313,6 +313,16 @@ def _summary(results: dict, table: pd.DataFrame, pts: np.ndarray) -> list[str]:
                    f"bogie pivot (the largest inside the coach between the pivots); required "
                    f"level **{a['required_level']}**; level reached in the governing case: "
                    f"{a['level']}.{where}")
+        if "car_end_value" in a:
+            d = float(a.get("car_end_position", np.nan))
+            end = ("front" if d > 0 else "rear") if np.isfinite(d) else "an"
+            out.append(f"- Comfort at the car-body ends (reported apart from the value above, "
+                       f"the ends lying beyond the pivots): largest "
+                       f"{_fmt(a['car_end_value'])} m/s² ({a['car_end_level']}), at the "
+                       f"{end} end of vehicle {a.get('car_end_vehicle', '')}"
+                       f"{f', {abs(d):g} m from its centre of gravity' if np.isfinite(d) else ''}"
+                       f" ({a.get('car_end_train', '')}, "
+                       f"{float(a.get('car_end_speed', np.nan)) * 3.6:.0f} km/h).")
     out.append("- Limits and clauses tagged [R] are recalled from the standard, not re-read: "
                "check them against the primary text before relying on them.")
     missing = [f"- {name.replace('_', ' ')}: {why}" for name, why in results.items()

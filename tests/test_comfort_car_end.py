@@ -88,6 +88,12 @@ def test_comfort_car_end__default_length_and_no_ends_give_nan():
     (pts,) = car.end_points
     e = 0.5 * vh.BODY_LENGTH_PER_BOGIE_SPACING * CAR["bogie_spacing"]
     assert [d for _, d in pts] == pytest.approx([e, -e])
+    # a library car: its ends from the data's overhangs about the bogie centres (ICE3
+    # end car: 4.76 m ahead of the front, 3.7 m behind the rear bogie, CG midway)
+    from vsi_numba.model.library import get_vehicle
+    (lib,) = get_vehicle("ave_s103_c1").end_points
+    half = 0.5 * 17.375
+    assert [d for _, d in lib] == pytest.approx([half + 4.76, -(half + 3.7)], abs=1e-12)
     sm_car = vh.sprung_mass(5750.0, 1.595e6, 1e4)
     assert sm_car.body_end_points(0) == ()
     ds = sm.simulate(br.rigid(5.0), vh.Train("t", (sm_car,), (0.0,)), V, None,

@@ -400,9 +400,10 @@ class MultibodyBuilder:
         evaluated at each reported body's centre of gravity and over every pivot of its
         suspension (the secondary suspension over the bogie centres of a railway car).
         The acceleration of a rigid body, bounce plus pitch, is linear in the position
-        along it, so the largest over the length between the pivots is at one of them; the
-        car ends beyond the pivots are not in the vehicle data, so they are not
-        evaluated (they would extrapolate the pitch further).
+        along it, so the largest over the length between the pivots is at one of them.
+        The car-body ends beyond the pivots (larger still) are a separate envelope, from
+        ``Vehicle.end_points`` (set by :func:`railway_car`, not here: the builder does
+        not know the body's length).
         """
         n = len(self._masses)
         M = np.diag(self._masses)
@@ -499,6 +500,7 @@ def railway_car(
     secondary_bump_stop: BumpStop | None = None,
     secondary_damper_blowoff: DamperBlowoff | None = None,
     body_length: float | None = None,
+    body_overhangs: tuple[float, float] | None = None,
 ) -> Vehicle:
     """The 10-DOF planar railway car (whole-vehicle values).
 
@@ -511,7 +513,9 @@ def railway_car(
     suspension.
 
     The car-body ends (``Vehicle.end_points``, the car-end comfort envelope) are
-    ``body_length / 2`` ahead of and behind the midpoint of the bogie centres (the
+    ``body_overhangs = (front, rear)`` metres ahead of the front and behind the rear
+    bogie centre when given (the library cars' ``front_overhang``/``rear_overhang``),
+    else ``body_length / 2`` ahead of and behind the midpoint of the bogie centres (the
     bogies placed symmetrically in the body); ``body_length`` defaults to
     ``BODY_LENGTH_PER_BOGIE_SPACING`` times ``bogie_spacing`` (the ratio of an ICE3 end
     car, 25.8 m over 17.4 m, and of a UIC-Z coach, 26.4 m over 19.0 m, ~1.4-1.5).
@@ -543,8 +547,12 @@ def railway_car(
                   primary_damper_blowoff, f"primary {tag}")
     car = b.build(body="body", status=status)
     th, pcg = b._bodies["body"][1], b._bodies["body"][2]
-    mid = pb1 + 0.5 * bogie_spacing
-    ends = ((th, pcg - (mid - 0.5 * body_length)), (th, pcg - (mid + 0.5 * body_length)))
+    if body_overhangs is not None:
+        front, rear = pb1 - body_overhangs[0], pb2 + body_overhangs[1]
+    else:
+        mid = pb1 + 0.5 * bogie_spacing
+        front, rear = mid - 0.5 * body_length, mid + 0.5 * body_length
+    ends = ((th, pcg - front), (th, pcg - rear))
     return dataclasses.replace(car, end_points=(ends,))
 
 

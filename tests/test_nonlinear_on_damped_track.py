@@ -91,9 +91,10 @@ def _reference(t, nonlinear=True, damped=True):
 
     y0 = (MB + MW) * g / k_t
     s0 = [y0 + MB * g / KS, 0.0, y0, 0.0]
-    # the kinks of the stop and valve laws are crossed by the adaptive step control
+    # the kinks of the stop and valve laws are crossed by the adaptive step control (a
+    # cap max_step = 0.2 ms moves the result by < 4e-9 of the response: 5x slower)
     sol = solve_ivp(rhs, (0.0, t[-1]), s0, method="DOP853", t_eval=t, rtol=1e-10,
-                    atol=1e-13, max_step=2e-4)
+                    atol=1e-13)
     assert sol.success
     fs, X, _, d, dd = forces(sol.y, sol.t)
     return g - fs / MB, X, d, dd, d_on

@@ -231,7 +231,10 @@ class Vehicle:
         if self.comfort_points and len(self.comfort_points) != len(self.body_dofs):
             raise ValueError(f"vehicle {self.name!r}: one tuple of comfort points per car "
                              "body is needed")
-        for pts in self.comfort_points:
+        if self.end_points and len(self.end_points) != len(self.body_dofs):
+            raise ValueError(f"vehicle {self.name!r}: one tuple of end points per car "
+                             "body is needed")
+        for pts in (*self.comfort_points, *self.end_points):
             for th, d in pts:
                 if not -1 <= int(th) < n or not np.isfinite(d):
                     raise ValueError(f"vehicle {self.name!r}: bad comfort point ({th}, {d})")

@@ -1764,38 +1764,24 @@ def le_finish(E, w2inv, val, q, f, mx, mxt, mn, mnt, r, n, t):
     in ``val`` and fold them into the envelopes ``mx``/``mn`` (times ``mxt``/``mnt``) of
     run ``r`` (step ``n``, time ``t``)."""
     n_c = E.shape[1]
-    n_m = q.shape[0]
-    mx_r = mx[r]
-    mn_r = mn[r]
-    # the modes in order (each channel sums its terms as a mode-outer loop would); the
-    # last mode's pass also tests the envelopes, branch-free (most steps raise none; the
-    # envelopes start at -inf / +inf, so step 0 sets both)
-    for j in range(n_m - 1):
+    for j in range(q.shape[0]):
         cj = q[j] - f[j] * w2inv[j]
         for c in range(n_c):
             val[c] += E[j, c] * cj
+    # most steps raise no envelope: a branch-free test first (the envelopes start at
+    # -inf / +inf, so step 0 sets both)
     hit = False
-    if n_m > 0:
-        j = n_m - 1
-        cj = q[j] - f[j] * w2inv[j]
-        for c in range(n_c):
-            v = val[c] + E[j, c] * cj
-            val[c] = v
-            hit |= (v > mx_r[c]) | (v < mn_r[c])
-    else:
-        for c in range(n_c):
-            hit |= (val[c] > mx_r[c]) | (val[c] < mn_r[c])
+    for c in range(n_c):
+        hit |= (val[c] > mx[r, c]) | (val[c] < mn[r, c])
     if hit:
-        mxt_r = mxt[r]
-        mnt_r = mnt[r]
         for c in range(n_c):
             v = val[c]
-            if v > mx_r[c]:
-                mx_r[c] = v
-                mxt_r[c] = t
-            if v < mn_r[c]:
-                mn_r[c] = v
-                mnt_r[c] = t
+            if v > mx[r, c]:
+                mx[r, c] = v
+                mxt[r, c] = t
+            if v < mn[r, c]:
+                mn[r, c] = v
+                mnt[r, c] = t
 
 
 @njit

@@ -267,7 +267,7 @@ def test_report__holds_no_machine_path_and_no_clock(init_run, tmp_path):
         with xr.open_dataset(out) as ds:
             write_report(ds, outdir, source_path=out, recompute=False, n_boot=100)
         first.append({p.name: p.read_bytes() for p in sorted(outdir.iterdir())
-                      if p.suffix in (".md", ".csv")})
+                      if p.suffix in (".md", ".csv", ".xlsx", ".html")})
     assert first[0] == first[1]
     md = first[0]["report.md"].decode()
     assert str(tmp_path) not in md and str(out.parent) not in md

@@ -39,7 +39,7 @@ def main(argv=None) -> int:
                    help="--study: only the study-level benchmark (whole `vsi sweep` "
                         "commands); --no-study: only the cases (default: cases, then the "
                         "study level in smoke/normal/full mode)")
-    p.add_argument("--measure", action="append", choices=list("abcdefg"),
+    p.add_argument("--measure", action="append", choices=list("abcdefghij"),
                    help="study level: run only these measures (repeatable; implies --study)")
     p.add_argument("--case", action="append", choices=list("12345"),
                    help="run only these cases (repeatable)")

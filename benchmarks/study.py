@@ -14,15 +14,31 @@ Measures (the bars and goals come with the benchmark; the verdict is computed fr
 numbers of the same run):
 
 a. the HSLM sweep of :mod:`benchmarks.yardstick` (10 trains x 57 speeds, 10 modes, dt 1 ms,
-   envelopes only): ``vsi sweep`` wall / yardstick compute time, and ``--workers 2``
-   (Dask LocalCluster) / local default;
+   envelopes only): ``vsi sweep`` wall (load effects on, the default) / yardstick compute
+   time, load effects on / off in interleaved pairs (wall and CPU time of the command and
+   its children), and ``--workers 2`` (Dask LocalCluster) / local default;
 b. study 1, ``vsi sweep studies/hslm_psc_25m/study.toml`` (wall, peak RSS);
 c. ICE3 interaction on the study-1 span, 20 modes, German-low PSD irregularity, 10 seeds x
    57 speeds, envelopes only (wall);
 d. a 1,140-run moving-force sweep keeping every time history (peak RSS, file size); when a
    pilot on a tenth of the grid predicts more memory or disk than the machine can spare,
    the full grid is NOT run and the numbers are extrapolated (marked);
-e. scaling: 100 .. 10,000 moving-force runs (envelopes only) against wall time and peak RSS.
+e. scaling: 100 .. 10,000 moving-force runs (envelopes only) against wall time and peak RSS;
+f. local parallelism: process pool / threads;
+g. the bundled design catalogue (51,870 runs);
+h. the first run on a fresh machine: the sweep of a with an empty numba cache (normal and
+   full mode, or ``--measure h``);
+i. the README's test command (timed only with ``--measure i``; else the last figure);
+j. the catalogue on a loopback Dask cluster of separate processes (``dask scheduler`` + 2 x
+   ``dask worker --nthreads 1``, all on 127.0.0.1, ``vsi sweep --scheduler``) / the local
+   threaded default, in interleaved rounds with 1 worker and ``--workers 2`` (wall and CPU
+   time of every process; the files must be bit-identical), and a 16-worker estimate by
+   the batch plan (normal and full mode, or ``--measure j``; it writes
+   ``reports/dask_cluster.json``, which smoke and quick mode report, dated, instead).
+
+The targets: a1 (load effects on) <= 0.8 x the yardstick; a3 load effects on / off
+<= 1.30 (goal 1.15); c1 ICE3 570 runs <= 5 s (goal 2 s); h1 <= 20 s; i1 <= 2 min;
+j1 <= 1.1.  A missed one shows by how much (``MISSED xR over the bar``).
 
 Every command is first run once on a 1-run grid with the same keys (warm numba cache,
 warm file cache); medians over the repetitions of the plan.
@@ -79,6 +95,9 @@ class StudyPlan:
     scaling_budget_s: float = 1800.0  # skip a scaling point predicted to take longer
     yardstick_repeat: int = 3
     warm_up: bool = True  # a 1-run warm-up before each measured command
+    cold: bool = True  # h: the first run with an empty numba cache
+    tests: bool = False  # i: time the README's test command (else the last figure)
+    cluster: bool = False  # j: the catalogue on a loopback Dask cluster (else the last figure)
 
 
 def make_study_plan(mode: str) -> StudyPlan:
@@ -88,13 +107,14 @@ def make_study_plan(mode: str) -> StudyPlan:
         return StudyPlan("smoke", trains=("HSLM-A1",), speeds=(420.0,), repeat=1, dask=False,
                          study1=False, ice3_seeds=(), hist_pilots=(), hist_full=False,
                          scaling=(), yardstick_repeat=1,
-                         warm_up=False)
+                         warm_up=False, cold=False)
     if mode == "quick":
-        return StudyPlan("quick", scaling=(100, 300, 1000), scaling_budget_s=600.0)
+        return StudyPlan("quick", scaling=(100, 300, 1000), scaling_budget_s=600.0,
+                         cold=False)
     if mode == "normal":
-        return StudyPlan("normal", repeat_other=2)
+        return StudyPlan("normal", repeat_other=2, cluster=True)
     if mode == "full":
-        return StudyPlan("full", repeat=3, repeat_other=3)
+        return StudyPlan("full", repeat=3, repeat_other=3, cluster=True)
     raise ValueError(f"unknown mode {mode!r}")
 
 
@@ -191,6 +211,7 @@ class CommandRun:
     sampler_cpu: float
     stderr: str = ""
     aborted: str = ""
+    cpu: float = float("nan")  # s, user + system of the command and its reaped children
 
 
 def mem_total() -> float:
@@ -206,6 +227,9 @@ def run_command(cmd: list[str], cwd: Path, env: dict, timeout: float = 3600.0,
                 rss_limit: float | None = None, interval: float = 0.02) -> CommandRun:
     """Run ``cmd`` in its own session; wall time and peak RSS of its process tree."""
     err_path = Path(cwd) / f".stderr-{time.monotonic_ns()}"
+    import resource
+
+    ru0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     with open(err_path, "wb") as err:
         w0 = time.perf_counter()
         p = subprocess.Popen(cmd, cwd=cwd, env=env, stdout=subprocess.DEVNULL, stderr=err,
@@ -221,6 +245,8 @@ def run_command(cmd: list[str], cwd: Path, env: dict, timeout: float = 3600.0,
             aborted = f"killed after the {timeout:.0f} s timeout"
         wall = time.perf_counter() - w0
         sampler.stop()
+    ru1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (ru1.ru_utime - ru0.ru_utime) + (ru1.ru_stime - ru0.ru_stime)
     # the session may leave orphans (e.g. a Dask worker being torn down): end them
     try:
         os.killpg(p.pid, signal.SIGKILL)
@@ -232,7 +258,7 @@ def run_command(cmd: list[str], cwd: Path, env: dict, timeout: float = 3600.0,
         aborted = (f"killed at {sampler.exceeded / MB:,.0f} MB (limit "
                    f"{rss_limit / MB:,.0f} MB of process-tree RSS)")
     return CommandRun(wall, float(sampler.peak), sampler.max_procs, rc, sampler.samples,
-                      sampler.cpu, stderr, aborted)
+                      sampler.cpu, stderr, aborted, cpu)
 
 
 # --------------------------------------------------------------------------- configs
@@ -534,18 +560,30 @@ def _measure_a(b: Bench, res: StudyResult):
     agree = max(float(np.max(np.abs(ed - yd) / np.abs(yd))),
                 float(np.max(np.abs(ea - ya) / np.abs(ya))))
     res.yardstick["agreement_sweep"] = agree
-    res.measures.append(Measure("a1", "HSLM sweep: `vsi sweep` wall / yardstick compute",
-                                grid, local / yw, "ratio", 1.5, 1.0,
+    res.yardstick["local"] = local
+    res.measures.append(Measure("a1", "HSLM sweep, load effects on: `vsi sweep` wall / "
+                                "yardstick compute", grid, local / yw, "ratio", 0.8, None,
                                 f"{fmt_s(local)} / {fmt_s(yw)}; envelopes = yardstick's to "
                                 f"{agree:.1e}"))
-    # the dynamic load effects (on by default): the same sweep without them
+    # the dynamic load effects (on by default): the same sweep without them, in
+    # interleaved on/off pairs (a load change on the shared machine hits both alike)
     off_cfg = {**cfg, "study": {**cfg["study"], "load_effects": False}}
     off_path = b.write(off_cfg, "hslm_no_load_effects")
-    off, *_ = b.repeated("a. vsi sweep, [study] load_effects = false", off_path, grid,
-                         p.repeat, warm=warm)
-    res.measures.append(Measure("a3", "HSLM sweep: load effects on / off (whole command)",
-                                grid, local / off, "ratio", 1.3, 1.1,
-                                f"{fmt_s(local)} / {fmt_s(off)}"))
+    on_runs, off_runs = [], []
+    for _ in range(max(p.repeat, 1)):
+        on_runs.append(b.run(path)[0])
+        off_runs.append(b.run(off_path)[0])
+        b.echo(f"[study]   a. load effects on / off: {on_runs[-1].wall:.2f} / "
+               f"{off_runs[-1].wall:.2f} s wall, {on_runs[-1].cpu:.2f} / "
+               f"{off_runs[-1].cpu:.2f} s CPU")
+    med = statistics.median
+    w_on, w_off = med(r.wall for r in on_runs), med(r.wall for r in off_runs)
+    c_on, c_off = med(r.cpu for r in on_runs), med(r.cpu for r in off_runs)
+    res.measures.append(Measure(
+        "a3", "HSLM sweep: load effects on / off (whole command, wall)", grid,
+        w_on / w_off, "ratio", 1.3, 1.15,
+        f"{fmt_s(w_on)} / {fmt_s(w_off)}; CPU {fmt_s(c_on)} / {fmt_s(c_off)} = "
+        f"{c_on / c_off:.2f}; medians of {len(on_runs)} interleaved pairs"))
     if p.dask:
         dask, *_ = b.repeated("a. vsi sweep --workers 2 (Dask)", path, grid, p.repeat,
                               workers=2, warm=warm)
@@ -574,7 +612,8 @@ def _measure_c(b: Bench, res: StudyResult):
     wall, rss, *_ = b.repeated("c. ICE3 interaction, German low", path, grid,
                                p.repeat_other, warm=warm)
     res.measures.append(Measure("c1", "ICE3 interaction sweep: wall", grid, wall, "s",
-                                40.0, 20.0, f"peak RSS {rss / MB:,.0f} MB"))
+                                5.0, 2.0, f"peak RSS {rss / MB:,.0f} MB; "
+                                f"{wall / n_runs(cfg):.3f} s per run"))
 
 
 def _fit(xs, ys, x):
@@ -692,6 +731,58 @@ def _measure_g(b: Bench, res: StudyResult):
                                 "bytes", 1024 * MB, None))
 
 
+def _measure_h(b: Bench, res: StudyResult):
+    """The first run on a fresh machine: the HSLM sweep of a with an EMPTY numba cache
+    (every kernel it uses compiled in the command)."""
+    p = b.plan
+    cfg = hslm_config(p.trains, p.speeds, title="first run, empty numba cache")
+    path = b.write(cfg, "hslm_cold")
+    cache = b.tmp / "empty_numba_cache"
+    out = b.tmp / "cold" / "results.nc"
+    out.parent.mkdir()
+    env = {**b.env, "NUMBA_CACHE_DIR": str(cache)}
+    load0 = load1()
+    r = run_command(b.command(path, out), b.tmp, env, rss_limit=b.rss_limit)
+    if r.aborted or r.returncode not in (0, 1) or not out.exists():
+        raise RuntimeError(f"cold `vsi sweep` failed (exit {r.returncode}):\n{r.stderr}")
+    grid = _grid(p.trains, p.speeds) + ", empty NUMBA_CACHE_DIR"
+    b.rows.append(["h. vsi sweep, first run (empty numba cache)", grid, fmt_s(r.wall),
+                   f"{r.peak_rss / MB:,.0f} MB", str(r.max_procs), f"{max(load0, load1()):.2f}"])
+    warm = res.measure("a1")
+    note = f"CPU {fmt_s(r.cpu)}"
+    if warm is not None and "local" in res.yardstick:
+        note += (f"; the same command warm {fmt_s(res.yardstick['local'])}: "
+                 f"~{fmt_s(r.wall - res.yardstick['local'])} is JIT compilation")
+    res.measures.append(Measure("h1", "first run, empty numba cache (HSLM sweep): wall", grid,
+                                r.wall, "s", 20.0, None, note))
+
+
+# the README's test command (ruff + the whole pytest suite) is minutes long and loads the
+# machine: it is timed only when asked for (``--measure i``); otherwise the last figure
+# measured on the idle 2-core machine is reported, marked as such
+LAST_TESTS_S = 150.0
+LAST_TESTS_NOTE = ("last measured on the idle 2-core machine (about 2.5 min), not re-run: "
+                   "`python -m benchmarks --measure i` times it")
+
+
+def _measure_i(b: Bench, res: StudyResult):
+    if not b.plan.tests:
+        res.measures.append(Measure("i1", "README test command (ruff + pytest -q): wall",
+                                    "whole suite", LAST_TESTS_S, "s", 120.0, None,
+                                    LAST_TESTS_NOTE))
+        return
+    venv = Path(sys.executable).parent
+    cmd = ["bash", "-c", f"{venv / 'ruff'} check vsi_numba tests benchmarks && "
+           f"{sys.executable} -m pytest -q"]
+    env = {**b.env, "NUMBA_CACHE_DIR": str(REPO / ".numba_cache")}
+    r = run_command(cmd, REPO, env)
+    if r.returncode != 0:
+        raise RuntimeError(f"the test command failed (exit {r.returncode}):\n{r.stderr}")
+    res.measures.append(Measure("i1", "README test command (ruff + pytest -q): wall",
+                                "whole suite, warm numba cache", r.wall, "s", 120.0, None,
+                                f"CPU {fmt_s(r.cpu)}"))
+
+
 def list_schedule(times, n_workers: int, overhead: float = 0.0) -> float:
     """Makespan of tasks of ``times`` seconds handed out in the given order, each to the
     worker free first (Dask's order with one thread per worker), each costing
@@ -743,18 +834,95 @@ def cluster_estimate(plan, kernel_seconds: dict, compute_1: float, fixed: float,
     return fixed + list_schedule(times, n_workers), len(chunks)
 
 
-def _measure_h(b: Bench, res: StudyResult, config: Path = STUDY3,
+def tree_cpu(pids) -> float:
+    """User + system CPU seconds so far of the running processes ``pids`` and all their
+    descendants (a Dask cluster: scheduler, nannies, workers)."""
+    import psutil
+
+    seen, total = set(), 0.0
+    for pid in pids:
+        try:
+            root = psutil.Process(pid)
+            procs = [root, *root.children(recursive=True)]
+        except psutil.Error:
+            continue
+        for p in procs:
+            if p.pid in seen:
+                continue
+            seen.add(p.pid)
+            try:
+                t = p.cpu_times()
+            except psutil.Error:
+                continue
+            total += t.user + t.system
+    return total
+
+
+def same_files(a: Path, b: Path) -> list[str]:
+    """Names of the variables (and ``attrs`` for the global attributes but the history
+    line) in which two result files differ: [] when bit-identical."""
+    import xarray as xr
+
+    with xr.open_dataset(a) as x, xr.open_dataset(b) as y:
+        x, y = x.load(), y.load()
+    bad = sorted(set(x.variables) ^ set(y.variables))
+    for name in sorted(set(x.variables) & set(y.variables)):
+        if not x[name].identical(y[name]):
+            bad.append(name)
+    ax, ay = dict(x.attrs), dict(y.attrs)
+    ax.pop("history", None), ay.pop("history", None)
+    if ax != ay:
+        bad.append("attrs")
+    return bad
+
+
+# the last measure j written here by ``_measure_j`` (``{"cluster_s": ..., "local_s": ...,
+# "grid": ..., "date": ..., ...}``); a run that does not measure j reports it, dated
+DASK_CLUSTER = REPO / "reports" / "dask_cluster.json"
+J_NAME = ("catalogue: loopback Dask cluster of separate processes (`dask scheduler` + 2 x "
+          "`dask worker --nthreads 1`) / local threaded")
+
+
+def _last_j(res: StudyResult) -> None:
+    if not DASK_CLUSTER.exists():
+        res.measures.append(Measure(
+            "j1", J_NAME, "catalogue", float("nan"), "ratio", 1.1, None,
+            f"not measured (no {DASK_CLUSTER.relative_to(REPO)}; `python -m benchmarks "
+            "--study --measure j` measures it)"))
+        return
+    import json
+
+    d = json.loads(DASK_CLUSTER.read_text())
+    cl, lo = float(d["cluster_s"]), float(d["local_s"])
+    res.measures.append(Measure(
+        "j1", J_NAME, str(d.get("grid", "catalogue")), cl / lo, "ratio", 1.1, None,
+        f"{fmt_s(cl)} / {fmt_s(lo)}, not re-run: last measured {d.get('date', 'undated')} "
+        f"(load {d.get('load', 'n/a')}), read from {DASK_CLUSTER.relative_to(REPO)}"))
+
+
+def _measure_j(b: Bench | None, res: StudyResult, config: Path = STUDY3,
                grid: str = "catalogue, 51,870 runs"):
     """The catalogue on a loopback cluster of separate processes (``dask scheduler`` + 1 or
     2 ``dask worker --nthreads 1``, ``vsi sweep --scheduler``) and on ``--workers 2``,
-    against the local default; 1 -> 2 worker scaling; 16 workers by the batch plan."""
+    against the local default, in interleaved rounds (wall and CPU of every process);
+    the files must be bit-identical; 1 -> 2 worker scaling; 16 workers by the batch plan.
+
+    Measured in normal and full mode and with ``--measure j`` (written to
+    :data:`DASK_CLUSTER`); otherwise the last measure is reported from that file.
+    """
+    if b is None or not b.plan.cluster:
+        _last_j(res)
+        return
+    import datetime as _dt
+    import json
+
     from vsi_numba.study.backends import LoopbackCluster
     from vsi_numba.study.store import store_path
 
-    warm = b.write(one_run(hslm_config(("HSLM-A1",), (420.0,))), "h_1run")
+    warm = b.write(one_run(hslm_config(("HSLM-A1",), (420.0,))), "j_1run")
     n = max(b.plan.repeat_other, 1)
 
-    def sweep(out: Path, scheduler=None, workers=None, keep=False):
+    def sweep(out: Path, scheduler=None, workers=None, keep=False, cluster=None):
         code = ("from vsi_numba.study.runner import execute_study; "
                 f"execute_study({str(config)!r}, {str(out)!r}, scheduler={scheduler!r}, "
                 f"workers={workers!r}, keep_cases={keep!r}, quiet=True)")
@@ -763,71 +931,105 @@ def _measure_h(b: Bench, res: StudyResult, config: Path = STUDY3,
             cmd = b.command(config, out, workers)
             if scheduler:
                 cmd[-1:-1] = ["--scheduler", scheduler]
+        pids = [p.pid for p in cluster._procs] if cluster else []
+        c0 = tree_cpu(pids)
         r = run_command(cmd, b.tmp, b.env, rss_limit=b.rss_limit)
         if r.aborted or r.returncode != 0 or not out.exists():
             raise RuntimeError(f"catalogue sweep failed (exit {r.returncode}):\n{r.stderr}")
-        return r.wall
+        return r.wall, r.cpu + tree_cpu(pids) - c0
 
-    walls: dict = {"local": [], "workers 2": [], "cluster 1": [], "cluster 2": []}
+    names = ("local", "cluster 2", "cluster 1", "workers 2")
+    walls: dict = {k: [] for k in names}
+    cpus: dict = {k: [] for k in names}
+    loads: list = []
     kernel: dict = {}
     fixed = []
+    outs: dict = {}
     for i in range(n):  # interleaved: the load of a shared machine hits every variant alike
         b.k += 1
-        d = b.tmp / f"h{b.k}"
+        d = b.tmp / f"j{b.k}"
         d.mkdir()
         if i == 0:
             b.run(warm)
-        walls["local"].append(sweep(d / "local.nc"))
-        walls["workers 2"].append(sweep(d / "w2.nc", workers=2))
-        for nw in (1, 2):
-            with LoopbackCluster(nw, d / f"cluster{nw}", env=None) as cl:
-                out = d / f"c{nw}.nc"
-                keep = nw == 2 and i == 0
-                walls[f"cluster {nw}"].append(sweep(out, scheduler=cl.address, keep=keep))
-                if keep:  # per-batch kernel seconds, then the wall with nothing to compute
-                    for f in store_path(out).glob("batch_*.npz"):
-                        with np.load(f) as z:
-                            kernel[str(z["batch_key"])] = float(z["kernel_seconds"])
-                    fixed.append(sweep(out, scheduler=cl.address))
-        for k, v in walls.items():
-            b.echo(f"[study]   h. {k}: {v[-1]:.2f} s")
+        loads.append(load1())
+        for k in names:
+            out = d / f"{k.replace(' ', '_')}.nc"
+            if k.startswith("cluster"):
+                nw = int(k[-1])
+                with LoopbackCluster(nw, d / f"cluster{nw}", env=None) as cl:
+                    keep = nw == 2 and i == 0
+                    w, c = sweep(out, scheduler=cl.address, keep=keep, cluster=cl)
+                    if keep:  # per-batch kernel seconds, then the wall with nothing to run
+                        for f in store_path(out).glob("batch_*.npz"):
+                            with np.load(f) as z:
+                                kernel[str(z["batch_key"])] = float(z["kernel_seconds"])
+                        fixed.append(sweep(out, scheduler=cl.address, cluster=cl)[0])
+            else:
+                w, c = sweep(out, workers=2 if k == "workers 2" else None)
+            walls[k].append(w)
+            cpus[k].append(c)
+            if i == 0:
+                outs[k] = out
+            else:
+                out.unlink()
+            b.echo(f"[study]   j. {k}: {w:.2f} s wall, {c:.2f} s CPU (load {load1():.2f})")
+        loads.append(load1())
+        if i == 0:  # bit-identical files, or the ratio is not worth having
+            for k in names[1:]:
+                bad = same_files(outs["local"], outs[k])
+                if bad:
+                    raise RuntimeError(f"the {k} file differs from the local one in {bad}")
+                outs[k].unlink()
+            b.echo("[study]   j. every variable of the Dask files equals the local file's")
     med = {k: statistics.median(v) for k, v in walls.items()}
-    for k, v in walls.items():
-        b.rows.append([f"h. catalogue, {k}", grid, f"{fmt_s(med[k])} "
-                       f"({', '.join(f'{x:.2f}' for x in v)} s)", "", "", f"{load1():.2f}"])
+    cmed = {k: statistics.median(v) for k, v in cpus.items()}
+    load = f"{min(loads):.2f}-{max(loads):.2f}"
+    for k in names:
+        b.rows.append([f"j. catalogue, {k}", grid, f"{fmt_s(med[k])} "
+                       f"({', '.join(f'{x:.2f}' for x in walls[k])} s); CPU {fmt_s(cmed[k])}",
+                       "", "", load])
     r2, rw = med["cluster 2"] / med["local"], med["workers 2"] / med["local"]
     res.measures.append(Measure(
-        "h1", "catalogue: loopback cluster of separate processes (scheduler + 2 x `dask "
-        "worker --nthreads 1`) / local default", grid, r2, "ratio", 1.1, None,
-        f"{fmt_s(med['cluster 2'])} / {fmt_s(med['local'])}"))
+        "j1", J_NAME, grid, r2, "ratio", 1.1, None,
+        f"{fmt_s(med['cluster 2'])} / {fmt_s(med['local'])}; CPU {fmt_s(cmed['cluster 2'])} "
+        f"/ {fmt_s(cmed['local'])}; medians of {n} interleaved rounds, load {load}; "
+        "files bit-identical"))
     res.measures.append(Measure(
-        "h2", "catalogue: `--workers 2` (LocalCluster) / local default", grid, rw, "ratio",
-        1.1, None, f"{fmt_s(med['workers 2'])} / {fmt_s(med['local'])}"))
+        "j2", "catalogue: `--workers 2` (LocalCluster) / local default", grid, rw, "ratio",
+        1.1, None, f"{fmt_s(med['workers 2'])} / {fmt_s(med['local'])}; CPU "
+        f"{fmt_s(cmed['workers 2'])}"))
     speedup = med["cluster 1"] / med["cluster 2"]
     res.measures.append(Measure(
-        "h3", "catalogue: cluster speed-up 1 -> 2 workers (wall 1 / wall 2)", grid, speedup,
+        "j3", "catalogue: cluster speed-up 1 -> 2 workers (wall 1 / wall 2)", grid, speedup,
         "ratio", None, None, f"{fmt_s(med['cluster 1'])} / {fmt_s(med['cluster 2'])}"))
     spec_plan = plan_of(kernel)
     f0 = statistics.median(fixed)
     est = {nw: cluster_estimate(spec_plan, kernel, med["cluster 1"] - f0, f0, nw)
            for nw in (2, 16)}
     res.measures.append(Measure(
-        "h4", "catalogue: 16-worker cluster by the batch plan (simulated wall)", grid,
+        "j4", "catalogue: 16-worker cluster by the batch plan (simulated wall)", grid,
         est[16][0], "s", None, None,
         f"{est[16][1]} tasks list-scheduled; speed-up {med['cluster 1'] / est[16][0]:.1f} "
         f"over 1 worker; the same model gives {fmt_s(est[2][0])} for 2 workers "
         f"(measured {fmt_s(med['cluster 2'])})"))
     res.details.append(
-        f"Catalogue on Dask (h): fixed part (start-up, planning of 91 variants, final "
+        f"Catalogue on Dask (j): fixed part (start-up, planning of the variants, final "
         f"write; the wall with every batch stored) {fmt_s(f0)}; the batches' kernel time "
         f"{fmt_s(sum(kernel.values()))} of the 1-worker compute time "
         f"{fmt_s(med['cluster 1'] - f0)}.  16 workers: the measured per-batch times, "
         f"scaled to that compute time, grouped into the backend's tasks and list-scheduled "
         f"largest first onto 16 workers, plus the fixed part.")
+    DASK_CLUSTER.parent.mkdir(parents=True, exist_ok=True)
+    DASK_CLUSTER.write_text(json.dumps({
+        "cluster_s": med["cluster 2"], "local_s": med["local"], "grid": grid,
+        "date": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"), "load": load,
+        "walls": walls, "cpu": cpus, "fixed_s": f0, "estimate_16_s": est[16][0]},
+        indent=1) + "\n")
 
 
 MEASURES = (("a", _measure_a), ("b", _measure_b), ("c", _measure_c), ("d", _measure_d),
-            ("e", _measure_e), ("f", _measure_f), ("g", _measure_g), ("h", _measure_h))
+            ("e", _measure_e), ("f", _measure_f), ("g", _measure_g), ("h", _measure_h),
+            ("i", _measure_i), ("j", _measure_j))
 
 
 def run_study_bench(mode: str = "quick", write: bool = True, report: Path | None = None,
@@ -836,13 +1038,18 @@ def run_study_bench(mode: str = "quick", write: bool = True, report: Path | None
     import datetime as _dt
 
     plan = make_study_plan(mode)
+    if only:  # asked for by name: the cold run and the test command run in any mode
+        import dataclasses
+
+        plan = dataclasses.replace(plan, cold=plan.cold or "h" in only, tests="i" in only,
+                                   cluster=plan.cluster or "j" in only)
     res = StudyResult(mode, date=_dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
                       load_start=load1())
     t0 = time.perf_counter()
     skip = {"a": False, "b": not plan.study1, "c": not plan.ice3_seeds,
             "d": not plan.hist_pilots and not plan.hist_full, "e": not plan.scaling,
-            "f": not plan.study1, "g": not plan.study1,
-            "h": not plan.dask or not plan.study1}
+            "f": not plan.study1, "g": not plan.study1, "h": not plan.cold,
+            "i": False, "j": False}
     with tempfile.TemporaryDirectory(prefix="vsi_study_bench_") as tmp:
         bench = Bench(plan, Path(tmp), echo)
         bench.rows = res.commands

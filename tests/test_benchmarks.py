@@ -11,6 +11,8 @@ different HHT constant, a step-count or position offset of one step shows up at 
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 import pytest
 
@@ -209,6 +211,45 @@ def test_tree_rss_counts_descendants(tmp_path):
     assert r.peak_rss >= 150 * MB, r
 
 
+def test_run_command_cpu_time(tmp_path):
+    """CPU time counts the command's children (rusage of the reaped processes): a child
+    spinning for 0.4 s of its own CPU clock must show >= 0.35 s (0.05 s for the clock
+    resolution), and no more than the parent's wall time allows on 2 cores."""
+    from benchmarks.study import run_command
+
+    child = ("import time; t = time.process_time()\n"
+             "while time.process_time() - t < 0.4: pass")
+    cmd = [sys.executable, "-c",
+           f"import subprocess, sys; subprocess.run([sys.executable, '-c', {child!r}])"]
+    r = run_command(cmd, tmp_path, None)
+    assert r.returncode == 0
+    assert 0.35 <= r.cpu <= 2 * r.wall + 0.05, r
+
+
+def test_dask_cluster_row(tmp_path, monkeypatch):
+    """The Dask cluster row reads the Dask path's measure when present (ratio = cluster /
+    local from the file's own numbers), else says "not measured"."""
+    import json
+
+    import benchmarks.study as S
+
+    monkeypatch.setattr(S, "DASK_CLUSTER", S.REPO / "reports" / "no_such_measure.json")
+    res = S.StudyResult("smoke")
+    S._measure_j(None, res)
+    m = res.measure("j1")
+    assert m.verdict == "n/a" and "not measured" in m.note
+    path = S.REPO / "reports" / f"dask_cluster_test_{tmp_path.name}.json"
+    try:
+        path.write_text(json.dumps({"cluster_s": 33.0, "local_s": 30.0, "grid": "g"}))
+        monkeypatch.setattr(S, "DASK_CLUSTER", path)
+        res = S.StudyResult("smoke")
+        S._measure_j(None, res)
+        m = res.measure("j1")
+        assert m.value == 33.0 / 30.0 and m.bar == 1.1 and m.verdict == "met"
+    finally:
+        path.unlink(missing_ok=True)
+
+
 def test_study_verdicts_and_section(tmp_path):
     from benchmarks.study import Measure, extract_section, write_section
 
@@ -236,6 +277,11 @@ def test_study_smoke(tmp_path, capsys):
     out = capsys.readouterr().out
     line = next(x for x in out.splitlines() if x.startswith("a1 "))
     assert "yardstick" in line and ("met" in line or "MISSED" in line)
+    # every target of the performance review has its row, with its target
+    rows = {x.split()[0]: x for x in out.splitlines() if x[:2] in ("a1", "a3", "i1", "j1")}
+    assert set(rows) == {"a1", "a3", "i1", "j1"}, out
+    assert "0.80" in rows["a1"] and "1.30" in rows["a3"] and "1.15" in rows["a3"]
+    assert "CPU" in rows["a3"] and "120 s" in rows["i1"]
     text = report.read_text()
     assert "## Study level" in text and "| a1 |" in text and "peak RSS" in text
     import re

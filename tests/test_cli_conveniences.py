@@ -92,7 +92,10 @@ def _measured_sweep(config: Path, out: Path) -> tuple[float, float, int, str]:
             f"rc = app(['sweep', {str(config)!r}, '-o', {str(out)!r}, '-q'], "
             "standalone_mode=False)\n"
             "r = resource.getrusage(resource.RUSAGE_SELF)\n"
-            "print('MAXRSS', r.ru_maxrss, 'CPU', r.ru_utime + r.ru_stime, file=sys.stderr)\n"
+            # the peak of this process's own memory (VmHWM): ru_maxrss would also hold
+            # the RSS of the test process it was forked from (Linux keeps it across exec)
+            "hwm = [l.split()[1] for l in open('/proc/self/status') if l.startswith('VmHWM')]\n"
+            "print('MAXRSS', hwm[0], 'CPU', r.ru_utime + r.ru_stime, file=sys.stderr)\n"
             "sys.exit(rc or 0)\n")
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
@@ -267,7 +270,7 @@ def test_report__holds_no_machine_path_and_no_clock(init_run, tmp_path):
         with xr.open_dataset(out) as ds:
             write_report(ds, outdir, source_path=out, recompute=False, n_boot=100)
         first.append({p.name: p.read_bytes() for p in sorted(outdir.iterdir())
-                      if p.suffix in (".md", ".csv")})
+                      if p.suffix in (".md", ".csv", ".xlsx", ".html")})
     assert first[0] == first[1]
     md = first[0]["report.md"].decode()
     assert str(tmp_path) not in md and str(out.parent) not in md

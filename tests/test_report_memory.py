@@ -20,7 +20,7 @@ from vsi_numba.analysis.synthetic import synthetic_results
 N_VARIANT, N_TRAIN, N_SPEED, N_TIME, N_WHEEL = 6, 10, 50, 2000, 32
 HISTORY_SPEED = 25  # index of the one speed whose histories are stored (the governing one)
 
-#: Budget of the whole report process (MB); the brief's bound for any study size.
+#: Budget of the whole report process (MB): the bound for any study size.
 BUDGET_MB = 500
 
 

@@ -246,6 +246,8 @@ FEATURES = {
     "load_effect_checks": feature(study__classification_factor=1.21,
                                   study__track_maintenance="careful"),
     "no_load_effects": feature(study__load_effects=False),
+    "damped_massive_track": feature(track={"model": "elastic", "foundation_damping": 1.5e5,
+                                           "rail_mass": 120.0}),
     "hslm_b": feature(train={"preset": "HSLM-B", "hslm_b": {"N": 10, "d": 3.5}}),
     "axle_list": feature(train={"axles": {"file": "axles.csv", "load_unit": "kN",
                                           "name": "axle list"}}),

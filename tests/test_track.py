@@ -195,6 +195,16 @@ def test_track__report_states_the_track_model_and_the_deck_end_note_follows_it()
     assert "not a kink" in notes["elastic"] and "foundation_stiffness" in notes["elastic"]
     assert "rigid-track idealisation" in lines["rigid"]
     assert "85.1 MN/m per metre" in lines["elastic"] and "kN/mm under one axle" in lines["elastic"]
+    assert "damping and rail mass not recorded" in lines["elastic"]
+    # the damped, massive track states its damping and rail mass with their units
+    config["track"].update(foundation_damping=1.96e5, rail_mass=120.0)
+    ds.attrs["config_json"] = json.dumps(config)
+    line = report._track_model(ds)
+    beta = (8.51e7 / (4 * 1.283e7)) ** 0.25
+    assert "foundation damping 196 kN s/m per metre of track" in line, line
+    assert f"({1.5 * 1.96e5 / beta / 1e3:.4g} kN s/m under one axle)" in line, line
+    assert "rail mass 120 kg per metre of track" in line, line
+    assert f"({1.5 * 120.0 / beta:.4g} kg under one axle)" in line, line
 
 
 def test_track__implausible_stiffness_is_refused_naming_the_keys():

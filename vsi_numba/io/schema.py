@@ -155,6 +155,21 @@ ENVELOPES = {
     "position_of_min_contact_force": (
         ("wheel",), "m", "wheel position along the track at the minimum contact force", {},
     ),
+    "max_carbody_acceleration_car_end": (
+        ("vehicle",), "m s-2",
+        "maximum absolute vertical car-body acceleration at the car-body ends (bounce plus "
+        "pitch times the end's distance from the centre of gravity; NaN: ends not known)",
+        {"cell_methods": "time: maximum"},
+    ),
+    "time_of_max_carbody_acceleration_car_end": (
+        ("vehicle",), "s", "time of the maximum absolute car-body acceleration at the car "
+        "ends", {},
+    ),
+    "position_of_max_carbody_acceleration_car_end": (
+        ("vehicle",), "m",
+        "car-body end of the maximum car-end acceleration: distance ahead of the body's "
+        "centre of gravity (positive: front end)", {},
+    ),
     "time_of_max_carbody_acceleration": (
         ("vehicle",), "s", "time of the maximum absolute car-body acceleration", {},
     ),

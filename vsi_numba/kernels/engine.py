@@ -93,6 +93,11 @@ class VehicleArrays(NamedTuple):
     body_pt_start: np.ndarray = np.zeros(1, np.int64)  # (n_b + 1,)
     body_pt_pitch: np.ndarray = np.zeros(0, np.int64)  # (n_pt,) global pitch DOF or -1
     body_pt_d: np.ndarray = np.zeros(0)  # (n_pt,) m ahead of the centre of gravity
+    # car-body end points of body b (car-end comfort envelope), the same way:
+    # body_end_start[b] .. body_end_start[b + 1] - 1 (none: the envelope stays NaN)
+    body_end_start: np.ndarray = np.zeros(1, np.int64)  # (n_b + 1,)
+    body_end_pitch: np.ndarray = np.zeros(0, np.int64)  # (n_end,) global pitch DOF or -1
+    body_end_d: np.ndarray = np.zeros(0)  # (n_end,) m ahead of the centre of gravity
     # nonlinear suspension elements (see the legend), grouped by vehicle: vehicle b has
     # the elements nl_start[b] .. nl_start[b + 1] - 1; none: every vehicle is linear and
     # the step is the linear one, bit for bit
@@ -249,6 +254,9 @@ class Reduce(NamedTuple):
     body: np.ndarray  # (n_runs, n_veh) max |body acceleration|
     body_t: np.ndarray  # (n_runs, n_veh) s
     body_x: np.ndarray  # (n_runs, n_veh) comfort point of the maximum, m ahead of the CG
+    body_end: np.ndarray  # (n_runs, n_veh) max |acceleration| over the body's ends (NaN)
+    body_end_t: np.ndarray  # (n_runs, n_veh) s
+    body_end_x: np.ndarray  # (n_runs, n_veh) end of the maximum, m ahead of the CG
     lost: np.ndarray  # (n_runs, n_w) int64: steps separated (total)
     longest: np.ndarray  # (n_runs, n_w) int64: steps of the longest single separation
     events: np.ndarray  # (n_runs, n_w) int64: separation events
@@ -1610,6 +1618,14 @@ def record(veh, st, wk, red, r, n, t, speed, out, h, iters):
                 red.body[r, b] = a
                 red.body_t[r, b] = t
                 red.body_x[r, b] = veh.body_pt_d[k]
+        k0 = veh.body_end_start[b]
+        for k in range(k0, veh.body_end_start[b + 1]):
+            th = veh.body_end_pitch[k]
+            a = abs(a0 + veh.body_end_d[k] * st.udd[th]) if th >= 0 else abs(a0)
+            if (n == 0 and k == k0) or a > red.body_end[r, b]:
+                red.body_end[r, b] = a
+                red.body_end_t[r, b] = t
+                red.body_end_x[r, b] = veh.body_end_d[k]
     if iters > red.iters[r]:
         red.iters[r] = iters
     if red.le_E.shape[1] > 0:

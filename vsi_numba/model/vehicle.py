@@ -20,11 +20,15 @@ stiffness of each element's branch.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
 
 GRAVITY = 9.81  # m s-2, as in the published train data (TTB-2D ``Calc.Cte.grav``)
+
+# car-body length over bogie spacing when a car gives no body length (railway_car)
+BODY_LENGTH_PER_BOGIE_SPACING = 1.45
 
 
 class VehicleMatrixError(ValueError):
@@ -176,6 +180,11 @@ class Vehicle:
         bounce only).  Empty (the default, e.g. a sprung mass or a user vehicle): the
         centre of gravity only.  :class:`MultibodyBuilder` puts them at the centre and over
         every pivot of the body's suspension (see :meth:`MultibodyBuilder.build`).
+    end_points : tuple
+        The car-body ends of each reported body, in the form of ``comfort_points``
+        (front end first); empty (the default): no end points known, the car-end
+        envelope is not evaluated (NaN).  :func:`railway_car` sets them from the body
+        length.
     nonlinear : tuple of NonlinearElement
         Bump stops and damper blow-offs acting on top of M, C, K (empty: linear).
     """
@@ -195,6 +204,7 @@ class Vehicle:
     status: str = ""
     comfort_points: tuple = ()
     nonlinear: tuple[NonlinearElement, ...] = ()
+    end_points: tuple = ()
 
     def __post_init__(self):
         n = np.asarray(self.M).shape[0] if np.asarray(self.M).size else 0
@@ -221,7 +231,10 @@ class Vehicle:
         if self.comfort_points and len(self.comfort_points) != len(self.body_dofs):
             raise ValueError(f"vehicle {self.name!r}: one tuple of comfort points per car "
                              "body is needed")
-        for pts in self.comfort_points:
+        if self.end_points and len(self.end_points) != len(self.body_dofs):
+            raise ValueError(f"vehicle {self.name!r}: one tuple of end points per car "
+                             "body is needed")
+        for pts in (*self.comfort_points, *self.end_points):
             for th, d in pts:
                 if not -1 <= int(th) < n or not np.isfinite(d):
                     raise ValueError(f"vehicle {self.name!r}: bad comfort point ({th}, {d})")
@@ -235,6 +248,12 @@ class Vehicle:
         if self.comfort_points and self.comfort_points[k]:
             return tuple((int(th), float(d)) for th, d in self.comfort_points[k])
         return ((-1, 0.0),)
+
+    def body_end_points(self, k: int) -> tuple[tuple[int, float], ...]:
+        """Car-body end points ``(pitch_dof, d)`` of reported body ``k`` (empty: none)."""
+        if self.end_points and k < len(self.end_points):
+            return tuple((int(th), float(d)) for th, d in self.end_points[k])
+        return ()
 
     @property
     def body_dofs(self) -> tuple[int, ...]:
@@ -384,9 +403,10 @@ class MultibodyBuilder:
         evaluated at each reported body's centre of gravity and over every pivot of its
         suspension (the secondary suspension over the bogie centres of a railway car).
         The acceleration of a rigid body, bounce plus pitch, is linear in the position
-        along it, so the largest over the length between the pivots is at one of them; the
-        car ends beyond the pivots are not in the vehicle data, so they are not
-        evaluated (they would extrapolate the pitch further).
+        along it, so the largest over the length between the pivots is at one of them.
+        The car-body ends beyond the pivots (larger still) are a separate envelope, from
+        ``Vehicle.end_points`` (set by :func:`railway_car`, not here: the builder does
+        not know the body's length).
         """
         n = len(self._masses)
         M = np.diag(self._masses)
@@ -482,6 +502,8 @@ def railway_car(
     primary_damper_blowoff: DamperBlowoff | None = None,
     secondary_bump_stop: BumpStop | None = None,
     secondary_damper_blowoff: DamperBlowoff | None = None,
+    body_length: float | None = None,
+    body_overhangs: tuple[float, float] | None = None,
 ) -> Vehicle:
     """The 10-DOF planar railway car (whole-vehicle values).
 
@@ -492,7 +514,17 @@ def railway_car(
     behind the front bogie centre (default: midway).  The optional bump stops and
     damper blow-offs apply to every primary (per wheelset) or secondary (per bogie)
     suspension.
+
+    The car-body ends (``Vehicle.end_points``, the car-end comfort envelope) are
+    ``body_overhangs = (front, rear)`` metres ahead of the front and behind the rear
+    bogie centre when given (the library cars' ``front_overhang``/``rear_overhang``),
+    else ``body_length / 2`` ahead of and behind the midpoint of the bogie centres (the
+    bogies placed symmetrically in the body); ``body_length`` defaults to
+    ``BODY_LENGTH_PER_BOGIE_SPACING`` times ``bogie_spacing`` (the ratio of an ICE3 end
+    car, 25.8 m over 17.4 m, and of a UIC-Z coach, 26.4 m over 19.0 m, ~1.4-1.5).
     """
+    if body_length is None:
+        body_length = BODY_LENGTH_PER_BOGIE_SPACING * bogie_spacing
     if body_cg_to_front_bogie is None:
         body_cg_to_front_bogie = 0.5 * bogie_spacing
     half = 0.5 * wheelbase
@@ -516,7 +548,15 @@ def railway_car(
     for tag, bogie, pos in wheels:
         b.connect(bogie, tag, pos, primary_stiffness, primary_damping, primary_bump_stop,
                   primary_damper_blowoff, f"primary {tag}")
-    return b.build(body="body", status=status)
+    car = b.build(body="body", status=status)
+    th, pcg = b._bodies["body"][1], b._bodies["body"][2]
+    if body_overhangs is not None:
+        front, rear = pb1 - body_overhangs[0], pb2 + body_overhangs[1]
+    else:
+        mid = pb1 + 0.5 * bogie_spacing
+        front, rear = mid - 0.5 * body_length, mid + 0.5 * body_length
+    ends = ((th, pcg - front), (th, pcg - rear))
+    return dataclasses.replace(car, end_points=(ends,))
 
 
 def user_vehicle(

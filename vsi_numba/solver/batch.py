@@ -204,6 +204,9 @@ class BatchResult:
             "position_of_min_contact_force": with_loads(red.xmin_x, pk.vehicles.load_x0),
             "time_of_max_carbody_acceleration": red.body_t.copy(),
             "position_of_max_carbody_acceleration": red.body_x.copy(),
+            "max_carbody_acceleration_car_end": red.body_end.copy(),
+            "time_of_max_carbody_acceleration_car_end": red.body_end_t.copy(),
+            "position_of_max_carbody_acceleration_car_end": red.body_end_x.copy(),
         }
         grid = self.grid_x if self.grid_x is not None else np.zeros(0)
         if grid.size:
@@ -379,6 +382,8 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
         disp=z((n_r, n_p)), disp_t=z((n_r, n_p)), acc=z((n_r, n_p)), acc_t=z((n_r, n_p)),
         xmin=z((n_r, n_w)), xmin_x=z((n_r, n_w)), xmax=z((n_r, n_w)),
         body=z((n_r, n_b)), body_t=z((n_r, n_b)), body_x=z((n_r, n_b)),
+        body_end=np.full((n_r, n_b), np.nan), body_end_t=np.full((n_r, n_b), np.nan),
+        body_end_x=np.full((n_r, n_b), np.nan),
         lost=z((n_r, n_w), np.int64), longest=z((n_r, n_w), np.int64),
         events=z((n_r, n_w), np.int64), single=z((n_r, n_w), np.int64),
         run_len=z(n_w, np.int64), iters=z(n_r, np.int64),

@@ -140,6 +140,7 @@ def pack(
     Mi = np.zeros_like(M)
     grav, wdof, wveh, wpos, wmassless, body, body_names = [], [], [], [], [], [], []
     pt_start, pt_pitch, pt_d = [0], [], []
+    end_start, end_pitch, end_d = [0], [], []
     nl_start, nl_veh, nl_kind, nl_rows, nl_p = [0], [], [], [], []
     inverses: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
     for b, (_, v, off) in enumerate(dyn):
@@ -166,6 +167,10 @@ def pack(
                 pt_pitch.append(start[b] + th if th >= 0 else -1)
                 pt_d.append(dist)
             pt_start.append(len(pt_d))
+            for th, dist in v.body_end_points(k):
+                end_pitch.append(start[b] + th if th >= 0 else -1)
+                end_d.append(dist)
+            end_start.append(len(end_d))
         for el in v.nonlinear:  # nonlinear suspension elements, vehicle by vehicle
             row = np.zeros(nb)
             row[:n] = el.row
@@ -196,6 +201,9 @@ def pack(
         body_pt_start=np.asarray(pt_start, dtype=np.int64),
         body_pt_pitch=np.asarray(pt_pitch, dtype=np.int64),
         body_pt_d=np.asarray(pt_d, dtype=np.float64),
+        body_end_start=np.asarray(end_start, dtype=np.int64),
+        body_end_pitch=np.asarray(end_pitch, dtype=np.int64),
+        body_end_d=np.asarray(end_d, dtype=np.float64),
         nl_veh=np.asarray(nl_veh, dtype=np.int64),
         nl_start=np.asarray(nl_start, dtype=np.int64),
         nl_kind=np.asarray(nl_kind, dtype=np.int64),

@@ -50,7 +50,12 @@ def comfort(
         summary attrs plus ``required_level`` and ``level`` (attained in the governing
         case), and, when the results have ``position_of_max_carbody_acceleration``,
         ``governing_vehicle`` (name) and ``governing_position`` (m ahead of that body's
-        centre of gravity: the comfort point of the governing peak). All NaN (result
+        centre of gravity: the comfort point of the governing peak).  When the results
+        have ``max_carbody_acceleration_car_end`` (the car-body ends), the car-end peak
+        is reported apart, never mixed into ``value``: ``car_end_value`` (m s-2, largest
+        over every case), ``car_end_level``, ``car_end_train``, ``car_end_speed``,
+        ``car_end_vehicle`` and ``car_end_position`` (m ahead of that body's centre of
+        gravity).  All NaN (result
         "n/a", attribute ``note``) for a moving-force model (no car bodies).
     """
     ds = prepare(ds)
@@ -78,6 +83,32 @@ def comfort(
             name = (ds["vehicle_name"].sel(train=t).isel(vehicle=k).values
                     if "vehicle_name" in ds and "train" in ds["vehicle_name"].dims else k)
             out.attrs["governing_vehicle"] = str(name)
+    out.attrs.update(_car_end(ds))
     if ds.sizes.get("vehicle", 0) == 0 or not bool(out["value"].notnull().any()):
         out.attrs["note"] = "no car-body accelerations in the results (moving-force model)"
+    return out
+
+
+def _car_end(ds: xr.Dataset) -> dict:
+    """The largest car-end acceleration over every case and vehicle, with where it is
+    (empty when the results have no car-end envelope or no car with known ends)."""
+    name = "max_carbody_acceleration_car_end"
+    if name not in ds or not bool(ds[name].notnull().any()):
+        return {}
+    da = ds[name]
+    idx = da.fillna(-np.inf).argmax(...)
+    peak = float(da.isel(idx))
+    out = {"car_end_value": peak, "car_end_level": comfort_level(peak)}
+    for dim in ("train", "speed"):
+        if dim in idx and dim in da.coords:
+            val = da[dim].values[int(idx[dim])]
+            out[f"car_end_{dim}"] = str(val) if dim == "train" else float(val)
+    pos = f"position_of_{name}"
+    if pos in ds:
+        out["car_end_position"] = float(ds[pos].isel(idx))
+    k = int(idx["vehicle"])
+    out["car_end_vehicle"] = (str(ds["vehicle_name"].sel(train=out["car_end_train"])
+                                  .isel(vehicle=k).values)
+                              if "vehicle_name" in ds and "train" in ds["vehicle_name"].dims
+                              and "car_end_train" in out else str(k))
     return out

@@ -15,6 +15,9 @@ unloading on the deck except that it is not larger; the tables count those recor
 
 from __future__ import annotations
 
+import datetime
+import re
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -294,8 +297,40 @@ def write_tables(tables: dict[str, tuple[pd.DataFrame, str]], extra: dict[str, p
                 width = max(len(str(c.value)) if c.value is not None else 0 for c in col)
                 sheet.column_dimensions[col[0].column_letter].width = min(max(width, 8), 48)
             sheet.freeze_panes = "B2"
+        fix_xlsx_dates(writer)
+    reproducible_zip(xlsx)
     written.append(xlsx)
     return written
+
+
+#: The date written into the spreadsheets' properties and zip entries: a report of the
+#: same results is the same file (the run's time is in the results file's history).
+XLSX_DATE = datetime.datetime(2000, 1, 1)
+
+
+def fix_xlsx_dates(writer) -> None:
+    """Give the workbook of an open ``pd.ExcelWriter`` fixed creation/modification dates."""
+    props = writer.book.properties
+    props.created = props.modified = XLSX_DATE
+
+
+def reproducible_zip(path) -> None:
+    """Rewrite the zip file ``path`` (an XLSX) with fixed entry times, in place."""
+    path = Path(path)
+    with zipfile.ZipFile(path) as src:
+        entries = [(info, src.read(info)) for info in src.infolist()]
+    tmp = path.with_name(path.name + ".tmp")
+    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as dst:
+        for info, data in entries:
+            if info.filename == "docProps/core.xml":  # openpyxl stamps the save time
+                data = re.sub(rb"(<dcterms:(?:created|modified)[^>]*>)[^<]*(<)",
+                              rb"\g<1>" + XLSX_DATE.strftime("%Y-%m-%dT%H:%M:%SZ").encode()
+                              + rb"\g<2>", data)
+            fixed = zipfile.ZipInfo(info.filename, date_time=XLSX_DATE.timetuple()[:6])
+            fixed.compress_type = zipfile.ZIP_DEFLATED
+            fixed.external_attr = info.external_attr
+            dst.writestr(fixed, data)
+    tmp.replace(path)
 
 
 def ascii_units(frame: pd.DataFrame) -> pd.DataFrame:

@@ -313,6 +313,16 @@ def _summary(results: dict, table: pd.DataFrame, pts: np.ndarray) -> list[str]:
                    f"bogie pivot (the largest inside the coach between the pivots); required "
                    f"level **{a['required_level']}**; level reached in the governing case: "
                    f"{a['level']}.{where}")
+        if "car_end_value" in a:
+            d = float(a.get("car_end_position", np.nan))
+            end = ("front" if d > 0 else "rear") if np.isfinite(d) else "an"
+            out.append(f"- Comfort at the car-body ends (reported apart from the value above, "
+                       f"the ends lying beyond the pivots): largest "
+                       f"{_fmt(a['car_end_value'])} m/s² ({a['car_end_level']}), at the "
+                       f"{end} end of vehicle {a.get('car_end_vehicle', '')}"
+                       f"{f', {abs(d):g} m from its centre of gravity' if np.isfinite(d) else ''}"
+                       f" ({a.get('car_end_train', '')}, "
+                       f"{float(a.get('car_end_speed', np.nan)) * 3.6:.0f} km/h).")
     out.append("- Limits and clauses tagged [R] are recalled from the standard, not re-read: "
                "check them against the primary text before relying on them.")
     missing = [f"- {name.replace('_', ' ')}: {why}" for name, why in results.items()
@@ -407,9 +417,20 @@ def _track_model(ds: xr.Dataset) -> str | None:
                 "approach track: a kink in the rail at each deck end)")
     k, ei = float(t["foundation_stiffness"]), float(t["rail_EI"])
     beta = (k / (4 * ei)) ** 0.25
-    return (f"elastic track — the rail (EI = {ei:.4g} N m², both rails) on a foundation of "
+    text = (f"elastic track — the rail (EI = {ei:.4g} N m², both rails) on a foundation of "
             f"{k / 1e6:.4g} MN/m per metre of track over the deck and the approaches, "
-            f"{2 * k / beta / 1e6:.4g} kN/mm under one axle (vsi_numba.model.track)")
+            f"{2 * k / beta / 1e6:.4g} kN/mm under one axle")
+    if "foundation_damping" not in t or "rail_mass" not in t:
+        # results written before the track had damping and mass: undamped, massless
+        return text + ("; foundation damping and rail mass not recorded (undamped "
+                       "foundation, massless rail) (vsi_numba.model.track)")
+    c, m = float(t["foundation_damping"]), float(t["rail_mass"])
+    # the wheel element's damping and mass: (3/4) (c / k) and (3/4) (m' / k) times the
+    # axle stiffness 2 k / beta (ElasticTrack.wheel_element)
+    return text + (f"; foundation damping {c / 1e3:.4g} kN s/m per metre of track "
+                   f"({1.5 * c / beta / 1e3:.4g} kN s/m under one axle), rail mass "
+                   f"{m:.4g} kg per metre of track ({1.5 * m / beta:.4g} kg under one axle)"
+                   " (vsi_numba.model.track)")
 
 
 def _deck_end_note(ds: xr.Dataset, reach: float = 1.0) -> list[str]:

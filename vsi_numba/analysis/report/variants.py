@@ -25,6 +25,7 @@ from vsi_numba.analysis.report.document import (
     write_markdown,
 )
 from vsi_numba.analysis.report.echo import fmt_number, input_echo, title_block
+from vsi_numba.analysis.report.tables import fix_xlsx_dates, reproducible_zip
 from vsi_numba.analysis.report.text import _version, _warnings_block, stored_warnings
 
 #: Units of the columns of :func:`vsi_numba.analysis.variants.variant_table` (CSV/XLSX
@@ -96,6 +97,8 @@ def write_variants_report(ds: xr.Dataset, outdir, source_path=None, **kwargs) ->
     with pd.ExcelWriter(outdir / "tables.xlsx", engine="openpyxl") as writer:
         units_table.to_excel(writer, sheet_name="variants", index=False)
         writer.sheets["variants"].freeze_panes = "B2"
+        fix_xlsx_dates(writer)
+    reproducible_zip(outdir / "tables.xlsx")
     gov = var.governing_variant(ds)
     view = var.variant_view(ds, gov)
     label = var.variant_label(ds, gov)

@@ -96,9 +96,12 @@ def vehicle_spec(vehicle_id: str) -> VehicleSpec:
 def get_vehicle(vehicle_id: str, name: str | None = None) -> Vehicle:
     """Build one vehicle entry as a 10-DOF :func:`railway_car` (``[whole]`` values)."""
     s = vehicle_spec(vehicle_id)
+    over = ((s.front_overhang, s.rear_overhang)
+            if s.front_overhang is not None and s.rear_overhang is not None else None)
     return railway_car(
         **s.whole, bogie_spacing=s.bogie_spacing, wheelbase=s.wheelbase,
         body_cg_to_front_bogie=s.cg_to_front_bogie, name=name or s.id, status=s.status,
+        body_overhangs=over,
     )
 
 

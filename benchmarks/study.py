@@ -829,7 +829,7 @@ def cluster_estimate(plan, kernel_seconds: dict, compute_1: float, fixed: float,
 
     total = sum(kernel_seconds[b.key] for b in plan)
     scale = compute_1 / total
-    chunks = dask_chunks(plan, chunk_seconds(plan, n_workers))
+    chunks = dask_chunks(plan, chunk_seconds(plan, n_workers), n_workers)
     times = [scale * sum(kernel_seconds[b.key] for b in c) for c in chunks]
     return fixed + list_schedule(times, n_workers), len(chunks)
 

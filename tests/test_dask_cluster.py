@@ -21,6 +21,7 @@ import xarray as xr
 
 from vsi_numba.study.backends import (
     CHUNK_SECONDS,
+    TAIL_CHUNKS_PER_THREAD,
     LoopbackCluster,
     chunk_seconds,
     dask_chunks,
@@ -64,7 +65,8 @@ def _listeners(pids):
 
 
 def _alive(pids, wait: float) -> list[int]:
-    """The processes of ``pids`` still running after up to ``wait`` seconds."""
+    """The processes of ``pids`` still running (zombies count as gone) once they are all
+    gone or ``wait`` seconds have passed (polled: no fixed sleep)."""
     t_end = time.monotonic() + wait
     while True:
         alive = []
@@ -86,15 +88,18 @@ def test_dask_cluster__separate_processes_bit_identical_to_local(tmp_path):
     cfg = tmp_path / "study.toml"
     cfg.write_text(textwrap.dedent(CONFIG))
     local = run_study(cfg, tmp_path / "local.nc").load()
-    with LoopbackCluster(2, tmp_path / "cluster") as cluster:
-        pids = [p.pid for p in cluster._procs]
-        tree = pids + [c.pid for p in pids for c in psutil.Process(p).children(recursive=True)]
-        assert len(tree) >= 5  # scheduler, 2 nannies, 2 workers (+ resource trackers)
-        found = _listeners(tree)
-        dist = run_study(cfg, tmp_path / "cluster.nc", scheduler=cluster.address).load()
+    tree: list[int] = []
+    try:
+        with LoopbackCluster(2, tmp_path / "cluster") as cluster:
+            tree = cluster.pids
+            assert len(tree) >= 5  # scheduler, 2 nannies, 2 workers (+ resource trackers)
+            found = _listeners(tree)
+            dist = run_study(cfg, tmp_path / "cluster.nc", scheduler=cluster.address).load()
+    finally:  # the cluster waits for its processes to go on exit, also after a failure
+        left = _alive(tree, wait=60.0)
+    assert not left, left
     assert len(found) >= 5, found  # scheduler, nannies, workers (and dashboards)
     assert all(ipaddress.ip_address(ip).is_loopback for _, ip in found), found
-    assert not _alive(tree, wait=10.0)
     assert sorted(local.variables) == sorted(dist.variables)
     for name in local.variables:  # no tolerance: same kernel, same inputs
         xr.testing.assert_identical(local[name], dist[name])
@@ -102,6 +107,25 @@ def test_dask_cluster__separate_processes_bit_identical_to_local(tmp_path):
     a, b = dict(local.attrs), dict(dist.attrs)
     a.pop("history"), b.pop("history")
     assert a == b
+
+
+class _Boom(Exception):
+    pass
+
+
+def test_loopback_cluster__every_process_goes_when_the_body_fails(tmp_path):
+    """An exception inside the ``with`` block still ends the scheduler, the nanny and its
+    worker (the worker is a grandchild: found through the nanny before the signals)."""
+    tree: list[int] = []
+    try:
+        with LoopbackCluster(1, tmp_path / "cluster") as cluster:
+            tree = cluster.pids
+            raise _Boom
+    except _Boom:
+        pass
+    assert len(tree) >= 3, tree  # scheduler, nanny, worker
+    left = _alive(tree, wait=0.0)  # the cluster waited for them on exit
+    assert not left, left
 
 
 def _plan(costs, histories=()):
@@ -131,6 +155,29 @@ def test_dask_chunks__every_batch_once_in_plan_order_largest_chunk_first():
     for c, nxt in zip(by_start, by_start[1:], strict=False):
         if not (any(b.histories[0] for b in c) or nxt[0].histories[0]):
             assert sum(b.cost for b in c) + nxt[0].cost > 1.0
+
+
+def test_dask_chunks__tail_shrinks_to_the_floor():
+    """With the thread count, a chunk's target is min(seconds, max(floor, cost from its
+    start to the plan's end / (TAIL_CHUNKS_PER_THREAD x threads))): checked chunk by chunk
+    against that formula (greedy: one batch more would pass it); the first tasks are full
+    size, the last ones at the floor."""
+    lo = CHUNK_SECONDS[0]
+    costs = [0.125] * 320  # 40 s in all, exact in binary
+    chunks = dask_chunks(_plan(costs), 2.0, n_threads=2)
+    assert sorted(b.index for c in chunks for b in c) == list(range(320))
+    by_start = sorted(chunks, key=lambda c: c[0].index)
+    tail = TAIL_CHUNKS_PER_THREAD * 2
+    for c, nxt in zip(by_start, [*by_start[1:], None], strict=True):
+        suffix = 0.125 * (320 - c[0].index)
+        target = min(2.0, max(lo, suffix / tail))
+        cost = sum(b.cost for b in c)
+        assert cost <= target, (c[0].index, cost, target)
+        if nxt is not None:
+            assert cost + nxt[0].cost > target
+    assert sum(b.cost for b in chunks[0]) == 2.0  # largest first: full size
+    assert sum(b.cost for b in chunks[-1]) == 0.25  # the floor (2 batches)
+    assert len(chunks) > 40 / 2.0  # more tasks than equal 2 s chunks
 
 
 def test_chunk_seconds__eight_tasks_per_thread_within_bounds():

@@ -364,7 +364,8 @@ class DaskBackend:
             client.wait_for_workers(1)  # the tasks would; later workers fetch the spec
         # a one-element list: the whole spec (a tuple) is one piece of data on the workers
         spec_ref = client.scatter([spec], broadcast=True, hash=False)[0]
-        chunks = dask_chunks(batches, chunk_seconds(batches, max(self.n_threads, 1)))
+        n_threads = max(self.n_threads, 1)
+        chunks = dask_chunks(batches, chunk_seconds(batches, n_threads), n_threads)
         futures = [
             client.submit(run_chunk, fn, spec_ref, chunk,
                           key=f"{self.key_prefix}-{chunk[0].key}-n{len(chunk)}",
@@ -389,6 +390,9 @@ class DaskBackend:
 CHUNK_SECONDS = (0.25, 2.0)
 #: Tasks per worker thread a chunked study aims at (load balance of the last tasks).
 CHUNKS_PER_THREAD = 8
+#: At the end of the plan a task holds at most the cost still to be chunked over this
+#: many tasks per worker thread (see :func:`dask_chunks`).
+TAIL_CHUNKS_PER_THREAD = 4
 
 
 def chunk_seconds(batches, n_threads: int) -> float:
@@ -404,26 +408,41 @@ def chunk_seconds(batches, n_threads: int) -> float:
     return min(hi, max(lo, total / (CHUNKS_PER_THREAD * max(int(n_threads), 1))))
 
 
-def dask_chunks(batches, seconds: float) -> list[list]:
+def dask_chunks(batches, seconds: float, n_threads: int | None = None) -> list[list]:
     """Group batches into tasks of about ``seconds`` estimated kernel time.
 
     Batches are taken in plan order (``index``: one variant's trains and speeds are
     neighbours, so a worker builds each model once), cut when the next batch would pass
-    ``seconds``; a batch that keeps raw histories is a task of its own (its buffers are
-    up to :data:`~vsi_numba.study.batches.BATCH_HISTORY_BYTES`).  The chunks are returned
-    largest first (longest-processing-time order).  The chunks depend on the worker
-    count; the batches, which name the stored results, do not.
+    the chunk's target; a batch that keeps raw histories is a task of its own (its
+    buffers are up to :data:`~vsi_numba.study.batches.BATCH_HISTORY_BYTES`).  The
+    chunks are returned largest first (longest-processing-time order).  The chunks
+    depend on the worker count; the batches, which name the stored results, do not.
+
+    With ``n_threads`` the target shrinks at the end of the plan (guided
+    self-scheduling): it is ``seconds``, or the cost still to be chunked over
+    ``TAIL_CHUNKS_PER_THREAD x n_threads`` when that is less, but no less than the
+    floor of :data:`CHUNK_SECONDS`.  Submitted largest first, the last tasks are then
+    short and the threads finish together.
     """
+    lo = min(CHUNK_SECONDS[0], seconds)
+    order = sorted(batches, key=lambda b: b.index)
+    remaining = float(sum(b.cost for b in order))
+    tail = None if n_threads is None else TAIL_CHUNKS_PER_THREAD * max(int(n_threads), 1)
     chunks: list[list] = []
     chunk: list = []
     cost = 0.0
-    for b in sorted(batches, key=lambda b: b.index):
+
+    def target():
+        return seconds if tail is None else min(seconds, max(lo, (remaining + cost) / tail))
+
+    for b in order:
         alone = any(b.histories)
-        if chunk and (alone or cost + b.cost > seconds):
+        if chunk and (alone or cost + b.cost > target()):
             chunks.append(chunk)
             chunk, cost = [], 0.0
         chunk.append(b)
         cost += b.cost
+        remaining -= b.cost
         if alone:
             chunks.append(chunk)
             chunk, cost = [], 0.0
@@ -452,8 +471,16 @@ class LoopbackCluster:
     Every listener (scheduler, its dashboard, workers, nannies, their dashboards) is
     bound to 127.0.0.1 on a free port.  The processes get ``env`` on top of this
     process's environment (default :func:`worker_env`: one thread each, this process's
-    ``NUMBA_CACHE_DIR``) and are ended on exit (SIGTERM, then SIGKILL after ``grace``
-    seconds), with their process groups.
+    ``NUMBA_CACHE_DIR``).
+
+    Start-up waits on events, never for a fixed time: the scheduler file (complete JSON),
+    then the scheduler's count of running workers, each polled until ``timeout`` seconds
+    have passed or a process has exited (then the error names the logs).  On exit, also
+    when the start or the body failed, every process of the cluster - the ones started
+    here and all their descendants (a nanny's worker) - is sent SIGTERM, then SIGKILL
+    after ``grace`` seconds, and waited for until it is gone.  The processes started here
+    also get SIGTERM from Linux if this thread dies (``PR_SET_PDEATHSIG``); a worker ends
+    with its nanny.
 
     Parameters
     ----------
@@ -461,12 +488,17 @@ class LoopbackCluster:
         Worker processes (one thread each).
     directory : path
         Scratch space of the cluster (scheduler file, worker directories, logs).
+    env : dict, optional
+        Environment added to this process's (default :func:`worker_env`).
     timeout : float
-        Seconds to wait for the scheduler and every worker.
+        Seconds to wait for the scheduler, for the workers, and for the processes to go
+        after SIGKILL.
+    grace : float
+        Seconds between SIGTERM and SIGKILL on exit.
     """
 
     def __init__(self, n_workers: int, directory, env: dict | None = None,
-                 timeout: float = 120.0, grace: float = 10.0):
+                 timeout: float = 300.0, grace: float = 10.0):
         from pathlib import Path
 
         if n_workers < 1:
@@ -479,6 +511,25 @@ class LoopbackCluster:
         self.address: str | None = None
         self._procs: list = []
 
+    @property
+    def pids(self) -> list[int]:
+        """Process ids of the cluster now: the processes started here (scheduler,
+        nannies) and all their descendants (workers)."""
+        return [p.pid for p in self._tree()]
+
+    def _tree(self) -> list:
+        import psutil
+
+        out: dict = {}
+        for p in self._procs:
+            try:
+                root = psutil.Process(p.pid)
+                for q in (root, *root.children(recursive=True)):
+                    out.setdefault(q.pid, q)
+            except psutil.Error:
+                continue
+        return list(out.values())
+
     def _start(self, args: list[str], name: str):
         import subprocess
 
@@ -486,7 +537,7 @@ class LoopbackCluster:
         try:
             proc = subprocess.Popen([sys.executable, "-m", "dask", *args], env=self.env,
                                     cwd=self.directory, stdout=log, stderr=subprocess.STDOUT,
-                                    start_new_session=True)
+                                    start_new_session=True, preexec_fn=_term_with_parent())
         finally:
             log.close()
         self._procs.append(proc)
@@ -504,10 +555,12 @@ class LoopbackCluster:
                          "--dashboard-address", f"{LOOPBACK}:0",
                          "--scheduler-file", str(sched_file)], "scheduler")
             t_end = time.monotonic() + self.timeout
-            while not sched_file.exists() or not sched_file.stat().st_size:
-                self._check(t_end, "the scheduler")
-                time.sleep(0.05)
-            self.address = json.loads(sched_file.read_text())["address"]
+            while self.address is None:
+                try:  # written when the scheduler listens; a partly written file waits
+                    self.address = json.loads(sched_file.read_text())["address"]
+                except (OSError, ValueError, KeyError):
+                    self._check(t_end, "the scheduler")
+                    time.sleep(0.05)
             for i in range(self.n_workers):
                 self._start(["worker", self.address, "--nthreads", "1",
                              "--host", LOOPBACK, "--dashboard-address", f"{LOOPBACK}:0",
@@ -516,8 +569,14 @@ class LoopbackCluster:
                              "--name", f"vsi-worker-{i}"], f"worker{i}")
             from dask.distributed import Client
 
+            t_end = time.monotonic() + self.timeout
             with Client(self.address, timeout=f"{self.timeout:.0f}s") as client:
-                client.wait_for_workers(self.n_workers, timeout=self.timeout)
+                while True:  # the scheduler's count of running workers, polled
+                    try:
+                        client.wait_for_workers(self.n_workers, timeout=1.0)
+                        break
+                    except TimeoutError:
+                        self._check(t_end, f"{self.n_workers} workers")
         except BaseException:
             self.__exit__(None, None, None)
             raise
@@ -528,30 +587,73 @@ class LoopbackCluster:
 
         dead = [p for p in self._procs if p.poll() is not None]
         if dead or time.monotonic() > t_end:
-            why = (f"exited with {dead[0].returncode}" if dead
+            why = (f"a process exited with {dead[0].returncode}" if dead
                    else f"not up after {self.timeout:.0f} s")
-            raise RuntimeError(f"{what} of the loopback Dask cluster {why}; "
+            raise RuntimeError(f"{what} of the loopback Dask cluster: {why}; "
                                f"logs in {self.directory}")
 
     def __exit__(self, *exc):
         import signal
-        import subprocess
+        import time
 
-        procs, self._procs = self._procs[::-1], []  # workers first, then the scheduler
+        import psutil
+
+        tree = self._tree()  # before any signal: a nanny's worker is found through it
+        procs = self._procs
+
+        def alive():
+            for p in procs:
+                p.poll()  # reap the direct children
+            out = []
+            for q in tree:
+                try:
+                    if q.status() != psutil.STATUS_ZOMBIE:
+                        out.append(q)
+                except psutil.NoSuchProcess:
+                    pass
+            return out
+
+        def wait(seconds):
+            t_end = time.monotonic() + seconds
+            while alive() and time.monotonic() < t_end:
+                time.sleep(0.05)
+
+        # SIGTERM to the scheduler and the nannies only: a nanny closes its worker (a
+        # worker killed under a running nanny would be restarted by it)
         for p in procs:
             if p.poll() is None:
                 try:
-                    os.killpg(p.pid, signal.SIGTERM)
+                    p.send_signal(signal.SIGTERM)
                 except OSError:
                     pass
+        wait(self.grace)
+        tree = list({q.pid: q for q in [*tree, *self._tree()]}.values())  # restarted ones
+        self._procs = []
+        for q in alive():
+            try:
+                q.send_signal(signal.SIGKILL)
+            except psutil.Error:
+                pass
+        wait(self.timeout)
         for p in procs:
             try:
-                p.wait(timeout=self.grace)
-            except subprocess.TimeoutExpired:
+                p.wait(timeout=self.timeout)
+            except Exception:  # noqa: BLE001 - nothing more to do about it
                 pass
-            try:
-                os.killpg(p.pid, signal.SIGKILL)  # the group: a nanny's worker too
-            except OSError:
-                pass
-            p.wait()
         return None
+
+
+def _term_with_parent() -> Callable[[], None] | None:
+    """A ``preexec_fn`` after which Linux sends the child SIGTERM when the parent thread
+    ends (``PR_SET_PDEATHSIG``); None where there is no ``prctl``.  The C library is
+    loaded here, in the parent: nothing is loaded between fork and exec."""
+    import signal
+
+    try:
+        import ctypes
+
+        prctl = ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):  # pragma: no cover - not Linux
+        return None
+    sig = int(signal.SIGTERM)
+    return lambda: prctl(1, sig)  # PR_SET_PDEATHSIG

@@ -618,15 +618,20 @@ class LoopbackCluster:
             while alive() and time.monotonic() < t_end:
                 time.sleep(0.05)
 
-        # SIGTERM to the scheduler and the nannies only: a nanny closes its worker (a
-        # worker killed under a running nanny would be restarted by it)
-        for p in procs:
-            if p.poll() is None:
-                try:
-                    p.send_signal(signal.SIGTERM)
-                except OSError:
-                    pass
-        wait(self.grace)
+        # SIGTERM to the nannies, then to the scheduler, never to a worker: a nanny
+        # closes its worker (one killed under a running nanny would be restarted), while
+        # the scheduler is still there to see it go
+        t_end = time.monotonic() + self.grace
+        for group in (procs[1:], procs[:1]):
+            for p in group:
+                if p.poll() is None:
+                    try:
+                        p.send_signal(signal.SIGTERM)
+                    except OSError:
+                        pass
+            while any(p.poll() is None for p in group) and time.monotonic() < t_end:
+                time.sleep(0.05)
+        wait(t_end - time.monotonic())
         tree = list({q.pid: q for q in [*tree, *self._tree()]}.values())  # restarted ones
         self._procs = []
         for q in alive():

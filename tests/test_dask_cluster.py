@@ -203,3 +203,21 @@ def test_list_schedule__hand_computed_makespans():
     plan = plan_of({"v0001_t000_i000_s0000-0056": 2.0, "v0000_t009_i000_s0000-0056": 1.0})
     assert [(b.variant, b.i_train, b.speeds[-1], b.cost) for b in plan] == [
         (0, 9, 56, 1.0), (1, 0, 56, 2.0)]
+
+
+def test_same_files__names_every_difference(tmp_path):
+    """The bit-identity check of benchmark measure j: [] for the same file written twice;
+    a last-bit change of one value, an added variable and a changed attribute are named;
+    the history line is ignored."""
+    from benchmarks.study import same_files
+
+    ds = xr.Dataset({"a": ("x", np.array([1.0, np.nan, 3.0])), "b": ("x", np.zeros(3))},
+                    attrs={"title": "t", "history": "one"})
+    ds.to_netcdf(tmp_path / "1.nc")
+    ds.assign_attrs(history="two").to_netcdf(tmp_path / "2.nc")  # NaN equals NaN
+    assert same_files(tmp_path / "1.nc", tmp_path / "2.nc") == []
+    a = ds["a"].values.copy()
+    a[0] = np.nextafter(a[0], 2.0)
+    ds.assign(a=("x", a), c=("x", np.ones(3))).assign_attrs(title="u").to_netcdf(
+        tmp_path / "3.nc")
+    assert same_files(tmp_path / "1.nc", tmp_path / "3.nc") == ["c", "a", "attrs"]

@@ -11,6 +11,7 @@ start-up (a few seconds) plus the workers' numba cache load.
 
 from __future__ import annotations
 
+import importlib
 import ipaddress
 import textwrap
 import time
@@ -18,6 +19,7 @@ import time
 import numpy as np
 import psutil
 import xarray as xr
+from dask.distributed import Client
 
 from vsi_numba.study.backends import (
     CHUNK_SECONDS,
@@ -83,8 +85,9 @@ def _alive(pids, wait: float) -> list[int]:
 
 def test_dask_cluster__separate_processes_bit_identical_to_local(tmp_path):
     """``vsi sweep --scheduler`` on 2 separate ``dask worker`` processes: every variable
-    and attribute but the history line equals the local run's; every listener of the
-    cluster is on the loopback interface; no cluster process is left afterwards."""
+    and attribute but the history line equals the local run's; the workers use the
+    models the client built (model building is switched off on them); every listener of
+    the cluster is on the loopback interface; no cluster process is left afterwards."""
     cfg = tmp_path / "study.toml"
     cfg.write_text(textwrap.dedent(CONFIG))
     local = run_study(cfg, tmp_path / "local.nc").load()
@@ -94,7 +97,11 @@ def test_dask_cluster__separate_processes_bit_identical_to_local(tmp_path):
             tree = cluster.pids
             assert len(tree) >= 5  # scheduler, 2 nannies, 2 workers (+ resource trackers)
             found = _listeners(tree)
-            dist = run_study(cfg, tmp_path / "cluster.nc", scheduler=cluster.address).load()
+            with Client(cluster.address) as client:  # the workers must not build a model:
+                client.run(lambda: setattr(importlib.import_module(  # the client's are sent
+                    "vsi_numba.study.spec"), "_build_model", None))
+                dist = run_study(cfg, tmp_path / "cluster.nc",
+                                 scheduler=cluster.address).load()
     finally:  # the cluster waits for its processes to go on exit, also after a failure
         left = _alive(tree, wait=60.0)
     assert not left, left

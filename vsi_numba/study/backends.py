@@ -362,12 +362,15 @@ class DaskBackend:
         client = self._client
         if not self.n_workers:  # scatter needs a worker: wait for one (no time limit), as
             client.wait_for_workers(1)  # the tasks would; later workers fetch the spec
-        # a one-element list: the whole spec (a tuple) is one piece of data on the workers
-        spec_ref = client.scatter([spec], broadcast=True, hash=False)[0]
+        # the spec (a tuple: one piece of data) and, on a cluster of other processes, the
+        # models this process built from it (the catalogue: 91, 2 MB pickled), so that
+        # no worker builds them again
+        models = _built_models(spec) if self.scheduler is not None else {}
+        spec_ref, models_ref = client.scatter([spec, models], broadcast=True, hash=False)
         n_threads = max(self.n_threads, 1)
         chunks = dask_chunks(batches, chunk_seconds(batches, n_threads), n_threads)
         futures = [
-            client.submit(run_chunk, fn, spec_ref, chunk,
+            client.submit(run_chunk, fn, spec_ref, chunk, models_ref,
                           key=f"{self.key_prefix}-{chunk[0].key}-n{len(chunk)}",
                           pure=False, retries=0, priority=-i)
             for i, chunk in enumerate(chunks)
@@ -383,6 +386,7 @@ class DaskBackend:
             fut.release()
             yield from zip(chunk, results, strict=True)
         spec_ref.release()
+        models_ref.release()
         self._futures = []
 
 
@@ -451,9 +455,15 @@ def dask_chunks(batches, seconds: float, n_threads: int | None = None) -> list[l
     return sorted(chunks, key=lambda c: (-sum(b.cost for b in c), c[0].index))
 
 
-def run_chunk(fn: Callable, spec, chunk) -> list:
+def run_chunk(fn: Callable, spec, chunk, models: dict | None = None) -> list:
     """Run ``fn(spec, batch)`` for every batch of a chunk; a batch's exception is its
-    result (the others still run)."""
+    result (the others still run).  ``models`` (spec -> built model) seed this process's
+    model cache first."""
+    if models:
+        from vsi_numba.study.spec import _remember
+
+        for s, m in models.items():
+            _remember(s, m)
     out = []
     for batch in chunk:
         try:
@@ -461,6 +471,14 @@ def run_chunk(fn: Callable, spec, chunk) -> list:
         except Exception as exc:  # reported per batch by the runner
             out.append(exc)
     return out
+
+
+def _built_models(spec) -> dict:
+    """The models this process holds for ``spec`` (one spec or a tuple of them)."""
+    from vsi_numba.study.spec import _MODELS
+
+    specs = (spec,) if hasattr(spec, "config_json") else tuple(spec)
+    return {s: _MODELS[s] for s in specs if s in _MODELS}
 
 
 class LoopbackCluster:

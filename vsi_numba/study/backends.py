@@ -458,12 +458,17 @@ def dask_chunks(batches, seconds: float, n_threads: int | None = None) -> list[l
 def run_chunk(fn: Callable, spec, chunk, models: dict | None = None) -> list:
     """Run ``fn(spec, batch)`` for every batch of a chunk; a batch's exception is its
     result (the others still run).  ``models`` (spec -> built model) seed this process's
-    model cache first."""
+    model cache with the chunk's models first (the cache keeps its bound: the oldest
+    model goes, as when it builds one)."""
     if models:
-        from vsi_numba.study.spec import _remember
+        from vsi_numba.study.batches import _spec_of
+        from vsi_numba.study.spec import _MODELS, MODEL_CACHE_SIZE
 
-        for s, m in models.items():
-            _remember(s, m)
+        for s in dict.fromkeys(_spec_of(spec, b) for b in chunk):
+            if s in models and s not in _MODELS:
+                while len(_MODELS) >= MODEL_CACHE_SIZE:
+                    _MODELS.pop(next(iter(_MODELS)))
+                _MODELS[s] = models[s]
     out = []
     for batch in chunk:
         try:

@@ -73,6 +73,8 @@ def _load(config):
 
 
 _MODELS: dict = {}
+#: Models a process keeps built (the oldest goes first).
+MODEL_CACHE_SIZE = 4
 
 
 def study_model(spec: StudySpec) -> StudyModel:
@@ -80,7 +82,7 @@ def study_model(spec: StudySpec) -> StudyModel:
     model = _MODELS.get(spec)
     if model is None:
         model = _build_model(_load(spec))
-        if len(_MODELS) >= 4:
+        if len(_MODELS) >= MODEL_CACHE_SIZE:
             _MODELS.pop(next(iter(_MODELS)))
         _MODELS[spec] = model
     return model

@@ -1224,7 +1224,7 @@ def crossing_step(br, veh, pr, prm, st, wk, t0, t1):
         for i in range(n_w):
             wk.was_active[i] = wk.active[i]
         if tc - t > eta:
-            status, it = vsi_step(br, veh, pr, prm, st, wk, tc, tc - t, -1)
+            status, it = vsi_step(br, veh, pr, prm, st, wk, tc, tc - t, np.int64(-1))
             total += it
             if status != OK:
                 return status, total
@@ -1263,7 +1263,7 @@ def crossing_step(br, veh, pr, prm, st, wk, t0, t1):
             for i in range(n_w):
                 wk.was_active[i] = wk.active[i]
             tk = t1 if k == m - 1 else t + (k + 1) * h
-            status, it = vsi_step(br, veh, pr, prm, st, wk, tk, h, -1)
+            status, it = vsi_step(br, veh, pr, prm, st, wk, tk, h, np.int64(-1))
             total += it
             if status != OK:
                 return status, total
@@ -1868,7 +1868,7 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
             wk.trk[i, 1] = 0.0
             wk.trk[i, 2] = 0.0
     dt = prm.dt
-    record(veh, st, wk, red, r, 0, 0.0, prm.speed, out, h, 0)
+    record(veh, st, wk, red, r, np.int64(0), 0.0, prm.speed, out, h, np.int64(0))
     for n in range(prm.n_steps):
         copy_state(st, bk)
         for i in range(n_w):
@@ -1895,7 +1895,7 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
                 status, iters = NOT_CONVERGED, 0
                 level = min(prm.max_sub, CROSSING_LEVELS) - 1
         else:
-            status, iters = vsi_step(br, veh, pr, prm, st, wk, (n + 1) * dt, dt, 0)
+            status, iters = vsi_step(br, veh, pr, prm, st, wk, (n + 1) * dt, dt, np.int64(0))
         while status != OK and level < prm.max_sub:
             level += 1
             copy_state(bk, st)
@@ -2013,7 +2013,7 @@ def mf_time_loop(br, veh, prm, st, wk, red, r, out, h, on, off, cs, sums):
         w2[j] = br.omega[j] ** 2
         wk.khat[j] = a0 + scale * (a1 * cq[j] + w2[j])
     load_windows(br, veh, speed, dt, prm.n_steps, on, off)
-    record(veh, st, wk, red, r, 0, 0.0, speed, out, h, 0)
+    record(veh, st, wk, red, r, np.int64(0), 0.0, speed, out, h, np.int64(0))
     # locals, not tuple fields, inside the step loop: no reference-count traffic
     q = st.q
     qd = st.qd

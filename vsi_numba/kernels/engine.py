@@ -1994,7 +1994,7 @@ def window_sums(veh, n, on, off, cs, sums):
     return nxt
 
 
-@njit
+@njit(inline="always")
 def mf_time_loop(br, veh, prm, st, wk, red, r, out, h, on, off, cs, sums):
     """:func:`time_loop` for a train of moving forces only (no vehicle DOFs, no contact).
 

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numba
 
-JIT_OPTIONS = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy"}
+JIT_OPTIONS = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy",
+               "_nrt": False}
 
 
 def njit(func=None, **overrides):

@@ -1126,7 +1126,7 @@ def restore_state(buf, st):
         k += 1
 
 
-@njit
+@njit(inline="always")
 def vsi_step(br, veh, pr, prm, st, wk, t1, dt, level):
     """One step of the coupled system: :func:`hht_step` when every vehicle is linear
     (bit for bit); with nonlinear elements, Newton on their branches (Eq. (3) of the 2014
@@ -1195,7 +1195,7 @@ def next_deck_end(br, veh, t, t1, speed):
     return best
 
 
-@njit
+@njit(inline="always")
 def crossing_step(br, veh, pr, prm, st, wk, t0, t1):
     """A step (t0, t1] in which wheels pass an end of the deck on the rigid track,
     split at every crossing time (event-driven).
@@ -1224,7 +1224,7 @@ def crossing_step(br, veh, pr, prm, st, wk, t0, t1):
         for i in range(n_w):
             wk.was_active[i] = wk.active[i]
         if tc - t > eta:
-            status, it = vsi_step(br, veh, pr, prm, st, wk, tc, tc - t, -1)
+            status, it = vsi_step(br, veh, pr, prm, st, wk, tc, tc - t, np.int64(-1))
             total += it
             if status != OK:
                 return status, total
@@ -1263,7 +1263,7 @@ def crossing_step(br, veh, pr, prm, st, wk, t0, t1):
             for i in range(n_w):
                 wk.was_active[i] = wk.active[i]
             tk = t1 if k == m - 1 else t + (k + 1) * h
-            status, it = vsi_step(br, veh, pr, prm, st, wk, tk, h, -1)
+            status, it = vsi_step(br, veh, pr, prm, st, wk, tk, h, np.int64(-1))
             total += it
             if status != OK:
                 return status, total
@@ -1534,16 +1534,24 @@ def impact_update(br, veh, prm, st, wk, dt):
 
 
 @njit(inline="always")
+def copy_into(src, dst):
+    """``dst[:] = src`` for two distinct 1-D arrays of one length, as a plain loop (a slice
+    assignment may allocate a temporary, and the kernels run without NRT)."""
+    for i in range(src.shape[0]):
+        dst[i] = src[i]
+
+
+@njit(inline="always")
 def copy_state(src, dst):
-    dst.q[:] = src.q
-    dst.qd[:] = src.qd
-    dst.qdd[:] = src.qdd
-    dst.u[:] = src.u
-    dst.ud[:] = src.ud
-    dst.udd[:] = src.udd
-    dst.fq_tot[:] = src.fq_tot
-    dst.fv_tot[:] = src.fv_tot
-    dst.X[:] = src.X
+    copy_into(src.q, dst.q)
+    copy_into(src.qd, dst.qd)
+    copy_into(src.qdd, dst.qdd)
+    copy_into(src.u, dst.u)
+    copy_into(src.ud, dst.ud)
+    copy_into(src.udd, dst.udd)
+    copy_into(src.fq_tot, dst.fq_tot)
+    copy_into(src.fv_tot, dst.fv_tot)
+    copy_into(src.X, dst.X)
 
 
 @njit(inline="always")
@@ -1868,7 +1876,7 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
             wk.trk[i, 1] = 0.0
             wk.trk[i, 2] = 0.0
     dt = prm.dt
-    record(veh, st, wk, red, r, 0, 0.0, prm.speed, out, h, 0)
+    record(veh, st, wk, red, r, np.int64(0), 0.0, prm.speed, out, h, np.int64(0))
     for n in range(prm.n_steps):
         copy_state(st, bk)
         for i in range(n_w):
@@ -1895,7 +1903,7 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
                 status, iters = NOT_CONVERGED, 0
                 level = min(prm.max_sub, CROSSING_LEVELS) - 1
         else:
-            status, iters = vsi_step(br, veh, pr, prm, st, wk, (n + 1) * dt, dt, 0)
+            status, iters = vsi_step(br, veh, pr, prm, st, wk, (n + 1) * dt, dt, np.int64(0))
         while status != OK and level < prm.max_sub:
             level += 1
             copy_state(bk, st)
@@ -1986,7 +1994,7 @@ def window_sums(veh, n, on, off, cs, sums):
     return nxt
 
 
-@njit
+@njit(inline="always")
 def mf_time_loop(br, veh, prm, st, wk, red, r, out, h, on, off, cs, sums):
     """:func:`time_loop` for a train of moving forces only (no vehicle DOFs, no contact).
 
@@ -2013,7 +2021,7 @@ def mf_time_loop(br, veh, prm, st, wk, red, r, out, h, on, off, cs, sums):
         w2[j] = br.omega[j] ** 2
         wk.khat[j] = a0 + scale * (a1 * cq[j] + w2[j])
     load_windows(br, veh, speed, dt, prm.n_steps, on, off)
-    record(veh, st, wk, red, r, 0, 0.0, speed, out, h, 0)
+    record(veh, st, wk, red, r, np.int64(0), 0.0, speed, out, h, np.int64(0))
     # locals, not tuple fields, inside the step loop: no reference-count traffic
     q = st.q
     qd = st.qd
@@ -2236,7 +2244,43 @@ def reset_work(wk):
     wk.trk0[:, :] = 0.0
 
 
+@njit(inline="always")
+def start_run(init, r, st, wk):
+    """Row ``r`` of ``init`` into the state ``st``; the workspace back to its initial
+    state."""
+    copy_into(init.q[r], st.q)
+    copy_into(init.qd[r], st.qd)
+    copy_into(init.qdd[r], st.qdd)
+    copy_into(init.u[r], st.u)
+    copy_into(init.ud[r], st.ud)
+    copy_into(init.udd[r], st.udd)
+    copy_into(init.fq_tot[r], st.fq_tot)
+    copy_into(init.fv_tot[r], st.fv_tot)
+    copy_into(init.X[r], st.X)
+    reset_work(wk)
+
+
 @njit
+def run_batch_mf(br, veh, prm, speeds, n_steps, init, st, wk, red, out, slots, status,
+                 reached, on, off, cs, sums):
+    """:func:`run_batch` of a moving-force model: every run in one call (thousands of
+    short runs in a design catalogue).  ``on``, ``off`` (n_loads,) int64, ``cs``
+    (2, n_loads) and ``sums`` (2, n_modes) are its scratch arrays."""
+    for r in range(speeds.shape[0]):
+        start_run(init, r, st, wk)
+        p = Params(prm.dt, prm.alpha, speeds[r], n_steps[r], prm.max_iter, prm.tol_gap,
+                   prm.tol_force, prm.max_sub, prm.contact_model, prm.hertz_g)
+        s, k = mf_time_loop(br, veh, p, st, wk, red, r, out, slots[r], on, off, cs, sums)
+        status[r] = s
+        reached[r] = k
+
+
+@njit
+def start_vsi_run(init, r, st, wk):
+    """:func:`start_run` as a kernel of its own, for the interaction runs."""
+    start_run(init, r, st, wk)
+
+
 def run_batch(br, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, slots, status,
               reached):
     """Run one packed model at every speed of ``speeds`` (m/s), one run after the other.
@@ -2246,27 +2290,21 @@ def run_batch(br, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, slo
     ``slots[r] >= 0`` its raw histories go to that slot of ``out``.  ``status[r]`` and
     ``reached[r]`` receive the run's status code and the step it reached.  The model,
     workspaces and outputs are allocated once per batch by the caller.
+
+    A moving-force model runs all its runs in one kernel call (:func:`run_batch_mf`);
+    an interaction model calls :func:`time_loop` once per run from here (a run is
+    thousands of coupled steps, so the call costs nothing), which keeps the interaction
+    kernels out of a moving-force study's first compilation and one level shallower
+    (numba re-optimises every callee inside each caller it is linked into).
     """
-    on = np.zeros(veh.load_x0.shape[0], np.int64)
-    off = np.zeros(veh.load_x0.shape[0], np.int64)
-    cs = np.zeros((2, veh.load_x0.shape[0]))
-    sums = np.zeros((2, br.omega.shape[0]))
+    if veh.wheel_dof.shape[0] == 0 and veh.start.shape[0] == 1:
+        n_l = veh.load_x0.shape[0]
+        run_batch_mf(br, veh, prm, speeds, n_steps, init, st, wk, red, out, slots, status,
+                     reached, np.zeros(n_l, np.int64), np.zeros(n_l, np.int64),
+                     np.zeros((2, n_l)), np.zeros((2, br.omega.shape[0])))
+        return
     for r in range(speeds.shape[0]):
-        st.q[:] = init.q[r]
-        st.qd[:] = init.qd[r]
-        st.qdd[:] = init.qdd[r]
-        st.u[:] = init.u[r]
-        st.ud[:] = init.ud[r]
-        st.udd[:] = init.udd[r]
-        st.fq_tot[:] = init.fq_tot[r]
-        st.fv_tot[:] = init.fv_tot[r]
-        st.X[:] = init.X[r]
-        reset_work(wk)
-        p = Params(prm.dt, prm.alpha, speeds[r], n_steps[r], prm.max_iter, prm.tol_gap,
-                   prm.tol_force, prm.max_sub, prm.contact_model, prm.hertz_g)
-        if veh.wheel_dof.shape[0] == 0 and veh.start.shape[0] == 1:
-            s, k = mf_time_loop(br, veh, p, st, wk, red, r, out, slots[r], on, off, cs, sums)
-        else:
-            s, k = time_loop(br, veh, pr, p, st, bk, wk, red, r, out, slots[r])
-        status[r] = s
-        reached[r] = k
+        start_vsi_run(init, r, st, wk)
+        p = prm._replace(speed=float(speeds[r]), n_steps=int(n_steps[r]))
+        status[r], reached[r] = time_loop(br, veh, pr, p, st, bk, wk, red, r, out,
+                                          int(slots[r]))

@@ -240,9 +240,8 @@ class KernelRun:
 def engine_window(bridge, train, speed, profile, settings, n_steps=None) -> KernelRun:
     """The engine's time loop alone over the first ``n_steps`` steps (all by default).
 
-    Mirrors ``simulate.run_kernel`` so that the CPU time of the loop itself can be taken;
-    falls back to ``run_kernel`` (CPU time then includes the static start) if the
-    engine's internals changed.
+    The kernel arguments are those ``solver.batch.run_batch`` builds (workspace,
+    envelopes with the load effects, one history slot); the CPU time is the time loop's.
     """
     sim = _engine()
     from vsi_numba.model.irregularity import no_irregularity
@@ -252,27 +251,36 @@ def engine_window(bridge, train, speed, profile, settings, n_steps=None) -> Kern
     if n_steps is not None:
         n = min(int(n_steps), packed.params.n_steps)
         packed = dataclasses.replace(packed, params=packed.params._replace(n_steps=n))
-    try:
-        from vsi_numba.kernels import engine as ek
-        from vsi_numba.solver.batch import _workspace
+    from vsi_numba.kernels import engine as ek
+    from vsi_numba.solver import batch as sim_batch
 
-        st = sim.initial_state(packed, profile)
-        n_m, n_w = packed.bridge.omega.size, packed.vehicles.wheel_dof.size
-        n = packed.params.n_steps + 1
-        bk = ek.State(*(np.empty_like(a) for a in st))
-        wk = _workspace(n_m, packed.n_dof, n_w)
-        out = ek.Output(q=np.full((n, n_m), np.nan), qdd=np.full((n, n_m), np.nan),
-                        X=np.full((n, n_w), np.nan), contact=np.zeros((n, n_w), np.int8),
-                        body_acc=np.full((n, packed.vehicles.body_dof.size), np.nan),
-                        iters=np.zeros(n, np.int16))
-        c0, w0 = time.process_time(), time.perf_counter()
-        status, _ = ek.time_loop(packed.bridge, packed.vehicles, packed.profile,
-                                 packed.params, st, bk, wk, out)
-        wall, cpu = time.perf_counter() - w0, time.process_time() - c0
-    except (AttributeError, TypeError):
-        c0 = time.process_time()
-        status, _, out, wall = sim.run_kernel(packed, profile)
-        cpu = time.process_time() - c0
+    # the kernel arguments as run_batch builds them (workspace, envelopes with the
+    # load effects, a history slot), then the time loop alone
+    grabbed = {}
+
+    def grab(*args):
+        grabbed["args"] = args
+
+    real = sim_batch.ek.run_batch
+    sim_batch.ek.run_batch = grab
+    try:
+        sim_batch.run_batch(packed, profile, [speed], _midspans(bridge), settings, bridge,
+                            keep_histories=[True])
+    finally:
+        sim_batch.ek.run_batch = real
+    (br, veh, pr, prm, _sp, n_all, init, st, bk, wk, red, hist, _sl, _s,
+     _r) = grabbed["args"]
+    for name, a in zip(ek.State._fields, init, strict=True):
+        getattr(st, name)[:] = a[0]
+    ek.reset_work(wk)
+    n = packed.params.n_steps
+    p = ek.Params(prm.dt, prm.alpha, speed, n, prm.max_iter, prm.tol_gap,
+                  prm.tol_force, prm.max_sub, prm.contact_model, prm.hertz_g)
+    c0, w0 = time.process_time(), time.perf_counter()
+    status, _ = ek.time_loop(br, veh, pr, p, st, bk, wk, red, 0, hist, 0)
+    wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+    m = n + 1
+    out = ek.Output(*(a[0, :m] if a.shape[0] else a for a in hist))
     return KernelRun(wall, cpu, packed.params.n_steps, out, int(status))
 
 

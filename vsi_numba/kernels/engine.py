@@ -1135,23 +1135,24 @@ def vsi_step(br, veh, pr, prm, st, wk, t1, dt, level):
     again from the saved state until no element moves (a piecewise-linear law: the
     iteration ends when the branch set is consistent; the vehicle blocks whose branch
     set changed are refactored).  Returns (status, contact iterations summed)."""
-    if veh.nl_veh.shape[0] == 0:
-        return hht_step(br, veh, pr, prm, st, wk, t1, dt, level)
-    save_state(st, wk.nbk)
-    # the track elements under the wheels (damped/massive track) are state too: kept at
-    # the end of the buffer (its last 3 n_w entries)
+    # one call site of hht_step (this function is inlined where it is called)
+    nl = veh.nl_veh.shape[0] > 0
     n_w = veh.wheel_dof.shape[0]
     track = track_element(veh)
     off = wk.nbk.shape[0] - 3 * n_w
-    if track:
-        for i in range(n_w):
-            for c in range(3):
-                wk.nbk[off + 3 * i + c] = wk.trk[i, c]
+    if nl:
+        save_state(st, wk.nbk)
+        # the track elements under the wheels (damped/massive track) are state too: kept
+        # at the end of the buffer (its last 3 n_w entries)
+        if track:
+            for i in range(n_w):
+                for c in range(3):
+                    wk.nbk[off + 3 * i + c] = wk.trk[i, c]
     total = 0
-    for _ in range(prm.max_iter):
+    for _ in range(prm.max_iter if nl else 1):
         status, iters = hht_step(br, veh, pr, prm, st, wk, t1, dt, level)
         total += iters
-        if status != OK:
+        if status != OK or not nl:
             return status, total
         if not nl_update_branches(veh, wk, st, prm.tol_force):
             return OK, total

@@ -8,9 +8,9 @@ runs, and IEEE semantics are needed for the NaN checks in the time loop.
 ``_nrt=False``: the kernels run without numba's runtime (no reference counting of the
 arrays in the model, workspace and output tuples on every call and slice). They allocate
 nothing - every array comes from the caller, and copies are plain loops - so nothing is
-lost; the interaction step takes about a third less time and the first compilation about
-half. A kernel that must allocate opts back in with ``njit(_nrt=True)`` (numba then
-refuses an allocation in the others at compile time).
+lost; the interaction step takes about a third less CPU time and the first compilation
+about a fifth less. A kernel that must allocate opts back in with ``njit(_nrt=True)``
+(numba refuses an allocation in the others at compile time).
 """
 
 from __future__ import annotations

@@ -237,6 +237,30 @@ class KernelRun:
     status: int
 
 
+def kernel_args(packed, profile, speed, points, settings, bridge, **kw):
+    """The arguments of the engine's ``run_batch`` as ``solver.batch.run_batch`` builds
+    them for one run at ``speed`` (workspace, envelopes with the load effects, history
+    slots per ``keep_histories``), the state and workspace set for that run
+    (``start_vsi_run``)."""
+    from vsi_numba.kernels import engine as ek
+    from vsi_numba.solver import batch as sim_batch
+
+    grabbed = {}
+
+    def grab(*args):
+        grabbed["args"] = args
+
+    real = sim_batch.ek.run_batch
+    sim_batch.ek.run_batch = grab
+    try:
+        sim_batch.run_batch(packed, profile, [speed], points, settings, bridge, **kw)
+    finally:
+        sim_batch.ek.run_batch = real
+    args = grabbed["args"]
+    ek.start_vsi_run(args[6], 0, args[7], args[9])  # init row 0 -> st; reset wk
+    return args
+
+
 def engine_window(bridge, train, speed, profile, settings, n_steps=None) -> KernelRun:
     """The engine's time loop alone over the first ``n_steps`` steps (all by default).
 
@@ -252,27 +276,12 @@ def engine_window(bridge, train, speed, profile, settings, n_steps=None) -> Kern
         n = min(int(n_steps), packed.params.n_steps)
         packed = dataclasses.replace(packed, params=packed.params._replace(n_steps=n))
     from vsi_numba.kernels import engine as ek
-    from vsi_numba.solver import batch as sim_batch
 
     # the kernel arguments as run_batch builds them (workspace, envelopes with the
     # load effects, a history slot), then the time loop alone
-    grabbed = {}
-
-    def grab(*args):
-        grabbed["args"] = args
-
-    real = sim_batch.ek.run_batch
-    sim_batch.ek.run_batch = grab
-    try:
-        sim_batch.run_batch(packed, profile, [speed], _midspans(bridge), settings, bridge,
-                            keep_histories=[True])
-    finally:
-        sim_batch.ek.run_batch = real
     (br, veh, pr, prm, _sp, n_all, init, st, bk, wk, red, hist, _sl, _s,
-     _r) = grabbed["args"]
-    for name, a in zip(ek.State._fields, init, strict=True):
-        getattr(st, name)[:] = a[0]
-    ek.reset_work(wk)
+     _r) = kernel_args(packed, profile, speed, _midspans(bridge), settings, bridge,
+                       keep_histories=[True])
     n = packed.params.n_steps
     p = ek.Params(prm.dt, prm.alpha, speed, n, prm.max_iter, prm.tol_gap,
                   prm.tol_force, prm.max_sub, prm.contact_model, prm.hertz_g)

@@ -290,7 +290,6 @@ def _setup(model):
     (br, veh, pr, prm, st, bk, wk, red, out) with ``bk`` the mid-passage state and
     ``prm.n_steps`` its step index."""
     from vsi_numba.kernels import engine as ek
-    from vsi_numba.solver import batch as sim_batch
 
     if isinstance(model, dict):
         from vsi_numba.study.batches import packed_for
@@ -311,22 +310,10 @@ def _setup(model):
         s = np.asarray(bridge.supports, float)
         points = 0.5 * (s[:-1] + s[1:])
         deck = None
-    grabbed = {}
+    from benchmarks.cases import kernel_args
 
-    def grab(*args):
-        grabbed["args"] = args
-
-    real = sim_batch.ek.run_batch
-    sim_batch.ek.run_batch = grab  # the kernel arguments as run_batch builds them
-    try:
-        sim_batch.run_batch(packed, profile, [speed], points, settings, bridge, deck=deck)
-    finally:
-        sim_batch.ek.run_batch = real
     (br, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, slots, status,
-     reached) = grabbed["args"]
-    for name, a in zip(ek.State._fields, init, strict=True):
-        getattr(st, name)[:] = a[0]
-    ek.reset_work(wk)
+     reached) = kernel_args(packed, profile, speed, points, settings, bridge, deck=deck)
     # run to the middle of the passage (train on the span) and profile from that state
     mid = int(n_steps[0]) // 2
     p = ek.Params(prm.dt, prm.alpha, speed, mid, prm.max_iter, prm.tol_gap, prm.tol_force,

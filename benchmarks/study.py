@@ -786,6 +786,15 @@ def _measure_h(b: Bench, res: StudyResult):
 TEST_COMMAND = REPO / "reports" / "test_command.json"
 
 
+def readme_pytest_options() -> str:
+    """The options of ``pytest`` in the README's test command (e.g. ``-q -n 2``)."""
+    for line in (REPO / "README.md").read_text(encoding="utf-8").splitlines():
+        head, sep, tail = line.partition("-m pytest")
+        if sep and "NUMBA_CACHE_DIR" in head:
+            return tail.strip()
+    raise RuntimeError("README.md has no test command (`... -m pytest ...`)")
+
+
 def _measure_i(b: Bench, res: StudyResult):
     import datetime
     import json
@@ -805,9 +814,10 @@ def _measure_i(b: Bench, res: StudyResult):
         return
     venv = Path(sys.executable).parent
     cache = b.tmp / "empty_numba_cache_tests"
-    # pytest's summary goes to stderr, whose tail run_command keeps
+    # pytest's summary goes to stderr, whose tail run_command keeps; pytest's options are
+    # the README's (the test command's last words)
     cmd = ["bash", "-c", f"{venv / 'ruff'} check vsi_numba tests benchmarks 1>&2 && "
-           f"{sys.executable} -m pytest -q -p no:cacheprovider 1>&2"]
+           f"{sys.executable} -m pytest {readme_pytest_options()} -p no:cacheprovider 1>&2"]
     env = {**b.env, "NUMBA_CACHE_DIR": str(cache)}
     load0 = load1()
     r = run_command(cmd, REPO, env)

@@ -176,3 +176,14 @@ def test_ci_runs_the_readme_test_command_verbatim():
     script = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
     lines = [ln for ln in script.splitlines() if ln.strip() and not ln.startswith("#")]
     assert lines[-1] == command
+
+
+def test_the_timed_test_command_uses_the_readme_pytest_options():
+    """``python -m benchmarks --measure i`` times pytest with the README's options (the
+    worker count included), not a copy of them."""
+    from benchmarks.study import readme_pytest_options
+
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    command = re.findall(r"```bash\n(.*?)```", readme, flags=re.S)[1].strip()
+    assert command.endswith("-m pytest " + readme_pytest_options())
+    assert readme_pytest_options().startswith("-q")

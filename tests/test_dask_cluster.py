@@ -16,6 +16,7 @@ import ipaddress
 import textwrap
 import time
 
+import dask
 import numpy as np
 import psutil
 import xarray as xr
@@ -23,6 +24,7 @@ from dask.distributed import Client
 
 from vsi_numba.study.backends import (
     CHUNK_SECONDS,
+    QUIET_DASK,
     TAIL_CHUNKS_PER_THREAD,
     LoopbackCluster,
     chunk_seconds,
@@ -100,11 +102,17 @@ def test_dask_cluster__separate_processes_bit_identical_to_local(tmp_path):
             with Client(cluster.address) as client:  # the workers must not build a model:
                 client.run(lambda: setattr(importlib.import_module(  # the client's are sent
                     "vsi_numba.study.spec"), "_build_model", None))
+                # the cluster's processes run without the profiler and with slow ticks
+                quiet = client.run(lambda: {k: dask.config.get(k) for k in QUIET_DASK})
+                quiet_sched = client.run_on_scheduler(
+                    lambda: {k: dask.config.get(k) for k in QUIET_DASK})
                 dist = run_study(cfg, tmp_path / "cluster.nc",
                                  scheduler=cluster.address).load()
     finally:  # the cluster waits for its processes to go on exit, also after a failure
         left = _alive(tree, wait=60.0)
     assert not left, left
+    assert len(quiet) == 2 and all(q == QUIET_DASK for q in quiet.values()), quiet
+    assert quiet_sched == QUIET_DASK, quiet_sched
     assert len(found) >= 5, found  # scheduler, nannies, workers (and dashboards)
     assert all(ipaddress.ip_address(ip).is_loopback for _, ip in found), found
     assert sorted(local.variables) == sorted(dist.variables)

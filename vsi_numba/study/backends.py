@@ -50,9 +50,29 @@ WORKER_ENV = {
 }
 
 
+#: Dask settings of the clusters this package starts (and of its client): the batches are
+#: long compute-bound tasks, so the worker's statistical profiler (a stack sample every
+#: 10 ms), the event-loop tick monitor (every 20 ms, in every process) and the system
+#: monitor (every 0.5 s) only take CPU from them - 14 % of a core for an idle
+#: scheduler + 2 nanny/worker pairs, 4 % with these (measured, reports/benchmarks.md).
+QUIET_DASK = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "2s",
+}
+
+
+def dask_env(config: dict[str, object] = QUIET_DASK) -> dict[str, str]:
+    """``config`` as Dask's environment variables (``DASK_DISTRIBUTED__WORKER__...``)."""
+    return {"DASK_" + k.upper().replace(".", "__").replace("-", "_"): str(v)
+            for k, v in config.items()}
+
+
 def worker_env() -> dict[str, str]:
-    """Environment for local workers: :data:`WORKER_ENV` plus ``NUMBA_CACHE_DIR`` if set."""
+    """Environment for local workers: :data:`WORKER_ENV`, :data:`QUIET_DASK` (for Dask
+    processes) plus ``NUMBA_CACHE_DIR`` if set."""
     env = dict(WORKER_ENV)
+    env.update(dask_env())
     for name in ("NUMBA_CACHE_DIR", "NUMBA_OPT", "NUMBA_DISABLE_JIT"):
         if name in os.environ:
             env[name] = os.environ[name]
@@ -302,11 +322,13 @@ class DaskBackend:
         import dask
         from dask.distributed import Client, LocalCluster
 
-        # Dask's scratch space (spilling, locks) in the store, not the system temp dir
-        self._config = None
+        # Dask's scratch space (spilling, locks) in the store, not the system temp dir;
+        # no profiler and slow admin ticks in this process (QUIET_DASK)
+        config = dict(QUIET_DASK)
         if self.local_directory is not None:
-            self._config = dask.config.set({"temporary-directory": str(self.local_directory)})
-            self._config.__enter__()
+            config["temporary-directory"] = str(self.local_directory)
+        self._config = dask.config.set(config)
+        self._config.__enter__()
         if self.scheduler is not None:
             self._client = Client(self.scheduler, timeout="30s")
         else:

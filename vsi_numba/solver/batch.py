@@ -12,6 +12,7 @@ from vsi_numba.en1990 import frequency_cutoff
 from vsi_numba.kernels import engine as ek
 from vsi_numba.model.bridge import ModalBridge
 from vsi_numba.model.irregularity import Profile
+from vsi_numba.solver import warm
 from vsi_numba.solver.pack import (
     LoadEffectTables,
     ModelError,
@@ -398,6 +399,7 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     wk = _workspace(n_m, n_v, n_w, veh)
     status = np.zeros(n_r, np.int64)
     reached = np.zeros(n_r, np.int64)
+    warm.wait_for(warm.family_of(packed))  # a helper compiling these kernels: wait
     t0 = _time.perf_counter()
     ek.run_batch(packed.bridge, veh, packed.profile, packed.params, speeds, n_steps, init,
                  st, bk, wk, red, out, slots, status, reached)

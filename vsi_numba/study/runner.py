@@ -29,6 +29,7 @@ Exit codes of ``vsi sweep`` (:func:`vsi_numba.cli.sweep.sweep_command`)
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import json
@@ -600,12 +601,51 @@ def _workers_note(be, workers, scheduler) -> str:
     return f", {workers or be.n_workers} workers"
 
 
+def _start_compile_helper(be, spec, order) -> str | None:
+    """On a first run of a study needing both kernel families with neither in the numba
+    cache, a helper process compiles the family the batch ``order`` needs last
+    (:mod:`vsi_numba.solver.warm`); returns that family, or None.  Only for the backends
+    that run the batches in this process (serial, threads, ``--workers``' LocalCluster):
+    their first batch of that family waits for the helper."""
+    from vsi_numba.solver import warm
+    from vsi_numba.study.batches import _packed_train, _spec_of
+
+    in_process = be.name in ("serial", "threads") or (
+        be.name == "dask" and getattr(be, "scheduler", None) is None)
+    if (not in_process or os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0")
+            or any(warm.is_cached(f) for f in warm.FAMILIES)):
+        return None
+    seen: dict = {}  # train -> family (variants do not change the trains)
+    for b in order:
+        if b.i_train not in seen:
+            seen[b.i_train] = warm.family_of(_packed_train(_spec_of(spec, b), b.i_train))
+    family = warm.helper_family(seen.values(), cached=lambda f: False)
+    if family is not None:
+        try:
+            warm.start_helper(family)
+        except OSError:  # no process to spare: this process compiles both, as before
+            return None
+    return family
+
+
+@contextlib.contextmanager
+def _stop_helpers(family):
+    try:
+        yield
+    finally:
+        if family is not None:
+            from vsi_numba.solver import warm
+
+            warm.stop_helpers()
+
+
 def _run_pending(be, spec, pending, store, progress, n_runs, n_done, quiet=True) -> None:
     errors: list[tuple[Batch, BaseException]] = []
     order = sorted(pending, key=lambda b: (-b.cost, b.index))
     hold = _hold_after()
     stored = 0
-    with _Progress(progress, n_runs, n_done, "runs") as bar:
+    helper = _start_compile_helper(be, spec, order)
+    with _Progress(progress, n_runs, n_done, "runs") as bar, _stop_helpers(helper):
         with be:
             if be.name == "dask" and getattr(be, "scheduler", None) is not None:
                 n_w, n_t = be.n_workers, be.n_threads

@@ -1,0 +1,94 @@
+"""The compile helper of a first run (:mod:`vsi_numba.solver.warm`).
+
+What it must get right: which family a helper compiles (only when both are needed and
+neither is cached), that the helper's tiny model compiles the very signature a study
+uses (else the helper's work would be lost and the kernels compiled twice), and that a
+batch waiting for the helper never runs before the helper has exited.  Real processes,
+no timing assertions.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import threading
+
+import pytest
+
+from vsi_numba.kernels import engine as ek
+from vsi_numba.model import bridge as br
+from vsi_numba.model.library.builders import get_train
+from vsi_numba.solver import warm
+from vsi_numba.solver.settings import SolverSettings
+from vsi_numba.solver.simulate import pack, simulate
+
+
+def test_helper_family__only_two_uncached_families_and_the_last_one_needed():
+    none = lambda f: False  # noqa: E731 - a cache holding nothing
+    assert warm.helper_family(["interaction", "moving_force", "interaction"],
+                              none) == "moving_force"
+    assert warm.helper_family(["moving_force", "moving_force", "interaction"],
+                              none) == "interaction"
+    assert warm.helper_family(["interaction"] * 3, none) is None  # one family
+    assert warm.helper_family([], none) is None
+    mf_cached = lambda f: f == "moving_force"  # noqa: E731
+    assert warm.helper_family(["interaction", "moving_force"], mf_cached) is None
+
+
+def test_family_of__hslm_is_moving_forces_and_ice3_interaction():
+    beam = br.simply_supported(25.0, 7.16e10, 18000.0, n_modes=3)
+    s = SolverSettings(dt=1e-3)
+    assert warm.family_of(pack(beam, get_train("HSLM-A1", model="moving_force"), 50.0,
+                               None, s)) == "moving_force"
+    assert warm.family_of(pack(beam, get_train("ICE3", model="interaction"), 50.0,
+                               None, s)) == "interaction"
+
+
+@pytest.mark.parametrize("family", warm.FAMILIES)
+def test_warm_up_family__compiles_the_signature_a_study_uses(family):
+    """After the helper's tiny model and a real model of the family (another bridge,
+    train, modes and load effects) the family's kernel has one compiled signature: the
+    helper's work is what the study loads from the cache."""
+    warm.warm_up_family(family)
+    beam = br.simply_supported(25.0, 7.16e10, 18000.0, n_modes=3)
+    train = (get_train("HSLM-A3", model="moving_force") if family == "moving_force"
+             else get_train("ICE3", model="interaction"))
+    simulate(beam, train, 60.0, settings=SolverSettings(dt=2e-3, approach=2.0,
+                                                        free_vibration=0.0),
+             output_points=[12.5], save_histories=True)
+    kernel = ek.run_batch_mf if family == "moving_force" else ek.time_loop
+    assert len(kernel.signatures) == 1, kernel.signatures
+    assert warm.is_cached(family)  # cache=True: the index now names it
+
+
+def _sleeper(seconds: float) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-c", f"import time; time.sleep({seconds})"])
+
+
+def test_wait_for__every_waiting_thread_returns_after_the_helper_exited():
+    proc = _sleeper(0.5)
+    with warm._lock:
+        warm._helpers["interaction"] = proc
+    seen: list = []
+
+    def batch():
+        warm.wait_for("interaction")
+        seen.append(proc.poll())  # the helper's exit code: it has exited
+
+    threads = [threading.Thread(target=batch) for _ in range(3)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(60)
+    assert seen == [0, 0, 0]
+    assert warm.wait_for("interaction") == 0.0  # gone: no wait, no lock
+    assert warm.wait_for("moving_force") == 0.0
+
+
+def test_stop_helpers__ends_a_helper_still_running():
+    proc = _sleeper(600)
+    with warm._lock:
+        warm._helpers["moving_force"] = proc
+    warm.stop_helpers()
+    assert proc.poll() is not None
+    assert not warm._helpers

@@ -1,0 +1,132 @@
+"""A first run compiles the moving-force and the interaction kernels at the same time.
+
+numba compiles one kernel at a time in a process (a global compiler lock), and the two
+kernel families share no compiled code: :func:`~vsi_numba.kernels.engine.run_batch_mf`
+runs the trains of moving forces, :func:`~vsi_numba.kernels.engine.time_loop` and its
+callees the interaction models.  A study that needs both while neither is in the numba
+cache hands the family its batch order needs last to a helper process
+(:func:`start_helper`), which compiles it into the same cache (``NUMBA_CACHE_DIR``)
+while this process compiles the other family and runs its batches; the first batch of
+the helper's family waits for the helper (:func:`wait_for`) and then loads the kernels
+from the cache.  With a warm cache, or a study of one family, nothing is started.
+
+``python -m vsi_numba.solver.warm FAMILY`` is the helper: it compiles (or loads) the
+family's kernels on a tiny model of the same types and exits.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import threading
+import time
+
+#: The kernel families: trains of moving forces, interaction models.
+FAMILIES = ("moving_force", "interaction")
+
+_helpers: dict[str, subprocess.Popen] = {}
+_lock = threading.Lock()
+
+
+def family_of(packed) -> str:
+    """The kernel family that runs a packed model (as :func:`~vsi_numba.kernels.engine.
+    run_batch` chooses it)."""
+    veh = packed.vehicles
+    return ("moving_force" if veh.wheel_dof.size == 0 and veh.start.size == 1
+            else "interaction")
+
+
+def is_cached(family: str) -> bool:
+    """Whether numba's cache holds a compiled version of the family's top kernel for
+    the current source (the index of :func:`run_batch_mf` or :func:`time_loop`).
+
+    Reads numba's cache index through its internal API; if that API is not there (a
+    numba release that changed it) the answer is True, so no helper is started.
+    """
+    from vsi_numba.kernels import engine as ek
+
+    kernel = ek.run_batch_mf if family == "moving_force" else ek.time_loop
+    try:
+        return bool(kernel._cache._cache_file._load_index())
+    except Exception:  # noqa: BLE001 - no helper rather than a wrong guess
+        return True
+
+
+def helper_family(families_in_order, cached=is_cached) -> str | None:
+    """The family a helper should compile: the last one of ``families_in_order`` (the
+    families of the batches in the order they run) when two families are needed and
+    neither is ``cached``; else None."""
+    order = list(dict.fromkeys(families_in_order))
+    if len(order) < 2 or any(cached(f) for f in order):
+        return None
+    return order[-1]
+
+
+def start_helper(family: str) -> subprocess.Popen:
+    """Start ``python -m vsi_numba.solver.warm FAMILY`` (same environment, so the same
+    numba cache; output discarded; it gets SIGTERM if this process dies)."""
+    from vsi_numba.study.backends import _term_with_parent
+
+    if family not in FAMILIES:
+        raise ValueError(f"family = {family!r}: expected one of {FAMILIES}")
+    proc = subprocess.Popen([sys.executable, "-m", "vsi_numba.solver.warm", family],
+                            env=dict(os.environ), stdin=subprocess.DEVNULL,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            preexec_fn=_term_with_parent())
+    with _lock:
+        _helpers[family] = proc
+    return proc
+
+
+def wait_for(family: str) -> float:
+    """Wait until the helper compiling ``family`` (if any) has exited; returns the
+    seconds waited.  Whatever its exit status, the caller then runs the kernels: from
+    the cache if the helper filled it, compiled here if it did not."""
+    proc = _helpers.get(family)
+    if proc is None:  # no helper (the usual case)
+        return 0.0
+    t0 = time.perf_counter()
+    proc.wait()  # any number of threads may wait; no lock held meanwhile (Ctrl-C)
+    with _lock:
+        if _helpers.get(family) is proc:
+            del _helpers[family]
+    return time.perf_counter() - t0
+
+
+def stop_helpers() -> None:
+    """End every helper still running (the study stopped before it needed them)."""
+    with _lock:
+        procs = list(_helpers.values())
+        _helpers.clear()
+    for proc in procs:
+        if proc.poll() is None:
+            proc.terminate()
+        proc.wait()
+
+
+def warm_up_family(family: str) -> float:
+    """Compile (or load from the cache) the kernels of ``family`` on a tiny model;
+    returns the seconds it took."""
+    from vsi_numba.model import bridge as br
+    from vsi_numba.model import vehicle as vh
+    from vsi_numba.model.vehicle import Train
+    from vsi_numba.solver.settings import SolverSettings
+    from vsi_numba.solver.simulate import simulate
+
+    t0 = time.perf_counter()
+    beam = br.simply_supported(10.0, 1e9, 1e4, n_modes=2)
+    if family == "moving_force":
+        unit = vh.point_loads([0.0, 3.0], [1e5, 1e5], name="warm-up")
+    elif family == "interaction":
+        unit = vh.sprung_mass(1e3, 1e6, 1e3, 100.0)
+    else:
+        raise ValueError(f"family = {family!r}: expected one of {FAMILIES}")
+    simulate(beam, Train("warm-up", (unit,), (0.0,)), 50.0,
+             settings=SolverSettings(dt=5e-3, approach=0.0, free_vibration=0.0),
+             save_histories=False)
+    return time.perf_counter() - t0
+
+
+if __name__ == "__main__":  # pragma: no cover - the helper process
+    warm_up_family(sys.argv[1])

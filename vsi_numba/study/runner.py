@@ -608,6 +608,7 @@ def _start_compile_helper(be, spec, order) -> str | None:
     that run the batches in this process (serial, threads, ``--workers``' LocalCluster):
     their first batch of that family waits for the helper."""
     from vsi_numba.solver import warm
+    from vsi_numba.study.backends import _term_with_parent
     from vsi_numba.study.batches import _packed_train, _spec_of
 
     in_process = be.name in ("serial", "threads") or (
@@ -622,7 +623,7 @@ def _start_compile_helper(be, spec, order) -> str | None:
     family = warm.helper_family(seen.values(), cached=lambda f: False)
     if family is not None:
         try:
-            warm.start_helper(family)
+            warm.start_helper(family, preexec_fn=_term_with_parent())
         except OSError:  # no process to spare: this process compiles both, as before
             return None
     return family

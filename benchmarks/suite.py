@@ -146,23 +146,11 @@ def run_suite(mode: str = "quick", write: bool = True, report: Path | None = Non
 # ---------------------------------------------------------------------------- report
 
 
-def _step_parts(row: dict) -> str:
-    """'hht_step X us = part a (p %), ...' from one micro-profile row."""
-    step = row.get("hht_step", float("nan"))
-    parts = [("contact_search", 1), ("assemble_loads", 1), ("build_schur", 1),
-             ("solve_active_set", 1), ("block_matvec", 5)]
-    txt, used = [], 0.0
-    for name, times in parts:
-        if name in row:
-            t = times * row[name]
-            used += t
-            label = f"{times} x {name}" if times > 1 else name
-            txt.append(f"{label} {t:.2f} us ({100 * t / step:.0f} %)")
-    rest = step - used
-    txt.append(f"rest of the step {rest:.2f} us ({100 * rest / step:.0f} %)")
-    return (f"one `hht_step` {step:.2f} us = " + ", ".join(txt)
-            + f"; `time_loop` adds `copy_state` {row.get('copy_state', float('nan')):.2f} us "
-            "per step")
+#: The parts of ``hht_step`` in the micro-profile (``step``, ``hht_step``, ``record``,
+#: ``le_record``, ``copy_state`` and ``save_restore`` are reported on their own).
+_HHT_PARTS = ("contact_search", "assemble_loads", "predictor", "track_predict",
+              "build_schur", "compliance_add", "solve_active_set", "skyline_cholesky",
+              "corrector", "gaps", "block_matvec", "contact_profile")
 
 
 def _findings(suite: SuiteResult) -> list[str]:
@@ -180,30 +168,33 @@ def _findings(suite: SuiteResult) -> list[str]:
         out.append(
             "**Inside the kernel** (CPU time per call of each engine function, called "
             "20000 times in a jitted loop from the state in the middle of the passage; "
-            "`hht_step` is one whole step; `loads_flat_arrays` is NOT engine code: the same "
-            "sine-mode load vector with flat array arguments and phi only, for comparison; "
+            "`hht_step` is one whole step; the moving-force model runs its own loop, "
+            "`mf_time_loop`, so only the functions it shares are timed on it; "
             f"drivers compiled in {comp:.0f} s):\n\n" + tab)
         rows = list(parts.values())
-        mf = rows[1] if len(rows) > 1 else {}
-        out.append(
-            "Reading: a large part of every step is call overhead, not arithmetic.  "
-            f"`contact_search` costs {mf.get('contact_search', float('nan')):.2f} us on the "
-            "moving-force model, which has NO wheel (an empty loop), and `assemble_loads` "
-            f"{rows[0].get('assemble_loads', float('nan')):.2f} us on the sprung mass, which "
-            "has NO point load.  Every one of these non-inlined calls receives the named "
-            "tuples (`BridgeArrays`, `VehicleArrays`, `ProfileArrays`, `Work` with ~30 "
-            "arrays, `State`), and the fixed cost is consistent with numba's reference "
-            "counting of each array member on entry and exit (atomic operations that LLVM "
-            "cannot remove across the call).  `eval_modes` is called once per load and per "
-            "wheel with the bridge tuple, which multiplies the effect.")
+        ice = rows[2] if len(rows) > 2 else {}
+        if "hht_step" in ice and "step" in ice:
+            inner = sorted(((k, v) for k, v in ice.items() if k in _HHT_PARTS),
+                           key=lambda kv: -kv[1])
+            out.append(
+                f"Reading (ICE3, the model of c1): a whole step of the time loop (`step`: "
+                f"copy_state + hht_step + finite check + record) costs {ice['step']:.2f} us, "
+                f"`hht_step` {ice['hht_step']:.2f} us and `record` (the envelopes) "
+                f"{ice.get('record', float('nan')):.2f} us, of which the load effects "
+                f"(`le_record`) {ice.get('le_record', float('nan')):.2f} us.  Inside "
+                "`hht_step`, timed alone (they overlap - the predictor and the corrector "
+                "call `block_matvec`, the active-set solve the Cholesky - so they do not add "
+                "up exactly): " + ", ".join(f"{k} {v:.2f} us" for k, v in inner) + ".  No "
+                "part dominates: a step twice as fast needs the runs of a batch advanced in "
+                "lockstep (the arithmetic vectorised across the speeds) or the Schur block "
+                "updated instead of rebuilt while the active set is unchanged; neither is "
+                "done.")
     elif suite.micro_error:
         out.append(f"Micro-profile failed: {suite.micro_error}")
-    labels = list(parts)
     if c1 and c1.data:
         d = c1.data
         med = d["breakdown"]
         n = d["n_steps"]
-        micro = f"  Mid-passage, {_step_parts(parts[labels[0]])}." if parts else ""
         out.append(
             "**Case 1 (target 0.5 ms per crossing), "
             + (f"missed by x{d['simulate'] / 0.5e-3:.0f}" if d["simulate"] > 0.5e-3 else "met")
@@ -213,47 +204,27 @@ def _findings(suite: SuiteResult) -> list[str]:
             f"(medians, wall): pack {C.fmt_s(med['pack'])}, initial_state "
             f"{C.fmt_s(med['initial_state'])}, output allocation "
             f"{C.fmt_s(med['run_kernel other'])}, to_dataset {C.fmt_s(med['to_dataset'])}."
-            + micro + "  What would close it: (a) the loop must reach ~0.3 us/step: "
-            "compute phi' and phi'' only where they are used (impacts; `eval_modes` fills "
-            "all three for every wheel on the span each step), mark the small "
-            "helpers `inline='always'` or pass them flat arrays so the per-call overhead "
-            "disappears, skip `assemble_loads`/`contact_search` when there are no loads/"
-            "wheels, and back up the state only when a step has to be retried (two state "
-            "buffers swapped, instead of `copy_state` every step); (b) the wrapper must "
-            "drop to ~0.1 ms: `to_dataset` (xarray Dataset with ~20 variables and attrs) is "
-            "the largest part - a `simulate_arrays()` returning NumPy histories/envelopes "
-            "for time-critical callers and sweeps, and `pack` cached per (train, settings) "
-            "so only the speed changes between runs.")
+            + "  A single short run is mostly the wrapper (the Python side of "
+            "`simulate()`: pack, static start, output arrays, the xarray Dataset); a study "
+            "runs its batches through `run_batch` without a Dataset per run.")
     if c2 and c2.data:
         d = c2.data
-        micro = ""
-        if len(labels) > 1:
-            row = parts[labels[1]]
-            micro = (f"  Mid-passage (HSLM-A1, 50 loads, 10 modes), {_step_parts(row)}.  The "
-                     f"same modal load vector with flat arrays and phi only takes "
-                     f"{row.get('loads_flat_arrays', float('nan')):.2f} us instead of "
-                     f"{row.get('assemble_loads', float('nan')):.2f} us.")
         out.append(
             "**Case 2 (target 1 s for 570 HSLM runs), "
             + (f"missed by x{d['total']:.0f} serial" if d["total"] > 1.0 else "met")
             + f"**: {d['total']:.3g} s wall, {d['total_cpu']:.3g} s CPU, of which "
             f"~{d['ac'] * 570:.3g} s CPU is the per-run wrapper ({d['ac'] * 1e3:.1f} ms x 570) "
             f"and ~{d['kernel_total']:.3g} s CPU the time loop ({d['total_steps']:,} steps at "
-            f"{d['kernel_cpu_step'] * 1e6:.1f} us/step)." + micro + "  1 s for the grid means "
-            f"{1e9 / d['total_steps']:.0f} ns per step with everything included.  The way "
-            "there: a moving-force step without the contact machinery (no contact_search, "
-            "active set or state back-up when the train has no wheels), the load vector "
-            "without per-load `eval_modes` calls (a flat loop over the loads on the span, phi "
-            "only: ~0.1-0.2 us/step as `loads_flat_arrays` shows), ONE jitted sweep over all "
-            "(train, speed) pairs that returns envelopes only (no pack/initial_state/xarray "
-            "per run), and `prange` over the pairs for the 2 cores.  For linear moving-force "
-            "problems an exact modal convolution (Duhamel, per mode and load, independent "
-            "of dt) is the classical alternative.")
+            f"{d['kernel_cpu_step'] * 1e6:.1f} us/step).  1 s for the grid means "
+            f"{1e9 / d['total_steps']:.0f} ns per step with everything included.  The "
+            "moving-force loop (`mf_time_loop`) already has no contact machinery, builds "
+            "the modal loads from phasor sums (O(modes) per step, whatever the number of "
+            "loads) and runs every speed of a batch in one kernel call; what is left per "
+            "step is the HHT update of the modes, the envelopes at the output points and "
+            "on the whole-deck grid, and the load effects (M and V on the grid, reactions "
+            "and end rotations; measure a3 gives their cost on the whole command).")
     if c3 and c3.data:
         d = c3.data
-        micro = ""
-        if len(labels) > 2:
-            micro = f"  Mid-passage (8 of 32 wheels on the span), {_step_parts(parts[labels[2]])}."
         two = d["parallel"] if d.get("parallel") else d["serial"] / 2
         how = "measured on 2 processes" if d.get("parallel") else "extrapolated, ideal 2 cores"
         verdict = (f"met ({how}: {two:.3g} s, margin x{30 / two:.2f})" if two <= 30 else
@@ -264,21 +235,9 @@ def _findings(suite: SuiteResult) -> list[str]:
             f"{d['serial_cpu']:.3g} s CPU); the time loop runs at "
             f"{d['kernel_cpu_step'] * 1e6:.1f} us/step CPU for 32 wheels and 20 modes and "
             f"the grid has {d['grid_steps']:,} steps, so the loop alone is "
-            f"{d['kernel_cpu_step'] * d['grid_steps']:.0f} s CPU." + micro + "  The target "
-            f"means <= {60 / d['grid_steps'] * 1e6:.1f} us/step overall on 2 cores, with "
-            "nothing left for imperfect parallel scaling on a shared machine or for the "
-            "OpenBLAS default threads (next paragraph).  Where the margin would come from: "
-            "`contact_search` evaluates "
-            "phi, phi' and phi'' (3 x 20 values) for every wheel on the span each step and "
-            "calls `eval_modes`/`eval_profile` for all 32 wheels - phi alone, and no calls "
-            "for wheels far from the span, cut it; `solve_active_set` refactors the active "
-            "Schur block every step although only the rows of the wheels on the span change "
-            "(the wheels on the approach/exit track couple only within their car, through a "
-            "constant block): factor the constant vehicle blocks once and treat the bridge "
-            "coupling as a low-rank update (rank <= number of wheels on the span); remove "
-            "the per-call overhead as for case 1; then run "
-            "the 570 cases in parallel (`prange` over cases, or the study runner's 2 "
-            "processes).")
+            f"{d['kernel_cpu_step'] * d['grid_steps']:.0f} s CPU.  Where a step's time goes: "
+            "the micro-profile above.  The study runner runs the cases on the 2 cores "
+            "(measure c1 of the study level: the whole command).")
     if c3 and c3.data.get("blas"):
         be = c3.data["blas"]
         d0, d1 = be.get("default"), be.get("1")

@@ -92,3 +92,22 @@ def test_stop_helpers__ends_a_helper_still_running():
     warm.stop_helpers()
     assert proc.poll() is not None
     assert not warm._helpers
+
+
+def test_is_cached__reads_the_numba_cache_of_another_process(tmp_path):
+    """A fresh process (nothing compiled in it) sees the family this process compiled
+    into the shared cache, and sees nothing in an empty cache directory."""
+    import os
+
+    warm.warm_up_family("moving_force")  # compiled or loaded: in the cache now
+    code = "from vsi_numba.solver.warm import is_cached; print(is_cached('moving_force'))"
+
+    def ask(cache_dir):
+        env = {**os.environ}
+        if cache_dir is not None:
+            env["NUMBA_CACHE_DIR"] = str(cache_dir)
+        return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                              text=True, check=True).stdout.strip()
+
+    assert ask(None) == "True"
+    assert ask(tmp_path / "empty") == "False"

@@ -38,8 +38,9 @@ def family_of(packed) -> str:
 
 
 def is_cached(family: str) -> bool:
-    """Whether numba's cache holds a compiled version of the family's top kernel for
-    the current source (the index of :func:`run_batch_mf` or :func:`time_loop`).
+    """Whether the family's top kernel (:func:`run_batch_mf` or :func:`time_loop`) is
+    compiled in this process or numba's cache holds a version of it for the current
+    source.
 
     Reads numba's cache index through its internal API; if that API is not there (a
     numba release that changed it) the answer is True, so no helper is started.
@@ -47,6 +48,8 @@ def is_cached(family: str) -> bool:
     from vsi_numba.kernels import engine as ek
 
     kernel = ek.run_batch_mf if family == "moving_force" else ek.time_loop
+    if kernel.signatures:  # compiled (or loaded) in this process already
+        return True
     try:
         return bool(kernel._cache._cache_file._load_index())
     except Exception:  # noqa: BLE001 - no helper rather than a wrong guess

@@ -631,6 +631,7 @@ def _start_compile_helper(be, spec, order) -> str | None:
 
 @contextlib.contextmanager
 def _stop_helpers(family):
+    """End the compile helper (if ``family`` names one) when the study stops."""
     try:
         yield
     finally:
@@ -646,7 +647,7 @@ def _run_pending(be, spec, pending, store, progress, n_runs, n_done, quiet=True)
     hold = _hold_after()
     stored = 0
     helper = _start_compile_helper(be, spec, order)
-    with _Progress(progress, n_runs, n_done, "runs") as bar, _stop_helpers(helper):
+    with _stop_helpers(helper), _Progress(progress, n_runs, n_done, "runs") as bar:
         with be:
             if be.name == "dask" and getattr(be, "scheduler", None) is not None:
                 n_w, n_t = be.n_workers, be.n_threads

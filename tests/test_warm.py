@@ -111,3 +111,62 @@ def test_is_cached__reads_the_numba_cache_of_another_process(tmp_path):
 
     assert ask(None) == "True"
     assert ask(tmp_path / "empty") == "False"
+
+
+_HOLDER = """
+import sys, time
+from vsi_numba.solver.warm import compile_lock
+with compile_lock("moving_force"):
+    print("held", flush=True)
+    sys.stdin.readline()
+    print(time.monotonic(), flush=True)
+"""
+
+_WAITER = """
+import sys, time
+import vsi_numba.kernels.engine  # imported before "trying": the lock is the next step
+from vsi_numba.solver.warm import compile_lock
+print("trying", flush=True)
+with compile_lock("moving_force", timeout=float(sys.argv[1])):
+    print(time.monotonic(), flush=True)
+"""
+
+
+def test_compile_lock__a_second_process_waits_until_the_first_releases():
+    """Two fresh processes (nothing compiled in them): the second enters only after the
+    first has left (monotonic clock, one per machine); with a short timeout it goes on
+    while the first still holds the lock."""
+    with subprocess.Popen([sys.executable, "-c", _HOLDER], stdin=subprocess.PIPE,
+                          stdout=subprocess.PIPE, text=True) as holder:
+        try:
+            assert holder.stdout.readline().strip() == "held"
+            # a waiter with a short timeout goes on although the lock is held
+            quick = subprocess.run([sys.executable, "-c", _WAITER, "0.5"],
+                                   capture_output=True, text=True, check=True)
+            assert float(quick.stdout.split()[-1])  # it entered
+            with subprocess.Popen([sys.executable, "-c", _WAITER, "600"],
+                                  stdout=subprocess.PIPE, text=True) as waiter:
+                assert waiter.stdout.readline().strip() == "trying"  # at the lock now
+                holder.stdin.write("\n")
+                holder.stdin.flush()
+                released = float(holder.stdout.readline())
+                entered = float(waiter.communicate(timeout=120)[0].split()[-1])
+            assert entered >= released
+        finally:
+            holder.kill()
+
+
+def test_ensure_compiled__a_fresh_process_compiles_under_the_lock_without_deadlock():
+    """The warm-up batch inside :func:`ensure_compiled` calls ``ensure_compiled`` again
+    (every batch does): it must not wait for its own lock.  Both families, in a fresh
+    process, end compiled; 120 s is far more than loading them from the cache."""
+    code = ("from vsi_numba.solver import warm\n"
+            "for f in warm.FAMILIES:\n"
+            "    warm.ensure_compiled(f)\n"
+            "    print(f, bool(warm._kernel(f).signatures))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, timeout=120).stdout.split()
+    assert out == ["moving_force", "True", "interaction", "True"]
+    for family in warm.FAMILIES:  # the helper's command (this module as __main__)
+        subprocess.run([sys.executable, "-m", "vsi_numba.solver.warm", family], check=True,
+                       timeout=120)

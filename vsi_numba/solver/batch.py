@@ -406,7 +406,9 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     wk = _workspace(n_m, n_v, n_w, veh)
     status = np.zeros(n_r, np.int64)
     reached = np.zeros(n_r, np.int64)
-    warm.wait_for(warm.family_of(packed))  # a helper compiling these kernels: wait
+    family = warm.family_of(packed)
+    warm.wait_for(family)  # a helper compiling these kernels: wait
+    warm.ensure_compiled(family)  # compiled once per machine (another process: wait)
     t0 = _time.perf_counter()
     ek.run_batch(packed.bridge, veh, packed.profile, packed.params, speeds, n_steps, init,
                  st, bk, wk, red, out, slots, status, reached)

@@ -10,12 +10,20 @@ while this process compiles the other family and runs its batches; the first bat
 the helper's family waits for the helper (:func:`wait_for`) and then loads the kernels
 from the cache.  With a warm cache, or a study of one family, nothing is started.
 
+Across processes, :func:`ensure_compiled` makes a family compile once per machine: a
+process that has not compiled the family compiles it (on a tiny model) holding a lock
+file next to the family's numba cache, so the other processes (local workers, Dask
+workers of one machine, test processes) that need it meanwhile wait and then load the
+kernels from the cache instead of compiling them again - N worker processes starting on
+an empty cache compile once, not N times at once (each compile takes ~1 GB).
+
 ``python -m vsi_numba.solver.warm FAMILY`` is the helper: it compiles (or loads) the
 family's kernels on a tiny model of the same types and exits.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import subprocess
 import sys
@@ -45,15 +53,97 @@ def is_cached(family: str) -> bool:
     Reads numba's cache index through its internal API; if that API is not there (a
     numba release that changed it) the answer is True, so no helper is started.
     """
-    from vsi_numba.kernels import engine as ek
-
-    kernel = ek.run_batch_mf if family == "moving_force" else ek.time_loop
-    if kernel.signatures:  # compiled (or loaded) in this process already
+    kernel = _kernel(family)
+    if _compiled(family):  # compiled (or loaded) in this process already
         return True
     try:
         return bool(kernel._cache._cache_file._load_index())
     except Exception:  # noqa: BLE001 - no helper rather than a wrong guess
         return True
+
+
+#: Seconds a process waits for another's compilation of a family before it compiles the
+#: family itself (a compilation takes about a minute on a slow machine).
+LOCK_TIMEOUT = 600.0
+
+
+def _kernel(family: str):
+    from vsi_numba.kernels import engine as ek
+
+    return ek.run_batch_mf if family == "moving_force" else ek.time_loop
+
+
+def _compiled(family: str) -> bool:
+    """Compiled in this process (or no JIT at all: ``NUMBA_DISABLE_JIT``)."""
+    return bool(getattr(_kernel(family), "signatures", True))
+
+
+def lock_path(family: str):
+    """The lock file of ``family``'s compilation: in the directory of its numba cache
+    (None where numba's cache API does not tell it)."""
+    from pathlib import Path
+
+    try:
+        return Path(_kernel(family)._cache._cache_path) / f"vsi_numba-{family}.lock"
+    except Exception:  # noqa: BLE001 - no lock rather than a wrong one
+        return None
+
+
+@contextlib.contextmanager
+def compile_lock(family: str, timeout: float = LOCK_TIMEOUT):
+    """Hold the machine-wide lock of ``family``'s compilation (a no-op where there is no
+    ``fcntl`` or no cache directory).  A process that finds it held waits until it is
+    free (the other process has compiled and cached the kernels, or died: the lock goes
+    with it), or ``timeout`` seconds, then goes on."""
+    path = lock_path(family)
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        path = None
+    fh = None
+    if path is not None:
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fh = open(path, "a")  # noqa: SIM115 - closed below
+        except OSError:  # an unwritable cache directory: numba has no cache there either
+            fh = None
+    try:
+        if fh is not None:
+            t_end = time.monotonic() + timeout
+            while True:
+                try:
+                    fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                    break
+                except OSError:
+                    if time.monotonic() > t_end:
+                        break
+                    time.sleep(0.1)
+        yield
+    finally:
+        if fh is not None:
+            fh.close()  # releases the lock
+
+
+_warming = threading.local()
+
+
+def ensure_compiled(family: str, timeout: float = LOCK_TIMEOUT) -> None:
+    """Have ``family``'s kernels compiled (or loaded from the cache) in this process, on
+    the tiny model of :func:`warm_up_family`, under :func:`compile_lock`: of the
+    processes of a machine that need the family at the same time, one compiles it and
+    the others wait, then load it from the cache.  Called before every batch; once the
+    family is compiled here it returns at once.  The lock is held for the compilation
+    only, never for a batch."""
+    if _compiled(family) or getattr(_warming, family, False):
+        return
+    with compile_lock(family, timeout):
+        if _compiled(family):  # another thread of this process did it
+            return
+        setattr(_warming, family, True)
+        try:
+            warm_up_family(family)
+        finally:
+            setattr(_warming, family, False)
 
 
 def helper_family(families_in_order, cached=is_cached) -> str | None:
@@ -112,9 +202,11 @@ def warm_up_family(family: str) -> float:
     returns the seconds it took."""
     from vsi_numba.model import bridge as br
     from vsi_numba.model import vehicle as vh
+    from vsi_numba.model.irregularity import no_irregularity
     from vsi_numba.model.vehicle import Train
+    from vsi_numba.solver.batch import run_batch
+    from vsi_numba.solver.pack import pack
     from vsi_numba.solver.settings import SolverSettings
-    from vsi_numba.solver.simulate import simulate
 
     t0 = time.perf_counter()
     beam = br.simply_supported(10.0, 1e9, 1e4, n_modes=2)
@@ -124,11 +216,16 @@ def warm_up_family(family: str) -> float:
         unit = vh.sprung_mass(1e3, 1e6, 1e3, 100.0)
     else:
         raise ValueError(f"family = {family!r}: expected one of {FAMILIES}")
-    simulate(beam, Train("warm-up", (unit,), (0.0,)), 50.0,
-             settings=SolverSettings(dt=5e-3, approach=0.0, free_vibration=0.0),
-             save_histories=False)
+    # the batch kernel as a study runs it (no xarray Dataset: nothing else to import)
+    settings = SolverSettings(dt=5e-3, approach=0.0, free_vibration=0.0)
+    profile = no_irregularity()
+    packed = pack(beam, Train("warm-up", (unit,), (0.0,)), 50.0, profile, settings)
+    run_batch(packed, profile, [50.0], [5.0], settings, beam)
     return time.perf_counter() - t0
 
 
 if __name__ == "__main__":  # pragma: no cover - the helper process
-    warm_up_family(sys.argv[1])
+    # the package's module, not this __main__ copy: one ``_warming`` flag per process
+    from vsi_numba.solver import warm as _warm
+
+    _warm.ensure_compiled(sys.argv[1])

@@ -230,17 +230,22 @@ def _build():
             ek.restore_state(wk.nbk, st)
 
     @numba.njit(**_OPTS)
+    def back_to_mid(bk, st, wk, act0, trk0):
+        # the mid-run state ``bk``, its contact set and track state, again
+        ek.copy_state(bk, st)
+        wk.trk[:, :] = trk0
+        for i in range(act0.shape[0]):
+            wk.active[i] = act0[i]
+            wk.was_active[i] = act0[i]
+
+    @numba.njit(**_OPTS)
     def d_hht(br, veh, pr, prm, st, bk, wk, red, out, n):
         # the same step, from the mid-run state ``bk``, n times
         act0 = wk.act0.copy()
         trk0 = wk.trk.copy()
         t1 = (prm.n_steps + 1) * prm.dt
         for _k in range(n):
-            ek.copy_state(bk, st)
-            wk.trk[:, :] = trk0
-            for i in range(act0.shape[0]):
-                wk.active[i] = act0[i]
-                wk.was_active[i] = act0[i]
+            back_to_mid(bk, st, wk, act0, trk0)
             ek.hht_step(br, veh, pr, prm, st, wk, t1, prm.dt, 0)
         wk.trk[:, :] = trk0
 
@@ -251,11 +256,7 @@ def _build():
         trk0 = wk.trk.copy()
         t1 = (prm.n_steps + 1) * prm.dt
         for _k in range(n):
-            ek.copy_state(bk, st)
-            wk.trk[:, :] = trk0
-            for i in range(act0.shape[0]):
-                wk.active[i] = act0[i]
-                wk.was_active[i] = act0[i]
+            back_to_mid(bk, st, wk, act0, trk0)
             ek.copy_state(st, bk)
             ek.vsi_step(br, veh, pr, prm, st, wk, t1, prm.dt, 0)
             ek.state_is_finite(st)

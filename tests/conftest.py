@@ -11,7 +11,6 @@ instead of compiling them a second time; tests that need no kernel run at once.
 from __future__ import annotations
 
 import subprocess
-import sys
 import time
 
 _HELPERS: list = []
@@ -29,9 +28,9 @@ def pytest_configure(config):
         path = warm.lock_path(family)
         if path is None or warm.is_cached(family):
             continue
-        proc = subprocess.Popen([sys.executable, "-m", "vsi_numba.solver.warm", family],
-                                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                                stderr=subprocess.DEVNULL, preexec_fn=_term_with_parent())
+        proc = subprocess.Popen(warm.helper_command(family), stdin=subprocess.DEVNULL,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                preexec_fn=_term_with_parent())
         _HELPERS.append(proc)
         # wait until the helper holds the lock (or has exited): then no test process
         # can take the lock first and compile the family itself

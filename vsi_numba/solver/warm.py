@@ -156,14 +156,19 @@ def helper_family(families_in_order, cached=is_cached) -> str | None:
     return order[-1]
 
 
+def helper_command(family: str) -> list[str]:
+    """The helper's command line: ``python -m vsi_numba.solver.warm FAMILY``."""
+    if family not in FAMILIES:
+        raise ValueError(f"family = {family!r}: expected one of {FAMILIES}")
+    return [sys.executable, "-m", "vsi_numba.solver.warm", family]
+
+
 def start_helper(family: str, preexec_fn=None) -> subprocess.Popen:
     """Start ``python -m vsi_numba.solver.warm FAMILY`` (same environment, so the same
     numba cache; output discarded); ``preexec_fn`` as for :class:`subprocess.Popen`
     (the study runner's makes Linux end the helper when this process dies)."""
-    if family not in FAMILIES:
-        raise ValueError(f"family = {family!r}: expected one of {FAMILIES}")
-    proc = subprocess.Popen([sys.executable, "-m", "vsi_numba.solver.warm", family],
-                            env=dict(os.environ), stdin=subprocess.DEVNULL,
+    proc = subprocess.Popen(helper_command(family), env=dict(os.environ),
+                            stdin=subprocess.DEVNULL,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                             preexec_fn=preexec_fn)
     with _lock:

@@ -175,33 +175,9 @@ def _build():
         alpha = prm.alpha
         a0, a1, a2, a3, cv, ca, gamma, scale = ek.hht_coefficients(alpha, prm.dt)
         khat_v = veh.Khat_inv[0]
-        n_m = st.q.shape[0]
-        n_v = st.u.shape[0]
-        n_w = veh.wheel_dof.shape[0]
         for _k in range(n):
             ek.copy_state(bk, st)
-            for k in range(n_v):
-                wk.rv[k] = 0.0
-            for i in range(n_w):
-                xi = wk.X[i]
-                wk.xout[i] = xi
-                wk.rv[veh.wheel_dof[i]] = xi
-                if xi != 0.0:
-                    for j in range(n_m):
-                        wk.yq[j] += scale * wk.phi[i, j] * xi / wk.khat[j]
-            ek.block_matvec(veh, khat_v, wk.rv, wk.yv, True, -scale)
-            for j in range(n_m):
-                dq = wk.yq[j]
-                acc = a0 * dq - a2 * st.qd[j] - a3 * st.qdd[j]
-                st.qd[j] = st.qd[j] + prm.dt * ((1.0 - gamma) * st.qdd[j] + gamma * acc)
-                st.qdd[j] = acc
-                st.q[j] += dq
-            for k in range(n_v):
-                du = wk.yv[k]
-                acc = a0 * du - a2 * st.ud[k] - a3 * st.udd[k]
-                st.ud[k] = st.ud[k] + prm.dt * ((1.0 - gamma) * st.udd[k] + gamma * acc)
-                st.udd[k] = acc
-                st.u[k] += du
+            ek.hht_correct(veh, st, wk, khat_v, a0, a2, a3, gamma, scale, prm.dt)
             ek.update_force_totals(br, veh, wk, st)
 
     @numba.njit(**_OPTS)

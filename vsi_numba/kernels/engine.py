@@ -1363,6 +1363,38 @@ def track_element(veh):
     return veh.track_kt > 0.0 and (veh.track_ct > 0.0 or veh.track_mt > 0.0)
 
 
+@njit(inline="always")
+def hht_correct(veh, st, wk, khat_v, a0, a2, a3, gamma, scale, dt):
+    """The corrector of :func:`hht_step` with the contact forces ``wk.X`` of the step:
+    Delta u = y - (1 + alpha) K^-1 B^T X (modes and vehicle DOFs), then the Newmark
+    updates of the state."""
+    n_m = st.q.shape[0]
+    n_v = st.u.shape[0]
+    n_w = veh.wheel_dof.shape[0]
+    for k in range(n_v):
+        wk.rv[k] = 0.0
+    for i in range(n_w):
+        xi = wk.X[i]
+        wk.xout[i] = xi
+        wk.rv[veh.wheel_dof[i]] = xi
+        if xi != 0.0:
+            for j in range(n_m):
+                wk.yq[j] += scale * wk.phi[i, j] * xi / wk.khat[j]
+    block_matvec(veh, khat_v, wk.rv, wk.yv, True, -scale)
+    for j in range(n_m):
+        dq = wk.yq[j]
+        acc = a0 * dq - a2 * st.qd[j] - a3 * st.qdd[j]
+        st.qd[j] = st.qd[j] + dt * ((1.0 - gamma) * st.qdd[j] + gamma * acc)
+        st.qdd[j] = acc
+        st.q[j] += dq
+    for k in range(n_v):
+        du = wk.yv[k]
+        acc = a0 * du - a2 * st.ud[k] - a3 * st.udd[k]
+        st.ud[k] = st.ud[k] + dt * ((1.0 - gamma) * st.udd[k] + gamma * acc)
+        st.udd[k] = acc
+        st.u[k] += du
+
+
 @njit
 def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
     """Advance the state by one HHT-alpha step of size ``dt`` to time ``t1``.
@@ -1436,31 +1468,7 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
     if status != OK:
         return status, iters
 
-    # corrector: Delta u = y - (1 + alpha) K^-1 B^T X
-    for k in range(n_v):
-        wk.rv[k] = 0.0
-    for i in range(n_w):
-        xi = wk.X[i]
-        wk.xout[i] = xi
-        wk.rv[veh.wheel_dof[i]] = xi
-        if xi != 0.0:
-            for j in range(n_m):
-                wk.yq[j] += scale * wk.phi[i, j] * xi / wk.khat[j]
-    block_matvec(veh, khat_v, wk.rv, wk.yv, True, -scale)
-
-    # Newmark updates
-    for j in range(n_m):
-        dq = wk.yq[j]
-        acc = a0 * dq - a2 * st.qd[j] - a3 * st.qdd[j]
-        st.qd[j] = st.qd[j] + dt * ((1.0 - gamma) * st.qdd[j] + gamma * acc)
-        st.qdd[j] = acc
-        st.q[j] += dq
-    for k in range(n_v):
-        du = wk.yv[k]
-        acc = a0 * du - a2 * st.ud[k] - a3 * st.udd[k]
-        st.ud[k] = st.ud[k] + dt * ((1.0 - gamma) * st.udd[k] + gamma * acc)
-        st.udd[k] = acc
-        st.u[k] += du
+    hht_correct(veh, st, wk, khat_v, a0, a2, a3, gamma, scale, dt)
     if track_element(veh):
         track_update(veh, wk, dt, a0, a1, a2, a3, gamma, scale)
 

@@ -212,6 +212,8 @@ def _track_restraint_warning(chk, bridge, track):
     model = bridge.model
     if not model.n_modes or model.kind == "rigid":
         return
+    if any(not lo <= track[key] <= hi for key, (lo, hi, _) in TRACK_RANGES.items()):
+        return  # no railway track: said by the plausibility checks, not computed here
     t = _track.ElasticTrack(track["foundation_stiffness"], track["rail_EI"])
     if not _track_filter_nodes(t, bridge) * model.n_modes <= MAX_TRACK_FILTER:
         return  # refused by the plausibility checks (the filter's memory), not computed

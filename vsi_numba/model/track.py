@@ -245,16 +245,34 @@ class ElasticTrack:
         # the deck's mode shapes at the Gauss points of every element (one call)
         phi_g = bridge.shapes((nodes[:-1, None] + s * lengths[:, None]).ravel()).reshape(
             n_n - 1, s.size, n_m)
-        for e, h in enumerate(lengths):
-            kb, kf = hermite.beam_element(h, ei, k)  # bending, consistent foundation
-            ke = kb + kf
-            if n_m and 0.0 <= nodes[e] + 0.5 * h <= L:  # the foundation bears on the deck
-                N = np.array(hermite.shape_functions(s, h))  # (4, n_gauss)
-                rhs[2 * e: 2 * e + 4] += k * (N * (0.5 * h * gw)) @ phi_g[e]
-            d = 2 * e
-            for r in range(4):
-                for c in range(r, 4):
-                    ab[3 + r - c, d + c] += ke[r, c]
+        # element matrices of every element at once (cubic Hermite bending + the
+        # consistent Winkler foundation), assembled into the band: node d of element e is
+        # DOF 2e, and no two elements of one (r, c) pass share a band entry
+        h = lengths
+        kb = ei / h**3
+        kf = k * h / 420.0
+        ke = np.empty((h.size, 4, 4))
+        ke[:, 0, 0] = ke[:, 2, 2] = 12 * kb + 156 * kf
+        ke[:, 0, 1] = 6 * h * kb + 22 * h * kf
+        ke[:, 0, 2] = -12 * kb + 54 * kf
+        ke[:, 0, 3] = 6 * h * kb - 13 * h * kf
+        ke[:, 1, 1] = ke[:, 3, 3] = 4 * h * h * kb + 4 * h * h * kf
+        ke[:, 1, 2] = -6 * h * kb + 13 * h * kf
+        ke[:, 1, 3] = 2 * h * h * kb - 3 * h * h * kf
+        ke[:, 2, 3] = -6 * h * kb - 22 * h * kf
+        d = 2 * np.arange(h.size)
+        for r in range(4):
+            for c in range(r, 4):
+                ab[3 + r - c, d + c] += ke[:, r, c]
+        on_deck = (nodes[:-1] + 0.5 * h >= 0.0) & (nodes[:-1] + 0.5 * h <= L)
+        if n_m and on_deck.any():  # the foundation bears on the deck
+            e = np.flatnonzero(on_deck)
+            N = np.array(np.broadcast_arrays(
+                *hermite.shape_functions(s[None, :], h[e, None])))  # (4, e, gauss)
+            w = k * 0.5 * h[e, None] * gw  # (e, gauss)
+            load = np.einsum("ieg,eg,egm->eim", N, w, phi_g[e])
+            for i in range(4):
+                rhs[2 * e + i] += load[:, i]
         sol = scipy.linalg.solveh_banded(ab, rhs) if n_m else rhs
         return (np.ascontiguousarray(nodes), np.ascontiguousarray(sol[0::2]),
                 np.ascontiguousarray(sol[1::2]))

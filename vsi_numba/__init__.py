@@ -10,9 +10,29 @@ A few verbs::
 
 from __future__ import annotations
 
+import os as _os
+import sys as _sys
+
 __version__ = "0.1.0"
 
 __all__ = ["__version__", "load_config", "open_results", "run_study", "simulate"]
+
+
+def _absolute_numba_cache_dir() -> None:
+    """A relative ``NUMBA_CACHE_DIR`` (the test command's ``.numba_cache``) is the one in
+    the directory the command started in: made absolute before numba reads it, so a
+    later change of directory, a worker process or a ``vsi`` started in another directory
+    finds the same cache instead of compiling every kernel into a new one."""
+    cache = _os.environ.get("NUMBA_CACHE_DIR")
+    if not cache or _os.path.isabs(cache):
+        return
+    _os.environ["NUMBA_CACHE_DIR"] = _os.path.abspath(cache)
+    config = getattr(_sys.modules.get("numba"), "config", None)
+    if config is not None and getattr(config, "CACHE_DIR", None) == cache:
+        config.CACHE_DIR = _os.environ["NUMBA_CACHE_DIR"]
+
+
+_absolute_numba_cache_dir()
 
 
 def __getattr__(name):  # lazy: importing the package must not compile or import numba

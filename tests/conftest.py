@@ -6,6 +6,12 @@ family that is not in the numba cache yet (:mod:`vsi_numba.solver.warm`), waits 
 each holds its family's compile lock, and lets the tests start.  A test process that
 needs a family meanwhile waits for that lock and loads the kernels from the cache
 instead of compiling them a second time; tests that need no kernel run at once.
+
+The tests are ordered so that there are such tests to run meanwhile: the modules that
+run the moving-force kernels only (:data:`MOVING_FORCE_MODULES`, ~25 s to compile) come
+after those that need no kernel, and those with a test of the interaction kernels
+(:data:`INTERACTION_MODULES`, ~60 s) last.  The order inside a module is kept; the
+grouping only changes when a test waits, never what it checks.
 """
 
 from __future__ import annotations
@@ -14,6 +20,30 @@ import subprocess
 import time
 
 _HELPERS: list = []
+
+#: Test modules that run the moving-force kernels but not the interaction kernels
+#: (measured).
+MOVING_FORCE_MODULES = frozenset({
+    "test_cluster_listeners", "test_dask_cluster", "test_load_effect_checks"})
+
+#: Test modules with a test that runs the interaction kernels (measured): one such test
+#: early would make its process wait for the compilation.
+INTERACTION_MODULES = frozenset({
+    "test_batch", "test_benchmarks", "test_cli_conveniences", "test_comfort_car_end",
+    "test_comfort_deck", "test_deck_end_impact", "test_engine", "test_files_edges",
+    "test_hertz", "test_hostile", "test_impact_lcp", "test_imported", "test_load_effects",
+    "test_nonlinear_on_damped_track", "test_nonlinear_suspension", "test_report",
+    "test_resume", "test_study", "test_track", "test_track_damping", "test_validation",
+    "test_variants", "test_variants_edges", "test_warm"})
+
+
+def _wait_rank(item) -> int:
+    name = item.path.stem
+    return 2 if name in INTERACTION_MODULES else 1 if name in MOVING_FORCE_MODULES else 0
+
+
+def pytest_collection_modifyitems(session, config, items):
+    items.sort(key=_wait_rank)  # stable: the order within a module is kept
 
 
 def pytest_configure(config):

@@ -86,14 +86,18 @@ def subprocess_env() -> dict[str, str]:
     return env
 
 
-def start_sweep(config: Path, output: Path, *extra, preexec_fn=None, hold=None
-                ) -> subprocess.Popen:
+def start_sweep(config: Path, output: Path, *extra, preexec_fn=None, hold=None,
+                write_bytecode: bool = True) -> subprocess.Popen:
     """``python -m vsi_numba.cli sweep`` in a new process group (stderr captured); with
     ``hold``, the sweep stops (and waits to be signalled) after that many stored batches
-    (an int) or inside the final write (``"write"``)."""
+    (an int) or inside the final write (``"write"``).  ``write_bytecode=False`` for a
+    sweep whose writes are made to fail: a byte-compiled module it wrote would be cut
+    short and break every later process that shares the bytecode cache."""
     cmd = [sys.executable, "-m", "vsi_numba.cli", "sweep", str(config), "-o", str(output),
            *extra]
     env = subprocess_env()
+    if not write_bytecode:
+        env["PYTHONDONTWRITEBYTECODE"] = "1"
     env.pop(HOLD_ENV, None)
     if hold is not None:
         env[HOLD_ENV] = str(hold)
@@ -286,7 +290,8 @@ def test_resume__full_disk_clear_error_cases_kept(tmp_path):
     out.unlink()
     size = max(p.stat().st_size for p in store_path(out).glob("batch_*.npz"))
     # 1. room for the case files but not for the final file: every case is kept
-    proc = start_sweep(config, out, "--quiet", preexec_fn=_file_size_limit(size + 1024))
+    proc = start_sweep(config, out, "--quiet", preexec_fn=_file_size_limit(size + 1024),
+                       write_bytecode=False)
     _, err = proc.communicate(timeout=900)
     assert proc.returncode == 1, err
     assert f"cannot write {out}" in err and "re-run the same command" in err
@@ -295,7 +300,8 @@ def test_resume__full_disk_clear_error_cases_kept(tmp_path):
     assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
     # 2. no room for even one case file (the store manifest, ~1 KiB, still fits)
     other = tmp_path / "other.nc"
-    proc = start_sweep(config, other, "--quiet", preexec_fn=_file_size_limit(size // 2))
+    proc = start_sweep(config, other, "--quiet", preexec_fn=_file_size_limit(size // 2),
+                       write_bytecode=False)
     _, err = proc.communicate(timeout=900)
     assert proc.returncode == 1, err
     assert "cannot write" in err and "batch_t" in err and "re-run the same command" in err

@@ -170,3 +170,33 @@ def test_ensure_compiled__a_fresh_process_compiles_under_the_lock_without_deadlo
     for family in warm.FAMILIES:  # the helper's command (this module as __main__)
         subprocess.run([sys.executable, "-m", "vsi_numba.solver.warm", family], check=True,
                        timeout=120)
+
+
+def test_compile_leaves__have_the_types_time_loop_passes_them():
+    """The leaves a second process compiles while the interaction kernels compile from an
+    empty cache (``python -m vsi_numba.solver.warm interaction --leaves``) must be the
+    very signatures :func:`time_loop` calls, else that process's work is lost and they
+    compile twice: after the family and the leaves, numba's cache index of each leaf
+    names one signature (a second would be a leaf compiled for other types)."""
+    warm.ensure_compiled("interaction")  # time_loop compiled (or loaded) on this cache
+    subprocess.run(warm.leaves_command("interaction"), check=True, timeout=300)
+    for kernel in (ek.impact_update, ek.nl_update_branches):
+        index = kernel._cache._cache_file._load_index()
+        assert len({key[0] for key in index}) == 1, list(index)
+    with pytest.raises(ValueError, match="only 'interaction'"):
+        warm.warm_up_family("moving_force", leaves=True)
+
+
+def test_lookups_wait_for__a_leaf_look_up_waits_for_the_leaves_process():
+    """During the interaction compile, numba's cache look-up of a leaf returns only after
+    the leaves process has exited (so it finds the leaf instead of compiling it again);
+    afterwards the look-up is numba's own again."""
+    sleeper = _sleeper(1.0)
+    cache = ek.impact_update._cache
+    with warm._lookups_wait_for(sleeper):
+        assert "load_overload" in vars(cache)
+        cache.load_overload(ek.impact_update.signatures[0] if ek.impact_update.signatures
+                            else (), ek.impact_update.targetctx)
+        assert sleeper.poll() is not None  # exited before the look-up went on
+    assert "load_overload" not in vars(cache)
+    assert "load_overload" not in vars(ek.nl_update_branches._cache)

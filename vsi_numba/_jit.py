@@ -27,3 +27,9 @@ def njit(func=None, **overrides):
     if func is None:
         return lambda f: numba.njit(**options)(f)
     return numba.njit(**options)(func)
+
+
+def compile_for(kernel, *args) -> None:
+    """Compile ``kernel`` for the numba types of ``args`` (the values it would be called
+    with), without calling it."""
+    kernel.compile(tuple(numba.typeof(a) for a in args))

@@ -344,7 +344,8 @@ class BatchResult:
 
 
 def run_batch(packed: Packed, profile: Profile, speeds, points, settings: SolverSettings,
-              bridge: ModalBridge, keep_histories=None, deck=None) -> BatchResult:
+              bridge: ModalBridge, keep_histories=None, deck=None,
+              _kernel=None) -> BatchResult:
     """Run one packed model at several speeds (m/s) in one kernel call.
 
     Parameters
@@ -362,6 +363,9 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     deck : tuple, optional
         ``deck_operators(bridge, points, settings)`` when already computed; a 3-tuple
         ``(phi_d, phi_a, cutoff)`` has no whole-deck grid (its envelopes are NaN).
+    _kernel : callable, optional
+        Called with the kernel's arguments instead of running the batch (returns None):
+        :func:`vsi_numba.kernels.engine.compile_leaves` compiles for exactly these types.
     """
     speeds = np.ascontiguousarray(np.atleast_1d(np.asarray(speeds, float)))
     if np.any(~(speeds > 0)):
@@ -406,6 +410,10 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     wk = _workspace(n_m, n_v, n_w, veh)
     status = np.zeros(n_r, np.int64)
     reached = np.zeros(n_r, np.int64)
+    if _kernel is not None:
+        _kernel(packed.bridge, veh, packed.profile, packed.params, speeds, n_steps, init,
+                st, bk, wk, red, out, slots, status, reached)
+        return None
     family = warm.family_of(packed)
     warm.wait_for(family)  # a helper compiling these kernels: wait
     warm.ensure_compiled(family)  # compiled once per machine (another process: wait)

@@ -18,7 +18,10 @@ kernels from the cache instead of compiling them again - N worker processes star
 an empty cache compile once, not N times at once (each compile takes ~1 GB).
 
 ``python -m vsi_numba.solver.warm FAMILY`` is the helper: it compiles (or loads) the
-family's kernels on a tiny model of the same types and exits.
+family's kernels on a tiny model of the same types and exits.  The interaction
+kernels' own compilation from an empty cache runs in two processes: while one compiles
+the kernels top-down, ``... interaction --leaves`` compiles their largest leaves (which
+the first reaches last) into the cache (:func:`ensure_compiled`).
 """
 
 from __future__ import annotations
@@ -140,10 +143,83 @@ def ensure_compiled(family: str, timeout: float = LOCK_TIMEOUT) -> None:
         if _compiled(family):  # another thread of this process did it
             return
         setattr(_warming, family, True)
+        leaves = _start_leaves(family)
         try:
-            warm_up_family(family)
+            with _lookups_wait_for(leaves):
+                warm_up_family(family)
         finally:
             setattr(_warming, family, False)
+            if leaves is not None:  # done long before, normally; not needed any more
+                if leaves.poll() is None:
+                    leaves.terminate()
+                leaves.wait()
+
+
+#: Cores below which no second process compiles the interaction kernels' leaves (on
+#: one core it would only slow down the main compilation).
+LEAVES_MIN_CORES = 2
+
+
+def leaves_command(family: str) -> list[str]:
+    """``python -m vsi_numba.solver.warm FAMILY --leaves``: compile the family's leaves
+    only (:func:`~vsi_numba.kernels.engine.compile_leaves`), without the lock."""
+    return helper_command(family) + ["--leaves"]
+
+
+@contextlib.contextmanager
+def _lookups_wait_for(leaves):
+    """While the interaction kernels compile here: numba's cache look-up of each leaf
+    (:data:`~vsi_numba.kernels.engine.LEAVES`) first waits for the ``leaves`` process to
+    exit, so that it finds the leaf in the cache instead of compiling it a second time
+    when this compilation gets there first (a busy machine).  Uses numba's internal
+    ``_cache.load_overload``; where it is missing nothing is changed."""
+    if leaves is None:
+        yield
+        return
+    from vsi_numba.kernels.engine import LEAVES
+
+    def waiting(load):
+        def look_up(*args, **kwargs):
+            try:
+                leaves.wait(timeout=LOCK_TIMEOUT)
+            except subprocess.TimeoutExpired:  # pragma: no cover - a stuck process
+                leaves.kill()
+            return load(*args, **kwargs)
+
+        return look_up
+
+    patched = []
+    for kernel in LEAVES:
+        cache = getattr(kernel, "_cache", None)
+        load = getattr(cache, "load_overload", None)
+        if load is not None:
+            cache.load_overload = waiting(load)
+            patched.append(cache)
+    try:
+        yield
+    finally:
+        for cache in patched:
+            del cache.load_overload  # the class's method again
+
+
+def _start_leaves(family: str):
+    """While this process compiles the interaction kernels from an empty cache, a
+    second process compiles their largest leaves
+    (:func:`~vsi_numba.kernels.engine.compile_leaves`) into the same cache, where the
+    compilation here finds them (~10 s of its ~60 s on one core).  None (nothing
+    started) for the moving-force family, a cached family or fewer than
+    :data:`LEAVES_MIN_CORES` cores."""
+    from vsi_numba._process import available_cores, term_with_parent
+
+    if (family != "interaction" or is_cached(family)
+            or available_cores() < LEAVES_MIN_CORES):
+        return None
+    try:
+        return subprocess.Popen(leaves_command(family), env=dict(os.environ),
+                                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL, preexec_fn=term_with_parent())
+    except OSError:  # no process to spare: this process compiles them all, as without
+        return None
 
 
 def helper_family(families_in_order, cached=is_cached) -> str | None:
@@ -202,9 +278,10 @@ def stop_helpers() -> None:
         proc.wait()
 
 
-def warm_up_family(family: str) -> float:
+def warm_up_family(family: str, leaves: bool = False) -> float:
     """Compile (or load from the cache) the kernels of ``family`` on a tiny model;
-    returns the seconds it took."""
+    returns the seconds it took.  ``leaves``: only the interaction kernels' leaves
+    (:func:`~vsi_numba.kernels.engine.compile_leaves`), for the same types."""
     from vsi_numba.model import bridge as br
     from vsi_numba.model import vehicle as vh
     from vsi_numba.model.irregularity import no_irregularity
@@ -225,7 +302,14 @@ def warm_up_family(family: str) -> float:
     settings = SolverSettings(dt=5e-3, approach=0.0, free_vibration=0.0)
     profile = no_irregularity()
     packed = pack(beam, Train("warm-up", (unit,), (0.0,)), 50.0, profile, settings)
-    run_batch(packed, profile, [50.0], [5.0], settings, beam)
+    if leaves:
+        from vsi_numba.kernels.engine import compile_leaves
+
+        if family != "interaction":
+            raise ValueError(f"family = {family!r}: only 'interaction' has leaves to compile")
+        run_batch(packed, profile, [50.0], [5.0], settings, beam, _kernel=compile_leaves)
+    else:
+        run_batch(packed, profile, [50.0], [5.0], settings, beam)
     return time.perf_counter() - t0
 
 
@@ -233,4 +317,7 @@ if __name__ == "__main__":  # pragma: no cover - the helper process
     # the package's module, not this __main__ copy: one ``_warming`` flag per process
     from vsi_numba.solver import warm as _warm
 
-    _warm.ensure_compiled(sys.argv[1])
+    if sys.argv[2:] == ["--leaves"]:
+        _warm.warm_up_family(sys.argv[1], leaves=True)
+    else:
+        _warm.ensure_compiled(sys.argv[1])

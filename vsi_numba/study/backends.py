@@ -38,6 +38,9 @@ import sys
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any
 
+from vsi_numba._process import available_cores  # noqa: F401 (the backends' API)
+from vsi_numba._process import term_with_parent as _term_with_parent
+
 #: The only interface a local Dask cluster listens on (scheduler, workers, dashboards).
 LOOPBACK = "127.0.0.1"
 
@@ -77,14 +80,6 @@ def worker_env() -> dict[str, str]:
         if name in os.environ:
             env[name] = os.environ[name]
     return env
-
-
-def available_cores() -> int:
-    """Cores this process may use (affinity-aware)."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not Linux
-        return os.cpu_count() or 1
 
 
 #: Seconds between two looks of a worker's watchdog at its parent.
@@ -693,17 +688,3 @@ class LoopbackCluster:
         return None
 
 
-def _term_with_parent() -> Callable[[], None] | None:
-    """A ``preexec_fn`` after which Linux sends the child SIGTERM when the parent thread
-    ends (``PR_SET_PDEATHSIG``); None where there is no ``prctl``.  The C library is
-    loaded here, in the parent: nothing is loaded between fork and exec."""
-    import signal
-
-    try:
-        import ctypes
-
-        prctl = ctypes.CDLL(None, use_errno=True).prctl
-    except (OSError, AttributeError):  # pragma: no cover - not Linux
-        return None
-    sig = int(signal.SIGTERM)
-    return lambda: prctl(1, sig)  # PR_SET_PDEATHSIG

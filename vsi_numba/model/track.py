@@ -245,9 +245,9 @@ class ElasticTrack:
         # the deck's mode shapes at the Gauss points of every element (one call)
         phi_g = bridge.shapes((nodes[:-1, None] + s * lengths[:, None]).ravel()).reshape(
             n_n - 1, s.size, n_m)
-        # element matrices of every element at once (cubic Hermite bending + the
-        # consistent Winkler foundation), assembled into the band: node d of element e is
-        # DOF 2e, and no two elements of one (r, c) pass share a band entry
+        # the element matrices of all elements at once (cubic Hermite bending + the
+        # consistent Winkler foundation), added into the band: element e's DOFs are
+        # 2e .. 2e + 3, so within one (r, c) pass no two elements share a band entry
         h = lengths
         kb = ei / h**3
         kf = k * h / 420.0

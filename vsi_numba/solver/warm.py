@@ -290,6 +290,8 @@ def warm_up_family(family: str, leaves: bool = False) -> float:
     from vsi_numba.solver.pack import pack
     from vsi_numba.solver.settings import SolverSettings
 
+    if leaves and family != "interaction":
+        raise ValueError(f"family = {family!r}: only 'interaction' has leaves to compile")
     t0 = time.perf_counter()
     beam = br.simply_supported(10.0, 1e9, 1e4, n_modes=2)
     if family == "moving_force":
@@ -305,8 +307,6 @@ def warm_up_family(family: str, leaves: bool = False) -> float:
     if leaves:
         from vsi_numba.kernels.engine import compile_leaves
 
-        if family != "interaction":
-            raise ValueError(f"family = {family!r}: only 'interaction' has leaves to compile")
         run_batch(packed, profile, [50.0], [5.0], settings, beam, _kernel=compile_leaves)
     else:
         run_batch(packed, profile, [50.0], [5.0], settings, beam)

@@ -686,5 +686,3 @@ class LoopbackCluster:
             except Exception:  # noqa: BLE001 - nothing more to do about it
                 pass
         return None
-
-

@@ -1346,14 +1346,22 @@ def track_predict(veh, wk, st, alpha, a0, a1, a2, a3, cv, ca, scale):
 
 
 @njit(inline="always")
+def newmark(d, v, a, a0, a2, a3, gamma, dt):
+    """Newmark update of one DOF whose displacement grew by ``d`` over the step, from its
+    velocity ``v`` and acceleration ``a`` at the step's start: (velocity, acceleration)
+    at its end."""
+    acc = a0 * d - a2 * v - a3 * a
+    return v + dt * ((1.0 - gamma) * a + gamma * acc), acc
+
+
+@njit(inline="always")
 def track_update(veh, wk, dt, a0, a1, a2, a3, gamma, scale):
     """Newmark update of the track elements with the step's contact forces ``wk.X``."""
     khat = a0 * veh.track_mt + scale * (a1 * veh.track_ct + veh.track_kt)
     for i in range(veh.wheel_dof.shape[0]):
         dy = (wk.trk[i, 3] + scale * wk.X[i]) / khat
-        acc = a0 * dy - a2 * wk.trk[i, 1] - a3 * wk.trk[i, 2]
-        wk.trk[i, 1] += dt * ((1.0 - gamma) * wk.trk[i, 2] + gamma * acc)
-        wk.trk[i, 2] = acc
+        wk.trk[i, 1], wk.trk[i, 2] = newmark(dy, wk.trk[i, 1], wk.trk[i, 2], a0, a2, a3,
+                                             gamma, dt)
         wk.trk[i, 0] += dy
 
 
@@ -1383,15 +1391,11 @@ def hht_correct(veh, st, wk, khat_v, a0, a2, a3, gamma, scale, dt):
     block_matvec(veh, khat_v, wk.rv, wk.yv, True, -scale)
     for j in range(n_m):
         dq = wk.yq[j]
-        acc = a0 * dq - a2 * st.qd[j] - a3 * st.qdd[j]
-        st.qd[j] = st.qd[j] + dt * ((1.0 - gamma) * st.qdd[j] + gamma * acc)
-        st.qdd[j] = acc
+        st.qd[j], st.qdd[j] = newmark(dq, st.qd[j], st.qdd[j], a0, a2, a3, gamma, dt)
         st.q[j] += dq
     for k in range(n_v):
         du = wk.yv[k]
-        acc = a0 * du - a2 * st.ud[k] - a3 * st.udd[k]
-        st.ud[k] = st.ud[k] + dt * ((1.0 - gamma) * st.udd[k] + gamma * acc)
-        st.udd[k] = acc
+        st.ud[k], st.udd[k] = newmark(du, st.ud[k], st.udd[k], a0, a2, a3, gamma, dt)
         st.u[k] += du
 
 
@@ -2123,9 +2127,7 @@ def mf_time_loop(br, veh, prm, st, wk, red, r, out, h, on, off, cs, sums):
             rj = (scale * fq[j] - alpha * fq_tot[j] + a2 * qd[j] + a3 * qdd[j]
                   - cq[j] * (cv * qd[j] + ca * qdd[j]) - w2[j] * q[j])
             dq = rj / khat[j]
-            a = a0 * dq - a2 * qd[j] - a3 * qdd[j]
-            qd[j] = qd[j] + dt * ((1.0 - gamma) * qdd[j] + gamma * a)
-            qdd[j] = a
+            qd[j], qdd[j] = newmark(dq, qd[j], qdd[j], a0, a2, a3, gamma, dt)
             q[j] += dq
             fq_tot[j] = fq[j]
             finite += q[j] + qd[j] + qdd[j]

@@ -104,7 +104,7 @@ def prepare(ds: xr.Dataset) -> xr.Dataset:
         drop.append("speed_kmh")
     ds = ds.drop_vars(drop)
 
-    out = xr.Dataset(attrs=dict(ds.attrs))
+    data = {}
     for name, da in ds.data_vars.items():
         if name in TRAIN_VARIABLES:
             wanted = ("train",)
@@ -116,8 +116,9 @@ def prepare(ds: xr.Dataset) -> xr.Dataset:
         if new:
             da = da.expand_dims(new)
         lead = [d for d in wanted if d in da.dims]
-        da = da.transpose(*lead, ...)
-        out[name] = da
+        data[name] = da.transpose(*lead, ...)
+    # one Dataset of them all: one alignment (adding them one by one aligned each)
+    out = xr.Dataset(data, attrs=dict(ds.attrs))
     for name, coord in ds.coords.items():
         if name not in out.coords and (name in out.dims or set(coord.dims) <= set(out.dims)):
             out = out.assign_coords({name: coord})

@@ -174,8 +174,11 @@ def static_deck_envelope(bridge: ModalBridge, train: Train, output_points, step:
     pos = np.concatenate([packed.wheel_positions, packed.load_positions])
     fronts = np.arange(0.0, bridge.length + pos.max() + step, step)
     x = fronts[:, None] - pos[None, :]
-    phi_k = bridge.shapes(x.ravel()).reshape(x.shape + (bridge.n_modes,))
-    modal = np.einsum("fkj,k->fj", phi_k, Q) / bridge.omega**2
+    # only the (front, axle) pairs with the axle on the deck: the shapes are zero off it
+    f_i, k_i = np.nonzero((x >= 0.0) & (x <= bridge.length))
+    phi_q = bridge.shapes(x[f_i, k_i]) * Q[k_i, None]
+    modal = np.stack([np.bincount(f_i, weights=phi_q[:, j], minlength=fronts.size)
+                      for j in range(bridge.n_modes)], axis=1) / bridge.omega**2
     w = modal @ bridge.output_shapes(points).T
     return np.max(np.abs(w), axis=0)
 

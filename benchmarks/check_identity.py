@@ -1,8 +1,10 @@
-"""Results of the interaction engine, compared between two versions of the code.
+"""Results of the engine, compared between two versions of the code.
 
 A handful of small configurations that cover the interaction path (elastic damped track
 with the ICE3, rigid track with impacts and deck ends, Hertz contact, a continuous FE
-deck, a nonlinear suspension, lift-off, a massive rail) are run with ``vsi sweep``'s
+deck, a nonlinear suspension, lift-off, a massive rail) and the moving-force kernel
+(sine modes with load effects, the first axle on the deck at t = 0, a continuous deck,
+no load effects) are run with ``vsi sweep``'s
 engine (``run_study``, histories on) into one netCDF file each::
 
     python -m benchmarks.check_identity write DIR        # with the code on PYTHONPATH
@@ -35,7 +37,7 @@ _SPRUNG = {"kind": "sprung_mass", "mass": 5750.0, "stiffness": 1.595e6, "damping
 
 
 def _case(title, bridge=None, train=None, irregularity=None, solver=None, speeds=(250.0,),
-          **extra):
+          study_extra=None, **extra):
     cfg = {
         "title": title,
         "bridge": copy.deepcopy(bridge or _SS),
@@ -43,7 +45,7 @@ def _case(title, bridge=None, train=None, irregularity=None, solver=None, speeds
         "irregularity": copy.deepcopy(irregularity or _PSD),
         "solver": {**_SOLVER, **(solver or {})},
         "study": {"speeds_kmh": list(speeds), "output": "results.nc",
-                  "save_time_histories": True},
+                  "save_time_histories": True, **(study_extra or {})},
     }
     cfg.update(copy.deepcopy(extra))
     return cfg
@@ -53,6 +55,8 @@ def cases() -> dict:
     """name -> config dict (small: a few modes, short decks, 0.2 s of free vibration)."""
     dip = {"kind": "cosine", "depth": 0.02, "wavelength": 2.0, "position": 8.0}
     ice3 = {"preset": "ICE3", "model": "interaction"}
+    hslm = {"preset": ["HSLM-A1", "HSLM-A4"], "model": "moving_force"}
+    smooth = {"kind": "none"}
     return {
         # the default (elastic, damped) track, 8 cars, two speeds
         "ice3_damped": _case("ICE3 on the damped elastic track", speeds=(250.0, 330.0)),
@@ -82,6 +86,24 @@ def cases() -> dict:
         # massive rail (damped and massive track elements)
         "rail_mass": _case("massive rail", train=ice3, speeds=(300.0,),
                            track={"rail_mass": 120.0}),
+        # trains of moving forces (their own kernel): load effects on, sine modes ...
+        "mf_hslm": _case("HSLM moving forces", train=hslm, irregularity=smooth,
+                         speeds=(200.0, 300.0, 390.0), solver={"hht_alpha": -0.05}),
+        # ... the first axle on the deck at t = 0 ...
+        "mf_approach0": _case("HSLM moving forces from x = 0", train=hslm,
+                              irregularity=smooth, speeds=(250.0,),
+                              solver={"approach": 0.0, "free_vibration": 0.0}),
+        # ... a continuous FE deck (the loads summed one by one), no load effects
+        "mf_continuous": _case("moving forces on a 2-span deck", train=hslm,
+                               irregularity=smooth, speeds=(280.0,),
+                               bridge={"kind": "continuous", "spans": [12.0, 15.0],
+                                       "EI": 2e10, "mass_per_length": 12000.0,
+                                       "damping_ratio": 0.015, "n_modes": 5,
+                                       "elements_per_span": 10,
+                                       "output_points": [6.0, 20.0]}),
+        "mf_no_load_effects": _case("moving forces, no load effects", train=hslm,
+                                    irregularity=smooth, speeds=(300.0,),
+                                    study_extra={"load_effects": False}),
     }
 
 

@@ -1821,6 +1821,22 @@ def le_finish(E, w2inv, val, q, f, mx, mxt, mn, mnt, r, n, t):
                 mnt[r, c] = t
 
 
+@njit(inline="always")
+def le_sort(lx, lp, nl):
+    """Sort the first ``nl`` loads by abscissa ``lx`` (with their forces ``lp``): an
+    insertion sort (the train's order: nearly sorted)."""
+    for k in range(1, nl):
+        x = lx[k]
+        p = lp[k]
+        m = k - 1
+        while m >= 0 and lx[m] > x:
+            lx[m + 1] = lx[m]
+            lp[m + 1] = lp[m]
+            m -= 1
+        lx[m + 1] = x
+        lp[m + 1] = p
+
+
 @njit
 def le_record(red, wheel_x0, X, load_x0, load_p, q, f, r, n, t, speed):
     """Load effects of step ``n`` of the general time loop: the moving forces and the
@@ -1843,16 +1859,7 @@ def le_record(red, wheel_x0, X, load_x0, load_p, q, f, r, n, t, speed):
             lx[nl] = x
             lp[nl] = load_p[k]
             nl += 1
-    for k in range(1, nl):  # insertion sort (the train's order: nearly sorted)
-        x = lx[k]
-        p = lp[k]
-        m = k - 1
-        while m >= 0 and lx[m] > x:
-            lx[m + 1] = lx[m]
-            lp[m + 1] = lp[m]
-            m -= 1
-        lx[m + 1] = x
-        lp[m + 1] = p
+    le_sort(lx, lp, nl)
     le_static(sup, red.le_L, red.le_Linv, red.le_c6, red.le_A, red.le_B, red.le_X,
               red.le_xi, red.le_sec0, red.le_val, red.le_Ms, red.le_acc, lx, lp, red.le_ls,
               nl)
@@ -2034,7 +2041,6 @@ def mf_time_loop(br, veh, prm, st, wk, red, r, out, h, on, off, cs, sums):
         w2[j] = br.omega[j] ** 2
         wk.khat[j] = a0 + scale * (a1 * cq[j] + w2[j])
     load_windows(br, veh, speed, dt, prm.n_steps, on, off)
-    record(veh, st, wk, red, r, np.int64(0), 0.0, speed, out, h, np.int64(0))
     # locals, not tuple fields, inside the step loop: no reference-count traffic
     q = st.q
     qd = st.qd
@@ -2067,6 +2073,7 @@ def mf_time_loop(br, veh, prm, st, wk, red, r, out, h, on, off, cs, sums):
     le_on = red.le_E.shape[1] > 0
     order = red.le_order
     le_sup = red.le_sup
+    le_length = le_sup[le_sup.shape[0] - 1]
     le_L = red.le_L
     le_Linv = red.le_Linv
     le_c6 = red.le_c6
@@ -2096,43 +2103,47 @@ def mf_time_loop(br, veh, prm, st, wk, red, r, out, h, on, off, cs, sums):
         for k in range(n_l):
             cs[0, k] = np.cos(k1 * load_x0[k])
             cs[1, k] = np.sin(k1 * load_x0[k])
-    for n in range(prm.n_steps):
+    # n = -1 records the initial state (step 0, t = 0) with the code that records the
+    # steps, as :func:`record` would (the envelopes start at 0, the load effects at
+    # -inf/+inf): one copy of that code in the kernel
+    for n in range(-1, prm.n_steps):
         t1 = (n + 1) * dt
-        for j in range(n_m):
-            fq[j] = 0.0
-        if br.kind == 1 and n_m > 0:
-            if n == nxt:
-                nxt = window_sums(veh, n, on, off, cs, sums)
-            ang = k1 * (speed * t1)
-            c1 = np.cos(ang)
-            s1 = np.sin(ang)
-            c = c1
-            s = s1
+        if n >= 0:
             for j in range(n_m):
-                fq[j] = amp[j] * (s * sums[0, j] + c * sums[1, j])
-                c, s = c * c1 - s * s1, s * c1 + c * s1
-        elif br.kind != 0:
-            while first < n_l and off[first] <= n and on[first] <= n:
-                first += 1
-            for k in range(first, n_l):
-                if n < on[k] or n >= off[k]:
-                    continue
-                x = load_x0[k] + speed * t1
-                eval_modes(br, x, wk.phil, wk.yq, wk.vq)
-                p = load_p[k]
+                fq[j] = 0.0
+            if br.kind == 1 and n_m > 0:
+                if n == nxt:
+                    nxt = window_sums(veh, n, on, off, cs, sums)
+                ang = k1 * (speed * t1)
+                c1 = np.cos(ang)
+                s1 = np.sin(ang)
+                c = c1
+                s = s1
                 for j in range(n_m):
-                    fq[j] += p * wk.phil[j]
-        finite = 0.0
-        for j in range(n_m):
-            rj = (scale * fq[j] - alpha * fq_tot[j] + a2 * qd[j] + a3 * qdd[j]
-                  - cq[j] * (cv * qd[j] + ca * qdd[j]) - w2[j] * q[j])
-            dq = rj / khat[j]
-            qd[j], qdd[j] = newmark(dq, qd[j], qdd[j], a0, a2, a3, gamma, dt)
-            q[j] += dq
-            fq_tot[j] = fq[j]
-            finite += q[j] + qd[j] + qdd[j]
-        if not np.isfinite(finite):
-            return NON_FINITE, n + 1
+                    fq[j] = amp[j] * (s * sums[0, j] + c * sums[1, j])
+                    c, s = c * c1 - s * s1, s * c1 + c * s1
+            elif br.kind != 0:
+                while first < n_l and off[first] <= n and on[first] <= n:
+                    first += 1
+                for k in range(first, n_l):
+                    if n < on[k] or n >= off[k]:
+                        continue
+                    x = load_x0[k] + speed * t1
+                    eval_modes(br, x, wk.phil, wk.yq, wk.vq)
+                    p = load_p[k]
+                    for j in range(n_m):
+                        fq[j] += p * wk.phil[j]
+            finite = 0.0
+            for j in range(n_m):
+                rj = (scale * fq[j] - alpha * fq_tot[j] + a2 * qd[j] + a3 * qdd[j]
+                      - cq[j] * (cv * qd[j] + ca * qdd[j]) - w2[j] * q[j])
+                dq = rj / khat[j]
+                qd[j], qdd[j] = newmark(dq, qd[j], qdd[j], a0, a2, a3, gamma, dt)
+                q[j] += dq
+                fq_tot[j] = fq[j]
+                finite += q[j] + qd[j] + qdd[j]
+            if not np.isfinite(finite):
+                return NON_FINITE, n + 1
         # record (see :func:`record`; no wheels, no car bodies)
         t = float(n + 1) * dt
         for p in range(n_p):
@@ -2175,84 +2186,102 @@ def mf_time_loop(br, veh, prm, st, wk, red, r, out, h, on, off, cs, sums):
                         gacc_i[r] = p
                         break
         if le_on:
-            while lo > 0 and on[order[lo - 1]] <= n:
-                lo -= 1
-            while hi > lo and off[order[hi - 1]] <= n:
-                hi -= 1
             nl = 0
-            for i in range(lo, hi):
-                k = order[i]
-                le_lx[nl] = load_x0[k] + speed * t1
-                le_lp[nl] = load_p[k]
-                nl += 1
+            if n < 0:  # the loads on the deck at t = 0, as :func:`le_record` lists them
+                for k in range(n_l - 1, -1, -1):
+                    x = load_x0[k] + speed * 0.0
+                    if x >= 0.0 and x <= le_length:
+                        le_lx[nl] = x
+                        le_lp[nl] = load_p[k]
+                        nl += 1
+                le_sort(le_lx, le_lp, nl)
+            else:
+                while lo > 0 and on[order[lo - 1]] <= n:
+                    lo -= 1
+                while hi > lo and off[order[hi - 1]] <= n:
+                    hi -= 1
+                for i in range(lo, hi):
+                    k = order[i]
+                    le_lx[nl] = load_x0[k] + speed * t1
+                    le_lp[nl] = load_p[k]
+                    nl += 1
             le_static(le_sup, le_L, le_Linv, le_c6, le_A, le_B, le_X, le_xi, le_sec0, le_val,
                       le_Ms, le_acc, le_lx, le_lp, le_ls, nl)
-            le_finish(le_E, le_w2inv, le_val, q, fq, le_max, le_max_t, le_min, le_min_t, r,
-                      n + 1, t)
+            le_finish(le_E, le_w2inv, le_val, q, fq_tot, le_max, le_max_t, le_min, le_min_t,
+                      r, n + 1, t)
         if h >= 0:
             for j in range(n_m):
                 hq[h, n + 1, j] = q[j]
                 hqdd[h, n + 1, j] = qdd[j]
-            hit[h, n + 1] = 1
+            hit[h, n + 1] = 1 if n >= 0 else 0
             if hfq.shape[0] > 0:
                 for j in range(n_m):
-                    hfq[h, n + 1, j] = fq[j]
+                    hfq[h, n + 1, j] = fq_tot[j]
     if prm.n_steps > 0 and red.iters[r] < 1:
         red.iters[r] = 1  # the contact "solve" with no wheels: one pass per step
     return OK, prm.n_steps
 
 
 @njit
+def fill(a, value):
+    """Set every element of the C-contiguous array ``a`` to ``value`` (one small kernel
+    per array type: 48 slice assignments in :func:`reset_work` compiled for ~2 s)."""
+    b = a.reshape(a.size)
+    for i in range(b.size):
+        b[i] = value
+
+
+@njit
 def reset_work(wk):
     """Put a workspace back in its initial state (all wheels active, zeros elsewhere)."""
-    wk.phi[:, :] = 0.0
-    wk.dphi[:, :] = 0.0
-    wk.d2phi[:, :] = 0.0
-    wk.onb[:] = 0
-    wk.rr[:, :] = 0.0
-    wk.S[:, :] = 0.0
-    wk.L[:, :] = 0.0
-    wk.idx[:] = 0
-    wk.rhs[:] = 0.0
-    wk.sol[:] = 0.0
-    wk.gstar[:] = 0.0
-    wk.X[:] = 0.0
-    wk.active[:] = 1
-    wk.was_active[:] = 1
-    wk.yq[:] = 0.0
-    wk.yv[:] = 0.0
-    wk.rq[:] = 0.0
-    wk.rv[:] = 0.0
-    wk.fq[:] = 0.0
-    wk.phil[:] = 0.0
-    wk.hq[:] = 0.0
-    wk.hv[:] = 0.0
-    wk.ones[:] = 1.0
-    wk.khat[:] = 0.0
-    wk.xout[:] = 0.0
-    wk.vq[:] = 0.0
-    wk.vv[:] = 0.0
-    wk.av[:] = 0.0
-    wk.act0[:] = 0
-    wk.J[:, :] = 0.0
-    wk.first[:] = 0
-    wk.onb_prev[:] = 0
-    wk.onb0[:] = 0
-    wk.cand[:] = 0
-    wk.lq[:] = 0.0
-    wk.lz[:] = 0.0
-    wk.lw[:] = 0.0
-    wk.lin[:] = 0
-    wk.impulse[:] = 0.0
-    wk.khv[:, :, :] = 0.0
-    wk.kh_dt[:] = 0.0
-    wk.kh_sig[:] = 0
-    wk.kscr[:, :] = 0.0
-    wk.nlb[:] = 0
-    wk.nbk[:] = 0.0
-    wk.imp[:] = 0.0
-    wk.trk[:, :] = 0.0
-    wk.trk0[:, :] = 0.0
+    fill(wk.phi, 0.0)
+    fill(wk.dphi, 0.0)
+    fill(wk.d2phi, 0.0)
+    fill(wk.onb, 0)
+    fill(wk.rr, 0.0)
+    fill(wk.S, 0.0)
+    fill(wk.L, 0.0)
+    fill(wk.idx, 0)
+    fill(wk.rhs, 0.0)
+    fill(wk.sol, 0.0)
+    fill(wk.gstar, 0.0)
+    fill(wk.X, 0.0)
+    fill(wk.active, 1)
+    fill(wk.was_active, 1)
+    fill(wk.yq, 0.0)
+    fill(wk.yv, 0.0)
+    fill(wk.rq, 0.0)
+    fill(wk.rv, 0.0)
+    fill(wk.fq, 0.0)
+    fill(wk.phil, 0.0)
+    fill(wk.hq, 0.0)
+    fill(wk.hv, 0.0)
+    fill(wk.ones, 1.0)
+    fill(wk.khat, 0.0)
+    fill(wk.xout, 0.0)
+    fill(wk.vq, 0.0)
+    fill(wk.vv, 0.0)
+    fill(wk.av, 0.0)
+    fill(wk.act0, 0)
+    fill(wk.J, 0.0)
+    fill(wk.first, 0)
+    fill(wk.onb_prev, 0)
+    fill(wk.onb0, 0)
+    fill(wk.cand, 0)
+    fill(wk.lq, 0.0)
+    fill(wk.lz, 0.0)
+    fill(wk.lw, 0.0)
+    fill(wk.lin, 0)
+    fill(wk.impulse, 0.0)
+    fill(wk.khv, 0.0)
+    fill(wk.kh_dt, 0.0)
+    fill(wk.kh_sig, 0)
+    fill(wk.kscr, 0.0)
+    fill(wk.nlb, 0)
+    fill(wk.nbk, 0.0)
+    fill(wk.imp, 0.0)
+    fill(wk.trk, 0.0)
+    fill(wk.trk0, 0.0)
 
 
 @njit(inline="always")
@@ -2278,7 +2307,12 @@ def run_batch_mf(br, veh, prm, speeds, n_steps, init, st, wk, red, out, slots, s
     short runs in a design catalogue).  ``on``, ``off`` (n_loads,) int64, ``cs``
     (2, n_loads) and ``sums`` (2, n_modes) are its scratch arrays."""
     for r in range(speeds.shape[0]):
-        start_run(init, r, st, wk)
+        # the state from row r; the workspace needs no reset: the moving-force loop writes
+        # every scratch value it reads (and has no wheels)
+        copy_into(init.q[r], st.q)
+        copy_into(init.qd[r], st.qd)
+        copy_into(init.qdd[r], st.qdd)
+        copy_into(init.fq_tot[r], st.fq_tot)
         p = Params(prm.dt, prm.alpha, speeds[r], n_steps[r], prm.max_iter, prm.tol_gap,
                    prm.tol_force, prm.max_sub, prm.contact_model, prm.hertz_g)
         s, k = mf_time_loop(br, veh, p, st, wk, red, r, out, slots[r], on, off, cs, sums)

@@ -180,7 +180,9 @@ def test_compile_leaves__have_the_types_time_loop_passes_them():
     names one signature (a second would be a leaf compiled for other types)."""
     warm.ensure_compiled("interaction")  # time_loop compiled (or loaded) on this cache
     subprocess.run(warm.leaves_command("interaction"), check=True, timeout=300)
-    for kernel in (ek.impact_update, ek.nl_update_branches):
+    assert {k.py_func.__name__ for k in ek.LEAVES} == {"impact_update",
+                                                       "nl_update_branches", "record"}
+    for kernel in ek.LEAVES:
         index = kernel._cache._cache_file._load_index()
         assert len({key[0] for key in index}) == 1, list(index)
     with pytest.raises(ValueError, match="only 'interaction'"):

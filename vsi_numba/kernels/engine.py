@@ -1577,10 +1577,14 @@ def state_is_finite(st):
     return np.isfinite(s)
 
 
-@njit(inline="always")
+@njit
 def record(veh, st, wk, red, r, n, t, speed, out, h, iters):
     """Fold step ``n`` (time ``t``) into the envelopes of run ``r`` and, when ``h >= 0``,
-    store it in history slot ``h``."""
+    store it in history slot ``h``.
+
+    A kernel of its own, not inlined: :func:`time_loop` calls it once per step (the call
+    is nothing next to the step), and a second process compiles it while the first
+    compiles :func:`time_loop` (:func:`compile_leaves`)."""
     n_m = st.q.shape[0]
     for p in range(red.phi_d.shape[0]):
         w = 0.0
@@ -1896,59 +1900,62 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
             wk.trk[i, 1] = 0.0
             wk.trk[i, 2] = 0.0
     dt = prm.dt
-    record(veh, st, wk, red, r, np.int64(0), 0.0, prm.speed, out, h, np.int64(0))
-    for n in range(prm.n_steps):
-        copy_state(st, bk)
-        for i in range(n_w):
-            wk.was_active[i] = wk.active[i]
-            wk.act0[i] = wk.active[i]  # the set at t_n, for retries
-            wk.onb0[i] = wk.onb[i]
-        if track:
+    # n = -1 records the initial state (step 0, t = 0) through the call that records
+    # the steps: one inlined copy of record() in the kernel
+    for n in range(-1, prm.n_steps):
+        iters = 0
+        if n >= 0:
+            copy_state(st, bk)
             for i in range(n_w):
-                for c in range(3):
-                    wk.trk0[i, c] = wk.trk[i, c]
-        level = 0
-        if prm.contact_model == 0 and br.track == 0 and crosses_deck_end(
-                br, veh, n * dt, (n + 1) * dt, prm.speed):
-            # a wheel meets the velocity jump of the rail at a deck end in this step
-            if wk.khv.shape[0] == veh.start.shape[0] - 1 and prm.max_sub > 0:
-                # split at the crossing times: the impact sees the exact jump (design
-                # note 1.4); a failure is retried in halvings below (max_sub = 0: no
-                # step is ever split, the crossing is one step)
-                status, iters = crossing_step(br, veh, pr, prm, st, wk, n * dt,
-                                              (n + 1) * dt)
-            else:
-                # no workspace for variable steps: 2^CROSSING_LEVELS substeps (at most
-                # max_sub halvings)
-                status, iters = NOT_CONVERGED, 0
-                level = min(prm.max_sub, CROSSING_LEVELS) - 1
-        else:
-            status, iters = vsi_step(br, veh, pr, prm, st, wk, (n + 1) * dt, dt, np.int64(0))
-        while status != OK and level < prm.max_sub:
-            level += 1
-            copy_state(bk, st)
-            for i in range(n_w):
-                wk.active[i] = wk.act0[i]
-                wk.onb[i] = wk.onb0[i]
+                wk.was_active[i] = wk.active[i]
+                wk.act0[i] = wk.active[i]  # the set at t_n, for retries
+                wk.onb0[i] = wk.onb[i]
             if track:
                 for i in range(n_w):
                     for c in range(3):
-                        wk.trk[i, c] = wk.trk0[i, c]
-            sub = 1 << level
-            h_sub = dt / sub
-            iters = 0
-            for k in range(sub):
+                        wk.trk0[i, c] = wk.trk[i, c]
+            level = 0
+            if prm.contact_model == 0 and br.track == 0 and crosses_deck_end(
+                    br, veh, n * dt, (n + 1) * dt, prm.speed):
+                # a wheel meets the velocity jump of the rail at a deck end in this step
+                if wk.khv.shape[0] == veh.start.shape[0] - 1 and prm.max_sub > 0:
+                    # split at the crossing times: the impact sees the exact jump (design
+                    # note 1.4); a failure is retried in halvings below (max_sub = 0: no
+                    # step is ever split, the crossing is one step)
+                    status, iters = crossing_step(br, veh, pr, prm, st, wk, n * dt,
+                                                  (n + 1) * dt)
+                else:
+                    # no workspace for variable steps: 2^CROSSING_LEVELS substeps (at most
+                    # max_sub halvings)
+                    status, iters = NOT_CONVERGED, 0
+                    level = min(prm.max_sub, CROSSING_LEVELS) - 1
+            else:
+                status, iters = vsi_step(br, veh, pr, prm, st, wk, (n + 1) * dt, dt, np.int64(0))
+            while status != OK and level < prm.max_sub:
+                level += 1
+                copy_state(bk, st)
                 for i in range(n_w):
-                    wk.was_active[i] = wk.active[i]
-                status, it = vsi_step(br, veh, pr, prm, st, wk, n * dt + (k + 1) * h_sub,
-                                      h_sub, level)
-                iters += it
-                if status != OK:
-                    break
-        if status != OK:
-            return status, n + 1
-        if not state_is_finite(st):
-            return NON_FINITE, n + 1
+                    wk.active[i] = wk.act0[i]
+                    wk.onb[i] = wk.onb0[i]
+                if track:
+                    for i in range(n_w):
+                        for c in range(3):
+                            wk.trk[i, c] = wk.trk0[i, c]
+                sub = 1 << level
+                h_sub = dt / sub
+                iters = 0
+                for k in range(sub):
+                    for i in range(n_w):
+                        wk.was_active[i] = wk.active[i]
+                    status, it = vsi_step(br, veh, pr, prm, st, wk, n * dt + (k + 1) * h_sub,
+                                          h_sub, level)
+                    iters += it
+                    if status != OK:
+                        break
+            if status != OK:
+                return status, n + 1
+            if not state_is_finite(st):
+                return NON_FINITE, n + 1
         record(veh, st, wk, red, r, n + 1, float(n + 1) * dt, prm.speed, out, h, iters)
     for i in range(n_w):
         if red.run_len[i] > 0:
@@ -2358,16 +2365,20 @@ def run_batch(br, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, slo
 def compile_leaves(br, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, slots,
                    status, reached):
     """Compile the largest leaves of the interaction kernels - :func:`impact_update`
-    (about a sixth of the family's compile time) and :func:`nl_update_branches` - for
-    the types :func:`run_batch` passes down with these arguments, without running
-    anything.  A second process does this while the first compiles :func:`time_loop`,
-    which then loads them from numba's cache when it reaches them (they are its last
-    callees; :func:`hht_step` and :func:`vsi_step` pass ``br, veh, prm, st, wk`` on
-    unchanged, ``dt`` and ``tol_force`` are floats)."""
+    (about a sixth of the family's compile time), :func:`nl_update_branches` and
+    :func:`record` (with :func:`le_record`) - for the types :func:`run_batch` passes
+    down with these arguments, without running anything.  A second process does this
+    while the first compiles :func:`time_loop`, which then loads them from numba's cache
+    when it reaches them (they are its last callees; :func:`hht_step` and
+    :func:`vsi_step` pass ``br, veh, prm, st, wk`` on unchanged, ``dt`` and
+    ``tol_force`` are floats; :func:`time_loop` records step ``n + 1`` (int64) at time
+    ``(n + 1) dt`` with its int64 run, history slot and iteration count)."""
     p = prm._replace(speed=float(speeds[0]), n_steps=int(n_steps[0]))
     compile_for(impact_update, br, veh, p, st, wk, 0.0)
     compile_for(nl_update_branches, veh, wk, st, 0.0)
+    compile_for(record, veh, st, wk, red, np.int64(0), np.int64(0), 0.0, p.speed, out,
+                np.int64(0), np.int64(0))
 
 
 #: The kernels :func:`compile_leaves` compiles.
-LEAVES = (impact_update, nl_update_branches)
+LEAVES = (impact_update, nl_update_branches, record)

@@ -113,29 +113,37 @@ def test_deck_end__upward_kink_is_an_impact_not_a_lift_off(case, dt, shift):
 
 
 def _kernel_impulses(d_car, dt, shift):
-    """The engine's time loop in Python, returning the impact impulse (N s) of each step
-    in which the wheel passes an end of the deck (``wk.impulse`` after the step)."""
+    """The impact impulse (N s) of each step in which the wheel passes an end of the
+    deck: the study's kernel (``engine.time_loop``, with the arguments ``run_batch``
+    gives it) run from t = 0 up to and including that step, then ``wk.impulse``.  The
+    time loop hands such a step to ``engine.crossing_step``."""
     settings = SolverSettings(dt=dt, approach=APPROACH + shift, free_vibration=0.01)
-    packed = sm.pack(_beam(), _train(d_car), V, no_irregularity(), settings)
-    prm = packed.params
-    st = sm.initial_state(packed, no_irregularity())
-    veh = packed.vehicles
-    wk = sb._workspace(packed.bridge.omega.size, packed.n_dof, veh.wheel_dof.size, veh)
-    ek.reset_work(wk)
-    ek.contact_search(packed.bridge, veh, packed.profile, 0.0, prm.speed, wk)
-    out = []
-    for n in range(prm.n_steps):
-        wk.was_active[:] = wk.active
-        t0, t1 = n * prm.dt, (n + 1) * prm.dt
-        if ek.crosses_deck_end(packed.bridge, veh, t0, t1, prm.speed):
-            status, _ = ek.crossing_step(packed.bridge, veh, packed.profile, prm, st, wk,
-                                         t0, t1)
-            out.append(float(wk.impulse[0]))
-        else:
-            status, _ = ek.vsi_step(packed.bridge, veh, packed.profile, prm, st, wk, t1,
-                                    prm.dt, 0)
-        assert status == ek.OK
-    return out
+    beam = _beam()
+    packed = sm.pack(beam, _train(d_car), V, no_irregularity(), settings)
+    captured = []
+    sb.run_batch(packed, no_irregularity(), [V], [BEAM["L"] / 2], settings, beam,
+                 _kernel=lambda *args: captured.append(args))
+    (brg, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, _, _, _), = captured
+    assert brg.track == 0 and prm.contact_model == 0 and prm.max_sub > 0  # rigid track
+    # the steps n whose interval (n dt, (n + 1) dt] takes a wheel across an end (the
+    # comparisons of engine.crosses_deck_end, in the same floating-point operations)
+    n = np.arange(int(n_steps[0]))
+    x0 = veh.wheel_x0[:, None] + V * (n * prm.dt)
+    x1 = veh.wheel_x0[:, None] + V * ((n + 1) * prm.dt)
+    length = brg.length
+    crossing = np.flatnonzero((((x0 < 0.0) & (0.0 <= x1))
+                               | ((x0 <= length) & (length < x1))).any(axis=0))
+    got = []
+    for nc in crossing:
+        ek.start_vsi_run(init, 0, st, wk)
+        p = prm._replace(speed=float(speeds[0]), n_steps=int(nc) + 1)
+        status, reached = ek.time_loop(brg, veh, pr, p, st, bk, wk, red, 0, out, -1)
+        assert status == ek.OK and reached == nc + 1
+        # the last step was crossing_step's, not a retry in substeps: its impulse is the
+        # sum over its pieces, which only crossing_step keeps (wk.imp)
+        assert wk.impulse[0] == wk.imp[0]
+        got.append(float(wk.impulse[0]))
+    return got
 
 
 @pytest.mark.parametrize(("dt", "shift"), [(2e-4, 0.0), (2e-4, 0.37), (1e-4, 0.81)])

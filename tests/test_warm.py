@@ -94,6 +94,24 @@ def test_stop_helpers__ends_a_helper_still_running():
     assert not warm._helpers
 
 
+def test_start_helper__a_moving_force_helper_runs_at_a_lower_priority():
+    """The moving-force helper starts ``MOVING_FORCE_HELPER_NICE`` below this process's
+    priority (the interaction compilation, which a first run waits for, goes first); an
+    interaction helper at this process's.  The priority is set before the exec, so it is
+    there when ``Popen`` returns (and stays while the process is a zombie)."""
+    import os
+
+    base = os.getpriority(os.PRIO_PROCESS, 0)
+    for family, increment in (("moving_force", warm.MOVING_FORCE_HELPER_NICE),
+                              ("interaction", 0)):
+        proc = warm.start_helper(family)
+        try:
+            assert os.getpriority(os.PRIO_PROCESS, proc.pid) == min(base + increment, 19)
+        finally:
+            warm.stop_helpers()
+        assert proc.poll() is not None
+
+
 def test_is_cached__reads_the_numba_cache_of_another_process(tmp_path):
     """A fresh process (nothing compiled in it) sees the family this process compiled
     into the shared cache, and sees nothing in an empty cache directory."""

@@ -207,16 +207,28 @@ def test_compile_leaves__have_the_types_time_loop_passes_them():
         warm.warm_up_family("moving_force", leaves=True)
 
 
-def test_lookups_wait_for__a_leaf_look_up_waits_for_the_leaves_process():
-    """During the interaction compile, numba's cache look-up of a leaf returns only after
-    the leaves process has exited (so it finds the leaf instead of compiling it again);
-    afterwards the look-up is numba's own again."""
-    sleeper = _sleeper(1.0)
+def test_lookups_wait_for__a_leaf_look_up_waits_until_the_leaf_is_cached():
+    """During the interaction compile, numba's cache look-up of a leaf finds a leaf that
+    is in the cache at once, while the leaves process still runs (it goes on compiling
+    the others); a leaf that is not there yet is looked up again until that process
+    exits (so the leaf is found instead of compiled a second time).  Afterwards the
+    look-up is numba's own again."""
+    warm.ensure_compiled("interaction")  # the leaves in the cache, for time_loop's types
     cache = ek.impact_update._cache
-    with warm._lookups_wait_for(sleeper):
-        assert "load_overload" in vars(cache)
-        cache.load_overload(ek.impact_update.signatures[0] if ek.impact_update.signatures
-                            else (), ek.impact_update.targetctx)
-        assert sleeper.poll() is not None  # exited before the look-up went on
+    ctx = ek.impact_update.targetctx
+    cached_sig = next(iter(cache._cache_file._load_index()))[0]  # (sig, target, ...)
+    running = _sleeper(60)  # a leaves process still at work
+    try:
+        with warm._lookups_wait_for(running):
+            assert "load_overload" in vars(cache)
+            assert cache.load_overload(cached_sig, ctx) is not None
+            assert running.poll() is None  # found without waiting for the process
+        ending = _sleeper(1.0)
+        with warm._lookups_wait_for(ending):
+            assert cache.load_overload((), ctx) is None  # a signature nobody compiles
+            assert ending.poll() is not None  # looked up until the process had exited
+    finally:
+        running.kill()
+        running.wait()
     assert "load_overload" not in vars(cache)
     assert "load_overload" not in vars(ek.nl_update_branches._cache)

@@ -159,6 +159,9 @@ def ensure_compiled(family: str, timeout: float = LOCK_TIMEOUT) -> None:
 #: one core it would only slow down the main compilation).
 LEAVES_MIN_CORES = 2
 
+#: Seconds between two cache look-ups of a leaf the leaves process has not written yet.
+LEAF_POLL = 0.05
+
 
 def leaves_command(family: str) -> list[str]:
     """``python -m vsi_numba.solver.warm FAMILY --leaves``: compile the family's leaves
@@ -169,10 +172,13 @@ def leaves_command(family: str) -> list[str]:
 @contextlib.contextmanager
 def _lookups_wait_for(leaves):
     """While the interaction kernels compile here: numba's cache look-up of each leaf
-    (:data:`~vsi_numba.kernels.engine.LEAVES`) first waits for the ``leaves`` process to
-    exit, so that it finds the leaf in the cache instead of compiling it a second time
-    when this compilation gets there first (a busy machine).  Uses numba's internal
-    ``_cache.load_overload``; where it is missing nothing is changed."""
+    (:data:`~vsi_numba.kernels.engine.LEAVES`) is repeated until it finds the leaf or
+    the ``leaves`` process has exited, so that this compilation finds the leaf in the
+    cache instead of compiling it a second time when it gets there first (a busy
+    machine), and goes on as soon as that leaf is written, while the process still
+    compiles the others (numba writes a cache entry's data, then its index, each by
+    renaming a complete file).  Uses numba's internal ``_cache.load_overload``; where it
+    is missing nothing is changed."""
     if leaves is None:
         yield
         return
@@ -180,10 +186,15 @@ def _lookups_wait_for(leaves):
 
     def waiting(load):
         def look_up(*args, **kwargs):
-            try:
-                leaves.wait(timeout=LOCK_TIMEOUT)
-            except subprocess.TimeoutExpired:  # pragma: no cover - a stuck process
-                leaves.kill()
+            deadline = time.monotonic() + LOCK_TIMEOUT
+            while leaves.poll() is None:
+                found = load(*args, **kwargs)
+                if found is not None:
+                    return found
+                if time.monotonic() > deadline:  # pragma: no cover - a stuck process
+                    leaves.kill()
+                    break
+                time.sleep(LEAF_POLL)
             return load(*args, **kwargs)
 
         return look_up

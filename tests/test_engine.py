@@ -315,3 +315,29 @@ def test_failure__absurd_dt_refused_or_warned_with_the_ratio():
     cfg = load_config(data)
     [w] = [w for w in cfg.warnings if "bridge mode" in w]
     assert "solver.dt" in w and "8.6" in w  # dt x f3 = 0.2 s x 43 Hz = 8.6
+
+
+def test_start_vsi_run__state_from_its_row_and_the_workspace_as_allocated():
+    """Between two interaction runs: the state is row ``r`` of the initial states and
+    every workspace array is back to its value in a freshly allocated workspace
+    (``batch._workspace``), whatever the previous run left in it."""
+    beam = br.simply_supported(20.0, 5e9, 1e4, n_modes=5)
+    car = vh.railway_car(**ICE_CAR)
+    train = vh.Train("two", (car, vh.sprung_mass(5e3, 1e6, 1e3, 400.0)), (0.0, 25.0))
+    p = _pack(beam, train)
+    veh = p.vehicles
+    fresh = sb._workspace(beam.n_modes, p.n_dof, veh.wheel_dof.size, veh)
+    wk = sb._workspace(beam.n_modes, p.n_dof, veh.wheel_dof.size, veh)
+    rng = np.random.default_rng(3)
+    for a in wk:  # what a run leaves behind
+        a[...] = rng.integers(-5, 6, a.shape)
+    st0 = sm.initial_state(p, no_irregularity())
+    init = ek.State(*(rng.normal(size=(3, *a.shape)) for a in st0))
+    st = ek.State(*(np.full_like(a, np.nan) for a in st0))
+    ek.start_vsi_run(init, 1, st, wk)
+    for name, a, b in zip(ek.State._fields, st, init, strict=True):
+        np.testing.assert_array_equal(a, b[1], err_msg=name)
+    for name, a, b in zip(ek.Work._fields, wk, fresh, strict=True):
+        assert a.dtype == b.dtype and a.shape == b.shape, name
+        np.testing.assert_array_equal(a, b, err_msg=name)
+    assert wk.active.size > 0 and np.all(wk.active == 1) and np.all(wk.ones == 1.0)

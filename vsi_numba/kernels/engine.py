@@ -2230,84 +2230,6 @@ def mf_time_loop(br, veh, prm, st, wk, red, r, out, h, on, off, cs, sums):
 
 
 @njit
-def fill(a, value):
-    """Set every element of the C-contiguous array ``a`` to ``value`` (one small kernel
-    per array type: 48 slice assignments in :func:`reset_work` compiled for ~2 s)."""
-    b = a.reshape(a.size)
-    for i in range(b.size):
-        b[i] = value
-
-
-@njit
-def reset_work(wk):
-    """Put a workspace back in its initial state (all wheels active, zeros elsewhere)."""
-    fill(wk.phi, 0.0)
-    fill(wk.dphi, 0.0)
-    fill(wk.d2phi, 0.0)
-    fill(wk.onb, 0)
-    fill(wk.rr, 0.0)
-    fill(wk.S, 0.0)
-    fill(wk.L, 0.0)
-    fill(wk.idx, 0)
-    fill(wk.rhs, 0.0)
-    fill(wk.sol, 0.0)
-    fill(wk.gstar, 0.0)
-    fill(wk.X, 0.0)
-    fill(wk.active, 1)
-    fill(wk.was_active, 1)
-    fill(wk.yq, 0.0)
-    fill(wk.yv, 0.0)
-    fill(wk.rq, 0.0)
-    fill(wk.rv, 0.0)
-    fill(wk.fq, 0.0)
-    fill(wk.phil, 0.0)
-    fill(wk.hq, 0.0)
-    fill(wk.hv, 0.0)
-    fill(wk.ones, 1.0)
-    fill(wk.khat, 0.0)
-    fill(wk.xout, 0.0)
-    fill(wk.vq, 0.0)
-    fill(wk.vv, 0.0)
-    fill(wk.av, 0.0)
-    fill(wk.act0, 0)
-    fill(wk.J, 0.0)
-    fill(wk.first, 0)
-    fill(wk.onb_prev, 0)
-    fill(wk.onb0, 0)
-    fill(wk.cand, 0)
-    fill(wk.lq, 0.0)
-    fill(wk.lz, 0.0)
-    fill(wk.lw, 0.0)
-    fill(wk.lin, 0)
-    fill(wk.impulse, 0.0)
-    fill(wk.khv, 0.0)
-    fill(wk.kh_dt, 0.0)
-    fill(wk.kh_sig, 0)
-    fill(wk.kscr, 0.0)
-    fill(wk.nlb, 0)
-    fill(wk.nbk, 0.0)
-    fill(wk.imp, 0.0)
-    fill(wk.trk, 0.0)
-    fill(wk.trk0, 0.0)
-
-
-@njit(inline="always")
-def start_run(init, r, st, wk):
-    """Row ``r`` of ``init`` into the state ``st``; the workspace back to its initial
-    state."""
-    copy_into(init.q[r], st.q)
-    copy_into(init.qd[r], st.qd)
-    copy_into(init.qdd[r], st.qdd)
-    copy_into(init.u[r], st.u)
-    copy_into(init.ud[r], st.ud)
-    copy_into(init.udd[r], st.udd)
-    copy_into(init.fq_tot[r], st.fq_tot)
-    copy_into(init.fv_tot[r], st.fv_tot)
-    copy_into(init.X[r], st.X)
-    reset_work(wk)
-
-
-@njit
 def run_batch_mf(br, veh, prm, speeds, n_steps, init, st, wk, red, out, slots, status,
                  reached, on, off, cs, sums):
     """:func:`run_batch` of a moving-force model: every run in one call (thousands of
@@ -2327,10 +2249,25 @@ def run_batch_mf(br, veh, prm, speeds, n_steps, init, st, wk, red, out, slots, s
         reached[r] = k
 
 
-@njit
+#: The workspace arrays that start at 1 (:func:`reset_work`); the others start at 0.
+WORK_ONES = frozenset({"active", "was_active", "ones"})
+
+
+def reset_work(wk):
+    """Put a workspace back in its initial state (all wheels active, zeros elsewhere),
+    with numpy: between two runs, not inside a kernel."""
+    for name, a in zip(Work._fields, wk, strict=True):
+        a[...] = 1 if name in WORK_ONES else 0
+
+
 def start_vsi_run(init, r, st, wk):
-    """:func:`start_run` as a kernel of its own, for the interaction runs."""
-    start_run(init, r, st, wk)
+    """Row ``r`` of ``init`` into the state ``st`` and the workspace back to its initial
+    state (:func:`reset_work`), with numpy, before each :func:`time_loop` of the
+    interaction runs: tens of microseconds against a run's thousands of steps, and no
+    kernel for a first run to compile (~3 s)."""
+    for src, dst in zip(init, st, strict=True):
+        dst[...] = src[r]
+    reset_work(wk)
 
 
 def run_batch(br, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, slots, status,

@@ -8,7 +8,9 @@ cache hands the family its batch order needs last to a helper process
 (:func:`start_helper`), which compiles it into the same cache (``NUMBA_CACHE_DIR``)
 while this process compiles the other family and runs its batches; the first batch of
 the helper's family waits for the helper (:func:`wait_for`) and then loads the kernels
-from the cache.  With a warm cache, or a study of one family, nothing is started.
+from the cache.  With a warm cache, or a study of one family, nothing is started.  A
+moving-force helper runs at a lower priority (:data:`MOVING_FORCE_HELPER_NICE`): its
+kernels compile in ~12 s, the interaction kernels in ~40 s, which the first run waits for.
 
 Across processes, :func:`ensure_compiled` makes a family compile once per machine: a
 process that has not compiled the family compiles it (on a tiny model) holding a lock
@@ -21,7 +23,8 @@ an empty cache compile once, not N times at once (each compile takes ~1 GB).
 family's kernels on a tiny model of the same types and exits.  The interaction
 kernels' own compilation from an empty cache runs in two processes: while one compiles
 the kernels top-down, ``... interaction --leaves`` compiles their largest leaves (which
-the first reaches last) into the cache (:func:`ensure_compiled`).
+the first reaches last) into the cache (:func:`ensure_compiled`); the first goes on as
+soon as the leaf it reaches is there (:func:`_lookups_wait_for`).
 """
 
 from __future__ import annotations

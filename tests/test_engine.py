@@ -341,3 +341,78 @@ def test_start_vsi_run__state_from_its_row_and_the_workspace_as_allocated():
         assert a.dtype == b.dtype and a.shape == b.shape, name
         np.testing.assert_array_equal(a, b, err_msg=name)
     assert wk.active.size > 0 and np.all(wk.active == 1) and np.all(wk.ones == 1.0)
+
+
+def test_with_patterns__every_nonzero_and_only_those():
+    """The patterns the step's sums run over (``engine.with_patterns``, set by ``pack``):
+    each row of each block of M, C and K lists exactly its nonzero columns, ascending;
+    each block lists its wheel DOFs; each compliance row its nonzeros and its diagonal."""
+    import dataclasses
+
+    from vsi_numba.model.track import ElasticTrack
+
+    beam = dataclasses.replace(br.simply_supported(20.0, 5e9, 1e4, n_modes=5),
+                               track=ElasticTrack())
+    car = vh.railway_car(**ICE_CAR)
+    train = vh.Train("two", (car, vh.sprung_mass(5e3, 1e6, 1e3, 400.0)), (0.0, 25.0))
+    veh = _pack(beam, train, contact_model="hertz_linear", hertz_coefficient=4e-8).vehicles
+    n_veh = veh.start.size - 1
+    assert n_veh == 2 and veh.compliance.shape == (5, 5)
+    for m, A in enumerate((veh.M, veh.C, veh.K)):
+        for b in range(n_veh):
+            n = veh.start[b + 1] - veh.start[b]
+            for r in range(n):
+                cols = veh.blk_col[m, b, veh.blk_ptr[m, b, r]:veh.blk_ptr[m, b, r + 1]]
+                np.testing.assert_array_equal(cols, np.flatnonzero(A[b, r, :n]))
+    assert veh.blk_ptr[0, 0, 10] == 10  # the car's mass matrix is diagonal
+    assert veh.blk_ptr[2, 0, 10] < 60  # and its stiffness sparse
+    for b in range(n_veh):
+        local = veh.wcol[veh.wcol_start[b]:veh.wcol_start[b + 1]]
+        np.testing.assert_array_equal(
+            local, np.sort(veh.wheel_dof[veh.wheel_veh == b] - veh.start[b]))
+    nz = (veh.compliance != 0.0) | np.eye(5, dtype=bool)
+    assert not nz.all()  # the rail's compliance is not dense here
+    for i in range(5):
+        np.testing.assert_array_equal(veh.comp_col[veh.comp_ptr[i]:veh.comp_ptr[i + 1]],
+                                      np.flatnonzero(nz[i]))
+
+
+@pytest.mark.parametrize("elastic", [False, True])
+def test_contact_search__rows_of_wheels_off_the_deck_are_zero_along_a_passage(elastic):
+    """``contact_search`` zeroes the mode-shape rows of a wheel once, when it leaves the
+    deck (the elastic track's table), and skips rows that are zero already: stopped at
+    steps along a passage (the study's kernel with ``run_batch``'s arguments), the rows
+    of every wheel off the deck are zero - also of the wheels that have crossed it - and
+    on the rigid track the rows of the wheels on it are the mode shapes there."""
+    import dataclasses
+
+    from vsi_numba.model.track import ElasticTrack
+
+    beam = br.simply_supported(20.0, 5e9, 1e4, n_modes=5)
+    if elastic:
+        beam = dataclasses.replace(beam, track=ElasticTrack())
+    train = vh.Train("car", (vh.railway_car(**ICE_CAR),), (0.0,))
+    settings = SolverSettings(dt=1e-3, approach=5.0, free_vibration=0.05)
+    v = 40.0
+    packed = sm.pack(beam, train, v, no_irregularity(), settings)
+    captured = []
+    sb.run_batch(packed, no_irregularity(), [v], [10.0], settings, beam,
+                 _kernel=lambda *args: captured.append(args))
+    (brg, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, _, _, _), = captured
+    lo, hi = (brg.t_nodes[0], brg.t_nodes[-1]) if elastic else (0.0, beam.length)
+    seen = set()
+    for n in np.linspace(1, int(n_steps[0]), 25).astype(int):
+        ek.start_vsi_run(init, 0, st, wk)
+        p = prm._replace(speed=float(speeds[0]), n_steps=int(n))
+        assert ek.time_loop(brg, veh, pr, p, st, bk, wk, red, 0, out, -1) == (ek.OK, n)
+        x = veh.wheel_x0 + v * n * prm.dt
+        on = (x >= lo) & (x <= hi)
+        np.testing.assert_array_equal(wk.onb, on)
+        for a in (wk.phi, wk.dphi, wk.d2phi):
+            assert np.all(a[~on] == 0.0)
+        if not elastic and on.any():
+            np.testing.assert_allclose(wk.phi[on], beam.shapes(x[on]), rtol=1e-9,
+                                       atol=1e-12)
+        seen.update(("on" if o else "left" if xi > hi else "ahead")
+                    for o, xi in zip(on, x, strict=True))
+    assert seen == {"on", "left", "ahead"}  # every case met, rows that were set included

@@ -377,3 +377,29 @@ def test_vsi_run__is_the_sweep_restricted_to_its_first_case(study_config, serial
             if "time" in got.dims:
                 want = want.isel(time=slice(0, got.sizes["time"]))
             np.testing.assert_array_equal(got.values, want.values, err_msg=name)
+
+
+def test_run_study__blas_on_one_thread_while_the_batches_run(tmp_path, monkeypatch):
+    """The batch threads are the parallelism: while they run, BLAS in this process has
+    one thread (OpenBLAS's own, one per core, busy-wait after each small call on the
+    cores the batches need), and the caller's setting is back afterwards."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    def blas_threads():
+        return sorted({i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"})
+
+    seen = []
+    real = runner.run_batch_task
+
+    def spy(*args, **kwargs):
+        seen.append(blas_threads())
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(runner, "run_batch_task", spy)
+    config = write_study(tmp_path, speeds=(150.0, 200.0))
+    with threadpool_limits(limits=2, user_api="blas"):
+        before = blas_threads()
+        run_study(config, tmp_path / "r.nc", workers=2, backend="threads")
+        after = blas_threads()
+    assert before == [2] and after == before
+    assert len(seen) >= 2 and all(s == [1] for s in seen)

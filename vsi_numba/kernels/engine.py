@@ -118,6 +118,50 @@ class VehicleArrays(NamedTuple):
     # (n_w,) the elements' static state z = X_static / track_kt, m (the static contact
     # forces of the start; the start's X holds the forces with the rail's accelerations)
     track_z0: np.ndarray = np.zeros(0)
+    # nonzero patterns (set by :func:`with_patterns`; the step's products skip exact
+    # zeros only, so its sums are the dense sums bit for bit): blk_col[m, b, p] for p in
+    # blk_ptr[m, b, r] .. blk_ptr[m, b, r + 1] - 1 are the nonzero columns (ascending) of
+    # row r of block b of M (m = 0), C (1) and K (2); wcol[wcol_start[b]:wcol_start[b + 1]]
+    # the local DOFs of block b that carry a wheel (the columns B^T X fills, ascending);
+    # comp_col[comp_ptr[i]:comp_ptr[i + 1]] the nonzero columns of row i of
+    # ``compliance`` and i itself (ascending)
+    blk_ptr: np.ndarray = np.zeros((3, 0, 1), np.int64)  # (3, n_veh, nb + 1)
+    blk_col: np.ndarray = np.zeros((3, 0, 1), np.int64)  # (3, n_veh, nb^2)
+    wcol_start: np.ndarray = np.zeros(1, np.int64)  # (n_veh + 1,)
+    wcol: np.ndarray = np.zeros(0, np.int64)  # (<= n_w,)
+    comp_ptr: np.ndarray = np.zeros(1, np.int64)  # (n_w + 1,), or (1,) without compliance
+    comp_col: np.ndarray = np.zeros(0, np.int64)  # (nnz,)
+
+
+def with_patterns(veh: VehicleArrays) -> VehicleArrays:
+    """``veh`` with the nonzero patterns of its blocks, wheel DOFs and compliance (the
+    ``blk_*``, ``wcol*`` and ``comp_*`` fields), from its current arrays: call it last."""
+    n_veh = veh.start.shape[0] - 1
+    nb = veh.M.shape[1]
+    ptr = np.zeros((3, n_veh, nb + 1), np.int64)
+    col = np.zeros((3, n_veh, max(nb * nb, 1)), np.int64)
+    wstart = np.zeros(n_veh + 1, np.int64)
+    wcol = []
+    for b in range(n_veh):
+        n = int(veh.start[b + 1] - veh.start[b])
+        for m, A in enumerate((veh.M, veh.C, veh.K)):
+            nz = A[b, :n, :n] != 0.0
+            ptr[m, b, 1:n + 1] = np.cumsum(nz.sum(axis=1))
+            ptr[m, b, n + 1:] = ptr[m, b, n]
+            cols = np.nonzero(nz)[1]  # row by row, columns ascending
+            col[m, b, :cols.size] = cols
+        local = np.unique(veh.wheel_dof[veh.wheel_veh == b] - veh.start[b])
+        wcol.extend(local.tolist())
+        wstart[b + 1] = len(wcol)
+    comp_ptr = np.zeros(1, np.int64)
+    comp_col = np.zeros(0, np.int64)
+    if veh.compliance.shape[0] > 0:
+        nz = (veh.compliance != 0.0) | np.eye(veh.compliance.shape[0], dtype=bool)
+        comp_ptr = np.concatenate([[0], np.cumsum(nz.sum(axis=1))]).astype(np.int64)
+        comp_col = np.nonzero(nz)[1].astype(np.int64)
+    return veh._replace(blk_ptr=ptr, blk_col=col, wcol_start=wstart,
+                        wcol=np.asarray(wcol, np.int64), comp_ptr=comp_ptr,
+                        comp_col=comp_col)
 
 
 class ProfileArrays(NamedTuple):
@@ -197,6 +241,9 @@ class Work(NamedTuple):
     nlb: np.ndarray = np.zeros(0, np.int64)  # (n_e,) branch of each nonlinear element
     nbk: np.ndarray = np.zeros(0)  # (4 n_m + 4 n_v + n_w,) state at the start of a step
     imp: np.ndarray = np.zeros(0)  # (n_w,) impulses summed over the pieces of a step, N s
+    # (n_w,) int: 1 while rows i of phi, dphi, d2phi may hold nonzeros (contact_search
+    # zeroes a row once, when its wheel leaves the deck or the elastic track's table)
+    phz: np.ndarray = np.zeros(0, np.int64)
 
 
 class State(NamedTuple):
@@ -417,17 +464,25 @@ def contact_search(br, veh, pr, t, speed, wk):
     for i in range(n_w):
         x = veh.wheel_x0[i] + speed * t
         if br.track == 0:
-            wk.onb[i] = eval_modes(br, x, wk.phi[i], wk.dphi[i], wk.d2phi[i])
-        elif n_m == 0 or x < br.t_nodes[0] or x > br.t_nodes[br.t_nodes.shape[0] - 1]:
+            off = br.kind == 0 or x < 0.0 or x > br.length or n_m == 0  # as eval_modes
+        else:
+            off = n_m == 0 or x < br.t_nodes[0] or x > br.t_nodes[br.t_nodes.shape[0] - 1]
+        if off:
             wk.onb[i] = 0
-            for j in range(n_m):
-                wk.phi[i, j] = 0.0
-                wk.dphi[i, j] = 0.0
-                wk.d2phi[i, j] = 0.0
+            if wk.phz[i] == 1:  # the rows are zero from an earlier call otherwise
+                for j in range(n_m):
+                    wk.phi[i, j] = 0.0
+                    wk.dphi[i, j] = 0.0
+                    wk.d2phi[i, j] = 0.0
+                wk.phz[i] = 0
+        elif br.track == 0:
+            wk.onb[i] = eval_modes(br, x, wk.phi[i], wk.dphi[i], wk.d2phi[i])
+            wk.phz[i] = 1
         else:
             wk.onb[i] = 1
             eval_hermite(br.t_nodes, br.t_values, br.t_slopes, x, wk.phi[i], wk.dphi[i],
                          wk.d2phi[i])
+            wk.phz[i] = 1
         eval_profile(pr, x, wk.rr[i])
 
 
@@ -464,6 +519,40 @@ def block_matvec(veh, A, x, y, accumulate, scale):
                 y[s + r] += scale * acc
             else:
                 y[s + r] = scale * acc
+
+
+@njit(inline="always")
+def block_matvec_nz(veh, A, m, x, y, scale):
+    """y += scale * blockdiag(A) x with A = M, C or K (``m`` = 0, 1, 2): the sums of
+    :func:`block_matvec` over the nonzeros of A only (``veh.blk_*``), bit for bit (the
+    skipped terms are zeros and x is finite)."""
+    n_veh = veh.start.shape[0] - 1
+    for b in range(n_veh):
+        s = veh.start[b]
+        n = veh.start[b + 1] - s
+        for r in range(n):
+            acc = 0.0
+            for p in range(veh.blk_ptr[m, b, r], veh.blk_ptr[m, b, r + 1]):
+                c = veh.blk_col[m, b, p]
+                acc += A[b, r, c] * x[s + c]
+            y[s + r] += scale * acc
+
+
+@njit(inline="always")
+def block_matvec_wheels(veh, A, x, y, scale):
+    """y += scale * blockdiag(A) x for an ``x`` that is zero off the wheel DOFs (B^T X):
+    the sums of :func:`block_matvec` over the wheel columns only (``veh.wcol``), bit for
+    bit (the skipped terms are zeros and A is finite)."""
+    n_veh = veh.start.shape[0] - 1
+    for b in range(n_veh):
+        s = veh.start[b]
+        n = veh.start[b + 1] - s
+        for r in range(n):
+            acc = 0.0
+            for p in range(veh.wcol_start[b], veh.wcol_start[b + 1]):
+                c = veh.wcol[p]
+                acc += A[b, r, c] * x[s + c]
+            y[s + r] += scale * acc
 
 
 # ------------------------------------------------------------------------ Schur solve
@@ -1291,8 +1380,9 @@ def update_force_totals(br, veh, wk, st):
         st.X[i] = xi
         if xi != 0.0:
             st.fv_tot[veh.wheel_dof[i]] -= xi
-            for j in range(n_m):
-                st.fq_tot[j] += wk.phi[i, j] * xi
+            if wk.onb[i] == 1:  # phi is zero off the deck (contact_search)
+                for j in range(n_m):
+                    st.fq_tot[j] += wk.phi[i, j] * xi
 
 
 @njit(inline="always")
@@ -1337,7 +1427,8 @@ def track_predict(veh, wk, st, alpha, a0, a1, a2, a3, cv, ca, scale):
                         - c * (cv * zd + ca * zdd) - k * z)
     for i in range(n_w):
         acc = 0.0
-        for j in range(n_w):
+        for p in range(veh.comp_ptr[i], veh.comp_ptr[i + 1]):  # the nonzero G_ij
+            j = veh.comp_col[p]
             g = 1.0 / k if j == i else veh.compliance[i, j]  # the rail's G_ij
             if g != 0.0:
                 acc += g * (wk.trk[j, 0] + wk.trk[j, 3] / khat)
@@ -1385,10 +1476,10 @@ def hht_correct(veh, st, wk, khat_v, a0, a2, a3, gamma, scale, dt):
         xi = wk.X[i]
         wk.xout[i] = xi
         wk.rv[veh.wheel_dof[i]] = xi
-        if xi != 0.0:
+        if xi != 0.0 and wk.onb[i] == 1:  # phi is zero off the deck (contact_search)
             for j in range(n_m):
                 wk.yq[j] += scale * wk.phi[i, j] * xi / wk.khat[j]
-    block_matvec(veh, khat_v, wk.rv, wk.yv, True, -scale)
+    block_matvec_wheels(veh, khat_v, wk.rv, wk.yv, -scale)
     for j in range(n_m):
         dq = wk.yq[j]
         st.qd[j], st.qdd[j] = newmark(dq, st.qd[j], st.qdd[j], a0, a2, a3, gamma, dt)
@@ -1438,9 +1529,9 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
         wk.rv[k] = scale * veh.gravity[k] - alpha * st.fv_tot[k]
         wk.hv[k] = a2 * st.ud[k] + a3 * st.udd[k]
         wk.vv[k] = cv * st.ud[k] + ca * st.udd[k]
-    block_matvec(veh, veh.M, wk.hv, wk.rv, True, 1.0)
-    block_matvec(veh, veh.C, wk.vv, wk.rv, True, -1.0)
-    block_matvec(veh, veh.K, st.u, wk.rv, True, -1.0)
+    block_matvec_nz(veh, veh.M, 0, wk.hv, wk.rv, 1.0)
+    block_matvec_nz(veh, veh.C, 1, wk.vv, wk.rv, -1.0)
+    block_matvec_nz(veh, veh.K, 2, st.u, wk.rv, -1.0)
     if veh.nl_veh.shape[0] > 0:
         nl_residual(veh, wk, st, dt, alpha)
     block_matvec(veh, khat_v, wk.rv, wk.yv, False, 1.0)
@@ -1449,8 +1540,9 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
     for i in range(n_w):
         d = veh.wheel_dof[i]
         g = wk.rr[i, 0] - (st.u[d] + wk.yv[d])
-        for j in range(n_m):
-            g += wk.phi[i, j] * (st.q[j] + wk.yq[j])
+        if wk.onb[i] == 1:  # phi is zero off the deck (contact_search)
+            for j in range(n_m):
+                g += wk.phi[i, j] * (st.q[j] + wk.yq[j])
         wk.gstar[i] = g
         wk.active[i] = wk.was_active[i]
     build_schur(veh, wk, wk.khat, khat_v)
@@ -1458,7 +1550,8 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
         # compliance in series with the contact: gap = g* + (1 + alpha) S X + C X
         inv = 1.0 / scale
         for i in range(n_w):
-            for k in range(n_w):
+            for p in range(veh.comp_ptr[i], veh.comp_ptr[i + 1]):
+                k = veh.comp_col[p]
                 wk.S[i, k] += veh.compliance[i, k] * inv
     if track_element(veh):
         track_predict(veh, wk, st, alpha, a0, a1, a2, a3, cv, ca, scale)

@@ -228,6 +228,7 @@ def pack(
         if c_t > 0.0 or m_t > 0.0:  # damped or massive: the element under each wheel
             veh = veh._replace(track_kt=float(k_t), track_ct=float(c_t), track_mt=float(m_t),
                                track_z0=np.zeros(len(wdof)))  # set by initial_states
+    veh = ek.with_patterns(veh)
     all_pos = np.concatenate([wpos, lpos])
     last = all_pos.max() if all_pos.size else 0.0
     run_length = bridge.length + settings.approach + last

@@ -121,8 +121,11 @@ def test_track_damping__bogie_on_german_low_at_400_kmh_matches_the_damped_fd_rai
     damping matters here: the undamped track's engine run is well off the reference.
 
     With ``rail_mass`` = 120 kg/m (two UIC60 rails; marked slow: the reference's rail
-    with mass takes minutes): deck acceleration measured within 2.0 %, contact forces
-    5.4-6.3 % of Q0 rms (tolerance 8 %), dQ/Q0 within 0.025."""
+    with mass is the slowest reference of the suite): deck acceleration measured within
+    2.0 %, contact forces 5.4-6.3 % of Q0 rms (tolerance 8 %), dQ/Q0 within 0.025.  Its
+    reference runs at rtol 1e-3 (half the time of 1e-4, which moves its contact forces by
+    at most 4.5e-4 Q0, its dQ/Q0 by 1.3e-5 and its peak acceleration by 4e-7 relative:
+    measured); the massless rail's stays at 1e-4 (1e-3 moves its forces by 0.047 Q0)."""
     M, C, K, g, offs = _bogie()
     track = ElasticTrack(rail_mass=rail_mass)
     profile = _profile(1)
@@ -132,7 +135,7 @@ def test_track_damping__bogie_on_german_low_at_400_kmh_matches_the_damped_fd_rai
         L_SPAN, EI_DECK, M_DECK, N_MODES, ZETA, track.foundation_stiffness,
         track.foundation_damping, track.rail_EI, track.rail_mass, M, C, K, g, [3, 4], offs,
         1.5 * np.cbrt(q0) / HERTZ_G, profile, SPEED, -APPROACH, t_end,
-        points=(L_SPAN / 2,), h=0.2, rtol=1e-4)
+        points=(L_SPAN / 2,), h=0.2, rtol=1e-4 if rail_mass == 0.0 else 1e-3)
     np.testing.assert_allclose(ref.static_force, q0, rtol=1e-9)  # static start
     a_ref = np.abs(ref.deck_acceleration[:, 0]).max()
     dq_ref = 1 - ref.force.min(axis=0) / q0

@@ -628,15 +628,18 @@ def build_schur(veh, wk, khat_q, A):
     n_w = veh.wheel_dof.shape[0]
     n_m = khat_q.shape[0]
     for i in range(n_w):
+        # row i's flags in locals: the stores to S below could alias them for the compiler
+        on_i = wk.onb[i] == 1
+        b = veh.wheel_veh[i]
+        st = veh.start[b]
+        d_i = veh.wheel_dof[i] - st
         for k in range(i + 1):
             s = 0.0
-            if wk.onb[i] == 1 and wk.onb[k] == 1:
+            if on_i and wk.onb[k] == 1:
                 for j in range(n_m):
                     s += wk.phi[i, j] * wk.phi[k, j] / khat_q[j]
-            if veh.wheel_veh[i] == veh.wheel_veh[k]:
-                b = veh.wheel_veh[i]
-                st = veh.start[b]
-                s += A[b, veh.wheel_dof[i] - st, veh.wheel_dof[k] - st]
+            if veh.wheel_veh[k] == b:
+                s += A[b, d_i, veh.wheel_dof[k] - st]
             wk.S[i, k] = s
             wk.S[k, i] = s
 

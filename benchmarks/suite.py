@@ -255,12 +255,13 @@ def _findings(suite: SuiteResult) -> list[str]:
                 "went from ~1 ms to 55-77 ms per step at 40-80 modes.  The dense "
                 "`np.linalg` solves of the wrapper (`initial_state`, `static_wheel_loads`: "
                 "global KKT systems of ~110 unknowns) hit OpenBLAS's threading, whose "
-                "threads spin and wait for each other when the cores are shared.  Fix in "
-                "the package: solve the static start per vehicle (block-diagonal, 10 DOFs + "
-                "4 wheels each) or by elimination of the wheel DOFs, and/or pin the BLAS "
-                "threads to 1 for serial runs (set OPENBLAS_NUM_THREADS before numpy is "
-                "imported in the CLI / study workers, or use threadpoolctl).  The numbers "
-                "above were taken with 1 BLAS thread.")
+                "threads spin and wait for each other when the cores are shared.  The "
+                "study runner (`vsi sweep`) runs its batches with 1 BLAS thread (threadpoolctl "
+                "in its own process, OPENBLAS_NUM_THREADS=1 in worker processes): on an idle "
+                "2-core machine the busy-waiting OpenBLAS threads had taken the batch "
+                "threads' cores (570 ICE3 runs: 14.6 s with the default, 11.1 s with 1 "
+                "thread).  A single `simulate()` keeps the default.  The numbers above were "
+                "taken with 1 BLAS thread.")
     if c4 and c4.data.get("fit_modes"):
         fm, fc = c4.data["fit_modes"], c4.data["fit_cars"]
         out.append(

@@ -18,6 +18,7 @@ from vsi_numba.model.irregularity import Profile, cosine_defect, no_irregularity
 from vsi_numba.solver import batch as sb
 from vsi_numba.solver import pack as sp
 from vsi_numba.solver import simulate as sm
+from vsi_numba.solver import warm
 from vsi_numba.solver.settings import SolverSettings
 
 ICE_CAR = dict(
@@ -31,6 +32,17 @@ ICE_CAR = dict(
 def _pack(bridge, train, speed=30.0, profile=None, **kw):
     settings = SolverSettings(**{"dt": 1e-3, "free_vibration": 0.0, **kw})
     return sm.pack(bridge, train, speed, profile or no_irregularity(), settings)
+
+
+def _study_kernel_args(packed, v, points, settings, bridge):
+    """The arguments ``run_batch`` gives the interaction kernels for one run at ``v``, the
+    kernels compiled (or loaded from the cache, or waited for) as a study's batch would
+    have them, so that calling ``engine.time_loop`` from here compiles nothing."""
+    captured = []
+    sb.run_batch(packed, no_irregularity(), [v], points, settings, bridge,
+                 _kernel=lambda *args: captured.append(args))
+    warm.ensure_compiled(warm.family_of(packed))
+    return captured[0]
 
 
 # ------------------------------------------------------------------------- evaluation
@@ -126,12 +138,13 @@ def test_solve_active_set__is_the_lcp_solution(seed):
     S = A @ A.T * 1e-9 + np.eye(n) * 1e-9
     gstar = rng.normal(size=n) * 1e-4
     scale = 0.9
-    veh = ek.VehicleArrays(*([np.zeros(1)] * 7), wheel_dof=np.arange(n),
-                           wheel_veh=np.zeros(n, np.int64), wheel_x0=np.zeros(n),
-                           wheel_massless=np.zeros(n, np.int64),
-                           compliance=np.zeros((0, 0)), body_dof=np.zeros(0, np.int64),
-                           load_x0=np.zeros(0), load_p=np.zeros(0))
-    wk = sb._workspace(1, 1, n)
+    # a packed train of n wheels (the types a study gives the kernel), all on the bridge:
+    # the whole S block is coupled
+    cars = tuple(vh.sprung_mass(5e3, 1e6, 1e3, 400.0) for _ in range(n))
+    veh = _pack(br.simply_supported(20.0, 5e9, 1e4, n_modes=1),
+                vh.Train("masses", cars, tuple(3.0 * k for k in range(n)))).vehicles
+    wk = sb._workspace(1, 2 * n, n, veh)
+    wk.onb[:] = 1
     wk.S[:] = S
     wk.gstar[:] = gstar
     wk.active[:] = rng.integers(0, 2, n)
@@ -142,33 +155,49 @@ def test_solve_active_set__is_the_lcp_solution(seed):
 
 
 def test_build_schur__equals_dense_b_khat_inv_bt():
+    """The Schur matrix of a step (the study's kernel, ``time_loop`` with ``run_batch``'s
+    arguments, stopped after a step with the car partly on the deck) equals
+    B K^-1 B^T formed densely: B = [-phi(x_i) | e_wheel], K^ = blockdiag(modal
+    a0 + (1 + alpha)(a1 c_j + w_j^2), the vehicle blocks' effective stiffness).  Then the
+    envelope solve of the active block equals a dense solve."""
     beam = br.simply_supported(20.0, 5e9, 1e4, n_modes=5)
     car = vh.railway_car(**ICE_CAR)
     train = vh.Train("two", (car, vh.sprung_mass(5e3, 1e6, 1e3, 400.0)), (0.0, 25.0))
-    p = _pack(beam, train)
-    n_w = p.vehicles.wheel_dof.size
-    wk = sb._workspace(beam.n_modes, p.n_dof, n_w)
-    t = (p.params.speed ** -1) * 35.0  # some wheels on the bridge, some off it
-    ek.contact_search(p.bridge, p.vehicles, p.profile, t, p.params.speed, wk)
-    khat_q = np.linspace(1e5, 9e5, beam.n_modes)
-    ek.build_schur(p.vehicles, wk, khat_q, p.vehicles.Khat_inv[0])
-    # dense oracle: B = [-phi(x_i) | e_wheel], K^ = blockdiag(diag(khat_q), vehicle blocks)
+    settings = SolverSettings(dt=1e-3, free_vibration=0.0)
+    v = 30.0
+    p = sm.pack(beam, train, v, no_irregularity(), settings)
+    (brg, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, _, _, _) = \
+        _study_kernel_args(p, v, [10.0], settings, beam)
+    n_w = veh.wheel_dof.size
+    n = int(round(35.0 / v / prm.dt))  # some wheels on the bridge, some off it
+    t = n * prm.dt
+    xa = veh.wheel_x0 + v * ((n - 1) * prm.dt)
+    x = veh.wheel_x0 + v * t
+    assert not (((xa < 0) & (x >= 0)) | ((xa <= beam.length) & (x > beam.length))).any()
+    ek.start_vsi_run(init, 0, st, wk)
+    p_n = prm._replace(speed=v, n_steps=n)
+    assert ek.time_loop(brg, veh, pr, p_n, st, bk, wk, red, 0, out, -1) == (ek.OK, n)
+    # dense oracle, with the HHT constants of the step computed here
+    alpha, dt = settings.hht_alpha, prm.dt
+    beta, gamma = 0.25 * (1 - alpha) ** 2, 0.5 - alpha
+    w = beam.omega
+    khat_q = 1 / (beta * dt**2) + (1 + alpha) * (gamma / (beta * dt) * 2 * beam.damping * w
+                                                 + w**2)
     n_m = beam.n_modes
     Kinv = np.zeros((n_m + p.n_dof,) * 2)
     Kinv[:n_m, :n_m] = np.diag(1 / khat_q)
-    Kinv[n_m:, n_m:] = sp._dense(p.vehicles, p.vehicles.Khat_inv[0])
-    x = p.vehicles.wheel_x0 + p.params.speed * t
+    Kinv[n_m:, n_m:] = sp._dense(veh, veh.Khat_inv[0])
     B = np.zeros((n_w, n_m + p.n_dof))
     B[:, :n_m] = -beam.shapes(x)
-    B[np.arange(n_w), n_m + p.vehicles.wheel_dof] = 1.0
+    B[np.arange(n_w), n_m + veh.wheel_dof] = 1.0
     assert 0 < wk.onb.sum() < n_w
     np.testing.assert_allclose(wk.S, B @ Kinv @ B.T, rtol=1e-12, atol=1e-20)
 
-    # the envelope solve of the active block equals a dense solve
-    active = np.array([i for i in range(n_w) if i != 2])
-    m = active.size
-    wk.idx[:m] = active
-    ek.contact_profile(p.vehicles, wk, m)
+    # the envelope solve of the active block (the step's: wk.idx, wk.first) equals a
+    # dense solve
+    m = int(wk.active.sum())
+    active = wk.idx[:m].copy()
+    np.testing.assert_array_equal(active, np.flatnonzero(wk.active))
     assert np.any(wk.first[:m] > 0)  # the envelope really is narrower than dense
     rhs = np.linspace(1.0, 2.0, n_w)
     x = np.zeros(n_w)
@@ -395,10 +424,8 @@ def test_contact_search__rows_of_wheels_off_the_deck_are_zero_along_a_passage(el
     settings = SolverSettings(dt=1e-3, approach=5.0, free_vibration=0.05)
     v = 40.0
     packed = sm.pack(beam, train, v, no_irregularity(), settings)
-    captured = []
-    sb.run_batch(packed, no_irregularity(), [v], [10.0], settings, beam,
-                 _kernel=lambda *args: captured.append(args))
-    (brg, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, _, _, _), = captured
+    (brg, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, _, _, _) = \
+        _study_kernel_args(packed, v, [10.0], settings, beam)
     lo, hi = (brg.t_nodes[0], brg.t_nodes[-1]) if elastic else (0.0, beam.length)
     seen = set()
     for n in np.linspace(1, int(n_steps[0]), 25).astype(int):

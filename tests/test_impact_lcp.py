@@ -104,10 +104,16 @@ def _step_all(packed, max_sub=4):
     st = sm.initial_state(packed, no_irregularity())
     wk = sb._workspace(packed.bridge.omega.size, packed.n_dof, packed.vehicles.wheel_dof.size)
     ek.reset_work(wk)
-    ek.contact_search(packed.bridge, packed.vehicles, packed.profile, 0.0, prm.speed, wk)
+    # the on-bridge flags at t = 0 and the steps that take a wheel across an end of the
+    # deck, with the comparisons of contact_search and crosses_deck_end (numpy: only
+    # hht_step runs from here, compiled for the types a study gives it)
+    x0 = packed.vehicles.wheel_x0
+    length = packed.bridge.length
+    wk.onb[:] = (x0 >= 0.0) & (x0 <= length)
     for n in range(prm.n_steps):
-        cross = ek.crosses_deck_end(packed.bridge, packed.vehicles, n * prm.dt,
-                                    (n + 1) * prm.dt, prm.speed)
+        xa = x0 + prm.speed * (n * prm.dt)
+        xb = x0 + prm.speed * ((n + 1) * prm.dt)
+        cross = bool((((xa < 0.0) & (0.0 <= xb)) | ((xa <= length) & (length < xb))).any())
         sub = 2**max_sub if cross else 1
         for k in range(sub):
             wk.was_active[:] = wk.active

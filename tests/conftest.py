@@ -17,7 +17,6 @@ grouping only changes when a test waits, never what it checks.
 from __future__ import annotations
 
 import os
-import subprocess
 import time
 
 from threadpoolctl import threadpool_limits
@@ -78,9 +77,9 @@ def pytest_configure(config):
         path = warm.lock_path(family)
         if path is None or warm.is_cached(family):
             continue
-        proc = subprocess.Popen(warm.helper_command(family), stdin=subprocess.DEVNULL,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                preexec_fn=_term_with_parent())
+        # as a study starts them: the moving-force helper at a lower priority (it and the
+        # tests take what the interaction compilation, the longest, leaves)
+        proc = warm.start_helper(family, preexec_fn=_term_with_parent())
         _HELPERS.append(proc)
         started.append((path, proc))
     # wait until each helper holds its lock (or has exited): then no test process can

@@ -396,9 +396,10 @@ def test_with_patterns__every_nonzero_and_only_those():
     assert veh.blk_ptr[0, 0, 10] == 10  # the car's mass matrix is diagonal
     assert veh.blk_ptr[2, 0, 10] < 60  # and its stiffness sparse
     for b in range(n_veh):
-        local = veh.wcol[veh.wcol_start[b]:veh.wcol_start[b + 1]]
-        np.testing.assert_array_equal(
-            local, np.sort(veh.wheel_dof[veh.wheel_veh == b] - veh.start[b]))
+        for r in range(veh.start[b + 1] - veh.start[b]):
+            local = veh.blk_col[3, b, veh.blk_ptr[3, b, r]:veh.blk_ptr[3, b, r + 1]]
+            np.testing.assert_array_equal(
+                local, np.sort(veh.wheel_dof[veh.wheel_veh == b] - veh.start[b]))
     nz = (veh.compliance != 0.0) | np.eye(5, dtype=bool)
     assert not nz.all()  # the rail's compliance is not dense here
     for i in range(5):

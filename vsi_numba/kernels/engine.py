@@ -120,48 +120,41 @@ class VehicleArrays(NamedTuple):
     track_z0: np.ndarray = np.zeros(0)
     # nonzero patterns (set by :func:`with_patterns`; the step's products skip exact
     # zeros only, so its sums are the dense sums bit for bit): blk_col[m, b, p] for p in
-    # blk_ptr[m, b, r] .. blk_ptr[m, b, r + 1] - 1 are the nonzero columns (ascending) of
-    # row r of block b of M (m = 0), C (1) and K (2); wcol[wcol_start[b]:wcol_start[b + 1]]
-    # the local DOFs of block b that carry a wheel (the columns B^T X fills, ascending);
+    # blk_ptr[m, b, r] .. blk_ptr[m, b, r + 1] - 1 are the columns (ascending) row r of
+    # block b sums over: the nonzeros of M (m = 0), C (1) and K (2), and for every row the
+    # local DOFs that carry a wheel (3: the only nonzeros of a vector B^T X);
     # comp_col[comp_ptr[i]:comp_ptr[i + 1]] the nonzero columns of row i of
     # ``compliance`` and i itself (ascending)
-    blk_ptr: np.ndarray = np.zeros((3, 0, 1), np.int64)  # (3, n_veh, nb + 1)
-    blk_col: np.ndarray = np.zeros((3, 0, 1), np.int64)  # (3, n_veh, nb^2)
-    wcol_start: np.ndarray = np.zeros(1, np.int64)  # (n_veh + 1,)
-    wcol: np.ndarray = np.zeros(0, np.int64)  # (<= n_w,)
+    blk_ptr: np.ndarray = np.zeros((4, 0, 1), np.int64)  # (4, n_veh, nb + 1)
+    blk_col: np.ndarray = np.zeros((4, 0, 1), np.int64)  # (4, n_veh, nb^2)
     comp_ptr: np.ndarray = np.zeros(1, np.int64)  # (n_w + 1,), or (1,) without compliance
     comp_col: np.ndarray = np.zeros(0, np.int64)  # (nnz,)
 
 
 def with_patterns(veh: VehicleArrays) -> VehicleArrays:
     """``veh`` with the nonzero patterns of its blocks, wheel DOFs and compliance (the
-    ``blk_*``, ``wcol*`` and ``comp_*`` fields), from its current arrays: call it last."""
+    ``blk_*`` and ``comp_*`` fields), from its current arrays: call it last."""
     n_veh = veh.start.shape[0] - 1
     nb = veh.M.shape[1]
-    ptr = np.zeros((3, n_veh, nb + 1), np.int64)
-    col = np.zeros((3, n_veh, max(nb * nb, 1)), np.int64)
-    wstart = np.zeros(n_veh + 1, np.int64)
-    wcol = []
+    ptr = np.zeros((4, n_veh, nb + 1), np.int64)
+    col = np.zeros((4, n_veh, max(nb * nb, 1)), np.int64)
     for b in range(n_veh):
         n = int(veh.start[b + 1] - veh.start[b])
-        for m, A in enumerate((veh.M, veh.C, veh.K)):
-            nz = A[b, :n, :n] != 0.0
+        wheels = np.zeros((n, n), bool)
+        wheels[:, veh.wheel_dof[veh.wheel_veh == b] - veh.start[b]] = True
+        for m, A in enumerate((veh.M, veh.C, veh.K, None)):
+            nz = wheels if A is None else A[b, :n, :n] != 0.0
             ptr[m, b, 1:n + 1] = np.cumsum(nz.sum(axis=1))
             ptr[m, b, n + 1:] = ptr[m, b, n]
             cols = np.nonzero(nz)[1]  # row by row, columns ascending
             col[m, b, :cols.size] = cols
-        local = np.unique(veh.wheel_dof[veh.wheel_veh == b] - veh.start[b])
-        wcol.extend(local.tolist())
-        wstart[b + 1] = len(wcol)
     comp_ptr = np.zeros(1, np.int64)
     comp_col = np.zeros(0, np.int64)
     if veh.compliance.shape[0] > 0:
         nz = (veh.compliance != 0.0) | np.eye(veh.compliance.shape[0], dtype=bool)
         comp_ptr = np.concatenate([[0], np.cumsum(nz.sum(axis=1))]).astype(np.int64)
         comp_col = np.nonzero(nz)[1].astype(np.int64)
-    return veh._replace(blk_ptr=ptr, blk_col=col, wcol_start=wstart,
-                        wcol=np.asarray(wcol, np.int64), comp_ptr=comp_ptr,
-                        comp_col=comp_col)
+    return veh._replace(blk_ptr=ptr, blk_col=col, comp_ptr=comp_ptr, comp_col=comp_col)
 
 
 class ProfileArrays(NamedTuple):
@@ -523,9 +516,10 @@ def block_matvec(veh, A, x, y, accumulate, scale):
 
 @njit(inline="always")
 def block_matvec_nz(veh, A, m, x, y, scale):
-    """y += scale * blockdiag(A) x with A = M, C or K (``m`` = 0, 1, 2): the sums of
-    :func:`block_matvec` over the nonzeros of A only (``veh.blk_*``), bit for bit (the
-    skipped terms are zeros and x is finite)."""
+    """y += scale * blockdiag(A) x over the columns of pattern ``m`` (``veh.blk_*``): the
+    nonzeros of A = M, C or K (``m`` = 0, 1, 2; x finite), or the wheel DOFs (3; x = B^T X,
+    zero elsewhere, A finite).  The sums of :func:`block_matvec` bit for bit: the skipped
+    terms are zeros."""
     n_veh = veh.start.shape[0] - 1
     for b in range(n_veh):
         s = veh.start[b]
@@ -534,23 +528,6 @@ def block_matvec_nz(veh, A, m, x, y, scale):
             acc = 0.0
             for p in range(veh.blk_ptr[m, b, r], veh.blk_ptr[m, b, r + 1]):
                 c = veh.blk_col[m, b, p]
-                acc += A[b, r, c] * x[s + c]
-            y[s + r] += scale * acc
-
-
-@njit(inline="always")
-def block_matvec_wheels(veh, A, x, y, scale):
-    """y += scale * blockdiag(A) x for an ``x`` that is zero off the wheel DOFs (B^T X):
-    the sums of :func:`block_matvec` over the wheel columns only (``veh.wcol``), bit for
-    bit (the skipped terms are zeros and A is finite)."""
-    n_veh = veh.start.shape[0] - 1
-    for b in range(n_veh):
-        s = veh.start[b]
-        n = veh.start[b + 1] - s
-        for r in range(n):
-            acc = 0.0
-            for p in range(veh.wcol_start[b], veh.wcol_start[b + 1]):
-                c = veh.wcol[p]
                 acc += A[b, r, c] * x[s + c]
             y[s + r] += scale * acc
 
@@ -1482,7 +1459,7 @@ def hht_correct(veh, st, wk, khat_v, a0, a2, a3, gamma, scale, dt):
         if xi != 0.0 and wk.onb[i] == 1:  # phi is zero off the deck (contact_search)
             for j in range(n_m):
                 wk.yq[j] += scale * wk.phi[i, j] * xi / wk.khat[j]
-    block_matvec_wheels(veh, khat_v, wk.rv, wk.yv, -scale)
+    block_matvec_nz(veh, khat_v, 3, wk.rv, wk.yv, -scale)
     for j in range(n_m):
         dq = wk.yq[j]
         st.qd[j], st.qdd[j] = newmark(dq, st.qd[j], st.qdd[j], a0, a2, a3, gamma, dt)
@@ -2292,7 +2269,7 @@ def mf_time_loop(br, veh, prm, st, wk, red, r, out, h, on, off, cs, sums):
             nl = 0
             if n < 0:  # the loads on the deck at t = 0, as :func:`le_record` lists them
                 for k in range(n_l - 1, -1, -1):
-                    x = load_x0[k] + speed * 0.0
+                    x = load_x0[k]
                     if x >= 0.0 and x <= le_length:
                         le_lx[nl] = x
                         le_lp[nl] = load_p[k]

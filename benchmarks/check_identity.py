@@ -1,10 +1,10 @@
 """Results of the engine, compared between two versions of the code.
 
 A handful of small configurations that cover the interaction path (elastic damped track
-with the ICE3, rigid track with impacts and deck ends, Hertz contact, a continuous FE
-deck, a nonlinear suspension, lift-off, a massive rail) and the moving-force kernel
-(sine modes with load effects, the first axle on the deck at t = 0, a continuous deck,
-no load effects) are run with ``vsi sweep``'s
+with the ICE3, rigid track with impacts and deck ends, steps retried in substeps, no step
+split, Hertz contact, a continuous FE deck, a nonlinear suspension, lift-off, a massive
+rail) and the moving-force kernel (sine modes with load effects, the first axle on the
+deck at t = 0, a continuous deck, no load effects) are run with ``vsi sweep``'s
 engine (``run_study``, histories on) into one netCDF file each::
 
     python -m benchmarks.check_identity write DIR        # with the code on PYTHONPATH
@@ -83,6 +83,16 @@ def cases() -> dict:
         # a sprung mass losing contact over a deep short dip on the rigid track
         "lift_off": _case("lift-off", speeds=(200.0,), train={"vehicles": [_SPRUNG]},
                           irregularity=dip, track={"model": "rigid"}),
+        # steps retried in 2, 4, ... substeps (one contact iteration allowed: the
+        # deck-end crossings on the rigid track fail, then a later step for good)
+        "retries": _case("retried steps", train=ice3, speeds=(300.0,),
+                         irregularity={**_PSD, "spectrum": "german_high"},
+                         track={"model": "rigid"},
+                         solver={"max_iterations": 1, "max_subdivisions": 4}),
+        # no step split (max_subdivisions = 0): a deck-end crossing is one step
+        "no_split": _case("crossings not split", train=ice3, speeds=(300.0,),
+                          irregularity={**_PSD, "spectrum": "german_high"},
+                          track={"model": "rigid"}, solver={"max_subdivisions": 0}),
         # massive rail (damped and massive track elements)
         "rail_mass": _case("massive rail", train=ice3, speeds=(300.0,),
                            track={"rail_mass": 120.0}),

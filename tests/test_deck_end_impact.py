@@ -1,8 +1,8 @@
 """Deck ends on the rigid track: where the running surface kinks towards the wheel (the
 deck end moving or rotated so that the rail turns up under it) the wheel meets a
 plastic impact and stays on the rail; where it turns away the wheel may fly.  The
-engine splits a step at the crossing time (``engine.crossing_step``), so neither the
-time step nor where the end falls on the time grid changes that.
+engine splits a step at the crossing time (the crossing pieces of ``engine.time_loop``),
+so neither the time step nor where the end falls on the time grid changes that.
 
 Reference: ``reference.quarter_car_flexible_event_driven`` (event-driven, plastic
 impacts, unilateral deck-end crossings; numpy/scipy only) and
@@ -117,7 +117,7 @@ def _kernel_impulses(d_car, dt, shift):
     """The impact impulse (N s) of each step in which the wheel passes an end of the
     deck: the study's kernel (``engine.time_loop``, with the arguments ``run_batch``
     gives it) run from t = 0 up to and including that step, then ``wk.impulse``.  The
-    time loop hands such a step to ``engine.crossing_step``."""
+    time loop splits such a step at the crossing times."""
     settings = SolverSettings(dt=dt, approach=APPROACH + shift, free_vibration=0.01)
     beam = _beam()
     packed = sm.pack(beam, _train(d_car), V, no_irregularity(), settings)
@@ -141,8 +141,8 @@ def _kernel_impulses(d_car, dt, shift):
         p = prm._replace(speed=float(speeds[0]), n_steps=int(nc) + 1)
         status, reached = ek.time_loop(brg, veh, pr, p, st, bk, wk, red, 0, out, -1)
         assert status == ek.OK and reached == nc + 1
-        # the last step was crossing_step's, not a retry in substeps: its impulse is the
-        # sum over its pieces, which only crossing_step keeps (wk.imp)
+        # the last step was split at the crossing, not retried in substeps: its impulse
+        # is the sum over its pieces, which only the crossing pieces keep (wk.imp)
         assert wk.impulse[0] == wk.imp[0]
         got.append(float(wk.impulse[0]))
     return got

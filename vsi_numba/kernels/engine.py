@@ -987,6 +987,8 @@ def consistent_accelerations(br, veh, wk, st, speed, scale, dt, max_iter, tol_fo
 # are taken at that end: a piece of ~1e-4 dt still resolves its accelerations (round-off
 # of the gap constraint, ~1e-18 m, over (1e-4 dt)^2), and the event moves by <= 1e-4 dt.
 CROSSING_MIN_FRACTION = 1e-4
+# The kinds of piece of a step in :func:`time_loop`.
+WHOLE, CROSS, TAIL, RETRY = 0, 1, 2, 3
 NL_BUMP_STOP, NL_BLOWOFF = 0, 1
 
 
@@ -1266,82 +1268,30 @@ def next_deck_end(br, veh, t, t1, speed):
 
 
 @njit(inline="always")
-def crossing_step(br, veh, pr, prm, st, wk, t0, t1):
-    """A step (t0, t1] in which wheels pass an end of the deck on the rigid track,
-    split at every crossing time (event-driven).
-
-    Each piece ends exactly where a wheel meets the kink of the running surface, after
-    a step spent on the rail it was on; the impact there (:func:`impact_update`, an LCP
-    whose crossing wheel may only be pushed) then sees the true velocity jump of the
-    rail: a plastic impact where the rail turns towards the wheel (a hogging deck end),
-    a free separation where it turns away.  The rest of the step after the last event
-    is taken in 2^CROSSING_LEVELS substeps.  Pieces shorter than
-    ``CROSSING_MIN_FRACTION`` dt are not integrated: the event is taken at the start
-    of the piece (the impact on the state there) or the state stands for ``t1``.
-    The pieces' vehicle blocks are inverted here (``level = -1``).
-    Returns (status, contact iterations summed).
-    """
-    eta = CROSSING_MIN_FRACTION * prm.dt
+def crossing_impact(br, veh, pr, prm, st, wk, tc):
+    """The impact of wheels that crossed an end of the deck within
+    ``CROSSING_MIN_FRACTION`` dt of the state's time: taken on the state as it is, at the
+    crossing time ``tc`` (a piece that short is not integrated; see :func:`time_loop`).
+    Adds the impulses to ``wk.imp``; returns the status."""
     n_w = veh.wheel_dof.shape[0]
-    t = t0
-    total = 0
     for i in range(n_w):
-        wk.imp[i] = 0.0
-    while True:
-        tc = next_deck_end(br, veh, t, t1, prm.speed)
-        if tc > t1:
-            break
+        wk.onb_prev[i] = wk.onb[i]
+        wk.X[i] = st.X[i]
+        wk.xout[i] = st.X[i]
+        wk.impulse[i] = 0.0
+    contact_search(br, veh, pr, tc, prm.speed, wk)
+    landing = False
+    for i in range(n_w):
+        if wk.active[i] == 1 and wk.onb[i] != wk.onb_prev[i]:
+            landing = True
+    if landing:
+        status = impact_update(br, veh, prm, st, wk, prm.dt)
+        if status != OK:
+            return status
+        update_force_totals(br, veh, wk, st)
         for i in range(n_w):
-            wk.was_active[i] = wk.active[i]
-        if tc - t > eta:
-            status, it = vsi_step(br, veh, pr, prm, st, wk, tc, tc - t, np.int64(-1))
-            total += it
-            if status != OK:
-                return status, total
-            for i in range(n_w):
-                wk.imp[i] += wk.impulse[i]
-        else:
-            # the wheels crossed within eta of t: the impact on the state at t
-            for i in range(n_w):
-                wk.onb_prev[i] = wk.onb[i]
-                wk.X[i] = st.X[i]
-                wk.xout[i] = st.X[i]
-                wk.impulse[i] = 0.0
-            contact_search(br, veh, pr, tc, prm.speed, wk)
-            landing = False
-            for i in range(n_w):
-                if wk.active[i] == 1 and wk.onb[i] != wk.onb_prev[i]:
-                    landing = True
-            if landing:
-                status = impact_update(br, veh, prm, st, wk, prm.dt)
-                if status != OK:
-                    return status, total
-                update_force_totals(br, veh, wk, st)
-                for i in range(n_w):
-                    wk.imp[i] += wk.impulse[i]
-        t = tc
-    if t1 - t > eta:
-        # the rest of the step in 2^CROSSING_LEVELS substeps (at most max_sub halvings):
-        # a wheel the kink released (the rail turning away by a little) lands again
-        # within microseconds; landing at the end of a whole step would leave its
-        # impact transient in the step's recorded force
-        m = 1 << min(prm.max_sub, CROSSING_LEVELS) if t > t0 else 1
-        while m > 1 and (t1 - t) / m <= eta:
-            m //= 2
-        h = (t1 - t) / m
-        for k in range(m):
-            for i in range(n_w):
-                wk.was_active[i] = wk.active[i]
-            tk = t1 if k == m - 1 else t + (k + 1) * h
-            status, it = vsi_step(br, veh, pr, prm, st, wk, tk, h, np.int64(-1))
-            total += it
-            if status != OK:
-                return status, total
-            for i in range(n_w):
-                wk.imp[i] += wk.impulse[i]
-    for i in range(n_w):
-        wk.impulse[i] = wk.imp[i]  # the step's impulses, all pieces
-    return OK, total
+            wk.imp[i] += wk.impulse[i]
+    return OK
 
 
 # --------------------------------------------------------------------------- time loop
@@ -1987,44 +1937,123 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
                 for i in range(n_w):
                     for c in range(3):
                         wk.trk0[i, c] = wk.trk[i, c]
+            # The step's pieces, all integrated by the one vsi_step call below (numba
+            # and LLVM then compile the step once in this kernel, not once per kind of
+            # piece): WHOLE the step (t0, t1]; CROSS the pieces of a step in which
+            # wheels pass an end of the deck on the rigid track, each ending where a
+            # wheel meets the kink of the running surface (event-driven: the impact
+            # there, in impact_update, an LCP whose crossing wheel may only be pushed,
+            # sees the true velocity jump of the rail - a plastic impact where the rail
+            # turns towards the wheel, a free separation where it turns away; design
+            # note 1.4); TAIL the rest of such a step after its last event, in
+            # 2^CROSSING_LEVELS substeps (at most max_sub halvings: a wheel the kink
+            # released lands again within microseconds, and landing at the end of a
+            # whole step would leave its impact transient in the step's recorded
+            # force); RETRY after a failed piece, the step again from its start in
+            # 2^level substeps, level = 1 .. max_sub.  Pieces of a crossing step shorter
+            # than CROSSING_MIN_FRACTION dt are not integrated: the event is taken at
+            # the start of the piece (crossing_impact) or the state stands for t1.  The
+            # vehicle blocks of the crossing pieces are inverted in the step (level -1).
+            t0 = n * dt
+            t1 = (n + 1) * dt
+            eta = CROSSING_MIN_FRACTION * dt
+            status = OK
             level = 0
+            phase = WHOLE
             if prm.contact_model == 0 and br.track == 0 and crosses_deck_end(
-                    br, veh, n * dt, (n + 1) * dt, prm.speed):
+                    br, veh, t0, t1, prm.speed):
                 # a wheel meets the velocity jump of the rail at a deck end in this step
                 if wk.khv.shape[0] == veh.start.shape[0] - 1 and prm.max_sub > 0:
-                    # split at the crossing times: the impact sees the exact jump (design
-                    # note 1.4); a failure is retried in halvings below (max_sub = 0: no
-                    # step is ever split, the crossing is one step)
-                    status, iters = crossing_step(br, veh, pr, prm, st, wk, n * dt,
-                                                  (n + 1) * dt)
-                else:
-                    # no workspace for variable steps: 2^CROSSING_LEVELS substeps (at most
-                    # max_sub halvings)
-                    status, iters = NOT_CONVERGED, 0
-                    level = min(prm.max_sub, CROSSING_LEVELS) - 1
-            else:
-                status, iters = vsi_step(br, veh, pr, prm, st, wk, (n + 1) * dt, dt, np.int64(0))
-            while status != OK and level < prm.max_sub:
-                level += 1
-                copy_state(bk, st)
-                for i in range(n_w):
-                    wk.active[i] = wk.act0[i]
-                    wk.onb[i] = wk.onb0[i]
-                if track:
+                    phase = CROSS  # split at the crossing times
                     for i in range(n_w):
-                        for c in range(3):
-                            wk.trk[i, c] = wk.trk0[i, c]
-                sub = 1 << level
-                h_sub = dt / sub
-                iters = 0
-                for k in range(sub):
+                        wk.imp[i] = 0.0
+                else:
+                    # no workspace for variable steps (or max_sub = 0: no step is ever
+                    # split): 2^CROSSING_LEVELS substeps, at most max_sub halvings
+                    status = NOT_CONVERGED
+                    level = min(prm.max_sub, CROSSING_LEVELS) - 1
+            t = t0  # CROSS, TAIL: where the current piece starts
+            tc = t1  # CROSS: where it ends
+            k = 0  # TAIL, RETRY: the substep
+            m = 1  # TAIL, RETRY: substeps
+            h_sub = dt  # TAIL, RETRY: their length
+            while True:
+                if status != OK:  # the step again, in twice as many substeps
+                    if level >= prm.max_sub:
+                        break
+                    level += 1
+                    copy_state(bk, st)
+                    for i in range(n_w):
+                        wk.active[i] = wk.act0[i]
+                        wk.onb[i] = wk.onb0[i]
+                    if track:
+                        for i in range(n_w):
+                            for c in range(3):
+                                wk.trk[i, c] = wk.trk0[i, c]
+                    phase = RETRY
+                    m = 1 << level
+                    h_sub = dt / m
+                    k = 0
+                    iters = 0
+                # the next piece: (.., ta] of length hs at level lev, or an impact
+                impact = False
+                if phase == WHOLE:
+                    ta = t1
+                    hs = dt
+                    lev = np.int64(0)
+                elif phase == CROSS:
+                    tc = next_deck_end(br, veh, t, t1, prm.speed)
+                    if tc > t1:  # no more events: the rest of the step
+                        if not t1 - t > eta:
+                            for i in range(n_w):
+                                wk.impulse[i] = wk.imp[i]  # the step's impulses
+                            break
+                        m = 1 << min(prm.max_sub, CROSSING_LEVELS) if t > t0 else 1
+                        while m > 1 and (t1 - t) / m <= eta:
+                            m //= 2
+                        h_sub = (t1 - t) / m
+                        k = 0
+                        phase = TAIL
+                        continue
                     for i in range(n_w):
                         wk.was_active[i] = wk.active[i]
-                    status, it = vsi_step(br, veh, pr, prm, st, wk, n * dt + (k + 1) * h_sub,
-                                          h_sub, level)
+                    impact = not tc - t > eta
+                    ta = tc
+                    hs = tc - t
+                    lev = np.int64(-1)
+                else:  # TAIL, RETRY
+                    for i in range(n_w):
+                        wk.was_active[i] = wk.active[i]
+                    if phase == TAIL:
+                        ta = t1 if k == m - 1 else t + (k + 1) * h_sub
+                        lev = np.int64(-1)
+                    else:
+                        ta = t0 + (k + 1) * h_sub
+                        lev = level
+                    hs = h_sub
+                if not impact:
+                    status, it = vsi_step(br, veh, pr, prm, st, wk, ta, hs, lev)
                     iters += it
                     if status != OK:
+                        continue
+                    if phase == WHOLE:
                         break
+                    if phase != RETRY:
+                        for i in range(n_w):
+                            wk.imp[i] += wk.impulse[i]
+                    if phase == CROSS:
+                        t = tc
+                        continue
+                    k += 1
+                    if k == m:
+                        if phase == TAIL:
+                            for i in range(n_w):
+                                wk.impulse[i] = wk.imp[i]  # the step's impulses, all pieces
+                        break
+                    continue
+                # the wheels crossed within eta of t: the impact on the state there
+                status = crossing_impact(br, veh, pr, prm, st, wk, tc)
+                t = tc
             if status != OK:
                 return status, n + 1
             if not state_is_finite(st):
@@ -2374,21 +2403,30 @@ def run_batch(br, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, slo
 
 def compile_leaves(br, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, slots,
                    status, reached):
-    """Compile the largest leaves of the interaction kernels - :func:`impact_update`
-    (about a sixth of the family's compile time), :func:`nl_update_branches` and
-    :func:`record` (with :func:`le_record`) - for the types :func:`run_batch` passes
-    down with these arguments, without running anything.  A second process does this
-    while the first compiles :func:`time_loop`, which then loads them from numba's cache
-    when it reaches them (they are its last callees; :func:`hht_step` and
-    :func:`vsi_step` pass ``br, veh, prm, st, wk`` on unchanged, ``dt`` and
-    ``tol_force`` are floats; :func:`time_loop` records step ``n + 1`` (int64) at time
-    ``(n + 1) dt`` with its int64 run, history slot and iteration count)."""
+    """Compile leaves of the interaction kernels - the callees of :func:`hht_step`
+    (:func:`prepare_khat`, :func:`nl_residual`, :func:`solve_hertz`,
+    :func:`solve_active_set`), then :func:`nl_update_branches` and :func:`record` (with
+    :func:`le_record`) - for the types :func:`run_batch` passes down with these
+    arguments, without running anything.  A second process does this while the first
+    compiles :func:`time_loop`, which then loads them from numba's cache when it reaches
+    them: numba types :func:`time_loop`'s call of :func:`impact_update` (a crossing
+    impact, compiled by the first process meanwhile) before the step, then
+    :func:`hht_step` with these callees, then the last ones.  :func:`hht_step` and
+    :func:`vsi_step` pass ``br, veh, prm, st, wk`` on unchanged; the step's ``level``
+    is an int64, ``dt``, ``alpha``, ``scale`` and the tolerances are floats,
+    ``max_iter`` an int64; :func:`time_loop` records step ``n + 1`` (int64) at time
+    ``(n + 1) dt`` with its int64 run, history slot and iteration count."""
     p = prm._replace(speed=float(speeds[0]), n_steps=int(n_steps[0]))
-    compile_for(impact_update, br, veh, p, st, wk, 0.0)
-    compile_for(nl_update_branches, veh, wk, st, 0.0)
+    compile_for(prepare_khat, veh, wk, np.int64(0), p.dt, p.alpha)
+    compile_for(nl_residual, veh, wk, st, p.dt, p.alpha)
+    compile_for(solve_hertz, veh, wk, 1.0 + p.alpha, p.hertz_g, p.max_iter, p.tol_force)
+    compile_for(solve_active_set, veh, wk, 1.0 + p.alpha, p.max_iter, p.tol_gap,
+                p.tol_force)
+    compile_for(nl_update_branches, veh, wk, st, p.tol_force)
     compile_for(record, veh, st, wk, red, np.int64(0), np.int64(0), 0.0, p.speed, out,
                 np.int64(0), np.int64(0))
 
 
-#: The kernels :func:`compile_leaves` compiles.
-LEAVES = (impact_update, nl_update_branches, record)
+#: The kernels :func:`compile_leaves` compiles, in its order.
+LEAVES = (prepare_khat, nl_residual, solve_hertz, solve_active_set, nl_update_branches,
+          record)

@@ -403,3 +403,66 @@ def test_run_study__blas_on_one_thread_while_the_batches_run(tmp_path, monkeypat
         after = blas_threads()
     assert before == [2] and after == before
     assert len(seen) >= 2 and all(s == [1] for s in seen)
+
+
+def test_study_file__gathered_batches_land_in_their_slices(tmp_path):
+    """The envelopes of consecutive batches of one train and realisation are written in
+    one slice: whatever the order of the batches (a train or realisation changes, speeds
+    that do not follow on, a speed range left out), every value read back is the one
+    its batch gave, and what no batch wrote is the fill (NaN, netCDF's int fill, '')."""
+    import collections
+
+    import netCDF4
+
+    from vsi_numba.io.schema import DIAGNOSTICS
+    from vsi_numba.io.study_file import StudyFile
+
+    n_s, n_t, n_i, n_p, n_w, n_v = 6, 2, 2, 2, 3, 1
+    info = {"wheel_position": [[0.0, 2.5, 5.0], [0.0, 3.0, np.nan]],
+            "static_wheel_load": [[1e5, 1e5, 1e5], [9e4, 9e4, np.nan]],
+            "vehicle_name": [["a"], ["b"]], "regular_length": [10.0, 12.0],
+            "status": ["ok", "ok"], "max_static_deck_displacement": np.ones((n_t, n_p))}
+    f = StudyFile(tmp_path / "f.nc", 100.0 + 20.0 * np.arange(n_s), ["t0", "t1"], [1, 2],
+                  [np.array([2.0, 5.0])], [np.array([3.0, 9.0])], n_w, n_v, None, 1e-3,
+                  [info], deck_x=[np.linspace(0.0, 10.0, 4)], supports=[np.array([0.0, 10.0])])
+    Batch = collections.namedtuple("Batch", "key variant i_train i_irregularity speeds")
+    width = {"point": n_p, "wheel": n_w, "vehicle": n_v, "deck_x": 4, "support": 2}
+    rng = np.random.default_rng(7)
+    # (train, realisation, speeds): gathered, a train change, a gap, speeds going back
+    plan = [(0, 0, (0, 1)), (0, 0, (2, 3)), (1, 0, (0, 1, 2)), (0, 1, (3, 4)),
+            (0, 1, (0, 1)), (0, 1, (5,)), (1, 1, (1,)), (1, 1, (2, 3))]
+    expect = {}
+    for k, (i_t, i_i, speeds) in enumerate(plan):
+        n = len(speeds)
+        data = {name: rng.standard_normal((n, width[dims[0]]) if dims else n)
+                for name, (dims, *_r) in ENVELOPES.items()}
+        data.update({name: rng.integers(0, 50, n) for name in DIAGNOSTICS})
+        data["message"] = np.array([f"batch {k} run {r}" for r in range(n)])
+        f.write_batch(Batch(f"b{k}", None, i_t, i_i, list(speeds)), data,
+                      n_w if i_t == 0 else n_w - 1, n_v)
+        for r, s in enumerate(speeds):
+            expect[(s, i_t, i_i)] = {name: a[r] for name, a in data.items()}
+    f.close({"title": "t"})
+    with netCDF4.Dataset(tmp_path / "f.nc") as nc:
+        nc.set_auto_mask(False)
+        got = {name: nc[name][...] for name in (*ENVELOPES, *DIAGNOSTICS, "message")}
+        int_fill = netCDF4.default_fillvals["i4"]
+    for s in range(n_s):
+        for i_t in range(n_t):
+            for i_i in range(n_i):
+                e = expect.get((s, i_t, i_i))
+                for name, a in got.items():
+                    v = a[s, i_t, i_i]
+                    if e is None:  # no batch wrote this case
+                        fill = ("" if name == "message" else int_fill if name in DIAGNOSTICS
+                                else np.nan)
+                        assert np.all(v == fill) or np.all(np.isnan(v)), (name, s, i_t, i_i)
+                        continue
+                    want = e[name]
+                    if name in ENVELOPES and ENVELOPES[name][0] == ("wheel",) and i_t == 1:
+                        # train 1 has 2 wheels: its third column stays NaN
+                        np.testing.assert_array_equal(v[:2], want[:2])
+                        assert np.isnan(v[2])
+                    else:
+                        np.testing.assert_array_equal(v, want, err_msg=name)
+    assert (2, 0, 1) not in expect and (0, 1, 1) not in expect  # the plan leaves gaps

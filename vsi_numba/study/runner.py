@@ -520,6 +520,7 @@ def _write_results(output: Path, store: CaseStore, study: _Study,
                 info = infos[b.variant or 0]
                 f.write_batch(b, data, info["n_wheel"][b.i_train], info["n_vehicle"][b.i_train])
                 if hold:
+                    f.flush()
                     f.nc.sync()
                     _hold(store)
                 for r, st in enumerate(data["status"]):

@@ -989,6 +989,8 @@ def consistent_accelerations(br, veh, wk, st, speed, scale, dt, max_iter, tol_fo
 CROSSING_MIN_FRACTION = 1e-4
 # The kinds of piece of a step in :func:`time_loop`.
 WHOLE, CROSS, TAIL, RETRY = 0, 1, 2, 3
+# hht_step's level for the impact of a deck-end crossing without a step.
+CROSSING_IMPACT = -2
 NL_BUMP_STOP, NL_BLOWOFF = 0, 1
 
 
@@ -1427,93 +1429,100 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
     ``wk.was_active`` holds the contact set at the start of the step; on return
     ``wk.active`` holds the new one and ``wk.xout`` the step's contact forces.
     Returns (status, iterations); the state is garbage when status != 0.
+    ``level`` = ``CROSSING_IMPACT``: no step, the impact of wheels that crossed an end of
+    the deck at ``t1`` (:func:`crossing_impact`; ``dt`` unused).
     """
-    alpha = prm.alpha
-    a0, a1, a2, a3, cv, ca, gamma, scale = hht_coefficients(alpha, dt)
-    n_m = st.q.shape[0]
-    n_v = st.u.shape[0]
-    n_w = veh.wheel_dof.shape[0]
-    speed = prm.speed
-    if level < 0 or veh.nl_veh.shape[0] > 0:
-        # a step that is not dt/2^level, or nonlinear elements: the blocks of this step
-        # size and branch set (refactored only where they changed)
-        if prepare_khat(veh, wk, level, dt, alpha) != 0:
-            return SINGULAR_SCHUR, 0
-        khat_v = wk.khv
-    else:
-        khat_v = veh.Khat_inv[level]
+    if level != CROSSING_IMPACT:
+        # (the step; the crossing impact's code after it, so that numba types the step's
+        # callees before impact_update, as the leaves process compiles them)
+        alpha = prm.alpha
+        a0, a1, a2, a3, cv, ca, gamma, scale = hht_coefficients(alpha, dt)
+        n_m = st.q.shape[0]
+        n_v = st.u.shape[0]
+        n_w = veh.wheel_dof.shape[0]
+        speed = prm.speed
+        if level < 0 or veh.nl_veh.shape[0] > 0:
+            # a step that is not dt/2^level, or nonlinear elements: the blocks of this step
+            # size and branch set (refactored only where they changed)
+            if prepare_khat(veh, wk, level, dt, alpha) != 0:
+                return SINGULAR_SCHUR, 0
+            khat_v = wk.khv
+        else:
+            khat_v = veh.Khat_inv[level]
 
-    for i in range(n_w):
-        wk.onb_prev[i] = wk.onb[i]
-    contact_search(br, veh, pr, t1, speed, wk)
-    assemble_loads(br, veh, t1, speed, wk.fq, wk.phil, wk.hq, wk.rq)
-
-    # predictor y = K^-1 R0: the increment with all contact forces at t_{n+1} zero
-    for j in range(n_m):
-        cq = 2.0 * br.zeta[j] * br.omega[j]
-        wk.khat[j] = a0 + scale * (a1 * cq + br.omega[j] ** 2)
-        r = (scale * wk.fq[j] - alpha * st.fq_tot[j] + a2 * st.qd[j] + a3 * st.qdd[j]
-             - cq * (cv * st.qd[j] + ca * st.qdd[j]) - br.omega[j] ** 2 * st.q[j])
-        wk.yq[j] = r / wk.khat[j]
-    for k in range(n_v):
-        wk.rv[k] = scale * veh.gravity[k] - alpha * st.fv_tot[k]
-        wk.hv[k] = a2 * st.ud[k] + a3 * st.udd[k]
-        wk.vv[k] = cv * st.ud[k] + ca * st.udd[k]
-    block_matvec_nz(veh, veh.M, 0, wk.hv, wk.rv, 1.0)
-    block_matvec_nz(veh, veh.C, 1, wk.vv, wk.rv, -1.0)
-    block_matvec_nz(veh, veh.K, 2, st.u, wk.rv, -1.0)
-    if veh.nl_veh.shape[0] > 0:
-        nl_residual(veh, wk, st, dt, alpha)
-    block_matvec(veh, khat_v, wk.rv, wk.yv, False, 1.0)
-
-    # predictor gaps, Schur matrix, active set
-    for i in range(n_w):
-        d = veh.wheel_dof[i]
-        g = wk.rr[i, 0] - (st.u[d] + wk.yv[d])
-        if wk.onb[i] == 1:  # phi is zero off the deck (contact_search)
-            for j in range(n_m):
-                g += wk.phi[i, j] * (st.q[j] + wk.yq[j])
-        wk.gstar[i] = g
-        wk.active[i] = wk.was_active[i]
-    build_schur(veh, wk, wk.khat, khat_v)
-    if veh.compliance.shape[0] > 0:
-        # compliance in series with the contact: gap = g* + (1 + alpha) S X + C X
-        inv = 1.0 / scale
         for i in range(n_w):
-            for p in range(veh.comp_ptr[i], veh.comp_ptr[i + 1]):
-                k = veh.comp_col[p]
-                wk.S[i, k] += veh.compliance[i, k] * inv
-    if track_element(veh):
-        track_predict(veh, wk, st, alpha, a0, a1, a2, a3, cv, ca, scale)
-    if prm.contact_model == 1:
-        for i in range(n_w):
-            wk.X[i] = st.X[i]
-        status, iters = solve_hertz(veh, wk, scale, prm.hertz_g, prm.max_iter, prm.tol_force)
-    else:
-        status, iters = solve_active_set(veh, wk, scale, prm.max_iter, prm.tol_gap,
-                                         prm.tol_force)
-    if status != OK:
-        return status, iters
+            wk.onb_prev[i] = wk.onb[i]
+        contact_search(br, veh, pr, t1, speed, wk)
+        assemble_loads(br, veh, t1, speed, wk.fq, wk.phil, wk.hq, wk.rq)
 
-    hht_correct(veh, st, wk, khat_v, a0, a2, a3, gamma, scale, dt)
-    if track_element(veh):
-        track_update(veh, wk, dt, a0, a1, a2, a3, gamma, scale)
+        # predictor y = K^-1 R0: the increment with all contact forces at t_{n+1} zero
+        for j in range(n_m):
+            cq = 2.0 * br.zeta[j] * br.omega[j]
+            wk.khat[j] = a0 + scale * (a1 * cq + br.omega[j] ** 2)
+            r = (scale * wk.fq[j] - alpha * st.fq_tot[j] + a2 * st.qd[j] + a3 * st.qdd[j]
+                 - cq * (cv * st.qd[j] + ca * st.qdd[j]) - br.omega[j] ** 2 * st.q[j])
+            wk.yq[j] = r / wk.khat[j]
+        for k in range(n_v):
+            wk.rv[k] = scale * veh.gravity[k] - alpha * st.fv_tot[k]
+            wk.hv[k] = a2 * st.ud[k] + a3 * st.udd[k]
+            wk.vv[k] = cv * st.ud[k] + ca * st.udd[k]
+        block_matvec_nz(veh, veh.M, 0, wk.hv, wk.rv, 1.0)
+        block_matvec_nz(veh, veh.C, 1, wk.vv, wk.rv, -1.0)
+        block_matvec_nz(veh, veh.K, 2, st.u, wk.rv, -1.0)
+        if veh.nl_veh.shape[0] > 0:
+            nl_residual(veh, wk, st, dt, alpha)
+        block_matvec(veh, khat_v, wk.rv, wk.yv, False, 1.0)
 
-    # Velocity jumps of the rail under a wheel in contact are impacts: a landing, and
-    # a wheel crossing an end of the deck, where the rail velocity v phi'(x) q jumps
-    # to or from the rigid track's (the slope of the deflected deck at its ends).
-    landing = False
-    if prm.contact_model == 0 and br.track == 0:  # compliant contact: no impulse
+        # predictor gaps, Schur matrix, active set
         for i in range(n_w):
-            wk.impulse[i] = 0.0
-            if wk.active[i] == 1 and (wk.was_active[i] == 0 or wk.onb[i] != wk.onb_prev[i]):
-                landing = True
-    if landing:
-        s = impact_update(br, veh, prm, st, wk, dt)
-        if s != OK:
-            return s, iters
-    update_force_totals(br, veh, wk, st)
-    return OK, iters
+            d = veh.wheel_dof[i]
+            g = wk.rr[i, 0] - (st.u[d] + wk.yv[d])
+            if wk.onb[i] == 1:  # phi is zero off the deck (contact_search)
+                for j in range(n_m):
+                    g += wk.phi[i, j] * (st.q[j] + wk.yq[j])
+            wk.gstar[i] = g
+            wk.active[i] = wk.was_active[i]
+        build_schur(veh, wk, wk.khat, khat_v)
+        if veh.compliance.shape[0] > 0:
+            # compliance in series with the contact: gap = g* + (1 + alpha) S X + C X
+            inv = 1.0 / scale
+            for i in range(n_w):
+                for p in range(veh.comp_ptr[i], veh.comp_ptr[i + 1]):
+                    k = veh.comp_col[p]
+                    wk.S[i, k] += veh.compliance[i, k] * inv
+        if track_element(veh):
+            track_predict(veh, wk, st, alpha, a0, a1, a2, a3, cv, ca, scale)
+        if prm.contact_model == 1:
+            for i in range(n_w):
+                wk.X[i] = st.X[i]
+            status, iters = solve_hertz(veh, wk, scale, prm.hertz_g, prm.max_iter, prm.tol_force)
+        else:
+            status, iters = solve_active_set(veh, wk, scale, prm.max_iter, prm.tol_gap,
+                                             prm.tol_force)
+        if status != OK:
+            return status, iters
+
+        hht_correct(veh, st, wk, khat_v, a0, a2, a3, gamma, scale, dt)
+        if track_element(veh):
+            track_update(veh, wk, dt, a0, a1, a2, a3, gamma, scale)
+
+        # Velocity jumps of the rail under a wheel in contact are impacts: a landing, and
+        # a wheel crossing an end of the deck, where the rail velocity v phi'(x) q jumps
+        # to or from the rigid track's (the slope of the deflected deck at its ends).
+        landing = False
+        if prm.contact_model == 0 and br.track == 0:  # compliant contact: no impulse
+            for i in range(n_w):
+                wk.impulse[i] = 0.0
+                if wk.active[i] == 1 and (wk.was_active[i] == 0 or wk.onb[i] != wk.onb_prev[i]):
+                    landing = True
+        if landing:
+            s = impact_update(br, veh, prm, st, wk, dt)
+            if s != OK:
+                return s, iters
+        update_force_totals(br, veh, wk, st)
+        return OK, iters
+    # no step: the impact of wheels that crossed an end of the deck at t1
+    return crossing_impact(br, veh, pr, prm, st, wk, t1), 0
 
 
 @njit
@@ -2052,7 +2061,9 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
                         break
                     continue
                 # the wheels crossed within eta of t: the impact on the state there
-                status = crossing_impact(br, veh, pr, prm, st, wk, tc)
+                # (through hht_step, whose callees compile in the order of the leaves)
+                status, _ = hht_step(br, veh, pr, prm, st, wk, tc, dt,
+                                     np.int64(CROSSING_IMPACT))
                 t = tc
             if status != OK:
                 return status, n + 1
@@ -2403,30 +2414,22 @@ def run_batch(br, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, slo
 
 def compile_leaves(br, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, slots,
                    status, reached):
-    """Compile leaves of the interaction kernels - the callees of :func:`hht_step`
-    (:func:`prepare_khat`, :func:`nl_residual`, :func:`solve_hertz`,
-    :func:`solve_active_set`), then :func:`nl_update_branches` and :func:`record` (with
-    :func:`le_record`) - for the types :func:`run_batch` passes down with these
-    arguments, without running anything.  A second process does this while the first
-    compiles :func:`time_loop`, which then loads them from numba's cache when it reaches
-    them: numba types :func:`time_loop`'s call of :func:`impact_update` (a crossing
-    impact, compiled by the first process meanwhile) before the step, then
-    :func:`hht_step` with these callees, then the last ones.  :func:`hht_step` and
-    :func:`vsi_step` pass ``br, veh, prm, st, wk`` on unchanged; the step's ``level``
-    is an int64, ``dt``, ``alpha``, ``scale`` and the tolerances are floats,
-    ``max_iter`` an int64; :func:`time_loop` records step ``n + 1`` (int64) at time
-    ``(n + 1) dt`` with its int64 run, history slot and iteration count."""
+    """Compile the largest leaves of the interaction kernels - :func:`impact_update`
+    (about a sixth of the family's compile time), :func:`nl_update_branches` and
+    :func:`record` (with :func:`le_record`) - for the types :func:`run_batch` passes
+    down with these arguments, without running anything.  A second process does this
+    while the first compiles :func:`time_loop`, which then loads them from numba's cache
+    when it reaches them (they are its last callees: numba types :func:`hht_step`'s
+    other callees before :func:`impact_update`; :func:`hht_step` and :func:`vsi_step`
+    pass ``br, veh, prm, st, wk`` on unchanged, ``dt`` and ``tol_force`` are floats;
+    :func:`time_loop` records step ``n + 1`` (int64) at time ``(n + 1) dt`` with its
+    int64 run, history slot and iteration count)."""
     p = prm._replace(speed=float(speeds[0]), n_steps=int(n_steps[0]))
-    compile_for(prepare_khat, veh, wk, np.int64(0), p.dt, p.alpha)
-    compile_for(nl_residual, veh, wk, st, p.dt, p.alpha)
-    compile_for(solve_hertz, veh, wk, 1.0 + p.alpha, p.hertz_g, p.max_iter, p.tol_force)
-    compile_for(solve_active_set, veh, wk, 1.0 + p.alpha, p.max_iter, p.tol_gap,
-                p.tol_force)
-    compile_for(nl_update_branches, veh, wk, st, p.tol_force)
+    compile_for(impact_update, br, veh, p, st, wk, 0.0)
+    compile_for(nl_update_branches, veh, wk, st, 0.0)
     compile_for(record, veh, st, wk, red, np.int64(0), np.int64(0), 0.0, p.speed, out,
                 np.int64(0), np.int64(0))
 
 
-#: The kernels :func:`compile_leaves` compiles, in its order.
-LEAVES = (prepare_khat, nl_residual, solve_hertz, solve_active_set, nl_update_branches,
-          record)
+#: The kernels :func:`compile_leaves` compiles.
+LEAVES = (impact_update, nl_update_branches, record)

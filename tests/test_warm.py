@@ -190,6 +190,23 @@ def test_ensure_compiled__a_fresh_process_compiles_under_the_lock_without_deadlo
                        timeout=120)
 
 
+def test_kernel_only__a_call_from_python_raises_instead_of_crashing():
+    """The kernels compiled without a CPython wrapper (``njit(kernel_only=True)``: only
+    kernels call them) have no entry point from Python; calling one from Python raises a
+    TypeError that names it (numba's entry point would be a null pointer), and the
+    kernels that call them run (the whole suite runs them through time_loop)."""
+    from vsi_numba._jit import KernelOnly
+
+    only = [k for k in vars(ek).values() if isinstance(k, KernelOnly)]
+    assert {k.py_func.__name__ for k in only} >= {"impact_update", "record", "prepare_khat",
+                                                  "load_windows"}
+    for kernel in only:
+        with pytest.raises(TypeError, match=f"engine.{kernel.py_func.__name__} is compiled "
+                                            "to be called from kernels only"):
+            kernel(1.0)
+    assert not isinstance(ek.time_loop, KernelOnly)  # the entry points keep theirs
+
+
 def test_compile_leaves__have_the_types_time_loop_passes_them():
     """The leaves a second process compiles while the interaction kernels compile from an
     empty cache (``python -m vsi_numba.solver.warm interaction --leaves``) must be the

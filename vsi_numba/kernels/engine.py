@@ -666,7 +666,7 @@ def solve_active_set(veh, wk, scale, max_iter, tol_gap, tol_force):
     return NOT_CONVERGED, max_iter
 
 
-@njit
+@njit(kernel_only=True)
 def solve_hertz(veh, wk, scale, g_hertz, max_iter, tol_force):
     """Hertzian contact: X_i = (delta_i / G)^(3/2) with the penetration
     delta_i = -gap_i = -(g*_i + scale (S X)_i), X_i = 0 where the wheel is separated.
@@ -748,7 +748,7 @@ LCP_BLOCK_SWEEPS = 4
 IMPULSE_ALLOWANCE = 1.0
 
 
-@njit
+@njit(kernel_only=True)
 def solve_lcp(veh, wk, m, max_iter, tol_z, tol_w):
     """The small LCP of the wheels ``wk.cand[0:m]`` (ascending) on the matrix ``wk.S``.
 
@@ -832,7 +832,7 @@ def impact_allowance(wk, st, i, dt, alpha):
     return IMPULSE_ALLOWANCE * p if p > 0.0 else 0.0
 
 
-@njit
+@njit(kernel_only=True)
 def project_velocities(br, veh, wk, st, speed, dt, alpha, max_iter, tol_force, tol_gap):
     """Plastic unilateral impact: make the velocities of the wheels in contact compatible
     with the rail, with compressive impulses only.
@@ -904,7 +904,7 @@ def project_velocities(br, veh, wk, st, speed, dt, alpha, max_iter, tol_force, t
     return OK
 
 
-@njit
+@njit(kernel_only=True)
 def consistent_accelerations(br, veh, wk, st, speed, scale, dt, max_iter, tol_force,
                              tol_gap):
     """Accelerations and contact forces consistent with equilibrium and the unilateral
@@ -994,7 +994,7 @@ CROSSING_IMPACT = -2
 NL_BUMP_STOP, NL_BLOWOFF = 0, 1
 
 
-@njit
+@njit(kernel_only=True)
 def invert_small(A, n, out):
     """Inverse of ``A[:n, :n]`` into ``out[:n, :n]`` by Gauss-Jordan elimination with
     partial pivoting (``A`` is destroyed).  Returns 0, or 1 if ``A`` is singular."""
@@ -1078,7 +1078,7 @@ def nl_signature(veh, wk, b):
     return sig
 
 
-@njit
+@njit(kernel_only=True)
 def prepare_khat(veh, wk, level, dt, alpha):
     """Fill ``wk.khv`` with the effective-stiffness inverse of every vehicle block for
     the step size ``dt`` and the elements' branches ``wk.nlb``: the packed
@@ -1118,7 +1118,7 @@ def prepare_khat(veh, wk, level, dt, alpha):
     return 0
 
 
-@njit
+@njit(kernel_only=True)
 def nl_residual(veh, wk, st, dt, alpha):
     """Add the nonlinear elements to the HHT residual of the vehicles (``wk.rv``):
     -(1 + alpha) a_e (k_t delta_n + c_t a_e v* + f_0) + alpha a_e f_e(delta_n, deltadot_n)
@@ -1144,7 +1144,7 @@ def nl_residual(veh, wk, st, dt, alpha):
             wk.rv[s0 + c] += veh.nl_a[e, c] * g
 
 
-@njit
+@njit(kernel_only=True)
 def nl_update_branches(veh, wk, st, tol):
     """Newton update of the branches from the state just computed: an element whose
     assumed branch gives a force more than ``tol`` (N) off its law moves to the branch
@@ -1165,7 +1165,7 @@ def nl_update_branches(veh, wk, st, tol):
     return changed
 
 
-@njit
+@njit(kernel_only=True)
 def save_state(st, buf):
     """State at the start of a step into the flat buffer ``buf``."""
     k = 0
@@ -1182,7 +1182,7 @@ def save_state(st, buf):
         k += 1
 
 
-@njit
+@njit(kernel_only=True)
 def restore_state(buf, st):
     """Inverse of :func:`save_state`."""
     k = 0
@@ -1239,7 +1239,7 @@ def vsi_step(br, veh, pr, prm, st, wk, t1, dt, level):
     return NOT_CONVERGED, total
 
 
-@njit
+@njit(kernel_only=True)
 def next_deck_end(br, veh, t, t1, speed):
     """Earliest time in (t, t1] at which a wheel is on the other side of an end of the
     deck than at ``t`` (the first float time whose abscissa x0 + v t the on-bridge test
@@ -1525,7 +1525,7 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
     return crossing_impact(br, veh, pr, prm, st, wk, t1), 0
 
 
-@njit
+@njit(kernel_only=True)
 def impact_update(br, veh, prm, st, wk, dt):
     """The plastic unilateral impact of the wheels that land or cross a deck end in a
     step of size ``dt`` just completed (``st`` at its end, ``wk.X`` its contact forces,
@@ -1609,7 +1609,7 @@ def state_is_finite(st):
     return np.isfinite(s)
 
 
-@njit
+@njit(kernel_only=True)
 def record(veh, st, wk, red, r, n, t, speed, out, h, iters):
     """Fold step ``n`` (time ``t``) into the envelopes of run ``r`` and, when ``h >= 0``,
     store it in history slot ``h``.
@@ -1873,7 +1873,7 @@ def le_sort(lx, lp, nl):
         lp[m + 1] = p
 
 
-@njit
+@njit(kernel_only=True)
 def le_record(red, wheel_x0, X, load_x0, load_p, q, f, r, n, t, speed):
     """Load effects of step ``n`` of the general time loop: the moving forces and the
     contact forces ``X`` of the wheels on the deck (at the deck line), with the step's
@@ -2076,7 +2076,7 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
     return OK, prm.n_steps
 
 
-@njit
+@njit(kernel_only=True)
 def load_windows(br, veh, speed, dt, n_steps, on, off):
     """Steps during which each moving force is on the bridge: load ``k`` is on it at the
     end of steps ``on[k] .. off[k] - 1`` (time ``(n + 1) dt`` at the end of step ``n``).
@@ -2101,7 +2101,7 @@ def load_windows(br, veh, speed, dt, n_steps, on, off):
         off[k] = m
 
 
-@njit
+@njit(kernel_only=True)
 def window_sums(veh, n, on, off, cs, sums):
     """Phasor sums of the loads on the bridge during step ``n`` (sine modes):
     ``sums[0, j] + i sums[1, j] = sum_k P_k exp(i (j+1) k1 x0_k)``.

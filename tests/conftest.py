@@ -8,9 +8,9 @@ needs a family meanwhile waits for that lock and loads the kernels from the cach
 instead of compiling them a second time; tests that need no kernel run at once.
 
 The tests are ordered so that there are such tests to run meanwhile: the modules that
-run the moving-force kernels only (:data:`MOVING_FORCE_MODULES`, ~25 s to compile) come
+run the moving-force kernels only (:data:`MOVING_FORCE_MODULES`, ~13 s to compile) come
 after those that need no kernel, and those with a test of the interaction kernels
-(:data:`INTERACTION_MODULES`, ~60 s) last.  The order inside a module is kept; the
+(:data:`INTERACTION_MODULES`, ~30 s in two processes) last.  The order inside a module is kept; the
 grouping only changes when a test waits, never what it checks.
 """
 

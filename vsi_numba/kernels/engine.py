@@ -1433,8 +1433,8 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
     the deck at ``t1`` (:func:`crossing_impact`; ``dt`` unused).
     """
     if level != CROSSING_IMPACT:
-        # (the step; the crossing impact's code after it, so that numba types the step's
-        # callees before impact_update, as the leaves process compiles them)
+        # the step (the crossing impact's code comes after it: numba types the step's
+        # callees first, while the leaves process compiles impact_update)
         alpha = prm.alpha
         a0, a1, a2, a3, cv, ca, gamma, scale = hht_coefficients(alpha, dt)
         n_m = st.q.shape[0]

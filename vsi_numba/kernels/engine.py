@@ -355,6 +355,13 @@ class Initial(NamedTuple):
 # ------------------------------------------------------------------- evaluation kernels
 
 
+@njit(inline="always")
+def off_modes(br, x):
+    """True where the mode shapes are zero: ``x`` off the bridge (x < 0 or x > length),
+    no bridge, or no modes (:func:`eval_modes` and :func:`contact_search`)."""
+    return br.kind == 0 or x < 0.0 or x > br.length or br.omega.shape[0] == 0
+
+
 @njit
 def eval_modes(br, x, out, dout, d2out):
     """Mode shapes and their first two x-derivatives at ``x`` (zero off the bridge).
@@ -362,7 +369,7 @@ def eval_modes(br, x, out, dout, d2out):
     Returns 1 if ``x`` is on the bridge (0 <= x <= length), else 0.
     """
     n_m = br.omega.shape[0]
-    if br.kind == 0 or x < 0.0 or x > br.length or n_m == 0:
+    if off_modes(br, x):
         for j in range(n_m):
             out[j] = 0.0
             dout[j] = 0.0
@@ -457,7 +464,7 @@ def contact_search(br, veh, pr, t, speed, wk):
     for i in range(n_w):
         x = veh.wheel_x0[i] + speed * t
         if br.track == 0:
-            off = br.kind == 0 or x < 0.0 or x > br.length or n_m == 0  # as eval_modes
+            off = off_modes(br, x)
         else:
             off = n_m == 0 or x < br.t_nodes[0] or x > br.t_nodes[br.t_nodes.shape[0] - 1]
         if off:

@@ -544,6 +544,30 @@ def test_hostile__dask_sweep_interrupted_cleanly(tmp_path):
     assert "interrupted" in err and "Traceback" not in err and "IOLoop" not in err
 
 
+def test_hostile__dask_backend_keeps_distributed_quiet_after_an_interrupt():
+    """distributed logs at INFO to stderr (with tracebacks, e.g. "Batched Comm Closed")
+    once its LocalCluster has closed; an interrupted sweep's comms close late, so the
+    Dask backend holds the "distributed" logger at WARNING while in use and leaves it
+    there after an interrupt (the race the Ctrl-C test above can hit on a loaded
+    machine); a study that ends normally gets the caller's level back."""
+    import logging
+
+    from vsi_numba.study.backends import DaskBackend
+
+    log = logging.getLogger("distributed")
+    before = log.level
+    try:
+        log.setLevel(logging.INFO)
+        with DaskBackend(1):
+            assert log.getEffectiveLevel() >= logging.WARNING
+        assert log.level == logging.INFO
+        with pytest.raises(KeyboardInterrupt), DaskBackend(1):
+            raise KeyboardInterrupt
+        assert log.level == logging.WARNING
+    finally:
+        log.setLevel(before)
+
+
 @pytest.mark.parametrize("dt", [5e-3, 20e-3])
 def test_hostile__hertz_at_a_coarse_dt_is_flagged_as_a_resolution_warning(dt):
     """ICE3 with Hertz contact at dt = 5 or 20 ms ran to "pass", status ok: now the Hertz

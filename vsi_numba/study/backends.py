@@ -33,6 +33,7 @@ alone writes the results, so workers never write to a shared file system.
 
 from __future__ import annotations
 
+import logging
 import os
 import sys
 from collections.abc import Callable, Iterable, Iterator
@@ -297,6 +298,9 @@ class DaskBackend:
         self._cluster = None
         self._client = None
         self._futures: list = []
+        self._config = None
+        self._log = None  # the "distributed" logger while in use (see __enter__)
+        self._log_level = logging.NOTSET
 
     @property
     def n_workers(self) -> int:
@@ -324,6 +328,14 @@ class DaskBackend:
             config["temporary-directory"] = str(self.local_directory)
         self._config = dask.config.set(config)
         self._config.__enter__()
+        # distributed logs at INFO to stderr once its LocalCluster has closed (and
+        # restored the level it silenced), e.g. "Batched Comm Closed" with the traceback
+        # of a comm an interrupted sweep shut: WARNING while the backend is in use
+        # (LocalCluster restores to that), and after an interrupted or failed study
+        self._log = logging.getLogger("distributed")
+        self._log_level = self._log.level
+        if self._log.getEffectiveLevel() < logging.WARNING:
+            self._log.setLevel(logging.WARNING)
         if self.scheduler is not None:
             self._client = Client(self.scheduler, timeout="30s")
         else:
@@ -356,6 +368,8 @@ class DaskBackend:
             if self._config is not None:
                 self._config.__exit__(None, None, None)
                 self._config = None
+            if exc_type is None and self._log is not None:
+                self._log.setLevel(self._log_level)
             if self.local_directory is not None:
                 import shutil
 

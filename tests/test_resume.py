@@ -311,3 +311,37 @@ def test_resume__full_disk_clear_error_cases_kept(tmp_path):
     _, err = proc.communicate(timeout=900)
     assert proc.returncode == 0, err
     assert "all done earlier" in err and out.exists()
+
+
+def test_store__final_write_reads_batches_of_this_process_from_memory(tmp_path):
+    """A batch the store wrote is loaded once from its copy in memory - equal to its
+    file, unaffected by later changes of the caller's arrays - then from the file;
+    batches with time histories always come from their files."""
+    import numpy as np
+
+    store = CaseStore(tmp_path / "s.cases", "0" * 64, "{}").open()
+    try:
+        env = {"status": np.array([0, 3], np.int32), "message": np.array(["", "diverged"]),
+               "kernel_seconds": np.float64(0.25), "deck_acceleration": np.arange(6.0)}
+        key = "t000_i000_s0000-0002"
+        store.write(key, env)
+        expected = {k: np.array(v, copy=True) for k, v in env.items()}
+        env["deck_acceleration"][:] = -1.0  # the caller reuses its arrays
+        with np.load(store.batch_path(key), allow_pickle=False) as z:
+            on_disk = {k: z[k] for k in z.files}
+        first = store.load(key)
+        assert store._memory_bytes == 0 and not store._memory
+        again = store.load(key)  # now from the file
+        for got in (first, again):
+            assert sorted(got) == sorted(on_disk) == sorted([*expected, "batch_key"])
+            for k, v in on_disk.items():
+                assert got[k].dtype == v.dtype and got[k].shape == v.shape
+                np.testing.assert_array_equal(got[k], v)
+            for k, v in expected.items():
+                np.testing.assert_array_equal(got[k], v)
+        hist = {**expected, "hist_runs": np.array([0]), "deflection": np.zeros((1, 5, 2))}
+        store.write("t000_i001_s0000-0002", hist)
+        assert not store._memory  # read back from its file at the final write
+        np.testing.assert_array_equal(store.load("t000_i001_s0000-0002")["hist_runs"], [0])
+    finally:
+        store.close()

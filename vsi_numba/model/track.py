@@ -290,8 +290,5 @@ class ElasticTrack:
         x = np.linspace(0.0, bridge.length, 20001)
         phi = bridge.shapes(x)
         phit = hermite.table(nodes, vals, slopes, x)
-        import scipy.integrate
-
-        k_t = scipy.integrate.trapezoid(self.foundation_stiffness * phi * (phi - phit), x,
-                                        axis=0)
+        k_t = np.trapezoid(self.foundation_stiffness * phi * (phi - phit), x, axis=0)
         return k_t / bridge.omega**2

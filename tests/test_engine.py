@@ -154,6 +154,34 @@ def test_solve_active_set__is_the_lcp_solution(seed):
     np.testing.assert_allclose(wk.X, _brute_force_lcp(S, gstar, scale), rtol=1e-8, atol=1e-6)
 
 
+def test_solve_active_set__envelope_follows_the_on_bridge_flags():
+    """The envelope of the Schur block is kept from one solve to the next while the same
+    wheels are active with the same on-bridge flags, and rebuilt when a flag changes:
+    wheels of separate vehicles off the bridge (S diagonal), then on it (S dense: a kept
+    diagonal envelope would drop the coupling), then off again; each solve equals the
+    brute-force LCP solution."""
+    rng = np.random.default_rng(7)
+    n = 5
+    A = rng.normal(size=(n, n))
+    dense = A @ A.T * 1e-9 + np.eye(n) * 1e-9
+    gstar = -np.abs(rng.normal(size=n)) * 1e-4
+    scale = 0.9
+    cars = tuple(vh.sprung_mass(5e3, 1e6, 1e3, 400.0) for _ in range(n))
+    veh = _pack(br.simply_supported(20.0, 5e9, 1e4, n_modes=1),
+                vh.Train("masses", cars, tuple(3.0 * k for k in range(n)))).vehicles
+    wk = sb._workspace(1, 2 * n, n, veh)
+    for on in (0, 1, 0, 1):
+        S = dense if on else np.diag(np.diag(dense))  # coupled only on the bridge
+        wk.onb[:] = on
+        wk.S[:] = S
+        wk.gstar[:] = gstar
+        wk.active[:] = 1
+        status, _ = ek.solve_active_set(veh, wk, scale, 50, 1e-15, 1e-9)
+        assert status == ek.OK
+        np.testing.assert_allclose(wk.X, _brute_force_lcp(S, gstar, scale), rtol=1e-8,
+                                   atol=1e-6)
+
+
 def test_build_schur__equals_dense_b_khat_inv_bt():
     """The Schur matrix of a step (the study's kernel, ``time_loop`` with ``run_batch``'s
     arguments, stopped after a step with the car partly on the deck) equals

@@ -237,6 +237,9 @@ class Work(NamedTuple):
     # (n_w,) int: 1 while rows i of phi, dphi, d2phi may hold nonzeros (contact_search
     # zeroes a row once, when its wheel leaves the deck or the elastic track's table)
     phz: np.ndarray = np.zeros(0, np.int64)
+    # (1 + 2 n_w,) int: the active wheels and on-bridge flags of wk.first
+    # (:func:`contact_profile`)
+    pf: np.ndarray = np.zeros(0, np.int64)
 
 
 class State(NamedTuple):
@@ -511,7 +514,32 @@ def block_matvec(veh, A, x, y, accumulate, scale):
     for b in range(n_veh):
         s = veh.start[b]
         n = veh.start[b + 1] - s
-        for r in range(n):
+        # four rows at a time: four independent sums (each in the order of one row's),
+        # so the adds overlap instead of waiting for each other (same bits as row by row)
+        r = 0
+        while r + 4 <= n:
+            a0 = 0.0
+            a1 = 0.0
+            a2 = 0.0
+            a3 = 0.0
+            for c in range(n):
+                xc = x[s + c]
+                a0 += A[b, r, c] * xc
+                a1 += A[b, r + 1, c] * xc
+                a2 += A[b, r + 2, c] * xc
+                a3 += A[b, r + 3, c] * xc
+            if accumulate:
+                y[s + r] += scale * a0
+                y[s + r + 1] += scale * a1
+                y[s + r + 2] += scale * a2
+                y[s + r + 3] += scale * a3
+            else:
+                y[s + r] = scale * a0
+                y[s + r + 1] = scale * a1
+                y[s + r + 2] = scale * a2
+                y[s + r + 3] = scale * a3
+            r += 4
+        while r < n:
             acc = 0.0
             for c in range(n):
                 acc += A[b, r, c] * x[s + c]
@@ -519,6 +547,7 @@ def block_matvec(veh, A, x, y, accumulate, scale):
                 y[s + r] += scale * acc
             else:
                 y[s + r] = scale * acc
+            r += 1
 
 
 @njit(inline="always")
@@ -551,9 +580,26 @@ def contact_profile(veh, wk, m):
     Wheels are numbered vehicle by vehicle along the train, so the block is a narrow
     skyline (a vehicle's wheels, plus the wheels on the bridge) and Cholesky costs
     O(m b^2) instead of O(m^3).
+
+    The envelope depends only on the active wheels and their on-bridge flags (the
+    vehicles and the rail's coupling are fixed over a run): when those are the ones of
+    the previous call (``wk.pf``: m + 1, then the wheels, then their flags; 0 after
+    :func:`reset_work`), ``wk.first`` is kept - most steps change neither.
     """
+    n_w = veh.wheel_dof.shape[0]
+    same = wk.pf[0] == m + 1
+    a = 0
+    while same and a < m:
+        i = wk.idx[a]
+        same = wk.pf[1 + a] == i and wk.pf[1 + n_w + a] == wk.onb[i]
+        a += 1
+    if same:
+        return
+    wk.pf[0] = m + 1
     for a in range(m):
         i = wk.idx[a]
+        wk.pf[1 + a] = i
+        wk.pf[1 + n_w + a] = wk.onb[i]
         f = a
         for b in range(a):
             k = wk.idx[b]

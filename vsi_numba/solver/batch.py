@@ -55,6 +55,7 @@ def _workspace(n_m, n_v, n_w, veh: ek.VehicleArrays | None = None) -> ek.Work:
         first=z(n_w, np.int64), onb_prev=z(n_w, np.int64), onb0=z(n_w, np.int64),
         cand=z(n_w, np.int64), lq=z(n_w), lz=z(n_w), lw=z(n_w), lin=z(n_w, np.int64),
         impulse=z(n_w), trk=z((n_w, 4)), trk0=z((n_w, 3)), phz=z(n_w, np.int64),
+        pf=z(1 + 2 * n_w, np.int64),
     )
 
 

@@ -648,23 +648,18 @@ def _stop_helpers(family):
 
 def _import_results_readers(order) -> None:
     """Import what reads the results file afterwards (xarray, which imports dask.array
-    when it sees an array; ~0.6 s) in a thread while the batches run,
-    when they are long enough: interaction batches spend their time in kernels that
-    release the GIL, so the import then costs a share of the cores instead of a serial
-    wait after the last batch (the sweep's governing results, a report): 570 ICE3 runs,
-    10.5 -> 9.7 s with the store's batches in memory.  Started after the first batch is
-    stored, when the batches' own imports are done (no two threads import one package)."""
+    when it sees an array; ~0.6 s) while the batches run, when they are long enough: the
+    batches run in worker threads (kernels that release the GIL) or processes, so the
+    import takes a share of the cores instead of a serial wait after the last batch
+    (the sweep's governing results, a report): 570 ICE3 runs, 10.5 -> 9.7 s with the
+    store's batches in memory.  In this thread, once, after the first batch is stored,
+    so a Ctrl-C during it is one in any Python code (with the import in a thread of its
+    own, an interrupted sweep once failed to exit in the test suite)."""
     if sum(b.cost for b in order) < PREFETCH_COST:
         return
-
-    def work():
-        with contextlib.suppress(Exception):  # only an earlier import: the reader retries
-            import dask.array  # noqa: F401
-            import xarray  # noqa: F401
-
-    import threading
-
-    threading.Thread(target=work, name="vsi-import-readers", daemon=True).start()
+    with contextlib.suppress(ImportError):  # dask is installed with the package
+        import dask.array  # noqa: F401
+    import xarray  # noqa: F401
 
 
 def _run_pending(be, spec, pending, store, progress, n_runs, n_done, quiet=True) -> None:

@@ -17,9 +17,19 @@ grouping only changes when a test waits, never what it checks.
 from __future__ import annotations
 
 import os
+import signal
+import threading
 import time
 
 from threadpoolctl import threadpool_limits
+
+# Tests interrupt sweeps with SIGINT, as a terminal's Ctrl-C does.  A test run started
+# with SIGINT ignored (a background job of a non-interactive shell, nohup) would pass
+# that on to the sweeps it starts, which then never see the signal (and the test times
+# out): the run takes Python's default back, so its children start with SIG_DFL.
+if (threading.current_thread() is threading.main_thread()
+        and signal.getsignal(signal.SIGINT) is signal.SIG_IGN):
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 # The tests run in 2 processes on 2 cores, beside the compile helpers: BLAS on one thread
 # in each (and in the processes the tests start), so that OpenBLAS's own threads (one

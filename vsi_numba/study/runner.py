@@ -652,9 +652,8 @@ def _import_results_readers(order) -> None:
     batches run in worker threads (kernels that release the GIL) or processes, so the
     import takes a share of the cores instead of a serial wait after the last batch
     (the sweep's governing results, a report): 570 ICE3 runs, 10.5 -> 9.7 s with the
-    store's batches in memory.  In this thread, once, after the first batch is stored,
-    so a Ctrl-C during it is one in any Python code (with the import in a thread of its
-    own, an interrupted sweep once failed to exit in the test suite)."""
+    store's batches in memory.  In this thread, once, after the first batch is stored:
+    no second thread that imports while an interrupted sweep shuts down."""
     if sum(b.cost for b in order) < PREFETCH_COST:
         return
     with contextlib.suppress(ImportError):  # dask is installed with the package

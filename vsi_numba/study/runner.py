@@ -653,8 +653,10 @@ def _import_results_readers(order) -> None:
     import takes a share of the cores instead of a serial wait after the last batch
     (the sweep's governing results, a report): 570 ICE3 runs, 10.5 -> 9.7 s with the
     store's batches in memory.  In this thread, once, after the first batch is stored:
-    no second thread that imports while an interrupted sweep shuts down."""
-    if sum(b.cost for b in order) < PREFETCH_COST:
+    no second thread that imports while an interrupted sweep shuts down.  Not for a
+    study that keeps time histories: the imports' ~65 MB would then add to the peak of
+    the batches' history buffers (1,140 runs with every history: 562 -> 620 MB)."""
+    if sum(b.cost for b in order) < PREFETCH_COST or any(any(b.histories) for b in order):
         return
     with contextlib.suppress(ImportError):  # dask is installed with the package
         import dask.array  # noqa: F401

@@ -187,7 +187,7 @@ class CaseStore:
         # copies of the batches written by this process, read back by ``load`` instead of
         # their files at the final write (up to MEMORY_BUDGET bytes; the files stay the
         # record a resume reads)
-        self._memory: dict[str, dict] = {}
+        self._memory: dict[str, tuple[dict, int]] = {}  # key -> (arrays, bytes)
         self._memory_bytes = 0
 
     # -------------------------------------------------------------- life cycle
@@ -329,7 +329,7 @@ class CaseStore:
         self._forget(key)
         size = sum(v.nbytes for v in data.values())
         if "hist_runs" not in data and self._memory_bytes + size <= MEMORY_BUDGET:
-            self._memory[key] = {k: np.array(v, copy=True) for k, v in data.items()}
+            self._memory[key] = ({k: np.array(v, copy=True) for k, v in data.items()}, size)
             self._memory_bytes += size
         return path
 
@@ -370,9 +370,8 @@ class CaseStore:
     # -------------------------------------------------------------- helpers
     def _forget(self, key: str) -> dict | None:
         """Drop the copy in memory of batch ``key``; returns it (None if there is none)."""
-        data = self._memory.pop(key, None)
-        if data is not None:
-            self._memory_bytes -= sum(v.nbytes for v in data.values())
+        data, size = self._memory.pop(key, (None, 0))
+        self._memory_bytes -= size
         return data
 
     def _check_ours(self, allow_other_config: bool) -> None:

@@ -67,16 +67,6 @@ class Envelope(NamedTuple):
         return np.maximum(np.abs(self.max), np.abs(self.min))
 
 
-def _cumulative_trapezoid(y: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Running trapezoidal integral of each row of ``y`` over ``x``, from 0 at ``x[0]``
-    (``scipy.integrate.cumulative_trapezoid(y, x, axis=1, initial=0)``, the same
-    operations; written here because importing scipy.integrate took ~0.2 s of every
-    command that runs the checks)."""
-    out = np.zeros(y.shape)
-    out[:, 1:] = np.cumsum(np.diff(x) * (y[:, 1:] + y[:, :-1]) / 2.0, axis=1)
-    return out
-
-
 def _candidates(lo: float, hi: float, crossings, step: float) -> np.ndarray:
     """Uniform grid of ``step`` on [lo, hi] plus both sides of every crossing in it."""
     n = max(int(np.ceil((hi - lo) / step)), 1)
@@ -194,6 +184,10 @@ def lm71_envelope(line: Line, breakpoints, extent, step: float = 0.05,
     Envelope
         Extremes per location and the position (m) of the centre of the axle group.
     """
+    # here, not at import: scipy.integrate takes ~0.2 s to import, which every command
+    # that imports the checks (the sweep's governing results) would pay
+    from scipy.integrate import cumulative_trapezoid
+
     x0, x1 = float(extent[0]), float(extent[1])
     if not step > 0:
         raise ValueError(f"step = {step!r}: expected > 0 m")
@@ -204,8 +198,8 @@ def lm71_envelope(line: Line, breakpoints, extent, step: float = 0.05,
     inf = np.asarray(line(xs), float)
     if n_at is None:
         n_at = inf.shape[0]
-    cum = [_cumulative_trapezoid(part, xs) for part in (np.maximum(inf, 0.0),
-                                                        np.minimum(inf, 0.0))]
+    cum = [cumulative_trapezoid(part, xs, axis=1, initial=0.0)
+           for part in (np.maximum(inf, 0.0), np.minimum(inf, 0.0))]
     half = 0.5 * LM71_AXLE_ZONE
     offs = np.asarray(LM71_AXLE_OFFSETS, float)
     Q = np.full(offs.size, LM71_AXLE_LOAD)

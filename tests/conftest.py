@@ -11,7 +11,12 @@ The tests are ordered so that there are such tests to run meanwhile: the modules
 run the moving-force kernels only (:data:`MOVING_FORCE_MODULES`, ~13 s to compile) come
 after those that need no kernel, and those with a test of the interaction kernels
 (:data:`INTERACTION_MODULES`, ~30 s in two processes) last.  The order inside a module is kept; the
-grouping only changes when a test waits, never what it checks.
+grouping only changes when a test waits, never what it checks.  The README's command runs
+the tests with ``--dist worksteal``: each test process starts on half of this order (the
+second half begins with the last tests that need no kernel, then waits for the kernels
+while the first runs the rest of them), and a process that runs out takes half of the
+other's remaining tests, which shares the slow interaction tests at the end (from an
+empty cache, 4 interleaved pairs: 109-115 s against 114-123 s with ``--dist load``).
 """
 
 from __future__ import annotations

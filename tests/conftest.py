@@ -16,7 +16,7 @@ the tests with ``--dist worksteal``: each test process starts on half of this or
 second half begins with the last tests that need no kernel, then waits for the kernels
 while the first runs the rest of them), and a process that runs out takes half of the
 other's remaining tests, which shares the slow interaction tests at the end (from an
-empty cache, 4 interleaved pairs: 109-115 s against 114-123 s with ``--dist load``).
+empty cache, 5 interleaved pairs: 109-116 s against 114-123 s with ``--dist load``).
 """
 
 from __future__ import annotations

@@ -66,6 +66,7 @@ import numpy as np
 from benchmarks import yardstick as Y
 from benchmarks.cases import fmt_s, md_table
 from benchmarks.timing import REPO, load1, machine_info, user_env
+from vsi_numba._process import available_cores
 
 STUDY3 = REPO / "studies" / "hslm_catalogue" / "study.toml"
 STUDY1 = REPO / "studies" / "hslm_psc_25m" / "study.toml"
@@ -626,16 +627,9 @@ def _measure_c(b: Bench, res: StudyResult):
         fixed = _fixed_cost(b, "c. ICE3 interaction on 1 run (the fixed cost)", warm,
                             max(p.repeat_other, 2))
         note += (f"; the same command on 1 run {fmt_s(fixed)}: the {n_runs(cfg)} runs take "
-                 f"~{fmt_s(wall - fixed)} on {_cores()} cores")
+                 f"~{fmt_s(wall - fixed)} on {available_cores()} cores")
     res.measures.append(Measure("c1", "ICE3 interaction sweep: wall", grid, wall, "s",
                                 5.0, 2.0, note))
-
-
-def _cores() -> int:
-    """The cores this process may run on."""
-    if hasattr(os, "sched_getaffinity"):
-        return len(os.sched_getaffinity(0))
-    return os.cpu_count() or 1
 
 
 def _fixed_cost(b: Bench, label: str, one: Path, repeat: int) -> float:
@@ -786,7 +780,7 @@ def _measure_h(b: Bench, res: StudyResult):
                    "cache)", grid, fmt_s(r.wall), f"{r.peak_rss / MB:,.0f} MB",
                    str(r.max_procs), f"{load:.2f}"])
     warm = res.measure("b1")
-    cores = _cores()
+    cores = available_cores()
     # the compiling processes keep every core busy: no schedule of this work beats CPU/cores
     note = (f"CPU {fmt_s(r.cpu)} (all processes): at least {fmt_s(r.cpu / cores)} on "
             f"{cores} cores whatever the schedule")

@@ -494,7 +494,7 @@ def _flexible_bridge(chk, kind, length, spans, ei, mass, n_modes, fmax, eps, sol
                 damping=np.zeros(keep), nodes=full.nodes,
                 values=np.ascontiguousarray(full.values[:, :keep]),
                 slopes=np.ascontiguousarray(full.slopes[:, :keep]), supports=full.supports,
-                description=full.description,
+                description=full.description, static=full.static,
             ), allf
     except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
         return chk.error("bridge.spans", spans, f"a buildable bridge ({exc})")

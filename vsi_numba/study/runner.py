@@ -58,6 +58,7 @@ from vsi_numba.study.backends import (
 )
 from vsi_numba.study.batches import Batch, run_batch_task
 from vsi_numba.study.grid import Case, StudyGrid
+from vsi_numba.study.outlock import OutputLock
 from vsi_numba.study.progress import _Progress, _say
 from vsi_numba.study.spec import (
     StudyModel,
@@ -381,8 +382,6 @@ def execute_study(config, output=None, workers=None, scheduler=None, progress=Fa
     """
     cfg = _load(Path(config) if isinstance(config, str) else config)
     spec = study_spec(cfg)
-    config_json = spec.config_json
-    sha = cfg.sha256
     if output is None:
         output = getattr(cfg, "output_path", None)
         if output is None:
@@ -391,6 +390,21 @@ def execute_study(config, output=None, workers=None, scheduler=None, progress=Fa
     problem = output_conflict(output, cfg)  # an input, a device, a name too long, ...
     if problem is not None:
         raise OutputNotWritableError(problem)
+    if command is None:
+        source = str(cfg.path) if getattr(cfg, "path", None) else "<mapping>"
+        command = (f"vsi_numba.run_study({source!r}, output={str(output)!r}, "
+                   f"workers={workers!r}, scheduler={scheduler!r}, backend={backend!r})")
+    # one writer per results file (vsi run and vsi sweep have different stores)
+    with OutputLock(output, command):
+        return _execute_locked(cfg, spec, output, workers, scheduler, progress, backend,
+                               fresh, keep_cases, quiet, command, first_case)
+
+
+def _execute_locked(cfg, spec, output, workers, scheduler, progress, backend, fresh,
+                    keep_cases, quiet, command, first_case) -> StudyOutcome:
+    """:func:`execute_study` once the output's lock is held."""
+    config_json = spec.config_json
+    sha = cfg.sha256
     variants = list(getattr(cfg, "variants", []) or []) if not first_case else []
     vcfgs = [v for _, v in variants] or [cfg]
     specs = [study_spec(c) for c in vcfgs] if variants else [spec]
@@ -417,10 +431,6 @@ def execute_study(config, output=None, workers=None, scheduler=None, progress=Fa
     plan: list[Batch] = []
     for k, (sp, m) in enumerate(zip(specs, models, strict=True)):
         plan += study_plan(sp, m, grid, variant=k if variants else None, start=len(plan))
-    if command is None:
-        source = str(cfg.path) if getattr(cfg, "path", None) else "<mapping>"
-        command = (f"vsi_numba.run_study({source!r}, output={str(output)!r}, "
-                   f"workers={workers!r}, scheduler={scheduler!r}, backend={backend!r})")
 
     check_writable(output.parent if str(output.parent) else Path("."), "results file")
     spath = store_path(output, "run" if first_case else "sweep")  # never the other's

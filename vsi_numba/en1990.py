@@ -2,29 +2,52 @@
 comfort).
 
 Used by :mod:`vsi_numba.analysis.checks`, the solver (which modes enter the deck
-acceleration) and the config (time-step checks of those modes).  Values tagged [R] are
-recalled from the cited standard and not re-read against the primary text
-(``notes/railway.md`` §4): check them before relying on them as hard limits.
+acceleration) and the config (time-step checks of those modes).  The values are entries of
+the code profile (:mod:`vsi_numba.code_profile`: clause, [R] flag); the functions take a
+profile (default: the recommended values) and the module constants are the recommended
+values, kept for callers that need no profile.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-#: Peak deck acceleration limits (m s-2) per track type, EN 1990 A2.4.4.2.1(4)P:
-#: gamma_bt = 3.5 for ballasted track (0.35 g, value verified; clause [R]) and
-#: gamma_df = 5.0 for direct-fastened track [R].
-DECK_ACCELERATION_LIMITS = {"ballasted": 3.5, "direct_fastening": 5.0}
+from vsi_numba.code_profile import CodeProfile, default_profile, resolve
+
+_DEFAULT = default_profile()
+
+#: Track type -> code profile key of its peak deck acceleration limit.
+DECK_ACCELERATION_KEYS = {"ballasted": "deck_acceleration_limit_ballasted",
+                          "direct_fastening": "deck_acceleration_limit_direct_fastening"}
+#: Peak deck acceleration limits (m s-2) per track type, recommended values
+#: (:func:`deck_acceleration_limits` for a profile).
+DECK_ACCELERATION_LIMITS = {t: _DEFAULT[k] for t, k in DECK_ACCELERATION_KEYS.items()}
 
 #: Clause of the deck acceleration check.
-DECK_ACCELERATION_CLAUSE = "EN 1990 A2.4.4.2.1(4)P"
+DECK_ACCELERATION_CLAUSE = _DEFAULT.clause("deck_acceleration_limit_ballasted")
 
-#: Lowest frequency (Hz) of the acceleration cut-off, EN 1990 A2.4.4.2.1(4)P [R].
-CUTOFF_MIN_FREQUENCY = 30.0
+#: Lowest frequency (Hz) of the acceleration cut-off (recommended value).
+CUTOFF_MIN_FREQUENCY = _DEFAULT["acceleration_cutoff_min_frequency"]
 
-#: Car-body vertical acceleration b_v (m s-2) per level of comfort, EN 1990 Table A2.9 [R].
-COMFORT_LEVELS = {"very good": 1.0, "good": 1.3, "acceptable": 2.0}
-COMFORT_CLAUSE = "EN 1990 A2.4.4.3, Table A2.9 [R]"
+#: Level of comfort -> code profile key of its car-body acceleration b_v.
+COMFORT_KEYS = {"very good": "comfort_very_good", "good": "comfort_good",
+                "acceptable": "comfort_acceptable"}
+#: Car-body vertical acceleration b_v (m s-2) per level of comfort (recommended values;
+#: :func:`comfort_levels` for a profile).
+COMFORT_LEVELS = {n: _DEFAULT[k] for n, k in COMFORT_KEYS.items()}
+COMFORT_CLAUSE = _DEFAULT.clause("comfort_very_good")
+
+
+def deck_acceleration_limits(profile: CodeProfile | None = None) -> dict[str, float]:
+    """Track type -> peak deck acceleration limit (m s-2) of ``profile``."""
+    p = resolve(profile)
+    return {t: p[k] for t, k in DECK_ACCELERATION_KEYS.items()}
+
+
+def comfort_levels(profile: CodeProfile | None = None) -> dict[str, float]:
+    """Level of comfort -> car-body acceleration b_v (m s-2) of ``profile``."""
+    p = resolve(profile)
+    return {n: p[k] for n, k in COMFORT_KEYS.items()}
 
 #: Level of comfort of an unknown (NaN) acceleration.
 NOT_APPLICABLE = "n/a"
@@ -34,7 +57,8 @@ def frequency_cutoff(frequencies) -> float:
     """Upper frequency (Hz) of the modes counted in the deck acceleration check.
 
     ``max(30 Hz, 1.5 f1, f3)`` with f1 the fundamental and f3 the third natural frequency
-    of the member, EN 1990 A2.4.4.2.1(4)P [R].
+    of the member, EN 1990 A2.4.4.2.1(4)P (code profile entries
+    ``acceleration_cutoff_min_frequency``, ``acceleration_cutoff_f1_factor``).
 
     Parameters
     ----------
@@ -51,17 +75,18 @@ def frequency_cutoff(frequencies) -> float:
     f = f[np.isfinite(f) & (f > 0)]
     cut = CUTOFF_MIN_FREQUENCY
     if f.size:
-        cut = max(cut, 1.5 * f[0])
+        cut = max(cut, _DEFAULT["acceleration_cutoff_f1_factor"] * f[0])
     if f.size >= 3:
         cut = max(cut, f[2])
     return float(cut)
 
 
-def comfort_level(bv: float) -> str:
-    """Best EN 1990 Table A2.9 [R] level of comfort for car-body acceleration bv (m s-2)."""
+def comfort_level(bv: float, profile: CodeProfile | None = None) -> str:
+    """Best EN 1990 Table A2.9 level of comfort for car-body acceleration bv (m s-2), with
+    the levels of ``profile``."""
     if not np.isfinite(bv):
         return NOT_APPLICABLE
-    for name, value in sorted(COMFORT_LEVELS.items(), key=lambda kv: kv[1]):
+    for name, value in sorted(comfort_levels(profile).items(), key=lambda kv: kv[1]):
         if bv <= value:
             return name
     return "not acceptable"
@@ -70,10 +95,10 @@ def comfort_level(bv: float) -> str:
 # ------------------------------------------------------------------ deck-end rotation
 
 #: Clause of the deck-end rotation limits of ballasted track.
-END_ROTATION_CLAUSE = "EN 1990 A2.4.4.2.3, EN 1991-2 6.5.4.5.2 [R]"
-#: Ballasted track, EN 1991-2 6.5.4.5.2 [R]: the rotation of a deck end relative to the
-#: adjacent abutment (rad), under LM71 x Phi x alpha ...
-END_ROTATION_LIMIT_ABUTMENT = 6.5e-3
+END_ROTATION_CLAUSE = "EN 1990 A2.4.4.2.3, " + _DEFAULT.clause("end_rotation_limit_abutment")
+#: Ballasted track: the rotation of a deck end relative to the adjacent abutment (rad),
+#: under LM71 x Phi x alpha (recommended value) ...
+END_ROTATION_LIMIT_ABUTMENT = _DEFAULT["end_rotation_limit_abutment"]
 #: ... and the sum theta_1 + theta_2 of the rotations of two consecutive decks at the joint
-#: between them (rad) [R].
-END_ROTATION_LIMIT_DECKS = 10e-3
+#: between them (rad).
+END_ROTATION_LIMIT_DECKS = _DEFAULT["end_rotation_limit_decks"]

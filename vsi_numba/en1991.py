@@ -1,53 +1,67 @@
 """EN 1991-2 rules used to set up dynamic analyses (damping, frequency band, resonance).
 
-Clauses tagged [R] are recalled, not re-read against the primary text
-(``shared/notes/railway.md``): check them before relying on them as hard values.
+The values are entries of the code profile (:mod:`vsi_numba.code_profile`: clause, [R]
+flag); the functions take a profile (default: the recommended values) and the module
+constants are the recommended values, kept for callers that need no profile.
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
-#: Deck types of EN 1991-2 Table 6.6 and their lower-bound damping (%): (zeta for
-#: L >= 20 m, slope per metre below 20 m).
-DECK_TYPES = {
-    "steel_composite": (0.5, 0.125),
-    "prestressed_concrete": (1.0, 0.07),
-    "filler_beam_reinforced_concrete": (1.5, 0.07),
+from vsi_numba.code_profile import CodeProfile, default_profile, resolve
+
+_DEFAULT = default_profile()
+
+#: Deck types of EN 1991-2 Table 6.6 -> code profile key of their lower-bound damping
+#: (%, L >= 20 m; the key + "_slope" is the increase per metre below 20 m).
+DECK_TYPE_KEYS = {
+    "steel_composite": "damping_steel_composite",
+    "prestressed_concrete": "damping_prestressed_concrete",
+    "filler_beam_reinforced_concrete": "damping_filler_beam_reinforced_concrete",
 }
+#: Deck types of EN 1991-2 Table 6.6 and their lower-bound damping (%): (zeta for
+#: L >= 20 m, slope per metre below 20 m), recommended values.
+DECK_TYPES = {t: (_DEFAULT[k], _DEFAULT[k + "_slope"]) for t, k in DECK_TYPE_KEYS.items()}
 
 #: Spans below which the additional damping of moving-force analyses applies (m).
-ADDITIONAL_DAMPING_SPAN = 30.0
+ADDITIONAL_DAMPING_SPAN = _DEFAULT["additional_damping_max_span"]
 
 
-def damping_lower_bound(deck_type: str, span: float) -> float:
+def damping_lower_bound(deck_type: str, span: float, profile: CodeProfile | None = None
+                        ) -> float:
     """Lower-bound critical damping ratio (fraction, not %) of EN 1991-2 Table 6.6.
 
     zeta = z0 + k (20 - L) % for L < 20 m, z0 % for L >= 20 m, with (z0, k) = (0.5,
     0.125) steel and composite, (1.0, 0.07) prestressed concrete, (1.5, 0.07) filler beam
-    and reinforced concrete.
+    and reinforced concrete (the recommended values; ``profile`` may set others).
     """
     if deck_type not in DECK_TYPES:
         raise ValueError(f"deck_type = {deck_type!r}: expected one of {', '.join(DECK_TYPES)}")
     if not span > 0:
         raise ValueError(f"span = {span!r}: expected > 0 m")
-    z0, k = DECK_TYPES[deck_type]
+    p = resolve(profile)
+    key = DECK_TYPE_KEYS[deck_type]
+    z0, k = p[key], p[key + "_slope"]
     return 0.01 * (z0 + k * max(20.0 - span, 0.0))
 
 
-def additional_damping(span: float) -> float:
-    """Additional damping (fraction) of moving-force analyses, EN 1991-2 §6.4.6.3.1 [R]:
+def additional_damping(span: float, profile: CodeProfile | None = None) -> float:
+    """Additional damping (fraction) of moving-force analyses, EN 1991-2 §6.4.6.3.1:
 
     dzeta = (0.0187 L - 0.00064 L^2) / (1 - 0.0441 L - 0.0044 L^2 + 0.000255 L^3) %
     for L < 30 m, 0 otherwise.  It stands for the vehicle-bridge interaction a
     moving-force model leaves out, so it is never added to interaction models.  The
     numerator changes sign at L = 0.0187 / 0.00064 = 29.22 m: the formula is slightly
     negative (down to -0.006 %) for 29.22 m < L < 30 m, where it is taken as 0 (an
-    additional damping never removes damping).
+    additional damping never removes damping).  The span limit 30 m is the profile's
+    ``additional_damping_max_span``.
     """
     if not span > 0:
         raise ValueError(f"span = {span!r}: expected > 0 m")
-    if span >= ADDITIONAL_DAMPING_SPAN:
+    if span >= resolve(profile)["additional_damping_max_span"]:
         return 0.0
     L = float(span)
     dz = 0.01 * (0.0187 * L - 0.00064 * L**2) / (1 - 0.0441 * L - 0.0044 * L**2
@@ -71,16 +85,21 @@ def resonance_speeds_kmh(frequency: float, spacing: float, orders=(1, 2, 3)) -> 
 
 
 #: Clause of the determinant length L_phi.
-DETERMINANT_LENGTH_CLAUSE = "EN 1991-2 6.4.5.3, Table 6.2 [R]"
+DETERMINANT_LENGTH_CLAUSE = _DEFAULT.clause("determinant_length_k2")
 
-#: Factor k of L_phi = k L_m for a continuous deck of n spans, EN 1991-2 Table 6.2 [R];
-#: n >= 5 takes :data:`CONTINUOUS_K_MANY`.
-CONTINUOUS_K = {2: 1.2, 3: 1.3, 4: 1.4}
-CONTINUOUS_K_MANY = 1.5
+#: Factor k of L_phi = k L_m for a continuous deck of n spans, EN 1991-2 Table 6.2
+#: (recommended values); n >= 5 takes :data:`CONTINUOUS_K_MANY`.
+CONTINUOUS_K = {n: _DEFAULT[f"determinant_length_k{n}"] for n in (2, 3, 4)}
+CONTINUOUS_K_MANY = _DEFAULT["determinant_length_k5"]
 
 
-def continuous_determinant_length(spans) -> float:
-    """L_phi of a continuous deck of n spans, EN 1991-2 Table 6.2 [R].
+def continuous_k(n_spans: int, profile: CodeProfile | None = None) -> float:
+    """Factor k of L_phi = k L_m for a continuous deck of ``n_spans`` >= 2 spans."""
+    return resolve(profile)[f"determinant_length_k{min(max(int(n_spans), 2), 5)}"]
+
+
+def continuous_determinant_length(spans, profile: CodeProfile | None = None) -> float:
+    """L_phi of a continuous deck of n spans, EN 1991-2 Table 6.2.
 
     ``L_phi = k L_m``, ``L_m = (L_1 + ... + L_n) / n``, with k = 1.2 (n = 2), 1.3 (n = 3),
     1.4 (n = 4), 1.5 (n >= 5), but not less than the largest span; one span: L_phi = L.
@@ -100,12 +119,13 @@ def continuous_determinant_length(spans) -> float:
         raise ValueError(f"spans = {list(L)}: expected one or more span lengths > 0 m")
     if L.size == 1:
         return float(L[0])
-    k = CONTINUOUS_K.get(L.size, CONTINUOUS_K_MANY)
+    k = continuous_k(L.size, profile)
     return float(max(k * L.mean(), L.max()))
 
 
-def irregularity_allowance(speed, length: float, n0: float) -> np.ndarray:
-    """Dynamic allowance for track irregularities, phi'' of EN 1991-2 Annex C [R].
+def irregularity_allowance(speed, length: float, n0: float,
+                           profile: CodeProfile | None = None) -> np.ndarray:
+    """Dynamic allowance for track irregularities, phi'' of EN 1991-2 Annex C.
 
     ``phi'' = a [0.56 exp(-(L/10)^2) + 0.50 (n0 L / 80 - 1) exp(-(L/20)^2)]``, ``phi'' >= 0``,
     with ``a = min(v / 22, 1)`` (v in m s-1).
@@ -115,60 +135,100 @@ def irregularity_allowance(speed, length: float, n0: float) -> np.ndarray:
     speed : array_like
         Speed v (m s-1).
     length : float
-        Determinant length L_phi (m), EN 1991-2 Table 6.2 [R]; see
+        Determinant length L_phi (m), EN 1991-2 Table 6.2; see
         :func:`vsi_numba.analysis.checks.determinant_length`.
     n0 : float
         First natural bending frequency of the loaded bridge (Hz).
+    profile : CodeProfile, optional
+        Code profile (``irregularity_allowance_speed``, ``_c1``, ``_c2``; default the
+        recommended 22 m s-1, 0.56, 0.50).
 
     Returns
     -------
     ndarray
         phi'' (-), same shape as ``speed``.
     """
+    p = resolve(profile)
     v = np.asarray(speed, float)
-    a = np.minimum(v / 22.0, 1.0)
-    bracket = 0.56 * np.exp(-((length / 10.0) ** 2)) + 0.50 * (n0 * length / 80.0 - 1.0) * np.exp(
-        -((length / 20.0) ** 2)
-    )
+    a = np.minimum(v / p["irregularity_allowance_speed"], 1.0)
+    bracket = (p["irregularity_allowance_c1"] * np.exp(-((length / 10.0) ** 2))
+               + p["irregularity_allowance_c2"] * (n0 * length / 80.0 - 1.0)
+               * np.exp(-((length / 20.0) ** 2)))
     return np.maximum(a * bracket, 0.0)
 
 
 # ------------------------------------------------------------------ LM71, Phi, alpha
 
 #: Clause of the static load model LM71.
-LM71_CLAUSE = "EN 1991-2 6.3.2, Fig. 6.1 [R]"
+LM71_CLAUSE = _DEFAULT.clause("lm71_axle_load")
 #: LM71 point forces Q_vk (N): four axles ...
-LM71_AXLE_LOAD = 250e3
+LM71_AXLE_LOAD = _DEFAULT["lm71_axle_load"]
 #: ... at this spacing (m) ...
-LM71_AXLE_SPACING = 1.6
-#: ... in a zone of this length (m), centred on the axle group (0.8 m beyond the outer
-#: axles) ...
-LM71_AXLE_ZONE = 6.4
+LM71_AXLE_SPACING = _DEFAULT["lm71_axle_spacing"]
+#: ... in a zone of this length (m), centred on the axle group (half a spacing beyond the
+#: outer axles) ...
+LM71_AXLE_ZONE = 4 * LM71_AXLE_SPACING
 #: ... and the distributed load q_vk (N/m) on both sides of the zone, unlimited in length,
 #: applied only where it is unfavourable.
-LM71_UDL = 80e3
+LM71_UDL = _DEFAULT["lm71_udl"]
 #: Axle offsets (m) from the centre of the LM71 axle group.
 LM71_AXLE_OFFSETS = (-2.4, -0.8, 0.8, 2.4)
 
-#: Clause and range of the load classification factor alpha, EN 1991-2 6.3.2(3) [R]:
+
+class LM71(NamedTuple):
+    """LM71 of a code profile: four point forces ``axle_load`` (N) at ``spacing`` (m) in a
+    zone of 4 spacings centred on them, and ``udl`` (N/m) outside the zone."""
+
+    axle_load: float
+    spacing: float
+    udl: float
+
+    @property
+    def zone(self) -> float:
+        """Length of the zone of the point forces (m)."""
+        return 4.0 * self.spacing
+
+    @property
+    def offsets(self) -> tuple[float, ...]:
+        """Axle offsets (m) from the centre of the group (to 1e-12 m: -2.4, not
+        -2.4000000000000004)."""
+        return tuple(round(k * self.spacing, 12) for k in (-1.5, -0.5, 0.5, 1.5))
+
+
+def lm71(profile: CodeProfile | None = None) -> LM71:
+    """LM71 of ``profile`` (default: 4 x 250 kN at 1.6 m, 80 kN/m)."""
+    p = resolve(profile)
+    return LM71(p["lm71_axle_load"], p["lm71_axle_spacing"], p["lm71_udl"])
+
+
+#: Clause and range of the load classification factor alpha, EN 1991-2 6.3.2(3):
 #: one of 0.75, 0.83, 0.91, 1.00, 1.10, 1.21, 1.33, 1.46 (any value in the range is
 #: accepted; the National Annex chooses).
-ALPHA_CLAUSE = "EN 1991-2 6.3.2(3) [R]"
-ALPHA_RANGE = (0.75, 1.46)
+ALPHA_CLAUSE = _DEFAULT.clause("classification_factor_min")
+ALPHA_RANGE = (_DEFAULT["classification_factor_min"], _DEFAULT["classification_factor_max"])
 ALPHA_VALUES = (0.75, 0.83, 0.91, 1.00, 1.10, 1.21, 1.33, 1.46)
 
 #: Clause of the dynamic factors Phi_2, Phi_3.
-PHI_CLAUSE = "EN 1991-2 6.4.5.2 [R]"
+PHI_CLAUSE = _DEFAULT.clause("phi3_a")
 #: Track maintenance standard -> dynamic factor: "careful" maintenance Phi_2,
-#: "standard" maintenance Phi_3, EN 1991-2 6.4.5.2(2)/(3) [R].
+#: "standard" maintenance Phi_3, EN 1991-2 6.4.5.2(2)/(3).
 TRACK_MAINTENANCE = {"careful": "Phi2", "standard": "Phi3"}
-#: (a, b, upper bound) of Phi = a / (sqrt(L_phi) - 0.2) + b, 1.00 <= Phi <= upper [R].
+#: (a, b, upper bound) of Phi = a / (sqrt(L_phi) - 0.2) + b, 1.00 <= Phi <= upper
+#: (recommended values; the profile's ``phi2_*`` and ``phi3_*``).
 _PHI_COEFFICIENTS = {"Phi2": (1.44, 0.82, 1.67), "Phi3": (2.16, 0.73, 2.00)}
 
 
-def dynamic_factor(length, maintenance: str = "standard"):
+def phi_coefficients(maintenance: str, profile: CodeProfile | None = None
+                     ) -> tuple[float, float, float]:
+    """(a, b, upper bound) of Phi_2 ("careful") or Phi_3 ("standard") of ``profile``."""
+    p = resolve(profile)
+    stem = "phi2" if TRACK_MAINTENANCE[maintenance] == "Phi2" else "phi3"
+    return p[f"{stem}_a"], p[f"{stem}_b"], p[f"{stem}_max"]
+
+
+def dynamic_factor(length, maintenance: str = "standard", profile: CodeProfile | None = None):
     """Dynamic factor Phi_2 (careful maintenance) or Phi_3 (standard maintenance) of
-    EN 1991-2 6.4.5.2 [R].
+    EN 1991-2 6.4.5.2.
 
     ``Phi_2 = 1.44 / (sqrt(L_phi) - 0.2) + 0.82`` with ``1.00 <= Phi_2 <= 1.67``;
     ``Phi_3 = 2.16 / (sqrt(L_phi) - 0.2) + 0.73`` with ``1.00 <= Phi_3 <= 2.00``.
@@ -177,10 +237,12 @@ def dynamic_factor(length, maintenance: str = "standard"):
     Parameters
     ----------
     length : float or array_like
-        Determinant length L_phi (m), > 0 (EN 1991-2 Table 6.2 [R],
+        Determinant length L_phi (m), > 0 (EN 1991-2 Table 6.2,
         :func:`continuous_determinant_length`).
     maintenance : {"standard", "careful"}
         Track maintenance standard (:data:`TRACK_MAINTENANCE`).
+    profile : CodeProfile, optional
+        Code profile (its ``phi2_*`` / ``phi3_*`` entries; default the recommended ones).
 
     Returns
     -------
@@ -193,7 +255,7 @@ def dynamic_factor(length, maintenance: str = "standard"):
     L = np.asarray(length, float)
     if not np.all(np.isfinite(L) & (L > 0)):
         raise ValueError(f"determinant length = {length!r}: expected a length > 0 m")
-    a, b, upper = _PHI_COEFFICIENTS[TRACK_MAINTENANCE[maintenance]]
+    a, b, upper = phi_coefficients(maintenance, profile)
     root = np.sqrt(L) - 0.2
     with np.errstate(divide="ignore"):
         phi = np.where(root > 0, a / np.where(root > 0, root, 1.0) + b, upper)
@@ -204,9 +266,13 @@ def dynamic_factor(length, maintenance: str = "standard"):
 # ------------------------------------------------------------------------------ HSLM-B
 
 #: HSLM-B: N point forces of this load (N) at a uniform spacing d (m), EN 1991-2
-#: 6.4.6.1.1, Fig. 6.13 [R]; N and d as functions of the span are read from Fig. 6.13,
+#: 6.4.6.1.1, Fig. 6.13; N and d as functions of the span are read from Fig. 6.13,
 #: whose curve values are not available here [NF]: give them (train.hslm_b).
-HSLM_B_LOAD = 170e3
-HSLM_B_CLAUSE = "EN 1991-2 6.4.6.1.1, Annex E, Fig. 6.13 [R]"
-#: HSLM-B applies to simply supported spans shorter than this (m) [R].
-HSLM_B_MAX_SPAN = 7.0
+HSLM_B_LOAD = _DEFAULT["hslm_b_load"]
+HSLM_B_CLAUSE = "EN 1991-2 6.4.6.1.1, Annex E, Fig. 6.13"
+#: HSLM-B applies to simply supported spans shorter than this (m), recommended value.
+HSLM_B_MAX_SPAN = _DEFAULT["hslm_b_max_span"]
+#: Clause of the HSLM-A / HSLM-B applicability.
+HSLM_APPLICABILITY_CLAUSE = _DEFAULT.clause("hslm_b_max_span")
+#: Clause of the range of HSLM-B's N and d.
+HSLM_B_RANGE_CLAUSE = _DEFAULT.clause("hslm_b_N_min")

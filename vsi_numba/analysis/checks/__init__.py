@@ -18,9 +18,10 @@ Every check takes the results Dataset (single run or study, see
 
 :func:`summary_table` collects those attributes in a :class:`pandas.DataFrame`.
 
-Limits tagged [R] are recalled from the cited standard and not re-read against the
-primary text (see ``notes/railway.md`` §4): check them before relying on them as hard
-limits.
+Every limit and clause value comes from the code profile in force
+(:mod:`vsi_numba.code_profile`): by default the one stored with the results
+(:func:`profile_of`), so a study run with a national annex is checked with it.  The
+profile's table says which values were recalled and not re-read ([R]).
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from vsi_numba.analysis.checks.common import (
     WHEEL_UNLOADING_LIMIT,
     _governing,
     design_value,
+    profile_of,
     resonance_speeds,
 )
 from vsi_numba.analysis.checks.deck import (
@@ -99,6 +101,7 @@ __all__ = [
     "irregularity_allowance",
     "max_deck_displacement",
     "prescribed_wheels",
+    "profile_of",
     "resonance_speeds",
     "results_config",
     "run_checks",
@@ -112,12 +115,13 @@ SUMMARY_COLUMNS = ["check", "value", "units", "limit", "margin", "utilisation", 
 
 
 def run_checks(ds: xr.Dataset, q: float = DEFAULT_Q, comfort_level_required: str = "very good",
-               n_boot: int = 2000, seed: int = 0, length: float | None = None
-               ) -> dict[str, xr.Dataset | str]:
+               n_boot: int = 2000, seed: int = 0, length: float | None = None,
+               profile=None) -> dict[str, xr.Dataset | str]:
     """Every check that the variables of ``ds`` allow.
 
     ``length`` is the determinant length L_phi (m) given by the user (see
-    :func:`dynamic_amplification`).
+    :func:`dynamic_amplification`); ``profile`` the code profile (default: the one
+    stored with the results, :func:`profile_of`).
 
     Returns
     -------
@@ -127,13 +131,17 @@ def run_checks(ds: xr.Dataset, q: float = DEFAULT_Q, comfort_level_required: str
         ``wheel_unloading``, ``comfort``.
     """
     ds = prepare(ds)
+    p = profile_of(ds, profile)
     calls = {
         "deck_acceleration": lambda: deck_acceleration_check(ds, q=q, n_boot=n_boot,
-                                                             seed=seed),
+                                                             seed=seed, profile=p),
         "deck_displacement": lambda: max_deck_displacement(ds, q=q),
-        "dynamic_amplification": lambda: dynamic_amplification(ds, length=length, q=q),
-        "wheel_unloading": lambda: wheel_unloading(ds, q=q, n_boot=n_boot, seed=seed),
-        "comfort": lambda: comfort(ds, comfort_level_required, q=q, n_boot=n_boot, seed=seed),
+        "dynamic_amplification": lambda: dynamic_amplification(ds, length=length, q=q,
+                                                               profile=p),
+        "wheel_unloading": lambda: wheel_unloading(ds, q=q, n_boot=n_boot, seed=seed,
+                                                   profile=p),
+        "comfort": lambda: comfort(ds, comfort_level_required, q=q, n_boot=n_boot, seed=seed,
+                                   profile=p),
     }
     out = {}
     for name, call in calls.items():
@@ -173,6 +181,6 @@ def summary_table(checks: dict) -> pd.DataFrame:
                 "governing_train": "" if gov is None else str(gov["train"]),
                 "governing_speed_kmh": np.nan if gov is None else float(
                     check["speed_kmh"].sel(speed=gov["speed"])),
-                "clause": "EN 1991-2 6.4.6.5(3), Annex C [R]",
+                "clause": "EN 1991-2 6.4.6.5(3), Annex C",
             })
     return pd.DataFrame(rows, columns=SUMMARY_COLUMNS)

@@ -1,5 +1,5 @@
 """Passenger comfort: car-body vertical acceleration against EN 1990 A2.4.4.3,
-Table A2.9 [R]."""
+Table A2.9 (the levels of the code profile)."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ from vsi_numba.analysis.checks.common import (
     _case_realisation,
     _summarise,
     design_value,
+    profile_of,
 )
 from vsi_numba.analysis.dataset import (
     nanmax,
@@ -18,28 +19,30 @@ from vsi_numba.analysis.dataset import (
     require,
 )
 from vsi_numba.en1990 import (
-    COMFORT_CLAUSE,
-    COMFORT_LEVELS,
+    COMFORT_KEYS,
     comfort_level,
+    comfort_levels,
 )
 
 
 def comfort(
     ds: xr.Dataset, required: str = "very good", q: float = DEFAULT_Q, n_boot: int = 2000,
-    seed: int = 0,
+    seed: int = 0, profile=None,
 ) -> xr.Dataset:
-    """Car-body vertical acceleration b_v against the levels of EN 1990 Table A2.9 [R].
+    """Car-body vertical acceleration b_v against the levels of EN 1990 Table A2.9.
 
-    Levels: very good 1.0, good 1.3, acceptable 2.0 m s-2 (:data:`COMFORT_LEVELS`). The
-    required level is specified for the project (EN 1990 A2.4.4.3 [R]); "very good" is
-    the default here.
+    Levels (recommended values of the code profile): very good 1.0, good 1.3, acceptable
+    2.0 m s-2. The required level is specified for the project (EN 1990 A2.4.4.3);
+    "very good" is the default here.
 
     Parameters
     ----------
     ds : xarray.Dataset
         Results with ``max_carbody_acceleration(speed, train, irregularity, vehicle)``.
     required : str
-        Required level of comfort, a key of :data:`COMFORT_LEVELS`.
+        Required level of comfort: "very good", "good" or "acceptable".
+    profile : CodeProfile, optional
+        Code profile; default: the one of the results.
 
     Returns
     -------
@@ -60,17 +63,21 @@ def comfort(
     """
     ds = prepare(ds)
     require(ds, ["max_carbody_acceleration"], "the comfort check")
-    if required not in COMFORT_LEVELS:
+    profile = profile_of(ds, profile)
+    levels = comfort_levels(profile)
+    if required not in levels:
         raise ValueError(f"required comfort level {required!r} is not one of "
-                         f"{list(COMFORT_LEVELS)}")
-    limit = COMFORT_LEVELS[required]
+                         f"{list(levels)}")
+    limit = levels[required]
     bv = nanmax(ds["max_carbody_acceleration"], "vehicle")
     out = design_value(bv, q=q, limit=limit, n_boot=n_boot, seed=seed)
     out["value"].attrs.update(units="m s-2", long_name="car-body vertical acceleration b_v")
-    out["level"] = xr.apply_ufunc(np.vectorize(comfort_level, otypes=[object]), out["value"])
-    out = _summarise(out, "Car-body acceleration (comfort)", COMFORT_CLAUSE, "m s-2", limit,
+    out["level"] = xr.apply_ufunc(np.vectorize(lambda b: comfort_level(b, profile),
+                                               otypes=[object]), out["value"])
+    out = _summarise(out, "Car-body acceleration (comfort)",
+                     profile.clause(COMFORT_KEYS[required]), "m s-2", limit,
                      extra={"required_level": required, "basis": out.attrs["basis"]})
-    out.attrs["level"] = comfort_level(out.attrs["value"])
+    out.attrs["level"] = comfort_level(out.attrs["value"], profile)
     if out.attrs["governing_train"] and "position_of_max_carbody_acceleration" in ds:
         t, v = out.attrs["governing_train"], out.attrs["governing_speed"]
         irr = _case_realisation(bv, t, v)
@@ -83,13 +90,13 @@ def comfort(
             name = (ds["vehicle_name"].sel(train=t).isel(vehicle=k).values
                     if "vehicle_name" in ds and "train" in ds["vehicle_name"].dims else k)
             out.attrs["governing_vehicle"] = str(name)
-    out.attrs.update(_car_end(ds))
+    out.attrs.update(_car_end(ds, profile))
     if ds.sizes.get("vehicle", 0) == 0 or not bool(out["value"].notnull().any()):
         out.attrs["note"] = "no car-body accelerations in the results (moving-force model)"
     return out
 
 
-def _car_end(ds: xr.Dataset) -> dict:
+def _car_end(ds: xr.Dataset, profile=None) -> dict:
     """The largest car-end acceleration over every case and vehicle, with where it is
     (empty when the results have no car-end envelope or no car with known ends)."""
     name = "max_carbody_acceleration_car_end"
@@ -98,7 +105,7 @@ def _car_end(ds: xr.Dataset) -> dict:
     da = ds[name]
     idx = da.fillna(-np.inf).argmax(...)
     peak = float(da.isel(idx))
-    out = {"car_end_value": peak, "car_end_level": comfort_level(peak)}
+    out = {"car_end_value": peak, "car_end_level": comfort_level(peak, profile)}
     for dim in ("train", "speed"):
         if dim in idx and dim in da.coords:
             val = da[dim].values[int(idx[dim])]

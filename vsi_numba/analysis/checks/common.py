@@ -1,6 +1,7 @@
 """What every check shares: the characteristic value over irregularity realisations
-(:func:`design_value`), the summary attributes of a check (:func:`_summarise`), the
-limits not from EN 1990 (:data:`WHEEL_UNLOADING_LIMIT`) and the resonance speeds."""
+(:func:`design_value`), the summary attributes of a check (:func:`_summarise`), the code
+profile of a results file (:func:`profile_of`), the limits not from EN 1990
+(:data:`WHEEL_UNLOADING_LIMIT`) and the resonance speeds."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from vsi_numba.analysis.checks.determinant import results_config
 from vsi_numba.analysis.dataset import (
     DETERMINISTIC,
     nanargmax_case,
@@ -15,11 +17,22 @@ from vsi_numba.analysis.dataset import (
     nanmin,
 )
 from vsi_numba.analysis.statistics import realisation_statistics
+from vsi_numba.code_profile import CodeProfile, default_profile, of_config, resolve
 from vsi_numba.en1990 import NOT_APPLICABLE
 
-#: Wheel unloading ratio limit dQ/Q0, EN 14363 / UIC practice [R].
-WHEEL_UNLOADING_LIMIT = 0.6
-WHEEL_UNLOADING_CLAUSE = "EN 14363 practice [R]"
+#: Wheel unloading ratio limit dQ/Q0 (recommended value of the code profile).
+WHEEL_UNLOADING_LIMIT = default_profile()["wheel_unloading_limit"]
+WHEEL_UNLOADING_CLAUSE = default_profile().clause("wheel_unloading_limit")
+
+
+def profile_of(ds: xr.Dataset, profile=None) -> CodeProfile:
+    """The code profile of a results file: ``profile`` when given (a
+    :class:`~vsi_numba.code_profile.CodeProfile` or a stored ``code_profile`` section),
+    else the ``code_profile`` section of its stored configuration (``config_json``), else
+    the recommended values."""
+    if profile is not None:
+        return resolve(profile)
+    return of_config(results_config(ds))
 
 #: Characteristic fractile over irregularity realisations (upper; 1 - q for minima).
 DEFAULT_Q = 0.95

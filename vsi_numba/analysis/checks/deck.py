@@ -11,6 +11,7 @@ from vsi_numba.analysis.checks.common import (
     _case_realisation,
     _summarise,
     design_value,
+    profile_of,
 )
 from vsi_numba.analysis.checks.determinant import determinant_length
 from vsi_numba.analysis.dataset import (
@@ -24,19 +25,16 @@ from vsi_numba.analysis.dataset import (
     track_type_assumed,
 )
 from vsi_numba.en1990 import (
-    DECK_ACCELERATION_CLAUSE,
-    DECK_ACCELERATION_LIMITS,
+    DECK_ACCELERATION_KEYS,
+    deck_acceleration_limits,
     frequency_cutoff,
 )
-from vsi_numba.en1991 import (
-    DETERMINANT_LENGTH_CLAUSE,
-    irregularity_allowance,
-)
+from vsi_numba.en1991 import irregularity_allowance
 
 
 def deck_acceleration_check(
     ds: xr.Dataset, limit: float | None = None, q: float = DEFAULT_Q, n_boot: int = 2000,
-    seed: int = 0,
+    seed: int = 0, profile=None,
 ) -> xr.Dataset:
     """Peak vertical deck acceleration against EN 1990 A2.4.4.2.1(4)P.
 
@@ -53,14 +51,16 @@ def deck_acceleration_check(
         the cut-off ``max(30 Hz, 1.5 f1, f3)`` (:func:`frequency_cutoff`), as the clause
         requires.
     limit : float, optional
-        Limit (m s-2). Default from the ``track_type`` attribute: 3.5 ballasted, 5.0
-        direct fastening (:data:`DECK_ACCELERATION_LIMITS`; 5.0 is [R]); a file that does
+        Limit (m s-2). Default from the ``track_type`` attribute and the code profile:
+        3.5 ballasted, 5.0 direct fastening (recommended values); a file that does
         not state its track type gets the stricter ballasted limit
         (attribute ``track_type_assumed`` = 1).
     q : float
         Characteristic fractile over irregularity realisations.
     n_boot, seed
         Bootstrap settings of the realisation statistics.
+    profile : CodeProfile, optional
+        Code profile; default: the one of the results (:func:`profile_of`).
 
     Returns
     -------
@@ -85,13 +85,17 @@ def deck_acceleration_check(
     ds = prepare(ds)
     require(ds, ["max_deck_acceleration"], "the deck acceleration check")
     track = track_type(ds)
+    profile = profile_of(ds, profile)
+    limits = deck_acceleration_limits(profile)
+    clause = profile.clause(DECK_ACCELERATION_KEYS["ballasted"])
     if limit is None:
-        if track not in DECK_ACCELERATION_LIMITS:
+        if track not in limits:
             raise ResultsError(
-                f"track_type = {track!r} is not one of {sorted(DECK_ACCELERATION_LIMITS)}; "
+                f"track_type = {track!r} is not one of {sorted(limits)}; "
                 "pass the acceleration limit explicitly"
             )
-        limit = DECK_ACCELERATION_LIMITS[track]
+        limit = limits[track]
+        clause = profile.clause(DECK_ACCELERATION_KEYS[track])
     limit = float(limit)
     acc = ds["max_deck_acceleration"]
     at_points = nanmax(acc, "point")
@@ -126,8 +130,7 @@ def deck_acceleration_check(
         "basis": out.attrs["basis"],
         "whole_deck": int(whole),
     }
-    out = _summarise(out, "Peak deck acceleration", DECK_ACCELERATION_CLAUSE, "m s-2", limit,
-                     extra=extra)
+    out = _summarise(out, "Peak deck acceleration", clause, "m s-2", limit, extra=extra)
     if out.attrs["governing_train"]:
         t, v = out.attrs["governing_train"], out.attrs["governing_speed"]
         out.attrs["governing_point"] = float(out["point_of_max"].sel(train=t, speed=v))
@@ -143,14 +146,14 @@ def deck_acceleration_check(
 
 
 def dynamic_amplification(
-    ds: xr.Dataset, length: float | None = None, q: float = DEFAULT_Q
+    ds: xr.Dataset, length: float | None = None, q: float = DEFAULT_Q, profile=None,
 ) -> xr.Dataset:
     """Dynamic increment phi'_dyn of the deck displacement, phi'' and the design factor.
 
     ``phi'_dyn = max|y_dyn| / max|y_stat| - 1`` per train, speed and point, with
     y_stat the static response of the same model (``max_static_deck_displacement``,
     max over train positions); the two maxima need not occur at the same time
-    (EN 1991-2 §6.4.6.5 [R]).
+    (EN 1991-2 §6.4.6.5).
 
     Parameters
     ----------
@@ -159,10 +162,12 @@ def dynamic_amplification(
     length : float, optional
         Determinant length L_phi (m) for phi''; wins over everything. Default: from the
         results (:func:`determinant_length`: the ``determinant_length`` attribute, else
-        EN 1991-2 Table 6.2 [R] from the configuration's bridge kind and spans).
+        EN 1991-2 Table 6.2 from the configuration's bridge kind and spans).
     q : float
         Fractile used only when the file has random realisations and no deterministic
         track (phi'_dyn then includes the irregularity effect, see ``basis``).
+    profile : CodeProfile, optional
+        Code profile (L_Phi factors, phi'' constants); default: the results'.
 
     Returns
     -------
@@ -170,9 +175,9 @@ def dynamic_amplification(
         ``phi_dyn(speed, train, point)`` and ``phi_dyn_max(train, point)`` (max over
         speed); ``value(speed, train)`` = deck phi'_dyn = max over points of
         max|y_dyn| / max over points of max|y_stat| - 1, the summary quantity;
-        ``phi2(speed)`` = phi'' of EN 1991-2 Annex C [R] (needs L_phi and ``frequency``);
+        ``phi2(speed)`` = phi'' of EN 1991-2 Annex C (needs L_phi and ``frequency``);
         ``design_factor(speed, train)`` = 1 + phi'_dyn + phi''/2, the factor of
-        EN 1991-2 eq. (6.16)/(6.17) [R] applied to the real train or HSLM to compare with
+        EN 1991-2 eq. (6.16)/(6.17) applied to the real train or HSLM to compare with
         Phi x LM71 (information, no limit). Attributes ``phi2_max``, ``design_factor_max``,
         ``length`` (L_phi, m), ``length_rule`` (how L_phi was obtained),
         ``length_assumed`` (1 when that is an assumption), ``n0`` and ``basis``.
@@ -207,12 +212,13 @@ def dynamic_amplification(
                 units="1", long_name="dynamic increment of the deck maximum displacement"),
         }
     )
-    lphi = determinant_length(ds, length)
+    profile = profile_of(ds, profile)
+    lphi = determinant_length(ds, length, profile)
     L = lphi.value
     f = bridge_frequencies(ds)
     n0 = float(f[0]) if f.size else np.nan
     if np.isfinite(L) and L > 0 and np.isfinite(n0):
-        phi2 = irregularity_allowance(ds["speed"].values, L, n0)
+        phi2 = irregularity_allowance(ds["speed"].values, L, n0, profile)
     else:
         phi2 = np.full(ds.sizes["speed"], np.nan)
     phi2 = xr.DataArray(phi2, dims="speed", coords={"speed": ds["speed"]})
@@ -225,19 +231,19 @@ def dynamic_amplification(
         "length": L,
         "length_rule": lphi.rule,
         "length_assumed": int(lphi.assumed),
-        "length_clause": DETERMINANT_LENGTH_CLAUSE,
+        "length_clause": profile.clause("determinant_length_k2"),
         "n0": n0,
         "phi2_max": float(phi2.max()) if bool(phi2.notnull().any()) else np.nan,
         "design_factor_max": float(nanmax(out["design_factor"], ["speed", "train"])),
     }
-    return _summarise(out, "Dynamic increment φ'dyn", "EN 1991-2 6.4.6.5 [R]", "1", None,
+    return _summarise(out, "Dynamic increment φ'dyn", "EN 1991-2 6.4.6.5", "1", None,
                       extra=extra)
 
 
 def max_deck_displacement(ds: xr.Dataset, q: float = DEFAULT_Q) -> xr.Dataset:
     """Maximum deck displacement (information, no limit).
 
-    The L/600 limit of EN 1990 A2.4.4.2.3 [R] is for LM71, not for these trains.
+    The L/600 limit of EN 1990 A2.4.4.2.3 is for LM71, not for these trains.
     """
     ds = prepare(ds)
     require(ds, ["max_deck_displacement"], "the deck displacement summary")

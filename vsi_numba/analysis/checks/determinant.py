@@ -1,5 +1,5 @@
 """Determinant length L_phi of the deck of a results file (EN 1991-2 6.4.5.3,
-Table 6.2 [R]), with the rule or assumption that gave it."""
+Table 6.2), with the rule or assumption that gave it."""
 
 from __future__ import annotations
 
@@ -9,11 +9,8 @@ from typing import NamedTuple
 import numpy as np
 import xarray as xr
 
-from vsi_numba.en1991 import (
-    CONTINUOUS_K,
-    CONTINUOUS_K_MANY,
-    continuous_determinant_length,
-)
+from vsi_numba.code_profile import CodeProfile, of_config, resolve
+from vsi_numba.en1991 import continuous_determinant_length, continuous_k
 
 #: Bridge kinds whose mode shapes come from another program (their support layout is
 #: not known here).
@@ -25,8 +22,8 @@ class DeterminantLength(NamedTuple):
 
     ``value`` is NaN where no L_phi applies (rigid track); ``rule`` says which rule (or
     assumption) gave it, in words, for the report; ``assumed`` is True when the rule is
-    an assumption rather than a case of EN 1991-2 Table 6.2 [R] or a value given by the
-    user.
+    an assumption rather than a case of EN 1991-2 Table 6.2 or a value given by the
+    user.  (Table 6.2 is the code profile's ``determinant_length_k*``.)
     """
 
     value: float
@@ -34,10 +31,10 @@ class DeterminantLength(NamedTuple):
     assumed: bool
 
 
-def _continuous_rule(spans) -> str:
+def _continuous_rule(spans, profile: CodeProfile | None = None) -> str:
     L = np.asarray(spans, float)
-    k = CONTINUOUS_K.get(L.size, CONTINUOUS_K_MANY)
-    value = continuous_determinant_length(L)
+    k = continuous_k(L.size, profile)
+    value = continuous_determinant_length(L, profile)
     text = (f"continuous deck of {L.size} spans: L_Φ = k L_m = {k:g} × {L.mean():g} m "
             f"= {k * L.mean():g} m")
     if value > k * L.mean():
@@ -64,7 +61,8 @@ def _positive(value) -> float | None:
     return v if np.isfinite(v) and v > 0 else None
 
 
-def determinant_length(ds: xr.Dataset, override: float | None = None) -> DeterminantLength:
+def determinant_length(ds: xr.Dataset, override: float | None = None,
+                       profile: CodeProfile | None = None) -> DeterminantLength:
     """Determinant length L_phi (m) of the deck of a results file, with its rule.
 
     In order of precedence:
@@ -73,10 +71,11 @@ def determinant_length(ds: xr.Dataset, override: float | None = None) -> Determi
     2. the global attribute ``determinant_length`` (m) of the results, then the key
        ``bridge.determinant_length`` of the stored configuration;
     3. from the configuration's ``bridge.kind`` and ``bridge.spans``, EN 1991-2
-       Table 6.2 [R]: simply supported span L_phi = L; continuous deck of n spans
-       L_phi = k L_m (:func:`continuous_determinant_length`); rigid track: not applicable
-       (NaN); imported modes or matrices (``modes_file``, ``matrices``): the same rule
-       over the spans given, else the bridge length, flagged as an assumption;
+       Table 6.2 (the factors k of the code profile): simply supported span L_phi = L;
+       continuous deck of n spans L_phi = k L_m (:func:`continuous_determinant_length`);
+       rigid track: not applicable (NaN); imported modes or matrices (``modes_file``,
+       ``matrices``): the same rule over the spans given, else the bridge length, flagged
+       as an assumption;
     4. without a usable configuration, the ``bridge_length`` attribute, flagged as an
        assumption (right only for a simply supported span).
 
@@ -86,6 +85,8 @@ def determinant_length(ds: xr.Dataset, override: float | None = None) -> Determi
         Results (attributes ``config_json``, ``bridge_length``, ``determinant_length``).
     override : float, optional
         L_phi (m) given by the user; must be > 0.
+    profile : CodeProfile, optional
+        Code profile; default: the one of the results' stored configuration.
 
     Returns
     -------
@@ -101,7 +102,9 @@ def determinant_length(ds: xr.Dataset, override: float | None = None) -> Determi
     if value is not None:
         return DeterminantLength(value, f"L_Φ = {value:g} m from the results attribute "
                                         "`determinant_length`", False)
-    bridge = results_config(ds).get("bridge", {})
+    config = results_config(ds)
+    profile = resolve(profile) if profile is not None else of_config(config)
+    bridge = config.get("bridge", {})
     bridge = bridge if isinstance(bridge, dict) else {}
     value = _positive(bridge.get("determinant_length"))
     if value is not None:
@@ -124,13 +127,13 @@ def determinant_length(ds: xr.Dataset, override: float | None = None) -> Determi
     if kind == "continuous" and spans:
         if len(spans) == 1:
             return DeterminantLength(spans[0], f"one span: L_Φ = L = {spans[0]:g} m", False)
-        return DeterminantLength(continuous_determinant_length(spans), _continuous_rule(spans),
-                                 False)
+        return DeterminantLength(continuous_determinant_length(spans, profile),
+                                 _continuous_rule(spans, profile), False)
     if kind in _IMPORTED_KINDS and spans:
         what = (f"one span: L_Φ = L = {spans[0]:g} m" if len(spans) == 1
-                else _continuous_rule(spans))
+                else _continuous_rule(spans, profile))
         return DeterminantLength(
-            continuous_determinant_length(spans),
+            continuous_determinant_length(spans, profile),
             f"ASSUMPTION — imported deck (bridge.kind = '{kind}', supports not known here), "
             f"taken as a simply supported or continuous deck over the spans given: {what}",
             True)

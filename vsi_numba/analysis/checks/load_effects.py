@@ -20,8 +20,9 @@ piecewise-linear lines, and otherwise within ``h^2 / 8 max|E''|`` of the true ex
 (relative error of order ``(h / L)^2``, about 4e-6 for h = 0.05 m on a 25 m span).
 
 Signs follow :mod:`vsi_numba.model.influence`.  Design quantities compare magnitudes:
-for every location the extreme of ``|E|`` over both signs (EN 1991-2 6.4.6.5 [R] defines
-``phi'_dyn = max|y_dyn| / max|y_stat| - 1``).
+for every location the extreme of ``|E|`` over both signs (EN 1991-2 6.4.6.5 defines
+``phi'_dyn = max|y_dyn| / max|y_stat| - 1``).  LM71, Phi, phi'', the rotation limit and
+the HSLM-B span come from the code profile (:mod:`vsi_numba.code_profile`).
 """
 
 from __future__ import annotations
@@ -31,14 +32,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from vsi_numba.en1991 import (
-    HSLM_B_CLAUSE,
-    HSLM_B_MAX_SPAN,
-    LM71_AXLE_LOAD,
-    LM71_AXLE_OFFSETS,
-    LM71_AXLE_ZONE,
-    LM71_UDL,
-)
+from vsi_numba.en1991 import LM71, lm71
 
 #: Half-gap (m) of the two evaluations either side of a breakpoint crossing.
 _EPS = 1e-9
@@ -157,15 +151,16 @@ def crawl_envelope(line: Line, positions, loads, breakpoints, extent, step: floa
 
 
 def lm71_envelope(line: Line, breakpoints, extent, step: float = 0.05,
-                  n_at: int | None = None, grid_step: float | None = None) -> Envelope:
+                  n_at: int | None = None, grid_step: float | None = None,
+                  model: LM71 | None = None) -> Envelope:
     """Static envelope of EN 1991-2 LM71 (alpha = 1, no dynamic factor).
 
     Four point forces of 250 kN at 1.6 m, in a 6.4 m zone centred on them, and 80 kN/m
     on both sides of the zone, unlimited in length and applied only where it is
-    unfavourable (EN 1991-2 6.3.2, Fig. 6.1 [R]): for the maximum, wherever the line is
-    positive outside the zone; for the minimum, wherever it is negative.  The axle group
-    stays together and is placed most unfavourably (its centre anywhere from 3.2 m before
-    the deck to 3.2 m beyond it, partly off the deck included).
+    unfavourable (EN 1991-2 6.3.2, Fig. 6.1; the values of ``model``): for the maximum,
+    wherever the line is positive outside the zone; for the minimum, wherever it is
+    negative.  The axle group stays together and is placed most unfavourably (its centre
+    anywhere from 3.2 m before the deck to 3.2 m beyond it, partly off the deck included).
 
     The distributed part is the integral of the positive (negative) part of the line
     outside the zone: trapezoidal rule on a grid of ``grid_step`` (default
@@ -178,6 +173,8 @@ def lm71_envelope(line: Line, breakpoints, extent, step: float = 0.05,
         As :func:`crawl_envelope`; ``step`` is the grid of the group's centre.
     grid_step : float, optional
         Integration step (m) of the distributed load.
+    model : LM71, optional
+        LM71 of the code profile (:func:`vsi_numba.en1991.lm71`); default the recommended.
 
     Returns
     -------
@@ -200,9 +197,10 @@ def lm71_envelope(line: Line, breakpoints, extent, step: float = 0.05,
         n_at = inf.shape[0]
     cum = [cumulative_trapezoid(part, xs, axis=1, initial=0.0)
            for part in (np.maximum(inf, 0.0), np.minimum(inf, 0.0))]
-    half = 0.5 * LM71_AXLE_ZONE
-    offs = np.asarray(LM71_AXLE_OFFSETS, float)
-    Q = np.full(offs.size, LM71_AXLE_LOAD)
+    model = lm71() if model is None else model
+    half = 0.5 * model.zone
+    offs = np.asarray(model.offsets, float)
+    Q = np.full(offs.size, model.axle_load)
 
     def udl(c, sc):
         a = np.clip(sc - half, x0, x1)
@@ -211,7 +209,7 @@ def lm71_envelope(line: Line, breakpoints, extent, step: float = 0.05,
         for r in range(n_at):
             total = c[r, -1]
             rows.append(total - (np.interp(b, xs, c[r]) - np.interp(a, xs, c[r])))
-        return LM71_UDL * np.asarray(rows)
+        return model.udl * np.asarray(rows)
 
     crossings = np.concatenate([(bp[:, None] - offs[None, :]).ravel(), bp - half, bp + half])
     s = _candidates(x0 - half, x1 + half, crossings, step)
@@ -230,7 +228,7 @@ def lm71_envelope(line: Line, breakpoints, extent, step: float = 0.05,
 
 def phi_dyn(dynamic_abs, static_abs):
     """Dynamic increment ``phi'_dyn = max|y_dyn| / max|y_stat| - 1`` (EN 1991-2
-    6.4.6.5 [R]); NaN where the static value is 0 or not finite.
+    6.4.6.5); NaN where the static value is 0 or not finite.
 
     Parameters
     ----------
@@ -244,7 +242,7 @@ def phi_dyn(dynamic_abs, static_abs):
 
 
 class Verdict(NamedTuple):
-    """EN 1991-2 6.4.6.5(3) [R] comparison of one effect at one location.
+    """EN 1991-2 6.4.6.5(3) comparison of one effect at one location.
 
     ``real`` = (1 + phi'_dyn + phi''/2) x static effect of the real train / HSLM;
     ``lm71`` = Phi x alpha x LM71; ``ratio = real / lm71``; ``governs`` is
@@ -263,7 +261,7 @@ LM71_GOVERNS = "LM71 × Φ × α"
 
 def verdict(phi_dyn_value: float, phi2: float, static_real: float, lm71_static: float,
             phi: float, alpha: float) -> Verdict:
-    """EN 1991-2 6.4.6.5(3) [R]: the more unfavourable of
+    """EN 1991-2 6.4.6.5(3): the more unfavourable of
     ``(1 + phi'_dyn + phi''/2) x real`` and ``Phi x alpha x LM71`` (magnitudes).
 
     Parameters
@@ -271,7 +269,7 @@ def verdict(phi_dyn_value: float, phi2: float, static_real: float, lm71_static: 
     phi_dyn_value : float
         phi'_dyn of the effect (-).
     phi2 : float
-        phi'' of EN 1991-2 Annex C [R] (-); 0 when the dynamic analysis already includes
+        phi'' of EN 1991-2 Annex C (-); 0 when the dynamic analysis already includes
         the track irregularities.
     static_real : float
         max|static effect| of the real train or HSLM (crawl).
@@ -331,7 +329,7 @@ class LoadEffectChecks(NamedTuple):
         Deck-end rotation check: per end support ``theta_lm71_design`` (rad, LM71 x
         Phi x alpha), ``theta_real_design`` ((1 + phi'_dyn + phi''/2) x the trains'
         static rotation, max over speeds and trains), ``theta_design`` (the larger, the
-        design value of EN 1991-2 6.4.6.5(3) [R]), ``limit``, ``utilisation`` (of
+        design value of EN 1991-2 6.4.6.5(3)), ``limit``, ``utilisation`` (of
         ``theta_design``), ``result``.
     deck : dict
         Whole-deck data for the figure: ``x`` (m) and per effect ("moment", "shear")
@@ -340,7 +338,7 @@ class LoadEffectChecks(NamedTuple):
     factors : dict
         ``alpha``, ``maintenance``, ``phi_name``, ``phi``, ``length`` (L_phi),
         ``length_rule``, ``phi2_max``, ``phi2_note``, ``notes`` (applicability notes,
-        e.g. HSLM-B on a deck it does not cover).
+        e.g. HSLM-B on a deck it does not cover), ``profile`` (the code profile used).
     """
 
     envelopes: object
@@ -393,7 +391,7 @@ def study_factors(ds) -> tuple[float, str]:
 
 
 def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None = None,
-                       length: float | None = None, step: float = 0.05):
+                       length: float | None = None, step: float = 0.05, profile=None):
     """EN 1991-2 6.4.6 checks of the load effects in a results file.
 
     Parameters
@@ -413,6 +411,9 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
         :func:`~vsi_numba.analysis.checks.determinant_length`.
     step : float
         Position grid (m) of the envelope searches (module notes).
+    profile : CodeProfile, optional
+        Code profile (LM71, Phi, phi'', L_Phi, rotation limit, HSLM-B span); default: the
+        one stored with the results.
 
     Returns
     -------
@@ -422,9 +423,9 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
     """
     import pandas as pd
 
+    from vsi_numba.analysis.checks.common import profile_of
     from vsi_numba.analysis.checks.determinant import determinant_length
     from vsi_numba.analysis.dataset import DETERMINISTIC, bridge_frequencies, prepare
-    from vsi_numba.en1990 import END_ROTATION_LIMIT_ABUTMENT
     from vsi_numba.en1991 import dynamic_factor, irregularity_allowance
     from vsi_numba.model.influence import influence
 
@@ -441,19 +442,22 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
     a0, m0 = study_factors(ds)
     alpha = a0 if alpha is None else float(alpha)
     maintenance = m0 if maintenance is None else maintenance
-    lphi = determinant_length(ds, length)
+    profile = profile_of(ds, profile)
+    rot_limit = profile["end_rotation_limit_abutment"]
+    model = lm71(profile)
+    lphi = determinant_length(ds, length, profile)
     if not np.isfinite(lphi.value):
         return f"no determinant length L_Φ ({lphi.rule})"
-    phi = dynamic_factor(lphi.value, maintenance)
+    phi = dynamic_factor(lphi.value, maintenance, profile)
     irr = np.asarray(ds["irregularity"].values)
     det = np.flatnonzero(irr == DETERMINISTIC)
     f = bridge_frequencies(ds)
     speeds = np.asarray(ds["speed"].values, float)
     if det.size:
         isel = {"irregularity": det}
-        phi2 = (irregularity_allowance(speeds, lphi.value, float(f[0])) if f.size
+        phi2 = (irregularity_allowance(speeds, lphi.value, float(f[0]), profile) if f.size
                 else np.full(speeds.size, np.nan))
-        note = "φ'' of EN 1991-2 Annex C [R] on the deterministic track"
+        note = "φ'' of EN 1991-2 Annex C on the deterministic track"
     else:
         isel = {}
         phi2 = np.zeros(speeds.size)
@@ -507,7 +511,7 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
                 e = crawl_envelope(line, wp[t][ok] - wp[t][ok].min(), wl[t][ok], bp, ext,
                                    step=step, n_at=at.size)
                 stat[t] = e.max if name == "deflection" else e.abs
-        lm = lm71_envelope(line, bp, ext, step=step, n_at=at.size)
+        lm = lm71_envelope(line, bp, ext, step=step, n_at=at.size, model=model)
         lm_abs = lm.max if name == "deflection" else lm.abs
         crawl_abs[name], lm71_abs[name] = stat, lm_abs
         real = dyn + 0.5 * phi2[:, None, None] * stat[None, :, :]   # (speed, train, loc)
@@ -567,17 +571,19 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
             th = max(lm, real)   # the design value of 6.4.6.5(3): the more unfavourable
             rot.append({"support": float(sup[end]), "theta_lm71_design": lm,
                         "theta_real_design": real, "theta_design": th,
-                        "limit": END_ROTATION_LIMIT_ABUTMENT,
-                        "utilisation": th / END_ROTATION_LIMIT_ABUTMENT,
-                        "result": "pass" if th <= END_ROTATION_LIMIT_ABUTMENT else "FAIL"})
-    deck = _whole_deck(ds, static, isel, phi * alpha, step)
+                        "limit": rot_limit, "utilisation": th / rot_limit,
+                        "result": "pass" if th <= rot_limit else "FAIL"})
+    deck = _whole_deck(ds, static, isel, phi * alpha, step, model)
     notes = []
+    max_span = profile["hslm_b_max_span"]
     if any(t.casefold() == "hslm-b" for t in trains) and not (
-            static.n_supports == 2 and static.length < HSLM_B_MAX_SPAN):
+            static.n_supports == 2 and static.length < max_span):
         notes.append(f"HSLM-B applies to simply supported spans shorter than "
-                     f"{HSLM_B_MAX_SPAN:g} m ({HSLM_B_CLAUSE}); this deck has spans "
-                     f"{', '.join(f'{x:g}' for x in static.spans)} m: use HSLM-A")
+                     f"{max_span:g} m ({profile.clause('hslm_b_max_span')}); this deck has "
+                     f"spans {', '.join(f'{x:g}' for x in static.spans)} m: use HSLM-A")
     factors = {"alpha": alpha, "maintenance": maintenance, "notes": notes,
+               "profile": profile, "rotation_clause": profile.clause(
+                   "end_rotation_limit_abutment"),
                "phi_name": "Φ3" if maintenance == "standard" else "Φ2", "phi": phi,
                "length": lphi.value, "length_rule": lphi.rule,
                "phi2_max": float(_nanmax(phi2, 0)) if phi2.size else np.nan,
@@ -586,7 +592,7 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
                             pd.DataFrame(ver_rows), pd.DataFrame(rot), deck, factors)
 
 
-def _whole_deck(ds, static, isel, factor, step) -> dict:
+def _whole_deck(ds, static, isel, factor, step, model: LM71 | None = None) -> dict:
     """Dynamic envelopes of the governing train and LM71 x factor on the whole-deck grid."""
     from vsi_numba.model.influence import influence
 
@@ -614,7 +620,7 @@ def _whole_deck(ds, static, isel, factor, step) -> dict:
         t = int(np.nanargmax(size))
         lm = lm71_envelope(lambda xl, eff=eff: influence(static, eff, x, xl),
                            np.concatenate([static.supports, x]), (0.0, static.length),
-                           step=step, n_at=x.size)
+                           step=step, n_at=x.size, model=model)
         out[name] = {"train": str(ds["train"].values[t]),
                      "dyn_max": _nanmax(hi[:, t].reshape(hi.shape[0], -1, x.size), (0, 1)),
                      "dyn_min": -_nanmax(-lo[:, t].reshape(lo.shape[0], -1, x.size), (0, 1)),

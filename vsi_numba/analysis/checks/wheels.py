@@ -1,5 +1,5 @@
-"""Wheel unloading dQ/Q0 (EN 14363 practice [R]) and which trains and wheels a
-wheel check applies to (prescribed forces are not checked)."""
+"""Wheel unloading dQ/Q0 (EN 14363 practice; the limit of the code profile) and which
+trains and wheels a wheel check applies to (prescribed forces are not checked)."""
 
 from __future__ import annotations
 
@@ -9,11 +9,10 @@ import xarray as xr
 from vsi_numba.analysis.checks.common import (
     _RESULT_NA,
     DEFAULT_Q,
-    WHEEL_UNLOADING_CLAUSE,
-    WHEEL_UNLOADING_LIMIT,
     _case_realisation,
     _summarise,
     design_value,
+    profile_of,
 )
 from vsi_numba.analysis.dataset import (
     nanargmax_case,
@@ -25,10 +24,10 @@ from vsi_numba.analysis.dataset import (
 
 
 def wheel_unloading(
-    ds: xr.Dataset, limit: float = WHEEL_UNLOADING_LIMIT, q: float = DEFAULT_Q,
-    n_boot: int = 2000, seed: int = 0,
+    ds: xr.Dataset, limit: float | None = None, q: float = DEFAULT_Q,
+    n_boot: int = 2000, seed: int = 0, profile=None,
 ) -> xr.Dataset:
-    """Wheel unloading dQ/Q0 against 0.6 (EN 14363 practice [R]) and contact loss.
+    """Wheel unloading dQ/Q0 against 0.6 (EN 14363 practice) and contact loss.
 
     Wheels whose contact forces are prescribed (moving forces: min and max contact force
     equal in every case, see :func:`prescribed_wheels`) cannot unload or lose contact:
@@ -43,8 +42,9 @@ def wheel_unloading(
         time separated, s), ``longest_contact_loss`` (longest single separation, s),
         ``single_step_contact_losses`` (separations lasting exactly one time step) and
         ``contact_loss_count`` when present.
-    limit : float
-        Admissible dQ/Q0.
+    limit : float, optional
+        Admissible dQ/Q0; default: ``wheel_unloading_limit`` of the code profile
+        (``profile``, else the results', 0.6 recommended).
     q : float
         Characteristic fractile (upper for dQ/Q0, 1 - q for the minimum contact force).
 
@@ -73,6 +73,9 @@ def wheel_unloading(
     """
     ds = prepare(ds)
     require(ds, ["max_wheel_unloading"], "the wheel unloading check")
+    profile = profile_of(ds, profile)
+    clause = profile.clause("wheel_unloading_limit")
+    limit = profile["wheel_unloading_limit"] if limit is None else float(limit)
     fixed = prescribed_wheels(ds)  # (train, wheel)
     applicable = applicable_trains(ds, fixed)
 
@@ -140,7 +143,7 @@ def wheel_unloading(
         out["contact_loss_count"] = cnt.assign_attrs(
             units="1", long_name="contact-loss events, all wheels (worst realisation)")
         extra["max_contact_loss_count"] = float(nanmax(cnt, ["speed", "train"]))
-    out = _summarise(out, "Wheel unloading ΔQ/Q₀", WHEEL_UNLOADING_CLAUSE, "1", limit,
+    out = _summarise(out, "Wheel unloading ΔQ/Q₀", clause, "1", limit,
                      extra={**extra, "basis": out.attrs["basis"]})
     if not yes:
         out.attrs.update(result=_RESULT_NA, value=np.nan, margin=np.nan, utilisation=np.nan,

@@ -1,0 +1,345 @@
+"""The code profile: every value the checks take from a standard, in one visible table.
+
+Each entry of :data:`TABLE` is a clause value: its key, value, SI unit, clause, a
+description and whether it was *recalled* from the standard and not re-read against the
+primary text ([R], ``shared/notes/railway.md``).  The default profile is
+:data:`DEFAULT_NAME`; a configuration may override any entry that is not marked fixed
+(``[code_profile]``: a national annex, a client's rule), and the profile used travels with
+the results (the ``code_profile`` section of the stored configuration, ``config_json``),
+so that ``vsi report`` on a results file checks it with the profile of its study.
+
+Where an entry applies (:attr:`Entry.applies`):
+
+- ``"checks"``: read by the checks of a results file (``vsi report``, ``vsi sweep``'s
+  governing summary) from the stored profile;
+- ``"input"``: applied when the configuration is read (damping rules, the range of the
+  classification factor, the HSLM applicability and HSLM-B's N and d);
+- ``"fixed"``: part of a model or of the run itself (the HSLM-B force, the acceleration
+  cut-off of the solver): not overridable here; :attr:`Entry.note` says what to set
+  instead.
+
+This module imports nothing of the package (the rules of :mod:`vsi_numba.en1990` and
+:mod:`vsi_numba.en1991` read it).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from functools import lru_cache
+
+#: Name of the default profile.
+DEFAULT_NAME = "EN 1990 A2 / EN 1991-2:2003 recommended values"
+#: Marker of a recalled value in the report's profile table.
+RECALLED = "[R]"
+#: What the [R] marker means (printed once, under the profile table).
+RECALLED_MEANING = ("recalled from the standard and not re-read against the primary text: "
+                    "check it before relying on it as a hard value")
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One clause value of the code profile.
+
+    Attributes
+    ----------
+    key : str
+        Name in ``[code_profile] overrides``.
+    value : float
+        Value in SI units (``unit``).
+    unit : str
+        Units (``"1"`` dimensionless, ``"%"`` for the Table 6.6 percentages).
+    clause : str
+        Clause of the standard (or, for an override, the source the configuration names).
+    description : str
+        What the value is.
+    recalled : bool
+        True when the value was recalled and not re-read ([R]); False for an override.
+    applies : str
+        "checks", "input" or "fixed" (module notes).
+    integer : bool
+        A whole number (counts).
+    note : str
+        For a fixed entry, what to set instead.
+    overridden : bool
+        Set by the configuration.
+    default : float
+        The recommended value (equal to ``value`` unless overridden).
+    """
+
+    key: str
+    value: float
+    unit: str
+    clause: str
+    description: str
+    recalled: bool = True
+    applies: str = "checks"
+    integer: bool = False
+    note: str = ""
+    overridden: bool = False
+    default: float = math.nan
+
+
+_A2_ACC = "EN 1990 A2.4.4.2.1(4)P"
+_A2_COMFORT = "EN 1990 A2.4.4.3.2, Table A2.9"
+_ROT = "EN 1991-2 6.5.4.5.2"
+_TWIST = "EN 1990 A2.4.4.2.2, Table A2.7"
+_T66 = "EN 1991-2 6.4.6.3.1, Table 6.6"
+_T62 = "EN 1991-2 6.4.5.3, Table 6.2"
+_PHI = "EN 1991-2 6.4.5.2"
+_ANNEX_C = "EN 1991-2 Annex C"
+_LM71 = "EN 1991-2 6.3.2, Fig. 6.1"
+_HSLM = "EN 1991-2 6.4.6.1.1, Annex E (Table E.4)"
+_FIG613 = "EN 1991-2 6.4.6.1.1, Fig. 6.13"
+
+#: The table: (key, value, unit, clause, description, recalled, applies[, integer/note]).
+TABLE: tuple[Entry, ...] = (
+    # ---------------------------------------------------------------- EN 1990 Annex A2
+    Entry("deck_acceleration_limit_ballasted", 3.5, "m s-2", _A2_ACC,
+          "peak deck acceleration, ballasted track (gamma_bt = 0.35 g; the value is "
+          "confirmed by a secondary source, the clause is recalled)"),
+    Entry("deck_acceleration_limit_direct_fastening", 5.0, "m s-2", _A2_ACC,
+          "peak deck acceleration, direct-fastened track (gamma_df)"),
+    Entry("acceleration_cutoff_min_frequency", 30.0, "Hz", _A2_ACC,
+          "lowest upper frequency of the modes counted in the deck acceleration, "
+          "max(30 Hz, 1.5 f1, f3)", applies="fixed",
+          note="applied by the solver during the runs: set solver.acceleration_cutoff"),
+    Entry("acceleration_cutoff_f1_factor", 1.5, "1", _A2_ACC,
+          "factor on the fundamental frequency in the cut-off max(30 Hz, 1.5 f1, f3)",
+          applies="fixed",
+          note="applied by the solver during the runs: set solver.acceleration_cutoff"),
+    Entry("comfort_very_good", 1.0, "m s-2", _A2_COMFORT,
+          "car-body vertical acceleration b_v, level of comfort 'very good'"),
+    Entry("comfort_good", 1.3, "m s-2", _A2_COMFORT,
+          "car-body vertical acceleration b_v, level of comfort 'good'"),
+    Entry("comfort_acceptable", 2.0, "m s-2", _A2_COMFORT,
+          "car-body vertical acceleration b_v, level of comfort 'acceptable'"),
+    Entry("end_rotation_limit_abutment", 6.5e-3, "rad", _ROT,
+          "ballasted track: rotation of a deck end relative to the abutment under "
+          "LM71 x Phi x alpha"),
+    Entry("end_rotation_limit_decks", 10e-3, "rad", _ROT,
+          "ballasted track: sum of the rotations of two consecutive decks at a joint "
+          "(printed with the rotation check; single decks use the abutment limit)"),
+    Entry("twist_limit_up_to_120", 4.5e-3, "m", _TWIST,
+          "deck twist over 3 m, V <= 120 km/h (no check computes the twist yet)"),
+    Entry("twist_limit_up_to_200", 3.0e-3, "m", _TWIST,
+          "deck twist over 3 m, 120 < V <= 200 km/h (no check computes the twist yet)"),
+    Entry("twist_limit_above_200", 1.5e-3, "m", _TWIST,
+          "deck twist over 3 m, V > 200 km/h (no check computes the twist yet)"),
+    # ------------------------------------------------------------------ wheel unloading
+    Entry("wheel_unloading_limit", 0.6, "1", "EN 14363 / UIC practice",
+          "admissible wheel unloading dQ/Q0"),
+    # ------------------------------------------------------------------ EN 1991-2 damping
+    Entry("damping_steel_composite", 0.5, "%", _T66,
+          "lower-bound damping, steel and composite decks, L >= 20 m", recalled=False,
+          applies="input"),
+    Entry("damping_steel_composite_slope", 0.125, "% per m", _T66,
+          "increase per metre below L = 20 m, steel and composite", recalled=False,
+          applies="input"),
+    Entry("damping_prestressed_concrete", 1.0, "%", _T66,
+          "lower-bound damping, prestressed concrete, L >= 20 m", recalled=False,
+          applies="input"),
+    Entry("damping_prestressed_concrete_slope", 0.07, "% per m", _T66,
+          "increase per metre below L = 20 m, prestressed concrete", recalled=False,
+          applies="input"),
+    Entry("damping_filler_beam_reinforced_concrete", 1.5, "%", _T66,
+          "lower-bound damping, filler beam and reinforced concrete, L >= 20 m",
+          recalled=False, applies="input"),
+    Entry("damping_filler_beam_reinforced_concrete_slope", 0.07, "% per m", _T66,
+          "increase per metre below L = 20 m, filler beam and reinforced concrete",
+          recalled=False, applies="input"),
+    Entry("additional_damping_max_span", 30.0, "m", "EN 1991-2 6.4.6.3.1(3)",
+          "spans below which the additional damping dzeta of moving-force analyses applies",
+          applies="input"),
+    # -------------------------------------------------------- L_Phi, Phi_2 / Phi_3, phi''
+    Entry("determinant_length_k2", 1.2, "1", _T62,
+          "L_Phi = k L_m of a continuous deck of 2 spans"),
+    Entry("determinant_length_k3", 1.3, "1", _T62,
+          "L_Phi = k L_m of a continuous deck of 3 spans"),
+    Entry("determinant_length_k4", 1.4, "1", _T62,
+          "L_Phi = k L_m of a continuous deck of 4 spans"),
+    Entry("determinant_length_k5", 1.5, "1", _T62,
+          "L_Phi = k L_m of a continuous deck of 5 or more spans"),
+    Entry("phi2_a", 1.44, "m^0.5", _PHI,
+          "Phi_2 = a / (sqrt(L_Phi) - 0.2) + b (carefully maintained track): a"),
+    Entry("phi2_b", 0.82, "1", _PHI, "Phi_2: b"),
+    Entry("phi2_max", 1.67, "1", _PHI, "Phi_2 upper bound (lower bound 1.00)"),
+    Entry("phi3_a", 2.16, "m^0.5", _PHI,
+          "Phi_3 = a / (sqrt(L_Phi) - 0.2) + b (standard maintenance): a"),
+    Entry("phi3_b", 0.73, "1", _PHI, "Phi_3: b"),
+    Entry("phi3_max", 2.00, "1", _PHI, "Phi_3 upper bound (lower bound 1.00)"),
+    Entry("irregularity_allowance_speed", 22.0, "m s-1", _ANNEX_C,
+          "phi'' = a [c1 exp(-(L/10)^2) + c2 (n0 L / 80 - 1) exp(-(L/20)^2)], "
+          "a = min(v / this speed, 1)"),
+    Entry("irregularity_allowance_c1", 0.56, "1", _ANNEX_C, "phi'': c1"),
+    Entry("irregularity_allowance_c2", 0.50, "1", _ANNEX_C, "phi'': c2"),
+    # ---------------------------------------------------------------------------- LM71
+    Entry("lm71_axle_load", 250e3, "N", _LM71, "LM71: each of the four point forces Q_vk"),
+    Entry("lm71_axle_spacing", 1.6, "m", _LM71,
+          "LM71: spacing of the four point forces (zone of 4 spacings, centred on them)"),
+    Entry("lm71_udl", 80e3, "N m-1", _LM71,
+          "LM71: distributed load q_vk outside the zone, where unfavourable"),
+    Entry("classification_factor_min", 0.75, "1", "EN 1991-2 6.3.2(3)",
+          "smallest load classification factor alpha (study.classification_factor)",
+          applies="input"),
+    Entry("classification_factor_max", 1.46, "1", "EN 1991-2 6.3.2(3)",
+          "largest load classification factor alpha (study.classification_factor)",
+          applies="input"),
+    # ---------------------------------------------------------------- HSLM applicability
+    Entry("hslm_b_max_span", 7.0, "m", _HSLM,
+          "HSLM-B for simply supported spans below this; HSLM-A at and above it and for "
+          "continuous decks", applies="input"),
+    Entry("hslm_b_N_min", 10, "1", _FIG613, "HSLM-B: fewest point forces N", applies="input",
+          integer=True),
+    Entry("hslm_b_N_max", 20, "1", _FIG613, "HSLM-B: most point forces N", applies="input",
+          integer=True),
+    Entry("hslm_b_d_min", 2.5, "m", _FIG613, "HSLM-B: smallest spacing d", applies="input"),
+    Entry("hslm_b_d_max", 3.5, "m", _FIG613, "HSLM-B: largest spacing d", applies="input"),
+    Entry("hslm_b_load", 170e3, "N", _FIG613, "HSLM-B: each point force", applies="fixed",
+          note="part of the HSLM-B model: give another train (train.axles) instead"),
+)
+
+#: Keys of :data:`TABLE`, in table order.
+KEYS = tuple(e.key for e in TABLE)
+#: Pairs (lower, upper) of entries that must stay ordered.
+ORDERED = (
+    ("comfort_very_good", "comfort_good"),
+    ("comfort_good", "comfort_acceptable"),
+    ("classification_factor_min", "classification_factor_max"),
+    ("hslm_b_N_min", "hslm_b_N_max"),
+    ("hslm_b_d_min", "hslm_b_d_max"),
+    ("twist_limit_above_200", "twist_limit_up_to_200"),
+    ("twist_limit_up_to_200", "twist_limit_up_to_120"),
+)
+
+
+@dataclass(frozen=True)
+class CodeProfile:
+    """A code profile: :data:`TABLE` with the overrides of a configuration applied.
+
+    ``profile[key]`` is the value (float, or int for counts); :meth:`entry` the whole
+    :class:`Entry`; :attr:`overridden` the keys a configuration set.
+    """
+
+    name: str
+    entries: tuple[Entry, ...]
+
+    def __getitem__(self, key: str):
+        e = self.entry(key)
+        return int(e.value) if e.integer else float(e.value)
+
+    def entry(self, key: str) -> Entry:
+        """The entry ``key`` (KeyError naming the known keys otherwise)."""
+        for e in self.entries:
+            if e.key == key:
+                return e
+        raise KeyError(f"code profile has no entry {key!r}; expected one of {', '.join(KEYS)}")
+
+    def clause(self, *keys: str) -> str:
+        """The clause(s) of ``keys`` without the [R] tag (distinct, in order), with
+        "(override)" after the source of an overridden entry."""
+        out: list[str] = []
+        for k in keys:
+            e = self.entry(k)
+            text = f"{e.clause} (override)" if e.overridden else e.clause
+            if text not in out:
+                out.append(text)
+        return "; ".join(out)
+
+    @property
+    def overridden(self) -> tuple[str, ...]:
+        """Keys set by the configuration."""
+        return tuple(e.key for e in self.entries if e.overridden)
+
+    @property
+    def is_default(self) -> bool:
+        """True for the recommended values without overrides."""
+        return self.name == DEFAULT_NAME and not self.overridden
+
+    def summary(self) -> str:
+        """One line: the name and the overrides (``key = value``)."""
+        if not self.overridden:
+            return f"code profile: {self.name}"
+        parts = [f"{k} = {self.entry(k).value:g}" for k in self.overridden]
+        return f"code profile: {self.name}; overrides: {', '.join(parts)}"
+
+    def rows(self) -> list[dict]:
+        """The table as rows: key, value, unit, clause, recalled ("[R]" or ""), default,
+        overridden (bool), applies, description."""
+        return [{"key": e.key, "value": e.value, "unit": e.unit, "clause": e.clause,
+                 "recalled": RECALLED if e.recalled else "", "default": e.default,
+                 "overridden": e.overridden, "applies": e.applies,
+                 "description": e.description} for e in self.entries]
+
+
+def _with_defaults() -> tuple[Entry, ...]:
+    return tuple(replace(e, default=e.value) for e in TABLE)
+
+
+@lru_cache(maxsize=1)
+def default_profile() -> CodeProfile:
+    """The recommended values (:data:`DEFAULT_NAME`)."""
+    return CodeProfile(DEFAULT_NAME, _with_defaults())
+
+
+def override_value(given):
+    """``(value, clause)`` of one override as written: a number, or a table
+    ``{value = ..., clause = "..."}``; ``(None, None)`` when neither."""
+    if isinstance(given, Mapping):
+        clause = given.get("clause")
+        return _number(given.get("value")), clause if isinstance(clause, str) else None
+    return _number(given), None
+
+
+def _number(v):
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        return None
+    try:
+        return float(v) if math.isfinite(float(v)) else None
+    except OverflowError:
+        return None
+
+
+def profile_from(section) -> CodeProfile:
+    """The profile of a ``code_profile`` section (as stored: ``name``, ``overrides``).
+
+    The section has been validated when the configuration was read
+    (:mod:`vsi_numba.config.code_profile`); here unknown keys, fixed entries and
+    non-numbers are skipped, so a damaged stored configuration gives the recommended
+    value of those entries rather than an error.  None or an empty section: the default.
+    """
+    if not isinstance(section, Mapping) or not section:
+        return default_profile()
+    name = section.get("name")
+    name = name.strip() if isinstance(name, str) and name.strip() else DEFAULT_NAME
+    overrides = section.get("overrides")
+    overrides = overrides if isinstance(overrides, Mapping) else {}
+    entries = []
+    for e in _with_defaults():
+        if e.key in overrides and e.applies != "fixed":
+            value, clause = override_value(overrides[e.key])
+            if value is not None:
+                e = replace(e, value=int(value) if e.integer else value, overridden=True,
+                            recalled=False,
+                            clause=clause or f"{name} (was {e.clause})")
+        entries.append(e)
+    if name == DEFAULT_NAME and not any(e.overridden for e in entries):
+        return default_profile()
+    return CodeProfile(name, tuple(entries))
+
+
+def of_config(config) -> CodeProfile:
+    """The profile of a stored (resolved) configuration mapping."""
+    if not isinstance(config, Mapping):
+        return default_profile()
+    return profile_from(config.get("code_profile"))
+
+
+def resolve(profile) -> CodeProfile:
+    """``profile`` itself, the default for None, or the profile of a stored section."""
+    if profile is None:
+        return default_profile()
+    if isinstance(profile, CodeProfile):
+        return profile
+    return profile_from(profile)

@@ -66,6 +66,8 @@ class Entry:
         Set by the configuration.
     default : float
         The recommended value (equal to ``value`` unless overridden).
+    default_clause : str
+        The clause of the recommended value (equal to ``clause`` unless overridden).
     """
 
     key: str
@@ -79,6 +81,7 @@ class Entry:
     note: str = ""
     overridden: bool = False
     default: float = math.nan
+    default_clause: str = ""
 
 
 _A2_ACC = "EN 1990 A2.4.4.2.1(4)P"
@@ -266,15 +269,15 @@ class CodeProfile:
 
     def rows(self) -> list[dict]:
         """The table as rows: key, value, unit, clause, recalled ("[R]" or ""), default,
-        overridden (bool), applies, description."""
+        default_clause, overridden (bool), applies, description."""
         return [{"key": e.key, "value": e.value, "unit": e.unit, "clause": e.clause,
                  "recalled": RECALLED if e.recalled else "", "default": e.default,
-                 "overridden": e.overridden, "applies": e.applies,
-                 "description": e.description} for e in self.entries]
+                 "default_clause": e.default_clause, "overridden": e.overridden,
+                 "applies": e.applies, "description": e.description} for e in self.entries]
 
 
 def _with_defaults() -> tuple[Entry, ...]:
-    return tuple(replace(e, default=e.value) for e in TABLE)
+    return tuple(replace(e, default=e.value, default_clause=e.clause) for e in TABLE)
 
 
 @lru_cache(maxsize=1)
@@ -320,12 +323,14 @@ def profile_from(section) -> CodeProfile:
         if e.key in overrides and e.applies != "fixed":
             value, clause = override_value(overrides[e.key])
             if value is not None:
+                source = clause or (name if name != DEFAULT_NAME else "configuration")
                 e = replace(e, value=int(value) if e.integer else value, overridden=True,
-                            recalled=False,
-                            clause=clause or f"{name} (was {e.clause})")
+                            recalled=False, clause=source)
         entries.append(e)
-    if name == DEFAULT_NAME and not any(e.overridden for e in entries):
-        return default_profile()
+    if name == DEFAULT_NAME:
+        if not any(e.overridden for e in entries):
+            return default_profile()
+        name = f"{DEFAULT_NAME}, with the configuration's overrides"
     return CodeProfile(name, tuple(entries))
 
 

@@ -27,6 +27,12 @@ from vsi_numba.config._check import (
     _show,
 )
 from vsi_numba.config.bridge import EN_DAMPING, MIN_SPAN, _bridge_section, _BridgeSpec
+from vsi_numba.config.code_profile import (
+    _code_profile_section,
+    _damping_rules,
+    _hslm_applicability,
+    profile_of_section,
+)
 from vsi_numba.config.irregularity import (
     _check_file_coverage,
     _defect_profile,
@@ -173,6 +179,12 @@ class Config:
         """The EN 1991-2 6.4.6.3.1 rule ``additional_damping = true`` applied (text), or
         None."""
         return self._derived.get("additional_damping_rule")
+
+    @property
+    def code_profile(self):
+        """The code profile of ``[code_profile]`` (:mod:`vsi_numba.code_profile`; the
+        recommended values without the section)."""
+        return profile_of_section(self._resolved.get("code_profile"))
 
     @property
     def damping_ratio(self):
@@ -462,7 +474,7 @@ def _check_run_count(cfg: Config, source: str) -> None:
 def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     chk = _Checker()
     top = {"title", "bridge", "train", "irregularity", "solver", "contact", "track", "study",
-           "report"}
+           "report", "code_profile"}
     chk.table(data, "", top)
     default_title = path.stem if path is not None else "untitled"
     title = chk.string(data, "", "title", "a title (string)", default=None, nonempty=False)
@@ -483,7 +495,10 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     )
     irr = _irregularity_section(chk, data.get("irregularity", _MISSING), base)
     stem = path.stem if path is not None else "run"
-    study = _study_section(chk, data.get("study", _MISSING), f"results/{stem}.nc", base)
+    code_profile = _code_profile_section(chk, data.get("code_profile", _MISSING))
+    profile = profile_of_section(code_profile)
+    study = _study_section(chk, data.get("study", _MISSING), f"results/{stem}.nc", base,
+                           profile)
     report = _report_section(chk, data.get("report", _MISSING))
 
     if _ok(bridge, solver, irr) and irr.file_profile is not None:
@@ -499,6 +514,7 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
 
         raise ConfigError(sorted(chk.errors, key=rank), source=source)
 
+    bridge = _damping_rules(chk, bridge, profile)
     stored_speeds = list(study.resolved["speeds_kmh"])  # before the refinement
     if study.resolved.get("refine_resonance"):
         _refine_resonance(study.resolved, bridge, train)
@@ -512,6 +528,7 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     _physics_warnings(chk, bridge, train, irr, solver, study.resolved, contact, track)
     _plausibility(chk, bridge, train, irr, solver, study.resolved, contact)
     _track_plausibility(chk, train, solver, track, bridge)
+    _hslm_applicability(chk, bridge, train, solver, profile, _refuse)
     if chk.errors:  # checks of the whole model (time step, budget, plausibility)
         raise ConfigError(chk.errors, source=source)
     stored_bridge, derived = _stored_bridge(bridge.resolved)
@@ -536,6 +553,7 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
         **({"track": track} if track["model"] != "bridge_layer" else {}),
         "study": stored_study,
         **({"report": report} if report else {}),
+        **({"code_profile": code_profile} if code_profile else {}),
     }
     cfg = Config(
         title=resolved["title"], path=path, base_dir=base, resolved=resolved, bridge=bridge,

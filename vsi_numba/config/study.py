@@ -63,7 +63,8 @@ def _line_speed_grid(line: float) -> list[float]:
     return grid.tolist()
 
 
-def _study_section(chk, d, default_output: str, base_dir: Path) -> _StudySpec | _Sentinel:
+def _study_section(chk, d, default_output: str, base_dir: Path, profile=None
+                   ) -> _StudySpec | _Sentinel:
     path = "study"
     allowed = {"speeds_kmh", "output", "save_time_histories", "line_speed_kmh",
                "history_speeds_kmh", "vary", "vary_together", "mass_bounds",
@@ -143,12 +144,16 @@ def _study_section(chk, d, default_output: str, base_dir: Path) -> _StudySpec | 
     axes = _vary_axes(chk, d)
     refine = chk.boolean(d, path, "refine_resonance", False)
     lo, hi = ALPHA_RANGE
+    clause = ALPHA_CLAUSE
+    if profile is not None:  # the code profile's range (a national annex may widen it)
+        lo, hi = profile["classification_factor_min"], profile["classification_factor_max"]
+        clause = profile.clause("classification_factor_min", "classification_factor_max")
     alpha = chk.get_number(d, path, "classification_factor", _Num(
-        f"a load classification factor alpha of LM71 in [{lo:g}, {hi:g}] ({ALPHA_CLAUSE})",
+        f"a load classification factor alpha of LM71 in [{lo:g}, {hi:g}] ({clause})",
         ge=lo, le=hi, default=None))
     maint = chk.choice(d, path, "track_maintenance", tuple(TRACK_MAINTENANCE), default=None,
                        note=" (the dynamic factor of LM71: 'careful' maintenance Phi_2, "
-                            "'standard' Phi_3, EN 1991-2 6.4.5.2 [R])")
+                            "'standard' Phi_3, EN 1991-2 6.4.5.2)")
     effects = chk.boolean(d, path, "load_effects", True)
     if not _ok(line, speeds, output, save, hist, out_full, axes, refine, alpha, maint,
                effects):

@@ -40,6 +40,8 @@ STATUS_MEANING = {
     ),
     "suspect": "transcribed, but with documented inconsistencies",
     "user": "defined in a user train file",
+    "user-given": ("EN 1991-2 HSLM-B with the number of forces N and their spacing d given "
+                   "in the configuration (Fig. 6.13 is not available here)"),
 }
 """One line per data status (``Train.status``)."""
 

@@ -22,6 +22,8 @@ HSLM_B_NAME = "HSLM-B"
 #: Data status of HSLM-B in the library listing: a standard load model whose N and d are
 #: not available here (Fig. 6.13 curves [NF]); the configuration gives them.
 HSLM_B_STATUS = "no data (NF)"
+#: Data status of an HSLM-B train built from the configuration's N and d.
+HSLM_B_TRAIN_STATUS = "user-given"
 #: Why HSLM-B needs N and d from the user (the message of a config without them).
 HSLM_B_MISSING = (
     f"HSLM-B ({HSLM_B_CLAUSE}) is N point forces of {HSLM_B_LOAD / 1e3:g} kN at a uniform "
@@ -53,15 +55,16 @@ def hslm_b_train(n: int, d: float, name: str = HSLM_B_NAME) -> Train:
     -------
     Train
         Moving forces at 0, d, ..., (n - 1) d (m behind the first axle), status
-        "standard", regular length d (the resonance spacing).
+        "user-given" (the load model is standard, its N and d are the user's), regular
+        length d (the resonance spacing).
     """
     if int(n) != n or n < 1:
         raise ValueError(f"HSLM-B N = {n!r}: expected a whole number of forces >= 1")
     if not (np.isfinite(d) and d > 0):
         raise ValueError(f"HSLM-B d = {d!r}: expected a spacing > 0 m")
     pos = float(d) * np.arange(int(n))
-    veh = point_loads(pos, HSLM_B_LOAD, name=name, status="standard")
-    return Train(name, (veh,), (0.0,), status="standard", regular_length=float(d))
+    veh = point_loads(pos, HSLM_B_LOAD, name=name, status=HSLM_B_TRAIN_STATUS)
+    return Train(name, (veh,), (0.0,), status=HSLM_B_TRAIN_STATUS, regular_length=float(d))
 
 
 class AxleFileError(ValueError):

@@ -44,7 +44,9 @@ def _main(
 def run(
     config: Path = typer.Argument(..., metavar="CONFIG", help="TOML configuration file"),
     output: Path | None = typer.Option(None, "-o", "--output", help="netCDF output file"),
-    quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress output"),
+    quiet: bool = typer.Option(False, "--quiet", "-q",
+                               help="no progress bar, summary lines or config warnings "
+                                    "(errors are still printed)"),
 ):
     """Run the speeds of one configuration (first train, first realisation) to netCDF."""
     from vsi_numba.cli.run import run_command
@@ -62,7 +64,9 @@ def sweep(
     scheduler: str | None = typer.Option(
         None, "--scheduler", help="address of an existing Dask scheduler, tcp://HOST:PORT"
     ),
-    quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress bar"),
+    quiet: bool = typer.Option(False, "--quiet", "-q",
+                               help="no progress bar, summary lines or config warnings "
+                                    "(errors and the governing results are still printed)"),
     fresh: bool = typer.Option(
         False, "--fresh", help="discard finished cases stored by an earlier run and start over"
     ),

@@ -33,6 +33,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from vsi_numba.cli.common import EXIT_USAGE, Printer, load_config
 
 #: Seconds of a warm start: interpreter, imports, the numba cache, writing the file.
@@ -89,6 +91,10 @@ class StudyEstimate:
     cpu_seconds: float
     memory_bytes: float
     disk_bytes: float
+    frequencies_hz: tuple = ()
+    damping_ratios: tuple = ()
+    additional_damping: float = 0.0
+    speeds_kmh: tuple = ()
 
 
 def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
@@ -120,6 +126,7 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
     )
 
     vcfgs = [v for _, v in cfg.variants] or [cfg]
+    first_model = None
     plan, steps, hist_runs, raw_hist, disk_hist = [], 0, 0, 0.0, 0.0
     env_width = {"point": 0, "wheel": 0, "vehicle": 0}
     grid = None
@@ -127,6 +134,7 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
         spec = study_spec(c)
         model = _build_model(c)
         _remember(spec, model)
+        first_model = first_model or model
         grid = grid or study_grid(model)
         batches = study_plan(spec, model, grid, variant=k if cfg.variants else None,
                              start=len(plan))
@@ -166,7 +174,13 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
         n_variants=len(vcfgs), n_speeds=n_s, n_trains=n_t, n_realisations=n_i,
         n_runs=n_runs, n_batches=len(plan), n_history_runs=hist_runs, n_steps=int(steps),
         workers=n_workers, seconds=seconds, cpu_seconds=cpu_seconds, memory_bytes=memory,
-        disk_bytes=disk)
+        disk_bytes=disk,
+        frequencies_hz=tuple(float(f) for f in first_model.bridge.frequencies),
+        damping_ratios=tuple(float(z) for z in np.broadcast_to(
+            first_model.bridge.damping, first_model.bridge.frequencies.shape)),
+        additional_damping=float(getattr(first_model.config, "additional_damping", 0.0)
+                                 or 0.0),
+        speeds_kmh=tuple(float(v) for v in grid.speeds_kmh))
 
 
 def _size(n_bytes: float) -> str:
@@ -182,6 +196,37 @@ def _duration(s: float) -> str:
     if s < 5400:
         return f"{s / 60:.0f} min"
     return f"{s / 3600:.1f} h"
+
+
+def _list(values, fmt, limit: int = 8) -> str:
+    shown = [format(v, fmt) for v in values[:limit]]
+    return ", ".join(shown) + (f", ... ({len(values) - limit} more)" if len(values) > limit
+                               else "")
+
+
+def model_lines(est: StudyEstimate, variants: bool = False) -> list[str]:
+    """The retained modes (frequencies, damping ratios) and the speed grid, as printed."""
+    f, z = est.frequencies_hz, est.damping_ratios
+    lines = []
+    base = " (base values; the variants change them)" if variants else ""
+    if f:
+        extra = (f"; + {100 * est.additional_damping:.2f} % for moving-force trains "
+                 "(EN 1991-2 6.4.6.3.1)" if est.additional_damping > 0 else "")
+        lines.append(f"modes: {len(f)} retained, f = {_list(f, '.4g')} Hz; damping "
+                     f"ratios {_list([100 * v for v in z], '.2f')} %{extra}{base}")
+    else:
+        lines.append("modes: none (rigid track)")
+    v = np.asarray(est.speeds_kmh, float)
+    if v.size == 1:
+        lines.append(f"speeds: 1, {v[0]:g} km/h")
+    elif v.size:
+        steps = np.diff(v)
+        step = (f"step {steps[0]:g} km/h" if np.allclose(steps, steps[0], rtol=1e-6,
+                                                           atol=1e-9)
+                else f"steps {steps.min():g} to {steps.max():g} km/h")
+        lines.append(f"speeds: {v.size} from {v[0]:g} to {v[-1]:g} km/h, {step} "
+                     f"({v[0] / 3.6:.4g} to {v[-1] / 3.6:.4g} m/s)")
+    return lines
 
 
 def check_command(config: Path, workers: int | None = None) -> int:
@@ -209,10 +254,16 @@ def check_command(config: Path, workers: int | None = None) -> int:
     n_v = f"{n(est.n_variants, 'variant')} x " if cfg.variants else ""
     pr.line(f"{config}: valid configuration ({len(cfg.warnings)} warning"
             f"{'' if len(cfg.warnings) == 1 else 's'}), config SHA-256 {cfg.sha256[:12]}")
+    if any(v.loads.size for t in cfg.trains() for v in t.vehicles):
+        from vsi_numba.model.distribution import describe_config
+
+        pr.line(f"input: {describe_config(cfg.resolved())}")
     pr.line(f"study: {n(est.n_runs, 'run')} = {n_v}{n(est.n_speeds, 'speed')} x "
             f"{n(est.n_trains, 'train')} x {n(est.n_realisations, 'track realisation')}, in "
             f"{n(est.n_batches, 'batch', 'batches')}; {n(est.n_steps, 'time step')}; "
             f"time histories of {n(est.n_history_runs, 'run')}")
+    for line in model_lines(est, bool(cfg.variants)):
+        pr.line(line)
     pr.line(f"estimate (warm numba cache, {est.workers} worker"
             f"{'' if est.workers == 1 else 's'}): time ~{_duration(est.seconds)}, peak "
             f"memory ~{_size(est.memory_bytes)}, results file ~{_size(est.disk_bytes)} "

@@ -23,8 +23,9 @@ def run_command(config: Path, output: Path | None, quiet: bool) -> int:
     if loaded is None:
         return EXIT_USAGE
     cfg, out_path = loaded
-    for w in cfg.base_warnings:  # the run is of the base values, not of study.vary
-        pr.warning(w)
+    if not quiet:  # -q: no progress, summary lines or config warnings; errors stay
+        for w in cfg.base_warnings:  # the run is of the base values, not of study.vary
+            pr.warning(w)
     parts = ["vsi", "run", str(config)] + (["-o", str(output)] if output is not None else [])
     try:
         outcome = run_config(cfg, out_path, progress=not quiet, quiet=quiet,

@@ -103,9 +103,28 @@ def sweep_command(config: Path, output: Path | None, workers: int | None,
                     1)
     _print_governing(out_path, pr)
     if report_dir is not None:  # 0 or 1 here: the results file is written
-        from vsi_numba.cli.report import report_command
+        code = code or _report(out_path, report_dir, quiet)
+    return code
 
-        code = code or report_command(out_path, report_dir)
+
+def _report(out_path: Path, report_dir: Path, quiet: bool) -> int:
+    """``vsi report`` of the written file; with ``quiet`` its warning lines (the
+    configuration's warnings stored in the file) are left out, its errors kept."""
+    import contextlib
+    import io
+    import sys
+
+    from vsi_numba.cli.report import report_command
+
+    if not quiet:
+        return report_command(out_path, report_dir)
+    buf = io.StringIO()
+    with contextlib.redirect_stderr(buf):
+        code = report_command(out_path, report_dir)
+    kept = [line for line in buf.getvalue().splitlines()
+            if not line.startswith("vsi report: warning:")]
+    if kept:
+        sys.stderr.write("\n".join(kept) + "\n")
     return code
 
 

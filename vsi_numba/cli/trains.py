@@ -53,7 +53,7 @@ def trains_command(name: str | None = None) -> int:
                               "d")
                 continue
             table.add_row(
-                r.name, st, str(r.axles), f"{r.length_m:.3f}", f"{r.total_mass_t:.1f}",
+                r.name, st, str(int(r.axles)), f"{r.length_m:.3f}", f"{r.total_mass_t:.1f}",
                 f"{r.max_axle_load_kN:.1f}",
                 f"{r.regular_length_m:g}" if r.regular_length_m else "-",
             )

@@ -1,0 +1,103 @@
+"""What the commands print: ``-q`` as the README describes it, ``vsi trains`` axle
+counts as integers, ``vsi check``'s modes, damping and speed grid."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+from typer.testing import CliRunner
+
+from vsi_numba.cli import app
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def invoke(*args):
+    return CliRunner().invoke(app, [str(a) for a in args])
+
+
+def vsi(*args) -> subprocess.CompletedProcess:
+    """``python -m vsi_numba.cli ARGS`` as a user runs it (stdout and stderr apart)."""
+    return subprocess.run([sys.executable, "-m", "vsi_numba.cli", *map(str, args)],
+                          capture_output=True, text=True, timeout=600,
+                          env={**os.environ, "PYTHONPATH": str(ROOT)})
+
+
+def warned_config(directory: Path) -> Path:
+    """A moving-force study with two config warnings (a short approach, a mode below the
+    EN 1990 A2 cut-off): 15 m span, EI 1e10 N m2, 12 t/m, 2 modes."""
+    path = directory / "q.toml"
+    path.write_text(textwrap.dedent("""
+        title = "quiet test"
+        [bridge]
+        kind = "simply_supported"
+        spans = [15.0]
+        EI = 1.0e10
+        mass_per_length = 12000.0
+        damping_ratio = [0.02, 0.015]
+        n_modes = 2
+        [train]
+        preset = ["HSLM-A1"]
+        [solver]
+        dt = 2e-3
+        approach = 2.0
+        free_vibration = 0.1
+        [study]
+        speeds_kmh = { start = 200.0, stop = 250.0, step = 25.0 }
+        output = "out.nc"
+        """))
+    return path
+
+
+def test_quiet__run_and_sweep_print_no_warning_progress_or_summary(tmp_path):
+    """README: ``-q`` = no progress bar, summary lines or config warnings (errors are
+    still printed; the sweep's governing results stay on stdout).  Without ``-q`` the
+    same commands print the two warnings once each (so the test can fail)."""
+    config = warned_config(tmp_path)
+    loud = vsi("sweep", config, "-o", tmp_path / "l.nc", "--report", tmp_path / "lr")
+    assert loud.returncode == 0, loud.stderr
+    assert loud.stderr.count("warning: solver.approach = 2 m") == 2  # sweep, report
+    assert "runs in 1 batches" in loud.stderr
+    run = vsi("run", config, "-o", tmp_path / "r.nc", "-q")
+    assert run.returncode == 0 and (tmp_path / "r.nc").is_file()
+    assert run.stderr == "" and run.stdout == ""
+    sweep = vsi("sweep", config, "-o", tmp_path / "s.nc", "-q", "--report", tmp_path / "sr")
+    assert sweep.returncode == 0 and (tmp_path / "sr" / "report.md").is_file()
+    assert sweep.stderr == "", sweep.stderr
+    assert sweep.stdout.startswith("governing results") and "report written to" in sweep.stdout
+    bad = vsi("run", tmp_path / "missing.toml", "-q")
+    assert bad.returncode == 2 and "missing.toml: file not found" in bad.stderr
+
+
+def test_trains__axle_counts_are_integers():
+    """The library table printed '50.0' axles (a float column after the HSLM-B row)."""
+    from vsi_numba.model import library as lib
+
+    res = invoke("trains")
+    assert res.exit_code == 0, res.output
+    table = lib.library_table()
+    for name, axles in zip(table["name"], table["axles"], strict=True):
+        row = next(line for line in res.output.splitlines() if line.startswith(name + " "))
+        assert re.search(rf"\s{int(axles)}\s", row), row
+        assert f"{int(axles)}.0" not in row
+    assert not re.search(r"^\S+\s+\S+\s+\d+\.0\s", res.output, re.M)
+
+
+def test_check__prints_modes_damping_and_speed_grid(tmp_path):
+    """Frequencies against the closed form f_n = n^2 pi/(2 L^2) sqrt(EI/m) (4 digits
+    printed), the damping ratios as given, the speed grid's first, last, step, count."""
+    config = warned_config(tmp_path)
+    res = invoke("check", config)
+    assert res.exit_code == 0, res.output
+    f = [n**2 * np.pi / (2 * 15.0**2) * np.sqrt(1e10 / 12000.0) for n in (1, 2)]
+    line = next(x for x in res.output.splitlines() if x.startswith("modes:"))
+    printed = [float(v) for v in re.search(r"f = ([\d., ]+) Hz", line).group(1).split(",")]
+    np.testing.assert_allclose(printed, f, rtol=1e-3)  # 4 significant digits printed
+    assert "damping ratios 2.00, 1.50 %" in line  # as given (2 %, 1.5 %)
+    assert re.search(r"speeds: 3 from 200 to 250 km/h, step 25 km/h", res.output)

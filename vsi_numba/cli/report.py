@@ -25,14 +25,19 @@ def report_command(results: Path, outdir: Path | None = None) -> int:
     -------
     int
         0 on success; 2 when the file is missing, unreadable or lacks the variables the
-        report needs; 1 when the report directory cannot be written. The reason goes to
-        stderr as one line (no traceback).
+        report needs, or the report directory holds other files (a report replaces its
+        directory whole); 1 when the report directory cannot be written; 130 when
+        interrupted (Ctrl-C or SIGTERM, as ``vsi sweep``): the directory then holds a
+        whole report, never parts of two. The reason goes to stderr as one line (no
+        traceback).
     """
     import numpy as np
     import xarray as xr
 
     from vsi_numba.analysis.dataset import ResultsError, prepare, require
     from vsi_numba.analysis.report import REQUIRED_VARIABLES, stored_warnings, write_report
+    from vsi_numba.analysis.report.atomic import ReportDirectoryError
+    from vsi_numba.cli.sweep import _sigterm_as_interrupt
 
     pr = Printer()
 
@@ -82,9 +87,18 @@ def report_command(results: Path, outdir: Path | None = None) -> int:
         if outdir is None:
             outdir = results.with_name(f"{results.stem}_report")
         try:
-            path = writer(data, outdir, source_path=results)
+            with _sigterm_as_interrupt():
+                path = writer(data, outdir, source_path=results)
+        except KeyboardInterrupt:
+            error(f"interrupted: '{outdir}' holds a whole report, the earlier one (if any) "
+                  "or, when the interrupt came as it was put in place, the new one; run the "
+                  "same command again")
+            return 130
         except ResultsError as exc:
             error(f"'{results}': {exc}")
+            return EXIT_USAGE
+        except ReportDirectoryError as exc:
+            error(f"cannot write the report: {exc}")
             return EXIT_USAGE
         except OSError as exc:
             error(f"cannot write the report to '{outdir}': {exc}")

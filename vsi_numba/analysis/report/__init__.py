@@ -4,7 +4,8 @@ self-contained HTML file and as Markdown, with CSV/XLSX tables.
 :func:`write_report` runs every check of :mod:`vsi_numba.analysis.checks` that the file
 allows, draws the figures of :mod:`vsi_numba.analysis.plots` and writes ``report.html``,
 ``report.md`` (plus the PNGs), ``summary.csv``, ``tables/*.csv`` and ``tables.xlsx`` into
-one directory. It loads the envelopes only and reads time histories one case at a time.
+one directory, replaced whole (:mod:`.atomic`). It loads the envelopes only and reads
+time histories one case at a time.
 The time-history figures show the governing cases of the deck acceleration and wheel
 unloading checks; a case whose history the file does not hold is re-run from the file's
 ``config_json`` (:mod:`.recompute`).
@@ -13,7 +14,9 @@ The command ``vsi report`` is :func:`vsi_numba.cli.report.report_command`.
 Modules: :mod:`.document` (sections of text, tables and figures; the Markdown and HTML
 writers), :mod:`.text` (the Markdown sections), :mod:`.echo` (input echo, title block),
 :mod:`.tables` (maxima, deck / approach wheel unloading, CSV/XLSX), :mod:`.figures` (the
-figures and the re-run governing cases), :mod:`.variants` (parametric studies);
+figures and the re-run governing cases), :mod:`.variants` (parametric studies),
+:mod:`.safe` (text from configurations and results files shown literally), :mod:`.atomic`
+(the directory written whole or not at all);
 :func:`write_report` here puts them together.
 """
 
@@ -26,9 +29,12 @@ import numpy as np
 import xarray as xr
 
 from vsi_numba.analysis import checks as chk
+from vsi_numba.analysis.checks.load_effects import load_effect_checks
 from vsi_numba.analysis.dataset import envelopes, prepare, require
 from vsi_numba.analysis.recompute import CaseRunner
+from vsi_numba.analysis.report import profile as code_profile
 from vsi_numba.analysis.report import tables as tbl
+from vsi_numba.analysis.report.atomic import atomic_directory, checkpoint
 from vsi_numba.analysis.report.document import (
     Figure,
     Section,
@@ -38,7 +44,12 @@ from vsi_numba.analysis.report.document import (
 )
 from vsi_numba.analysis.report.echo import input_echo, title_block
 from vsi_numba.analysis.report.figures import _figures
-from vsi_numba.analysis.report.load_effects import load_effects_section
+from vsi_numba.analysis.report.load_effects import (
+    consistent_deflection,
+    load_effects_section,
+    summary_with_load_effects,
+)
+from vsi_numba.analysis.report.safe import clean, code, md, natural_order
 from vsi_numba.analysis.report.text import (
     FIGURE_NAMES,
     MAX_ONE_STEP_ROWS,
@@ -67,6 +78,7 @@ __all__ = [
     "Section",
     "Table",
     "MAX_ONE_STEP_ROWS",
+    "build_report",
     "NOT_RELIABLE",
     "REQUIRED_VARIABLES",
     "WARN_STATUSES",
@@ -104,7 +116,11 @@ def write_report(
         Results of ``vsi run`` / ``vsi sweep`` (or the same layout built in memory);
         best opened lazily.
     outdir : path
-        Directory, created if needed; existing report files are overwritten.
+        The report's directory, replaced whole and atomically
+        (:mod:`~vsi_numba.analysis.report.atomic`): the report is written into a new
+        directory beside it that takes its place when complete, so a kill leaves the
+        complete earlier report or the complete new one. It must not exist, be empty or
+        hold only an earlier report.
     q : float
         Characteristic fractile over irregularity realisations.
     comfort_level : str
@@ -142,22 +158,49 @@ def write_report(
     ------
     ResultsError
         If ``ds`` lacks :data:`REQUIRED_VARIABLES` or a ``speed`` coordinate.
+    ReportDirectoryError
+        If ``outdir`` holds files that are not a report's, or is the working directory.
     """
     full = prepare(ds)
     require(full, REQUIRED_VARIABLES, "the report")
-    env = envelopes(full)
+    with atomic_directory(outdir) as tmp:
+        build_report(full, tmp, report_dir=outdir, q=q, comfort_level=comfort_level,
+                     n_boot=n_boot, seed=seed, source_path=source_path,
+                     determinant_length=determinant_length, recompute=recompute,
+                     config_dir=config_dir, sections=sections, variant_note=variant_note)
+    return Path(outdir) / "report.md"
+
+
+def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | None = None,
+                 q: float = chk.DEFAULT_Q, comfort_level: str = "very good",
+                 n_boot: int = 2000, seed: int = 0, source_path: Path | str | None = None,
+                 determinant_length: float | None = None, recompute: bool = True,
+                 config_dir: Path | str | None = None, sections: list | None = None,
+                 variant_note: str = "") -> Path:
+    """The files of :func:`write_report` written into the existing directory ``outdir``
+    as they come (no atomic replacement: the caller's temporary directory);
+    ``report_dir`` is where the report will be read from (default ``outdir``): the
+    results file is named relative to it."""
+    report_dir = Path(outdir if report_dir is None else report_dir)
     outdir = Path(outdir)
-    outdir.mkdir(parents=True, exist_ok=True)
-    for name in FIGURE_NAMES:  # no stale figure of an earlier report may stay behind
-        (outdir / name).unlink(missing_ok=True)
+    env = envelopes(full)
+    # trains in natural order (HSLM-A2 before HSLM-A10) in every table and figure
+    order = natural_order(env["train"].values)
+    if order != list(range(env.sizes["train"])):
+        env = env.isel(train=order)
     lphi = chk.determinant_length(env, determinant_length)
     results = chk.run_checks(env, q=q, comfort_level_required=comfort_level, n_boot=n_boot,
                              seed=seed, length=determinant_length)
     records = stored_warnings(env)
-    table = mark_unreliable(chk.summary_table(results), records)
+    le_checks = consistent_deflection(
+        load_effect_checks(env, length=determinant_length), env,
+        results.get("dynamic_amplification"))
+    table = mark_unreliable(summary_with_load_effects(chk.summary_table(results), le_checks),
+                            records)
     # 10 significant digits: the same results give the same file (the last bits of a
     # float may differ between machines and thread schedules)
     table.to_csv(outdir / "summary.csv", index=False, float_format="%.10g")
+    checkpoint()
     runner = (CaseRunner(env, base_dir=config_dir, source_path=source_path) if recompute
               else None)
     figures, figure_notes = _figures(env, results, runner, histories=full)
@@ -172,24 +215,23 @@ def write_report(
              "maxima_per_point": tbl.ascii_units(per_point)}
     if zone_table is not None:
         extra["wheel_unloading_zones"] = tbl.ascii_units(zone_table)
-    load_effects = load_effects_section(env, outdir, length=determinant_length,
-                                        save_figure=False)
+    load_effects = load_effects_section(env, None, checks=le_checks, save_figure=False)
     extra.update(load_effects.tables)
     tbl.write_tables(speed_tables, extra, outdir)
 
-    title = env.attrs.get("title") or "vsi_numba results"
+    title = clean(env.attrs.get("title") or "vsi_numba results")
     generated = f"vsi_numba {_version()}"
     intro = ("Railway vehicle–bridge interaction: dynamic checks of the results "
-             + (f"`{Path(source_path).name}`." if source_path else "in memory."))
+             + (f"{code(Path(source_path).name)}." if source_path else "in memory."))
     head = [Section("", [intro], level=0), title_block(env, generated)]
     warn = Section.from_markdown(_warnings_block(records))
     if warn is not None:
         head.append(warn)
     flagged = _flagged_trains(env)
     if flagged:
-        head.append(Section("", [f"> ⚠ **WARNING: results for train(s) {', '.join(flagged)} "
-                                 "rest on vehicle data of doubtful status — see "
-                                 "[Trains](#trains).**"], level=0))
+        head.append(Section("", [f"> ⚠ **WARNING: results for train(s) "
+                                 f"{', '.join(md(t) for t in flagged)} rest on vehicle data "
+                                 "of doubtful status — see [Trains](#trains).**"], level=0))
     body: list[Section] = []
 
     def add(lines):
@@ -202,6 +244,7 @@ def write_report(
     add(summary[:at] + _zone_lines(zone_table) + summary[at:] + _deck_end_note(env)
         + _one_step_losses(results))
     body.append(input_echo(env, variant_note))
+    body.append(code_profile.profile_section(env))
     add(_bridge(env, lphi))
     body.append(_maxima_section(env, per_train, per_point, zone_table, zones, speed_tables))
     add(_trains(env, applicable))
@@ -218,7 +261,8 @@ def write_report(
     if fig_blocks:
         body.append(Section("Figures", fig_blocks))
     # the results file relative to the report (never the absolute path of this machine)
-    add(_provenance(env, Path(os.path.relpath(Path(source_path).resolve(), outdir.resolve()))
+    add(_provenance(env, Path(os.path.relpath(Path(source_path).resolve(),
+                                              report_dir.resolve()))
                     if source_path else None))
 
     path = write_markdown(head + body, outdir / "report.md", title=title)

@@ -20,22 +20,35 @@ from __future__ import annotations
 import base64
 import html
 import io
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from vsi_numba.analysis.report.atomic import checkpoint
+from vsi_numba.analysis.report.safe import clean, md
+
 #: Resolution of the embedded and written PNGs (dots per inch).
 DPI = 150
+
+
+class Markdown(str):
+    """A string that is Markdown written by the report (``**FAIL**``), shown as markup in
+    a :class:`Table`; every other string of a table is shown literally."""
+
+    __slots__ = ()
 
 
 @dataclass
 class Table:
     """A table block: ``frame`` rendered as is (column names are the header).
 
-    Cells are shown with ``str`` (floats with :attr:`float_format`); strings may hold
-    inline Markdown (``**FAIL**``).
+    Cells are shown with ``str`` (floats with :attr:`float_format`). Strings are text,
+    shown literally (:func:`~vsi_numba.analysis.report.safe.md`: names from a
+    configuration or a results file cannot make a link, an image or a row); a
+    :class:`Markdown` string is inline Markdown (``Markdown("**FAIL**")``).
     """
 
     frame: pd.DataFrame
@@ -50,9 +63,9 @@ class Table:
                 return "–" if not np.isfinite(v) else self.float_format.format(float(v))
             if v is None or (isinstance(v, str) and not v):
                 return "–"
-            return str(v)
+            return str(v) if isinstance(v, Markdown) else md(v)
 
-        header = [str(c) for c in self.frame.columns]
+        header = [str(c) if isinstance(c, Markdown) else md(c) for c in self.frame.columns]
         rows = [[show(v) for v in row] for row in self.frame.itertuples(index=False)]
         return header, rows
 
@@ -126,8 +139,7 @@ def markdown_table(header: list[str], rows: list[list[str]]) -> list[str]:
     """A GitHub pipe table (``|`` in cells escaped)."""
 
     def row(cells):
-        return "| " + " | ".join(str(c).replace("|", "\\|").replace("\n", " ")
-                                 for c in cells) + " |"
+        return "| " + " | ".join(clean(c).replace("|", "\\|") for c in cells) + " |"
 
     return [row(header), "|" + "|".join("---" for _ in header) + "|", *map(row, rows)]
 
@@ -163,14 +175,16 @@ def section_markdown(section: Section, figures: list[Figure], numbers: dict) -> 
 def write_markdown(sections: list[Section], path: Path, title: str = "") -> Path:
     """Write ``path`` (Markdown) and the sections' figures as PNG beside it."""
     path = Path(path)
-    lines = [f"# {title}", ""] if title else []
+    lines = [f"# {md(title)}", ""] if title else []
     figures: list[Figure] = []
     numbers = {"figure": 0, "table": 0}
     for s in sections:
         lines += section_markdown(s, figures, numbers)
     for fig in figures:
         (path.parent / fig.name).write_bytes(fig.png())
+        checkpoint()
     path.write_text("\n".join(lines).rstrip("\n") + "\n", encoding="utf-8")
+    checkpoint()
     return path
 
 
@@ -240,14 +254,23 @@ window.addEventListener("load", function () {
 """
 
 
+def _local_link(url: str) -> bool:
+    """Links the HTML may hold: anchors and relative paths (another file of the report),
+    never a URL with a scheme (http:, file:, javascript:) or a network path (//host)."""
+    url = url.strip()
+    return not (url.startswith(("//", "\\\\")) or re.match(r"^[A-Za-z][A-Za-z0-9+.-]*:", url))
+
+
 def _markdown_renderer():
     from markdown_it import MarkdownIt
 
-    return MarkdownIt("commonmark", {"html": False, "typographer": False}).enable("table")
+    md_ = MarkdownIt("commonmark", {"html": False, "typographer": False}).enable("table")
+    md_.validateLink = _local_link  # the page fetches and links to nothing outside itself
+    return md_
 
 
 def _is_number(text: str) -> bool:
-    t = text.replace("−", "-").replace("%", "").replace(" ", "").replace("*", "")
+    t = text.replace("\\", "").replace("−", "-").replace("%", "").replace(" ", "").replace("*", "")
     for unit in ("m/s²", "mm", "kN", "km/h", "s", "m", "Hz"):
         t = t.removesuffix(unit)
     try:
@@ -308,6 +331,7 @@ def write_html(sections: list[Section], path: Path, title: str,
     """
     md = _markdown_renderer()
     numbers = {"figure": 0, "table": 0}
+    title = clean(title)
     body: list[str] = [f"<h1>{html.escape(title)}</h1>"]
 
     def render(section: Section, chapter: bool) -> None:
@@ -344,4 +368,5 @@ def write_html(sections: list[Section], path: Path, title: str,
            + "\n".join(body) + "\n</body>\n</html>\n")
     path = Path(path)
     path.write_text(doc, encoding="utf-8")
+    checkpoint()
     return path

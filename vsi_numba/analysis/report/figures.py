@@ -14,8 +14,30 @@ from vsi_numba.analysis.dataset import (
 )
 from vsi_numba.analysis.recompute import CaseRunner, RecomputeError
 from vsi_numba.analysis.report.document import Figure
+from vsi_numba.analysis.report.safe import clean, mathtext, md
 from vsi_numba.analysis.report.tables import wheel_unloading_by_zone
 from vsi_numba.analysis.report.text import _fmt
+
+
+def literal_names(fig, names):
+    """``fig`` with every occurrence of a name (train, vehicle) in its texts escaped for
+    matplotlib's math text (:func:`~vsi_numba.analysis.report.safe.mathtext`): a name
+    such as ``$\\frac{$`` is shown, not parsed (which would fail when the figure is
+    drawn)."""
+    risky = sorted({n for n in names if n and ("$" in n or clean(n) != n)}, key=len,
+                   reverse=True)
+    if fig is None or not risky:
+        return fig
+    from matplotlib.text import Text
+
+    for text in fig.findobj(Text):
+        old = text.get_text()
+        new = old
+        for n in risky:
+            new = new.replace(n, mathtext(n))
+        if new != old:
+            text.set_text(new)
+    return fig
 
 # --------------------------------------------------------------------------------------
 # Figures
@@ -102,7 +124,7 @@ def _deck_history(ds, results, hist: _Histories, applicable):
     case, how = hist.get(train, speed, irr, needs)
     note, fallback = "", case is None
     if case is None:
-        reason = how
+        reason = md(how)
         if "time" not in ds.dims or "deck_acceleration" not in ds:
             return None, (f"the file holds no time histories and the governing case could "
                           f"not be re-run ({reason})")
@@ -112,7 +134,7 @@ def _deck_history(ds, results, hist: _Histories, applicable):
         peak = ds["max_deck_acceleration"].sel(train=train, point=point).where(stored)
         alt = nanargmax_case(peak)
         if alt is None:
-            return None, (f"no history of train {train} is stored and the governing case "
+            return None, (f"no history of train {md(train)} is stored and the governing case "
                           f"could not be re-run ({reason})")
         speed, irr = alt["speed"], alt["irregularity"]
         case = ds.sel(train=train, speed=speed, irregularity=irr)
@@ -131,7 +153,7 @@ def _deck_history(ds, results, hist: _Histories, applicable):
     fig = plots.plot_case_history(case, plots.case_title(train, kmh, irr, point), point=point,
                                   wheel=wheel, limit=a["limit"], q0=q0)
     role = "governing train" if fallback else "governing case"
-    caption = (f"Time histories of {train} at {kmh:.0f} km/h ({_irr_text(irr)}), "
+    caption = (f"Time histories of {md(train)} at {kmh:.0f} km/h ({_irr_text(irr)}), "
                f"the {role} of the deck acceleration check, at x = {point:g} m"
                + (f", contact force of axle {wheel} (largest unloading)" if wheel is not None
                   else "") + "." + note)
@@ -151,9 +173,9 @@ def _wheel_history(ds, results, hist: _Histories):
     case, how = hist.get(train, speed, irr, {"contact_force": {"wheel": wheel}})
     kmh = float(ds["speed_kmh"].sel(speed=speed))
     if case is None:
-        return None, (f"the governing case of the wheel unloading check ({train}, "
+        return None, (f"the governing case of the wheel unloading check ({md(train)}, "
                       f"{kmh:.0f} km/h) has no stored history and could not be re-run "
-                      f"({how})")
+                      f"({md(how)})")
     sel = {"train": train, "speed": speed, "irregularity": irr, "wheel": wheel}
     pos = (float(ds["position_of_min_contact_force"].sel(sel))
            if "position_of_min_contact_force" in ds else np.nan)
@@ -165,7 +187,7 @@ def _wheel_history(ds, results, hist: _Histories):
         case, plots.case_title(train, kmh, irr) + f", axle {wheel}", wheel=wheel, q0=q0,
         min_position=pos if np.isfinite(pos) else None, bridge_length=length,
         speed=float(speed))
-    caption = (f"Contact force of axle {wheel} of {train} at {kmh:.0f} km/h "
+    caption = (f"Contact force of axle {wheel} of {md(train)} at {kmh:.0f} km/h "
                f"({_irr_text(irr)}), the governing case of the wheel unloading check "
                f"(ΔQ/Q₀ = {dq:.3f} in this realisation)")
     if np.isfinite(pos):
@@ -191,8 +213,13 @@ def _figures(ds: xr.Dataset, results: dict, runner: CaseRunner | None = None,
     made, notes = [], []
     histories = ds if histories is None else histories
 
+    names = [str(t) for t in ds["train"].values]
+    cf = results.get("comfort")
+    if isinstance(cf, xr.Dataset):
+        names += [str(cf.attrs.get(k, "")) for k in ("governing_vehicle", "car_end_vehicle")]
+
     def put(fig, name, caption):
-        made.append(Figure(fig, name, caption))
+        made.append(Figure(literal_names(fig, names), name, caption))
 
     acc = results.get("deck_acceleration")
     if not isinstance(acc, str):

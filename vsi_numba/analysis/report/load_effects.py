@@ -23,12 +23,15 @@ from vsi_numba.analysis.checks.load_effects import (
     LoadEffectChecks,
     load_effect_checks,
 )
-from vsi_numba.analysis.report.document import Figure, Section, Table, section_markdown
-from vsi_numba.en1990 import (
-    END_ROTATION_CLAUSE,
-    END_ROTATION_LIMIT_ABUTMENT,
-    END_ROTATION_LIMIT_DECKS,
+from vsi_numba.analysis.report.document import (
+    Figure,
+    Markdown,
+    Section,
+    Table,
+    section_markdown,
 )
+from vsi_numba.analysis.report.safe import mathtext, natural_key
+from vsi_numba.en1990 import END_ROTATION_CLAUSE
 from vsi_numba.en1991 import ALPHA_CLAUSE, LM71_CLAUSE, PHI_CLAUSE
 
 #: Title of the section.
@@ -112,11 +115,19 @@ def load_effects_section(ds, outdir: Path | str | None = None, *, checks=None,
     return LoadEffectsSection(section, lines, written, tables)
 
 
+def _limit(c: LoadEffectChecks, key: str) -> float:
+    """Entry ``key`` of the code profile the checks used (the recommended value when the
+    checks do not say)."""
+    from vsi_numba.code_profile import default_profile
+
+    return (c.factors.get("profile") or default_profile())[key]
+
+
 def _blocks(c: LoadEffectChecks):
     fa = c.factors
     ph = fa["phi_name"]
     blocks: list = [
-        f"EN 1991-2 6.4.6.5(3) [R]: per effect, the design value is the more unfavourable "
+        f"EN 1991-2 6.4.6.5(3): per effect, the design value is the more unfavourable "
         f"of (1 + φ'dyn + φ''/2) × (static effect of the HSLM / real train) and "
         f"{ph} × α × LM71. LM71 ({LM71_CLAUSE}): 4 × 250 kN at 1.6 m and "
         f"80 kN/m outside the 6.4 m axle zone where unfavourable, placed most "
@@ -135,9 +146,9 @@ def _blocks(c: LoadEffectChecks):
              "(1 + φ'dyn + φ''/2) × train": _v(r.real_design, r.units),
              "Train, speed": f"{r.train} at {r.speed_kmh:g} km/h",
              f"{ph} × α × LM71": _v(r.lm71_design, r.units), "Ratio": f"{r.ratio:.3f}",
-             "Governs": f"**{r.governs}**", "Margin": f"{r.margin:.3f}"}
+             "Governs": Markdown(f"**{r.governs}**"), "Margin": f"{r.margin:.3f}"}
             for r in c.verdict.itertuples(index=False)]
-    blocks += ["### Verdict (EN 1991-2 6.4.6.5(3) [R])",
+    blocks += ["### Verdict (EN 1991-2 6.4.6.5(3))",
                Table(pd.DataFrame(rows), "Load effects: EN 1991-2 6.4.6.5(3) verdict"),
                "Ratio = (1 + φ'dyn + φ''/2) × train / (Φ × α × LM71), its largest value over "
                "the locations; margin = how many times the governing model exceeds the "
@@ -155,8 +166,10 @@ def _blocks(c: LoadEffectChecks):
                "over the trains; deflection: downward only."]
 
     if not c.phi_dyn.empty:
-        piv = c.phi_dyn.pivot(index="train", columns="effect", values="phi_dyn")
-        spd = c.phi_dyn.pivot(index="train", columns="effect", values="speed_kmh")
+        trains = sorted(c.phi_dyn["train"].unique(), key=natural_key)
+        piv = c.phi_dyn.pivot(index="train", columns="effect", values="phi_dyn").reindex(trains)
+        spd = c.phi_dyn.pivot(index="train", columns="effect", values="speed_kmh").reindex(
+            trains)
         eff = [e for e in EFFECTS if e in piv.columns]
         rows = [{"Train": t, **{EFFECTS[e][4]: f"{piv.loc[t, e]:.3f} ({spd.loc[t, e]:g} km/h)"
                                 for e in eff}} for t in piv.index]
@@ -164,7 +177,11 @@ def _blocks(c: LoadEffectChecks):
                    Table(pd.DataFrame(rows), "φ'dyn per effect and train (max over speeds, "
                                              "at the speed given)"),
                    "φ'dyn = max over locations of max|E_dyn| / max over locations of "
-                   "max|E_static crawl| − 1."]
+                   "max|E_static crawl| − 1 for the bending moment, shear force, reactions "
+                   "and rotations (mode-accelerated: the static part of the dynamic effect "
+                   "is the exact one, compared with the exact static crawl)."]
+    if c.factors.get("deflection_phi"):
+        blocks.append(c.factors["deflection_phi"])
 
     blocks.append(f"### Deck-end rotation ({END_ROTATION_CLAUSE})")
     if c.rotation.empty:
@@ -176,11 +193,13 @@ def _blocks(c: LoadEffectChecks):
                  "Design θ (the larger)": _v(r.theta_design, "rad"),
                  "Limit (ballasted, deck to abutment)": _v(r.limit, "rad"),
                  "Utilisation": f"{r.utilisation:.3f}",
-                 "Result": "**FAIL**" if r.result == "FAIL" else r.result}
+                 "Result": Markdown("**FAIL**") if r.result == "FAIL" else r.result}
                 for r in c.rotation.itertuples(index=False)]
         blocks += [Table(pd.DataFrame(rows), "Deck-end rotation"),
-                   f"Limits recalled [R]: {_v(END_ROTATION_LIMIT_ABUTMENT, 'rad')} between a "
-                   f"deck end and the abutment, {_v(END_ROTATION_LIMIT_DECKS, 'rad')} for "
+                   f"Limits ([code profile](#code-profile)): "
+                   f"{_v(_limit(c, 'end_rotation_limit_abutment'), 'rad')} between a "
+                   f"deck end and the abutment, "
+                   f"{_v(_limit(c, 'end_rotation_limit_decks'), 'rad')} for "
                    "θ₁ + θ₂ between two consecutive decks (not checked: one deck)."]
     figure = None
     if c.deck:
@@ -206,7 +225,8 @@ def _figure(c: LoadEffectChecks):
         ax = fig.add_subplot(len(effects), 1, i)
         d = c.deck[e]
         f, label = _UNITS["N m" if e == "moment" else "N"]
-        ax.plot(x, d["dyn_max"] * f, color="C0", label=f"dynamic, {d['train']} (max/min)")
+        ax.plot(x, d["dyn_max"] * f, color="C0",
+                label=f"dynamic, {mathtext(d['train'])} (max/min)")
         ax.plot(x, d["dyn_min"] * f, color="C0")
         ax.plot(x, d["lm71_max"] * f, "--", color="C3",
                 label=f"{c.factors['phi_name']} × α × LM71")
@@ -217,3 +237,146 @@ def _figure(c: LoadEffectChecks):
         ax.legend(fontsize=8)
     ax.set_xlabel("x along the deck (m)")
     return fig
+
+
+#: How the report takes phi'_dyn of the deflection (said once in the section).
+DEFLECTION_PHI_NOTE = (
+    "Deflection: the deck displacement of the results is modal (the modes kept, not "
+    "mode-accelerated), so its φ'dyn is the one of the summary - the dynamic and the "
+    "static displacement of the same modes (`max_deck_displacement` / "
+    "`max_static_deck_displacement`), like with like - and (1 + φ'dyn + φ''/2) multiplies "
+    "the exact static crawl of the train at each output point. The report uses this one "
+    "φ'dyn for the deflection everywhere (summary, figures, this section).")
+
+
+def consistent_deflection(c, ds, dyn, step: float = 0.05):
+    """The load-effect checks ``c`` with the deflection's phi'_dyn taken from the deck
+    check ``dyn`` (:func:`vsi_numba.analysis.checks.dynamic_amplification`: modal dynamic
+    over modal static displacement, per speed, train and point), so that the report
+    shows one phi'_dyn of the deflection.
+
+    The design deflection of the real trains becomes, per output point, the max over
+    speeds and trains of (1 + phi'_dyn + phi''/2) x the exact static crawl (influence
+    line); the verdict and the phi'_dyn tables follow. ``c`` is returned unchanged when
+    it is a reason (str), has no deflection or ``dyn`` is not a check result.
+    """
+    import xarray as xr
+
+    from vsi_numba.analysis.checks.load_effects import (
+        LM71_GOVERNS,
+        REAL_GOVERNS,
+        crawl_envelope,
+        static_deck_of,
+    )
+    from vsi_numba.analysis.dataset import DETERMINISTIC
+    from vsi_numba.model.influence import influence
+
+    if isinstance(c, str) or not isinstance(dyn, xr.Dataset) or "phi_dyn" not in dyn:
+        return c
+    env = c.envelopes.copy()
+    rows = np.flatnonzero(env["effect"].to_numpy() == "deflection")
+    static = static_deck_of(ds)
+    if rows.size == 0 or isinstance(static, str):
+        return c
+    at = env["location"].to_numpy()[rows].astype(float)
+    trains = [str(t) for t in dyn["train"].values]
+    kmh = np.asarray(ds["speed_kmh"].sel(speed=dyn["speed"]).values, float)
+    wp = ds["wheel_position"].sel(train=dyn["train"]).values
+    wl = ds["static_wheel_load"].sel(train=dyn["train"]).values
+    bp = np.concatenate([static.supports, at])
+    stat = np.full((len(trains), at.size), np.nan)   # exact static crawl (train, point)
+    for t in range(len(trains)):
+        ok = np.isfinite(wp[t]) & np.isfinite(wl[t]) & (wl[t] > 0)
+        if ok.any():
+            stat[t] = crawl_envelope(lambda x: influence(static, "deflection", at, x),
+                                     wp[t][ok] - wp[t][ok].min(), wl[t][ok], bp,
+                                     (0.0, static.length), step=step, n_at=at.size).max
+    phi = dyn["phi_dyn"].sel(point=at, method="nearest").transpose("speed", "train", "point")
+    det = bool((np.asarray(ds["irregularity"].values) == DETERMINISTIC).any())
+    phi2 = (np.nan_to_num(np.asarray(dyn["phi2"].values, float)) if det
+            else np.zeros(dyn.sizes["speed"]))   # as the load-effect checks take phi''
+    real = (1.0 + np.asarray(phi.values, float) + 0.5 * phi2[:, None, None]) * stat[None]
+    for j, r in enumerate(rows):
+        rj = real[:, :, j]
+        if np.all(np.isnan(rj)):
+            continue
+        k_s, k_t = np.unravel_index(np.nanargmax(rj), rj.shape)
+        lm = float(env.at[env.index[r], "lm71_design"])
+        env.at[env.index[r], "real_design"] = float(rj[k_s, k_t])
+        env.at[env.index[r], "real_train"] = trains[k_t]
+        env.at[env.index[r], "real_speed_kmh"] = float(kmh[k_s])
+        env.at[env.index[r], "ratio"] = float(rj[k_s, k_t]) / lm if lm > 0 else np.nan
+    verdict = c.verdict.copy()
+    grp = env.iloc[rows]
+    if grp["ratio"].notna().any() and not verdict.empty:
+        g = grp.loc[grp["ratio"].idxmax()]
+        real_gov = g["ratio"] > 1
+        new = {"effect": "deflection", "location": g["location"],
+               "real_design": g["real_design"], "train": g["real_train"],
+               "speed_kmh": g["real_speed_kmh"], "lm71_design": g["lm71_design"],
+               "ratio": g["ratio"], "governs": REAL_GOVERNS if real_gov else LM71_GOVERNS,
+               "margin": g["ratio"] if real_gov else 1.0 / g["ratio"], "units": g["units"]}
+        hit = np.flatnonzero(verdict["effect"].to_numpy() == "deflection")
+        for key, value in new.items():
+            verdict.at[verdict.index[hit[0]] if hit.size else len(verdict), key] = value
+    value = dyn["value"].transpose("speed", "train").values   # (speed, train)
+    phi_rows, speed_rows = [], []
+    for t, tr in enumerate(trains):
+        col = np.asarray(value[:, t], float)
+        if np.all(np.isnan(col)):
+            continue
+        i = int(np.nanargmax(col))
+        phi_rows.append({"effect": "deflection", "train": tr, "phi_dyn": float(col[i]),
+                         "speed_kmh": float(kmh[i])})
+        speed_rows += [{"effect": "deflection", "train": tr, "speed_kmh": float(v),
+                        "phi_dyn": float(p)} for v, p in zip(kmh, col, strict=True)]
+
+    def replaced(frame, new_rows):
+        if frame.empty:
+            return pd.DataFrame(new_rows)
+        keep = frame[frame["effect"] != "deflection"]
+        return pd.concat([pd.DataFrame(new_rows), keep], ignore_index=True)
+
+    factors = {**c.factors, "deflection_phi": DEFLECTION_PHI_NOTE}
+    return c._replace(envelopes=env, verdict=verdict,
+                      phi_dyn=replaced(c.phi_dyn, phi_rows),
+                      phi_dyn_speeds=replaced(c.phi_dyn_speeds, speed_rows),
+                      factors=factors)
+
+
+def summary_with_load_effects(table: pd.DataFrame, c) -> pd.DataFrame:
+    """The summary table (:func:`vsi_numba.analysis.checks.summary_table`) with the
+    EN 1991-2 6.4.6.5(3) verdict (one row per effect: the ratio of the real trains'
+    design effect to Φ × α × LM71, and which governs) and the deck-end rotation check
+    (the worse deck end) appended; ``table`` itself when ``c`` is a reason (str)."""
+    if isinstance(c, str):
+        return table
+    rows = []
+    ph = c.factors["phi_name"]
+    for r in c.verdict.itertuples(index=False):
+        rows.append({
+            "check": f"6.4.6.5(3) {EFFECTS[r.effect][4]}: (1 + φ'dyn + φ''/2) × train / "
+                     f"({ph} × α × LM71)",
+            "value": float(r.ratio), "units": "1", "limit": np.nan, "margin": np.nan,
+            "utilisation": np.nan, "result": f"{r.governs} govern"
+                                             + ("" if r.governs.endswith("s") else "s"),
+            "governing_train": str(r.train), "governing_speed_kmh": float(r.speed_kmh),
+            "clause": "EN 1991-2 6.4.6.5(3) [R]"})
+    if not c.rotation.empty:
+        w = c.rotation.loc[c.rotation["utilisation"].idxmax()]
+        e = c.envelopes[(c.envelopes["effect"] == "rotation")
+                        & np.isclose(c.envelopes["location"], w["support"])]
+        real = bool(w["theta_real_design"] >= w["theta_lm71_design"])
+        rows.append({
+            "check": f"Deck-end rotation θ at x = {w['support']:g} m (design value)",
+            "value": float(w["theta_design"]), "units": "rad", "limit": float(w["limit"]),
+            "margin": float(w["limit"] - w["theta_design"]),
+            "utilisation": float(w["utilisation"]), "result": str(w["result"]),
+            "governing_train": (str(e["real_train"].iloc[0]) if real and not e.empty
+                                else f"{ph} × α × LM71"),
+            "governing_speed_kmh": (float(e["real_speed_kmh"].iloc[0])
+                                    if real and not e.empty else np.nan),
+            "clause": END_ROTATION_CLAUSE})
+    if not rows:
+        return table
+    return pd.concat([table, pd.DataFrame(rows, columns=table.columns)], ignore_index=True)

@@ -20,6 +20,7 @@ from vsi_numba.analysis.dataset import (
     track_type,
     track_type_assumed,
 )
+from vsi_numba.analysis.report.safe import clean, code, md
 from vsi_numba.analysis.statistics import wilks_sample_size
 
 #: Variables without which no report is written.
@@ -63,6 +64,8 @@ def _fmt(value, units: str = "", digits: int = 3) -> str:
         return f"{v:.{digits}g} m/s²"
     if units == "s":
         return f"{v:.3g} s"
+    if units == "rad":
+        return f"{v * 1e3:.{digits}g} mrad"
     return f"{v:.{digits}g}"
 
 
@@ -112,14 +115,23 @@ def _warnings_block(records: list[dict]) -> list[str]:
         out += [f"> ⚠ **The time step under-resolves the model (see below): the checks are "
                 f"marked \"{NOT_RELIABLE}\", not pass.** Re-run with the time step the "
                 "warning gives.", ""]
-    out += [f"- {r['message']}" for r in records]
+    out += [f"- {md(r['message'])}" for r in records]
     return out + [""]
 
 
 def _table(header: list[str], rows: list[list[str]]) -> list[str]:
     lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    lines += ["| " + " | ".join(str(c).replace("|", "\\|") for c in r) + " |" for r in rows]
+    lines += ["| " + " | ".join(clean(c).replace("|", "\\|") for c in r) + " |" for r in rows]
     return lines
+
+
+def sha256_text(sha) -> str:
+    """A configuration hash for the report: as code when it is one (64 hex digits), else
+    shown literally (a crafted file)."""
+    if not sha:
+        return "–"
+    sha = str(sha)
+    return f"`{sha}`" if re.fullmatch(r"[0-9a-fA-F]{64}", sha) else md(sha)
 
 
 def _version() -> str:
@@ -155,11 +167,11 @@ def _provenance(ds: xr.Dataset, source_path: Path | None) -> list[str]:
     rows = [
         # relative to the report, or the name alone: a report must not carry the paths of
         # the machine it was made on
-        ["results file", f"`{_shown(source_path)}`" if source_path else "(in memory)"],
-        ["source", a.get("source", "–")],
-        ["config SHA-256", f"`{a['config_sha256']}`" if a.get("config_sha256") else "–"],
-        ["conventions", a.get("Conventions", "–")],
-        ["command (last step)", command],
+        ["results file", code(_shown(source_path)) if source_path else "(in memory)"],
+        ["source", md(a.get("source", "–"))],
+        ["config SHA-256", sha256_text(a.get("config_sha256"))],
+        ["conventions", md(a.get("Conventions", "–"))],
+        ["command (last step)", code(command) if command != "–" else command],
         ["report", f"vsi_numba {_version()}"],
     ]
     out = ["## Provenance", ""] + _table(["", ""], rows)
@@ -183,8 +195,8 @@ def _bridge_description(ds: xr.Dataset) -> str:
 
     bridge = _config_section(ds, "bridge") or {}
     if not bridge.get("kind"):
-        return str(ds.attrs.get("bridge_description", "–"))
-    parts = [str(bridge["kind"]).replace("_", " ")]
+        return md(ds.attrs.get("bridge_description", "–"))
+    parts = [md(str(bridge["kind"]).replace("_", " "))]
     if bridge.get("spans"):
         parts.append(("spans " if len(bridge["spans"]) > 1 else "span ")
                      + fmt_list(bridge["spans"], "m", " + "))
@@ -215,12 +227,12 @@ def _bridge(ds: xr.Dataset, lphi: chk.DeterminantLength | None = None) -> list[s
         out.append(f"- Track model at the wheels: {rail}")
     track = track_type(ds)
     limit = chk.DECK_ACCELERATION_LIMITS.get(track)
-    out.append(f"- Track: {track}"
+    out.append(f"- Track: {md(track)}"
                + (f" (deck acceleration limit {limit:g} m/s², {chk.DECK_ACCELERATION_CLAUSE})"
                   if limit else " (unknown track type: no default acceleration limit)"))
     if track_type_assumed(ds):
         out.append(f"\n> **Note:** the results do not state the track type "
-                   f"(track_type = '{a.get('track_type', '')}'): the stricter ballasted-track "
+                   f"(track_type = '{md(a.get('track_type', ''))}'): the stricter ballasted-track "
                    "limit 3.5 m/s² is used. For direct-fastened track the limit is 5 m/s².\n")
     if f.size:
         shown = f[:10]
@@ -229,7 +241,7 @@ def _bridge(ds: xr.Dataset, lphi: chk.DeterminantLength | None = None) -> list[s
         cut = chk.frequency_cutoff(f)
         out.append(f"- Frequency cut-off of the acceleration check, max(30 Hz, 1.5 f₁, f₃) "
                    f"= max(30, {1.5 * f[0]:.2f}, "
-                   f"{f[2]:.2f}) = **{cut:.2f} Hz** ({chk.DECK_ACCELERATION_CLAUSE} [R])"
+                   f"{f[2]:.2f}) = **{cut:.2f} Hz** ({chk.DECK_ACCELERATION_CLAUSE})"
                    if f.size >= 3 else
                    f"- Frequency cut-off of the acceleration check: {cut:.2f} Hz "
                    f"(fewer than 3 modes known: f₃ not included)")
@@ -251,8 +263,8 @@ def _summary(results: dict, table: pd.DataFrame, pts: np.ndarray) -> list[str]:
         util = r["utilisation"]
         rows.append([
             r["check"], _fmt(r["value"], units), _fmt(r["limit"], units),
-            _fmt(r["margin"], units), "–" if not np.isfinite(util) else f"{100 * util:.0f} %",
-            _result(r["result"]), r["governing_train"] or "–",
+            _fmt(r["margin"], units), "–" if not np.isfinite(util) else f"{100 * util:.1f} %",
+            _result(r["result"]), md(r["governing_train"]) if r["governing_train"] else "–",
             _fmt(r["governing_speed_kmh"]), r["clause"],
         ])
     out += _table(["Check", "Value", "Limit", "Margin (limit − value)", "Utilisation",
@@ -286,12 +298,12 @@ def _summary(results: dict, table: pd.DataFrame, pts: np.ndarray) -> list[str]:
         a = dyn.attrs
         out.append(f"- φ'dyn = max|y_dyn| / max|y_stat| − 1 of the deck maximum displacement, "
                    f"static response of the same model; basis: {a['basis']}. "
-                   f"φ'' (EN 1991-2 Annex C [R]) with L_Φ = {a['length']:g} m "
+                   f"φ'' (EN 1991-2 Annex C) with L_Φ = {a['length']:g} m "
                    f"({a.get('length_rule', '')}"
                    f"{'' if a.get('length_assumed') else ', ' + chk.DETERMINANT_LENGTH_CLAUSE}"
                    f"), n₀ = {a['n0']:.3g} Hz: max {_fmt(a['phi2_max'])}. "
                    "The design factor 1 + φ'dyn + φ''/2 is information for the comparison "
-                   "with Φ × LM71 (EN 1991-2 6.4.6.5(3) [R]), not a pass/fail check.")
+                   "with Φ × LM71 (EN 1991-2 6.4.6.5(3)), not a pass/fail check.")
     wu = results.get("wheel_unloading")
     if not isinstance(wu, str) and wu is not None and "note" in wu.attrs:
         out.append(f"- Wheel unloading: not applicable, {wu.attrs['note']}.")
@@ -308,23 +320,23 @@ def _summary(results: dict, table: pd.DataFrame, pts: np.ndarray) -> list[str]:
             side = ("at the centre of gravity" if abs(d) < 1e-9 else
                     f"{abs(d):g} m {'ahead of' if d > 0 else 'behind'} the centre of gravity"
                     " (over a suspension pivot)")
-            where = f" The peak is in vehicle {a.get('governing_vehicle', '')}, {side}."
+            where = f" The peak is in vehicle {md(a.get('governing_vehicle', ''))}, {side}."
         out.append(f"- Comfort: car-body acceleration at the centre of gravity and over each "
                    f"bogie pivot (the largest inside the coach between the pivots); required "
-                   f"level **{a['required_level']}**; level reached in the governing case: "
-                   f"{a['level']}.{where}")
+                   f"level **{md(a['required_level'])}**; level reached in the governing "
+                   f"case: {md(a['level'])}.{where}")
         if "car_end_value" in a:
             d = float(a.get("car_end_position", np.nan))
             end = ("front" if d > 0 else "rear") if np.isfinite(d) else "an"
             out.append(f"- Comfort at the car-body ends (reported apart from the value above, "
                        f"the ends lying beyond the pivots): largest "
                        f"{_fmt(a['car_end_value'])} m/s² ({a['car_end_level']}), at the "
-                       f"{end} end of vehicle {a.get('car_end_vehicle', '')}"
+                       f"{end} end of vehicle {md(a.get('car_end_vehicle', ''))}"
                        f"{f', {abs(d):g} m from its centre of gravity' if np.isfinite(d) else ''}"
-                       f" ({a.get('car_end_train', '')}, "
+                       f" ({md(a.get('car_end_train', ''))}, "
                        f"{float(a.get('car_end_speed', np.nan)) * 3.6:.0f} km/h).")
-    out.append("- Limits and clauses tagged [R] are recalled from the standard, not re-read: "
-               "check them against the primary text before relying on them.")
+    out.append("- Limits and clause values: the [code profile](#code-profile) of the study "
+               "(one table, values recalled and not re-read marked there).")
     missing = [f"- {name.replace('_', ' ')}: {why}" for name, why in results.items()
                if isinstance(why, str)]
     if missing:
@@ -336,8 +348,8 @@ def _wheel_unloading_line(a: dict) -> str:
     """Summary bullet of the wheel unloading check, contact losses named for what they are."""
     txt = "- Wheel unloading"
     if a.get("not_applicable_trains"):
-        txt += (f" (checked for {a['applicable_trains']}; **not applicable** to "
-                f"{a['not_applicable_trains']}: prescribed contact forces, moving-force "
+        txt += (f" (checked for {md(a['applicable_trains'])}; **not applicable** to "
+                f"{md(a['not_applicable_trains'])}: prescribed contact forces, moving-force "
                 "model — no ΔQ/Q₀ and no contact loss)")
     txt += f": governing axle {a['governing_wheel']}"
     if "min_contact_force" in a:
@@ -383,7 +395,7 @@ def _one_step_losses(results: dict) -> list[str]:
         events = "–"
         if total is not None:
             events = _fmt(float(total.sel(speed=speed, train=train)))
-        rows.append([str(train), f"{float(wu['speed_kmh'].sel(speed=speed)):.0f}",
+        rows.append([md(train), f"{float(wu['speed_kmh'].sel(speed=speed)):.0f}",
                      f"{count:.0f}", events])
     out.append(f"{flagged.size} case{'s' if flagged.size != 1 else ''} (train, speed) had "
                "losses of contact lasting exactly one time step. **Possible spurious "
@@ -496,17 +508,17 @@ def _trains(ds: xr.Dataset, applicable=None) -> list[str]:
         vres = ", ".join(
             (f"**{v:.0f}**" if lo <= v <= hi else f"{v:.0f}") for v in res["speed_kmh"]
         ) or "–"
-        shown = f"**{status.upper()}**" if status in WARN_STATUSES else status
+        shown = f"**{md(status.upper())}**" if status in WARN_STATUSES else md(status)
         if applicable is None:
             contact = "–"
         elif bool(applicable.sel(train=train)):
             contact = "interaction"
         else:
             contact = "prescribed (moving forces): ΔQ/Q₀ n/a"
-        rows.append([name, shown, "–" if not np.isfinite(D) or D <= 0 else f"{D:g}",
+        rows.append([md(name), shown, "–" if not np.isfinite(D) or D <= 0 else f"{D:g}",
                      axles, weight, contact, vres])
         if status in WARN_STATUSES:
-            warnings.append(f"> ⚠ **WARNING — train {name} has data status "
+            warnings.append(f"> ⚠ **WARNING — train {md(name)} has data status "
                             f"'{status.upper()}'** ({WARN_STATUSES[status]}). Its results "
                             "are not fit for design decisions until the vehicle data are "
                             "confirmed against the primary source.")
@@ -526,7 +538,7 @@ def _cases(ds: xr.Dataset) -> list[str]:
     step = (f", step {steps[0]:g} km/h" if steps.size == 1 else
             (", variable step" if steps.size else ""))
     out.append(f"- Speeds: {v.size}, {v.min():.0f}–{v.max():.0f} km/h{step}")
-    out.append(f"- Trains: {ds.sizes['train']} ({', '.join(map(str, ds['train'].values))})")
+    out.append(f"- Trains: {ds.sizes['train']} ({', '.join(map(md, ds['train'].values))})")
     seeds = irr[irr != DETERMINISTIC]
     text = f"- Irregularity: {irr.size} realisation{'s' if irr.size != 1 else ''}"
     if (irr == DETERMINISTIC).any():
@@ -544,10 +556,11 @@ def _cases(ds: xr.Dataset) -> list[str]:
         for code in np.unique(status[status != 0]):
             where = np.argwhere(status == code)
             first = where[0]
-            example = (f"{ds['train'].values[first[1]]}, "
+            example = (f"{md(ds['train'].values[first[1]])}, "
                        f"{ds['speed_kmh'].values[first[0]]:.0f} km/h, "
                        f"irregularity {ds['irregularity'].values[first[2]]}")
-            rows.append([str(int(code)), meanings.get(int(code), "?"), str(len(where)), example])
+            rows.append([str(int(code)), md(meanings.get(int(code), "?")), str(len(where)),
+                         example])
         out += ["", "> **Failed cases are left out of every check (NaN outputs).**", ""]
         out += _table(["Status", "Meaning", "Cases", "First case"], rows)
     return out + [""]
@@ -573,7 +586,8 @@ def _statistics(results: dict, ds: xr.Dataset) -> list[str]:
         pn = (float(case["exceedance_probability_normal"])
               if "exceedance_probability_normal" in case else np.nan)
         rows.append([c.attrs["check"],
-                     f"{c.attrs['governing_train']}, {c.attrs['governing_speed_kmh']:.0f} km/h",
+                     f"{md(c.attrs['governing_train'])}, "
+                     f"{c.attrs['governing_speed_kmh']:.0f} km/h",
                      str(int(case["n"])), _fmt(case["mean"], units), _fmt(case["std"], units),
                      _fmt(case["characteristic"], units), ci,
                      "–" if not np.isfinite(p) else f"{p:.2f}",

@@ -17,15 +17,18 @@ import pandas as pd
 import xarray as xr
 
 from vsi_numba.analysis import variants as var
+from vsi_numba.analysis.report.atomic import atomic_directory, checkpoint
 from vsi_numba.analysis.report.document import (
     Figure,
+    Markdown,
     Section,
     Table,
     write_html,
     write_markdown,
 )
 from vsi_numba.analysis.report.echo import fmt_number, input_echo, title_block
-from vsi_numba.analysis.report.tables import fix_xlsx_dates, reproducible_zip
+from vsi_numba.analysis.report.safe import clean, code, md
+from vsi_numba.analysis.report.tables import _xlsx_text, fix_xlsx_dates, reproducible_zip
 from vsi_numba.analysis.report.text import _version, _warnings_block, stored_warnings
 
 #: Units of the columns of :func:`vsi_numba.analysis.variants.variant_table` (CSV/XLSX
@@ -60,7 +63,8 @@ def _show_table(table: pd.DataFrame) -> pd.DataFrame:
         if show[col].dtype.kind == "f":
             show[col] = show[col].map(fmt_number)
     if "result" in show:
-        show["result"] = show["result"].map(lambda r: "**FAIL**" if r == "FAIL" else r)
+        show["result"] = show["result"].map(lambda r: Markdown("**FAIL**") if r == "FAIL"
+                                            else r)
     return show
 
 
@@ -78,7 +82,8 @@ def write_variants_report(ds: xr.Dataset, outdir, source_path=None, **kwargs) ->
     ds : xarray.Dataset
         Results with a ``variant`` dim, best opened lazily (nothing is loaded whole).
     outdir : path
-        Report directory (created).
+        Report directory, replaced whole and atomically
+        (:func:`~vsi_numba.analysis.report.atomic.atomic_directory`).
     source_path : path, optional
         The results file (its name is shown).
 
@@ -87,50 +92,62 @@ def write_variants_report(ds: xr.Dataset, outdir, source_path=None, **kwargs) ->
     pathlib.Path
         ``report.md``.
     """
-    from vsi_numba.analysis.report import write_report
+    with atomic_directory(outdir) as tmp:
+        _write_variants(ds, tmp, Path(outdir), source_path, **kwargs)
+    return Path(outdir) / "report.md"
 
-    outdir = Path(outdir)
-    outdir.mkdir(parents=True, exist_ok=True)
+
+def _write_variants(ds: xr.Dataset, outdir: Path, report_dir: Path, source_path=None,
+                    **kwargs) -> Path:
+    """The files of :func:`write_variants_report`, written into ``outdir`` as they come
+    (the temporary directory); ``report_dir`` is where they will be read."""
+    from vsi_numba.analysis.dataset import prepare
+    from vsi_numba.analysis.report import build_report
+
     table = var.variant_table(ds)
     units_table = _with_units(ds, table)
     units_table.to_csv(outdir / "variants.csv", index=False, float_format="%.6g")
+    checkpoint()
     with pd.ExcelWriter(outdir / "tables.xlsx", engine="openpyxl") as writer:
-        units_table.to_excel(writer, sheet_name="variants", index=False)
+        _xlsx_text(units_table).to_excel(writer, sheet_name="variants", index=False)
         writer.sheets["variants"].freeze_panes = "B2"
         fix_xlsx_dates(writer)
     reproducible_zip(outdir / "tables.xlsx")
+    checkpoint()
     gov = var.governing_variant(ds)
     view = var.variant_view(ds, gov)
     label = var.variant_label(ds, gov)
-    sub = write_report(view, outdir / "governing_variant", source_path=source_path,
-                       variant_note=f"Variant {gov} of the study: {label}.", **kwargs)
+    (outdir / "governing_variant").mkdir()
+    sub = build_report(prepare(view), outdir / "governing_variant",
+                       report_dir=report_dir / "governing_variant", source_path=source_path,
+                       variant_note=f"Variant {gov} of the study: {md(label)}.", **kwargs)
     buf = io.BytesIO()
     caption = var.design_charts(ds, buf)
     chart = Figure(buf.getvalue(), "design_chart.png", caption)
 
-    title = ds.attrs.get("title") or "vsi_numba study of variants"
+    title = clean(ds.attrs.get("title") or "vsi_numba study of variants")
     n_fail = int(table["result"].astype(str).str.startswith("FAIL").sum())
     generated = f"vsi_numba {_version()}"
-    intro = (f"A study of {ds.sizes['variant']} variants ({ds.attrs.get('varied_keys', '')}), "
+    intro = (f"A study of {ds.sizes['variant']} variants ({md(ds.attrs.get('varied_keys', ''))}), "
              f"{ds.sizes['speed']} speeds × {ds.sizes['train']} trains × "
              f"{ds.sizes['irregularity']} track realisations"
-             + (f": `{Path(source_path).name}`." if source_path else "."))
+             + (f": {code(Path(source_path).name)}." if source_path else "."))
     head = [Section("", [intro], level=0), title_block(view, generated)]
     warn = Section.from_markdown(_warnings_block(stored_warnings(ds)))  # marked per variant
     if warn is not None:
         head.append(warn)
-    rules = [f"- {ds.attrs[key]}" for key in ("damping_rule", "additional_damping_rule")
+    rules = [f"- {md(ds.attrs[key])}" for key in ("damping_rule", "additional_damping_rule")
              if ds.attrs.get(key)]
     if "damping_rule" in ds and any(str(r) for r in ds["damping_rule"].values):
         rules.append("- Damping per variant (columns zeta, dzeta): e.g. variant 0: "
-                     f"{ds['damping_rule'].values[0]}")
+                     f"{md(ds['damping_rule'].values[0])}")
     peak = var.peak_deck_acceleration(ds)
     g = peak.isel(variant=gov)
     v_gov = float(ds["speed_kmh"].values[int(np.nanargmax(g.values))])
     envelope = [
-        f"- **Governing variant {gov}** ({label}): peak deck acceleration "
+        f"- **Governing variant {gov}** ({md(label)}): peak deck acceleration "
         f"**{float(g.max()):.3g} m/s²** at {v_gov:g} km/h (limit "
-        f"{var.variant_limit(ds, gov):g} m/s², {var.variant_track_type(ds, gov)} track; the "
+        f"{var.variant_limit(ds, gov):g} m/s², {md(var.variant_track_type(ds, gov))} track; the "
         "governing variant uses the most of its own limit); its full report: "
         f"[governing_variant/report.html](governing_variant/report.html) "
         f"([Markdown](governing_variant/{sub.name})).",
@@ -144,11 +161,12 @@ def write_variants_report(ds: xr.Dataset, outdir, source_path=None, **kwargs) ->
                                 Table(_show_table(_with_units(ds, table)),
                                       "Deck acceleration check per variant")]),
         Section("Design chart", [chart]),
-        input_echo(view, f"The input of the governing variant {gov} ({label}); the other "
+        input_echo(view, f"The input of the governing variant {gov} ({md(label)}); the other "
                          "variants differ in the varied keys only."),
     ]
     path = write_markdown(head + body, outdir / "report.md", title=title)
     write_html(body, outdir / "report.html", title=title, header=head)
     (outdir / "variants.json").write_text(json.dumps(
         {"governing_variant": gov, "label": label}, indent=1))
+    checkpoint()
     return path

@@ -97,10 +97,11 @@ def test_axle_csv_train(tmp_path):
     assert t.name == "axles" and t.status == "user"
     np.testing.assert_array_equal(t.vehicles[0].load_positions, [0.0, 2.5, 12.0])
     np.testing.assert_array_equal(t.vehicles[0].loads, [200e3, 210e3, 190e3])  # kN -> N
+    write_csv(tmp_path, "position,load\n0,200000\n2.5,210000\n12.0,190000\n")  # in N
     cfg = load_config(base({"preset": "HSLM-A1", "axles": {
         "file": "axles.csv", "load_unit": "N", "name": "loco"}}), base_dir=tmp_path)
     assert [t.name for t in cfg.trains()] == ["HSLM-A1", "loco"]
-    np.testing.assert_array_equal(cfg.trains()[1].vehicles[0].loads, [200.0, 210.0, 190.0])
+    np.testing.assert_array_equal(cfg.trains()[1].vehicles[0].loads, [200e3, 210e3, 190e3])
     again = load_config(cfg.resolved(), base_dir=tmp_path)
     assert again.trains()[1].name == "loco"
 

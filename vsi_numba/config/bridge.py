@@ -29,7 +29,13 @@ from vsi_numba.config._check import (
     _ok,
     _Sentinel,
 )
-from vsi_numba.config.limits import DT_RESOLUTION, MAX_ELEMENTS, MAX_MODES, MAX_OUTPUT_POINTS
+from vsi_numba.config.limits import (
+    DT_RESOLUTION,
+    MAX_DAMPING_RATIO,
+    MAX_ELEMENTS,
+    MAX_MODES,
+    MAX_OUTPUT_POINTS,
+)
 from vsi_numba.model import bridge as _bridge
 
 BRIDGE_KINDS = ("simply_supported", "continuous", "rigid", "modes_file", "matrices")
@@ -146,12 +152,7 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
         if d.get("damping_ratio") == EN_DAMPING:
             damping = _en_damping(chk, d, kind, spans, res)
         elif "damping_ratio" in d:
-            damping = chk.number_list(
-                d["damping_ratio"], "bridge.damping_ratio",
-                _Num("a damping ratio 0 <= zeta < 1", ge=0, lt=1), scalar_ok=True,
-                expected="a damping ratio 0 <= zeta < 1, a list with one per mode, or "
-                         f"'{EN_DAMPING}' (Table 6.6 with bridge.deck_type)",
-            )
+            damping = _damping_ratio(chk, d["damping_ratio"])
         if "deck_type" in d and d.get("damping_ratio") != EN_DAMPING:
             chk.error("bridge.deck_type", d["deck_type"], "only with damping_ratio = "
                       f"'{EN_DAMPING}' (the Table 6.6 lower bound of that deck type)")
@@ -263,6 +264,37 @@ FLEXIBILITY_WARNING = 0.95  # share of the static rail flexibility kept by the m
 
 
 EN_DAMPING = "EN1991-2"
+
+
+def _damping_ratio(chk, value):
+    """``bridge.damping_ratio`` as a number or one per mode: a fraction of critical
+    0 <= zeta < 1.  A value >= 1 is refused as a percentage (1.5 -> did you mean
+    0.015?); one >= :data:`MAX_DAMPING_RATIO` is legal but warned (railway decks have
+    0.5-4 %, EN 1991-2 Table 6.6 [R])."""
+    path = "bridge.damping_ratio"
+    expected = ("a damping ratio 0 <= zeta < 1, a list with one per mode, or "
+                f"'{EN_DAMPING}' (Table 6.6 with bridge.deck_type)")
+    got = chk.number_list(value, path, _Num("a damping ratio 0 <= zeta < 1", ge=0),
+                          scalar_ok=True, expected=expected)
+    if not _ok(got):
+        return got
+    items = [(path, got)] if _is_number(got) else [
+        (f"{path}[{i}]", z) for i, z in enumerate(got)]
+    bad = False
+    for p, z in items:
+        if z >= 1.0:
+            chk.error(p, z, f"a damping ratio 0 <= zeta < 1 (a fraction of critical, not a "
+                            f"percentage): did you mean {z / 100:g} ({z:g} %)?")
+            bad = True
+    if bad:
+        return _BAD
+    high = [(p, z) for p, z in items if z >= MAX_DAMPING_RATIO]
+    if high:
+        p, z = max(high, key=lambda t: t[1])
+        chk.warn(f"{p} = {z:g}: {100 * z:g} % of critical damping, far above the 0.5-4 % "
+                 f"of railway decks (EN 1991-2 Table 6.6 [R]); looks like a percentage? "
+                 f"({z:g} % = {z / 100:g})", "plausibility", [path])
+    return got
 
 
 def _span_for_damping(kind, spans):

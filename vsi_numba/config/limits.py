@@ -35,3 +35,21 @@ LONG_TRAIN = 1000.0  # m, a longer train gets a warning
 MAX_CONFIG_BYTES = 8 * 1024**2  # a configuration file larger than this is refused unread
 MAX_RUNS = 2_000_000  # runs of one study (variants x speeds x trains x realisations)
 MAX_VARIANTS = 5000  # cap on the bridge/track/contact variants of one study
+#: Unit slips (each refused unless solver.allow_implausible, or warned where legal).
+#: A deck mass per length below this (kg/m) is lighter than any railway deck (a single
+#: track steel deck without ballast carries about 2-4 t/m): t/m typed as kg/m
+MIN_DECK_MASS = 500.0
+#: ... refused when, with EI, it also puts f1 above this multiple of the upper limit
+#: 94.76 L^-0.748 of EN 1991-2 Fig. 6.10 [R] (22 kg/m instead of 22 t/m: x 31.6)
+DECK_FREQUENCY_FACTOR = 2.0
+#: Mean static axle load (N) of a train below this: lighter than ~100 kg per axle, kN
+#: or tonnes typed as N or kg (railway axles carry 50-250 kN)
+MIN_AXLE_LOAD = 1.0e3
+#: Mean static axle load (N) above this (100 t per axle; the heaviest freight axles
+#: carry 35-40 t): N typed as kN
+MAX_AXLE_LOAD = 1.0e6
+#: A line speed, or the fastest speed of a study, below this (km/h) looks like m/s
+MIN_STUDY_SPEED_KMH = 100.0
+#: A modal damping ratio at or above this (10 % of critical) looks like a percentage
+#: (railway decks: 0.5-4 %, EN 1991-2 Table 6.6 [R])
+MAX_DAMPING_RATIO = 0.10

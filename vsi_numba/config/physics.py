@@ -5,16 +5,19 @@ penetration, vehicle stiffness, run and memory budget), each with its override k
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 
 from vsi_numba.config.irregularity import _defect_profile
 from vsi_numba.config.limits import (
+    DECK_FREQUENCY_FACTOR,
     DT_ERROR,
     DT_RESOLUTION,
     HARD_MAX_STEPS,
     LONG_TRAIN,
+    MAX_AXLE_LOAD,
     MAX_HERTZ_PENETRATION,
     MAX_HISTORY_BYTES,
     MAX_PROFILE_AMPLITUDE,
@@ -24,10 +27,14 @@ from vsi_numba.config.limits import (
     MAX_TRACK_DEFLECTION,
     MAX_TRACK_FILTER,
     MAX_TRACK_STIFFNESS,
+    MIN_AXLE_LOAD,
+    MIN_DECK_MASS,
+    MIN_STUDY_SPEED_KMH,
     STEPS_PER_WAVELENGTH,
     TRACK_RANGES,
 )
 from vsi_numba.en1990 import frequency_cutoff
+from vsi_numba.en1991 import frequency_band
 from vsi_numba.model import irregularity as _irr
 from vsi_numba.model import track as _track
 from vsi_numba.model.irregularity import profile_range
@@ -88,6 +95,37 @@ def _highest_wheel_frequency(train, wheel_stiffness) -> tuple[float, str]:
             if f > f_max:
                 f_max, where = f, f"train '{tr.name}', vehicle '{v.name}'"
     return f_max, where
+
+
+def _vehicle_frequency(v) -> tuple[float, str]:
+    """The highest natural frequency (Hz) of a vehicle with its wheels held, and a note
+    naming the bump stops when they set it.
+
+    A bump stop adds its stiffness once its gap closes (a landing, a dip): the run must
+    resolve the vehicle with every stop closed, ``K + sum k_s e_s e_s^T`` (``e_s`` the
+    stop's compression row), as it resolves the same spring put in linearly.
+    """
+    if not v.n_dof or v.n_dof <= v.n_wheels:
+        return 0.0, ""
+    stops = [el for el in v.nonlinear if el.kind == "bump_stop"]
+    k = np.array(v.K, float)
+    for el in stops:
+        e = np.asarray(el.row, float)
+        k += float(el.params[1]) * np.outer(e, e)
+    try:
+        lin = v.natural_frequencies(fixed_wheels=True)
+        closed = dataclasses.replace(v, K=k).natural_frequencies(fixed_wheels=True) \
+            if stops else lin
+    except (ValueError, np.linalg.LinAlgError):
+        return 0.0, ""
+    f_lin = float(lin.max(initial=0.0))
+    f_closed = float(closed.max(initial=0.0))
+    if f_closed > f_lin * (1 + 1e-6):
+        k_max = max(float(el.params[1]) for el in stops)
+        return f_closed, (f", vehicle '{v.name}' with its bump stops closed: "
+                          f"bump_stop.stiffness up to {k_max:.4g} N/m; {f_lin:.4g} Hz with "
+                          "the stops open")
+    return f_lin, ""
 
 
 def _hertz_warning(chk, train, dt, g, model="hertz"):
@@ -249,7 +287,128 @@ def _rigid_massive_warning(chk, train, alpha):
                 return
 
 
+def _deck_mass_slip(chk, bridge, solver) -> bool:
+    """``bridge.mass_per_length`` below :data:`MIN_DECK_MASS` (kg/m): t/m typed as kg/m.
+    Refused when the deck's f1 is also above :data:`DECK_FREQUENCY_FACTOR` x the upper
+    limit of EN 1991-2 Fig. 6.10 [R] (the time-step messages it would cause are then
+    left out: the mass is their cause); a warning otherwise.  True when refused;
+    ``chk = None`` only answers."""
+    res, model = bridge.resolved, bridge.model
+    if bridge.kind not in ("simply_supported", "continuous") or not model.n_modes:
+        return False
+    masses = np.atleast_1d(np.asarray(res.get("mass_per_length", []), float))
+    spans = res.get("spans") or []
+    if not masses.size or not spans or masses.min() >= MIN_DECK_MASS:
+        return False
+    m = float(masses.min())
+    span = float(max(spans))
+    hi = 94.76 * span ** -0.748  # Fig. 6.10's upper limit (extrapolated off 4-100 m)
+    if 4.0 <= span <= 100.0:
+        hi = frequency_band(span)[1]
+    f1 = float(model.frequencies[0])
+    if f1 / math.sqrt(1e3) > DECK_FREQUENCY_FACTOR * hi:
+        return False  # not a deck in t/m either: left to the other checks
+    key = "bridge.mass_per_length"
+    shown = f"{m:g}" if masses.size == 1 else f"{m:g} (span {int(np.argmin(masses)) + 1})"
+    text = (f"{key} = {shown} kg/m looks like t/m ({m:g} t/m = {m * 1e3:g} kg/m): "
+            f"lighter than any railway deck (expected >= {MIN_DECK_MASS:g} kg/m)")
+    if f1 > DECK_FREQUENCY_FACTOR * hi:
+        if chk is None:
+            return not solver.get("allow_implausible")
+        _refuse(chk, solver, "allow_implausible",
+                f"{text}; with bridge.EI it gives f1 = {f1:.4g} Hz on the {span:g} m span, "
+                f"far above the {hi:.3g} Hz upper limit of EN 1991-2 Fig. 6.10 [R] (with "
+                f"{m * 1e3:g} kg/m: f1 = {f1 / math.sqrt(1e3):.3g} Hz); give the mass in "
+                "kg/m")
+        return not solver.get("allow_implausible")
+    if chk is not None:
+        chk.warn(f"{text}; f1 = {f1:.4g} Hz", "plausibility", [key])
+    return False
+
+
+def _vehicle_unit_slips(train) -> list[str]:
+    """Refusals for explicit vehicles and axle-load files whose mean axle load is below
+    :data:`MIN_AXLE_LOAD` or above :data:`MAX_AXLE_LOAD`: tonnes typed as kg, kN typed
+    as N (and the reverse for an axle file), each naming its key."""
+    out = []
+    res = train.resolved
+    trains = list(train.trains)
+    if "axles" in res and trains:
+        tr = trains[-1]  # the axle-file train comes after the presets
+        unit = res["axles"].get("load_unit", "kN")
+        n = tr.n_wheels + tr.n_loads
+        loads = np.concatenate([np.asarray(v.loads, float) for v in tr.vehicles])
+        mean = float(np.mean(loads)) if loads.size else 0.0
+        key = "train.axles.load_unit"
+        if n and mean < MIN_AXLE_LOAD and unit == "N":
+            out.append(f'{key} = "N": the mean axle load of train.axles.file is {mean:.4g} '
+                       f"N (a {float(np.sum(loads)) / 1e3:.4g} kN train); looks like kN "
+                       f"({mean:.4g} kN = {mean * 1e3:.0f} N per axle): set load_unit = "
+                       '"kN" (expected 50-250 kN per axle)')
+        elif n and mean > MAX_AXLE_LOAD and unit == "kN":
+            out.append(f'{key} = "kN": the mean axle load of train.axles.file is '
+                       f"{mean / 1e3:.4g} kN ({mean / 9.81e3:.4g} t per axle); looks like N "
+                       f"({mean / 1e3:.0f} N = {mean / 1e6:.4g} kN): set load_unit = \"N\" "
+                       "(expected 50-250 kN per axle)")
+    if not train.explicit or not trains:
+        return out
+    for i, (v, r) in enumerate(zip(trains[0].vehicles, res.get("vehicles", []),
+                                   strict=False)):
+        path = f"train.vehicles[{i}]"
+        axles = v.n_wheels + int(np.size(v.loads))
+        if not axles:
+            continue
+        mean = v.total_weight / axles
+        if mean >= MIN_AXLE_LOAD:
+            continue
+        if r.get("kind") == "force":
+            msg = (f"{path}.load = {r['load']:g} N looks like kN ({r['load']:g} kN = "
+                   f"{r['load'] * 1e3:g} N): an axle of railway traffic carries 50-250 kN; "
+                   "loads are in N")
+        else:
+            keys = [k for k in ("mass", "body_mass", "bogie_mass", "wheelset_mass",
+                                "wheel_mass") if r.get(k)]
+            shown = ", ".join(f"{path}.{k} = {r[k]:g}" for k in keys) or path
+            first = float(r[keys[0]]) if keys else 0.0
+            verb = "look" if len(keys) > 1 else "looks"
+            msg = (f"{shown} kg {verb} like tonnes: a static axle load of {mean:.4g} N "
+                   f"({mean / 9.81:.3g} kg per axle; a railway axle carries 5-25 t); "
+                   f"masses are in kg ({first:g} t = {first * 1e3:g} kg)")
+        out.append(msg)
+    return out
+
+
+def _unit_slips(bridge, train, solver) -> bool:
+    """True when a unit slip is refused (no override): the checks that its consequences
+    would trip (time step, static deflections) are then left out."""
+    if solver.get("allow_implausible"):
+        return False
+    return bool(_vehicle_unit_slips(train)) or _deck_mass_slip(None, bridge, solver)
+
+
+def _speed_slips(chk, study):
+    """A line speed, or a study whose fastest speed is, below
+    :data:`MIN_STUDY_SPEED_KMH` while 3.6 x it is a railway speed: m/s typed as km/h."""
+    line = study.get("line_speed_kmh")
+    if line is not None and line < MIN_STUDY_SPEED_KMH:
+        chk.warn(f"study.line_speed_kmh = {line:g} km/h looks like m/s ({line:g} m/s = "
+                 f"{line * 3.6:.4g} km/h): the grid then runs {min(study['speeds_kmh']):g} .."
+                 f" {max(study['speeds_kmh']):g} km/h; the key is in km/h", "plausibility",
+                 ["study.line_speed_kmh"])
+        return
+    top = max(study["speeds_kmh"])
+    if line is None and top < MIN_STUDY_SPEED_KMH and top * 3.6 >= MIN_STUDY_SPEED_KMH:
+        chk.warn(f"study.speeds_kmh: the fastest speed is {top:g} km/h, which looks like "
+                 f"m/s ({top:g} m/s = {top * 3.6:.4g} km/h); the key is in km/h",
+                 "plausibility", ["study.speeds_kmh"])
+
+
 def _physics_warnings(chk, bridge, train, irr, solver, study, contact, track):
+    _speed_slips(chk, study)
+    for msg in _vehicle_unit_slips(train):
+        _refuse(chk, solver, "allow_implausible", msg)
+    if _deck_mass_slip(chk, bridge, solver) or _unit_slips(bridge, train, solver):
+        return  # the units are the cause: no time-step messages about their consequences
     dt = solver["dt"]
     if track["model"] == "elastic":
         f_track, where, spring = _track_warning(chk, train, dt, track, contact)
@@ -312,27 +471,24 @@ def _physics_warnings(chk, bridge, train, irr, solver, study, contact, track):
                     "of the deck accelerations (raise bridge.n_modes or bridge.max_frequency)"
                 )
     for tr in train.trains:
-        fv = 0.0
+        fv, stops = 0.0, ""
         for v in tr.vehicles:
-            if v.n_dof and v.n_dof > v.n_wheels:
-                try:
-                    f = v.natural_frequencies(fixed_wheels=True)
-                except (ValueError, np.linalg.LinAlgError):
-                    continue
-                if f.size:
-                    fv = max(fv, float(f.max()))
+            f, closed = _vehicle_frequency(v)
+            if f > fv:
+                fv, stops = f, closed
+        what = f"({fv:.4g} Hz, wheels held{stops})"
         if dt * fv > DT_ERROR and not solver.get("allow_coarse_dt"):
             chk.errors.append(
                 f"solver.dt = {dt:g}: expected a time step giving at least "
                 f"{1 / DT_ERROR:.0f} steps per period of the highest vehicle frequency of "
-                f"train '{tr.name}' ({fv:.4g} Hz, wheels held): dt x f = {dt * fv:.3g} > "
+                f"train '{tr.name}' {what}: dt x f = {dt * fv:.3g} > "
                 f"{DT_ERROR}; use dt <= {DT_RESOLUTION / fv:.3g} s, or set "
                 "solver.allow_coarse_dt = true to run anyway (the results are then marked "
                 "not reliable)")
         elif dt * fv > DT_RESOLUTION:
             chk.warn(
                 f"solver.dt = {dt:g} s: dt x f = {dt * fv:.3g} for the highest vehicle "
-                f"frequency of train '{tr.name}' ({fv:.4g} Hz, wheels held); above "
+                f"frequency of train '{tr.name}' {what}; above "
                 f"{DT_RESOLUTION} it is under-resolved; use dt <= {DT_RESOLUTION / fv:.3g} s",
                 "resolution", ["solver.dt", "train"])
     r = irr.resolved
@@ -457,6 +613,8 @@ def _track_plausibility(chk, train, solver, track, bridge=None):
     of more than :data:`MAX_TRACK_FILTER` nodes x modes is refused (memory)."""
     if not isinstance(track, dict) or track.get("model") != "elastic":
         return
+    if bridge is not None and _unit_slips(bridge, train, solver):
+        return  # refused for its units (a train 1000 x too heavy deflects any track)
     for key, (lo, hi, units) in TRACK_RANGES.items():
         v = track[key]
         if not lo <= v <= hi:
@@ -498,6 +656,8 @@ def _track_plausibility(chk, train, solver, track, bridge=None):
 def _plausibility(chk, bridge, train, irr, solver, study, contact):
     """Errors for input that cannot be meant (each names its keys and the override key)
     and for runs beyond the memory/time budget; warnings for the unusual."""
+    if _unit_slips(bridge, train, solver):
+        return  # refused for its units: the deflections etc. would only repeat it
     model = bridge.model
     spans = np.atleast_1d(np.asarray(bridge.resolved.get("spans", [bridge.length or 0.0]),
                                      float))

@@ -49,8 +49,8 @@ _HELPERS: list = []
 #: Test modules that run the moving-force kernels but not the interaction kernels
 #: (measured).
 MOVING_FORCE_MODULES = frozenset({
-    "test_cluster_listeners", "test_dask_cluster", "test_load_effect_checks",
-    "test_output_lock"})
+    "test_cluster_listeners", "test_dask_cluster", "test_load_distribution",
+    "test_load_effect_checks", "test_output_lock"})
 
 #: Test modules with a test that runs the interaction kernels (measured): one such test
 #: early would make its process wait for the compilation.
@@ -58,7 +58,8 @@ INTERACTION_MODULES = frozenset({
     "test_batch", "test_benchmarks", "test_cli_conveniences", "test_comfort_car_end",
     "test_comfort_deck", "test_deck_end_impact", "test_engine", "test_files_edges",
     "test_hertz", "test_hostile", "test_impact_lcp", "test_imported", "test_load_effects",
-    "test_nonlinear_on_damped_track", "test_nonlinear_suspension", "test_report",
+    "test_nonlinear_on_damped_track", "test_nonlinear_suspension", "test_output_matrix",
+    "test_report",
     "test_resume", "test_study", "test_track", "test_track_damping", "test_validation",
     "test_variants", "test_variants_edges", "test_warm"})
 

@@ -81,8 +81,13 @@ class StudyFile:
 
     def __init__(self, path, speeds_kmh, trains, irregularities, points, frequencies,
                  n_wheel, n_vehicle, n_time, dt, trains_info, variants=None, deck_x=None,
-                 supports=None):
+                 supports=None, omit=None):
         import netCDF4
+
+        #: variables not written (the study's model does not compute them) -> reason
+        self.omit = dict(omit or {})
+        #: written case variables -> whether a finite value went in (see :meth:`close`)
+        self.found: dict[str, bool] = {}
 
         self.nc = netCDF4.Dataset(path, "w", format="NETCDF4")
         nc = self.nc
@@ -217,13 +222,19 @@ class StudyFile:
         self.vars = {}
         self._staged = None  # write_batch's gathered slices
         for name, (dims, *_rest) in ENVELOPES.items():
+            if name in self.omit:
+                continue
             self.vars[name] = self._float(name, (*case, *dims), attrs_for(name))
+            self.found[name] = False
         for name in DIAGNOSTICS:
             var = nc.createVariable(name, "i4", case)
             _put_attrs(var, {**attrs_for(name), "coordinates": self._coords_attr(case)})
             self.vars[name] = var
         if n_time is not None:
             for name, (dims, *_rest) in HISTORIES.items():
+                if name in self.omit:
+                    continue
+                self.found[name] = False
                 full = (*case, *dims)
                 chunks = tuple(1 if d in case else
                                max(1, min(sizes[d], MAX_TIME_CHUNK)) if d == "time" else
@@ -283,6 +294,8 @@ class StudyFile:
         n_p = self.n_points[batch.variant or 0]
         parts = {}
         for name, (dims, *_rest) in ENVELOPES.items():
+            if name in self.omit:
+                continue
             if not dims:  # one value per case
                 parts[name] = (None, np.asarray(data[name], float))
                 continue
@@ -310,10 +323,12 @@ class StudyFile:
                 s = s0 + int(r)
                 n = int(n)
                 for name in HISTORIES:
-                    if data.get(name) is None:  # not computed (load effects off)
+                    if data.get(name) is None or name in self.omit:  # not computed
                         continue
                     block = data[name][h, :n]
                     if block.shape[1]:  # moving forces only: no contact histories
+                        if not self.found[name]:
+                            self.found[name] = bool(np.isfinite(block).any())
                         self.vars[name][(*v, s, i_t, i_i, slice(0, n),
                                          slice(0, block.shape[1]))] = block
 
@@ -327,6 +342,8 @@ class StudyFile:
         for name, arrays in st["parts"].items():
             block = np.concatenate(arrays)
             width = widths[name]
+            if self.found.get(name) is False and block.dtype.kind == "f":
+                self.found[name] = bool(np.isfinite(block).any())
             if width is None:
                 self.vars[name][(*v, speeds, i_t, i_i)] = block
             else:

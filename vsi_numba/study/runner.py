@@ -58,6 +58,7 @@ from vsi_numba.study.backends import (
 )
 from vsi_numba.study.batches import Batch, run_batch_task
 from vsi_numba.study.grid import Case, StudyGrid
+from vsi_numba.study.offers import no_values, not_computed_attr, not_offered
 from vsi_numba.study.outlock import OutputLock
 from vsi_numba.study.progress import _Progress, _say
 from vsi_numba.study.spec import (
@@ -516,6 +517,7 @@ def _write_results(output: Path, store: CaseStore, study: _Study,
                                                 if r.get(k)) for r in rules]}
     n_wheel = max(max(i["n_wheel"], default=0) for i in infos)
     n_vehicle = max(max(i["n_vehicle"], default=0) for i in infos)
+    omit = not_offered(models, packed)
     tmp = store.temp_path(output.name)
     failed: list[str] = []
     try:
@@ -525,7 +527,7 @@ def _write_results(output: Path, store: CaseStore, study: _Study,
                       [m.settings.dt for m in models] if labels is not None else
                       model.settings.dt, infos, variants,
                       deck_x=[deck_grid(m.bridge, m.output_points) for m in models],
-                      supports=[m.bridge.supports for m in models])
+                      supports=[m.bridge.supports for m in models], omit=omit)
         hold = _hold_after() == "write"
         try:
             for b in plan:
@@ -561,6 +563,14 @@ def _write_results(output: Path, store: CaseStore, study: _Study,
                     attrs["dt"] = VARIES
             if labels is None:  # per variant otherwise (damping_rule(variant))
                 _bridge_rules(attrs, model.config)
+            f.flush()
+            empty = no_values(f.found, not failed)
+            if empty:
+                raise StudyError(
+                    f"not written: {output} would hold no value of {', '.join(empty)}, which "
+                    "this model computes; this is a defect of vsi_numba (the finished runs "
+                    "are kept), please report it with the configuration")
+            attrs["not_computed"] = not_computed_attr(omit)
             f.close(attrs)
         except BaseException:
             f.abort()

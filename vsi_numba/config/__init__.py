@@ -66,7 +66,14 @@ a kink at the deck ends); ``foundation_stiffness`` (N/m per metre of track, both
 8.51e7: 150 kN/mm per axle with UIC60 rails), ``rail_EI`` (N m^2, both rails; 1.283e7,
 UIC60), ``foundation_damping`` (N s/m per metre of track, 0 .. 2e6; 1.96e5, ballast)
 and ``rail_mass`` (kg per metre of track moving with the rail, 0 .. 2000; 0).  Not with
-``[bridge.track]``, whose FE track layer is then the track.
+``[bridge.track]``, whose FE track layer is then the track.  ``load_distribution`` =
+none (default: moving forces act on the deck directly; the track model applies to
+interaction trains only) | rail (EN 1991-2 6.3.6.1 [R]: P/4, P/2, P/4 on three sleepers)
+| rail_ballast (and 4:1 through the ballast, 6.3.6.2 [R]) | elastic_track (the
+foundation reaction of the elastic track at the sleepers) spreads moving forces
+(:mod:`vsi_numba.model.distribution`); ``sleeper_spacing`` (m; 0.6), ``sleeper_width``
+(m, at the base; 0.3) and ``ballast_depth`` (m under the sleepers; 0.35) for the kinds
+that use them.
 ``[study]`` ``speeds_kmh`` (list, or {start, stop, step} with stop included when on the
 grid) or ``line_speed_kmh`` (then 140 .. 1.2 x line speed, step 5, 1.2 x line speed
 included); ``output`` (results/<stem>.nc); ``save_time_histories`` (true);

@@ -62,6 +62,7 @@ from vsi_numba.config.study import (
 from vsi_numba.config.train import _train_section, _TrainSpec
 from vsi_numba.config.variants import _build_variants, merge_variant_warnings
 from vsi_numba.model import bridge as _bridge
+from vsi_numba.model import distribution as _dist
 from vsi_numba.model import irregularity as _irr
 from vsi_numba.model import track as _track
 from vsi_numba.model import vehicle as _veh
@@ -132,8 +133,22 @@ class Config:
             model = self._bridge.model
             if self.rail_track is not None:
                 model = dataclasses.replace(model, track=self.rail_track)
+            if self.load_distribution is not None:
+                model = dataclasses.replace(model, load_distribution=self.load_distribution)
             self._built = model
         return self._built
+
+    @property
+    def load_distribution(self) -> _dist.LoadDistribution | None:
+        """The distribution of the moving forces by the track (``track.load_distribution``,
+        :mod:`vsi_numba.model.distribution`), or None: point forces on the deck line."""
+        track = self._resolved.get("track") or {}
+        kind = track.get("load_distribution", "none")
+        if kind == "none":
+            return None
+        keys = ("sleeper_spacing", "sleeper_width", "ballast_depth")
+        return _dist.LoadDistribution(kind, **{k: track[k] for k in keys if k in track},
+                                      track=self.rail_track if kind == "elastic_track" else None)
 
     @property
     def rail_track(self) -> _track.ElasticTrack | None:
@@ -471,6 +486,24 @@ def _check_run_count(cfg: Config, source: str) -> None:
                           source=source)
 
 
+def _distribution_reach(chk, track, solver) -> None:
+    """Warn when the forces of ``track.load_distribution`` reach beyond the approach: the
+    first axle's forward forces then start on the deck (a sudden load)."""
+    if not _ok(track, solver) or track.get("load_distribution", "none") == "none":
+        return
+    rail = (_track.ElasticTrack(track["foundation_stiffness"], track["rail_EI"])
+            if track["model"] == "elastic" else None)
+    keys = ("sleeper_spacing", "sleeper_width", "ballast_depth")
+    dist = _dist.LoadDistribution(track["load_distribution"],
+                                  **{k: track[k] for k in keys if k in track}, track=rail)
+    if solver["approach"] < dist.extent:
+        chk.warn(f"solver.approach = {solver['approach']:g} m is shorter than the reach of "
+                 f"track.load_distribution = '{dist.kind}' ({dist.extent:.3g} m ahead of "
+                 "an axle): the first axle's forward forces start on the deck, a sudden "
+                 "load; expected an approach of at least that length",
+                 keys=["solver.approach", "track.load_distribution"])
+
+
 def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     chk = _Checker()
     top = {"title", "bridge", "train", "irregularity", "solver", "contact", "track", "study",
@@ -489,6 +522,7 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     bridge = _bridge_section(chk, data["bridge"], base, cutoff) if "bridge" in data else _BAD
     fe_layer = isinstance(data.get("bridge"), dict) and "track" in data["bridge"]
     track = _rail_track_section(chk, data.get("track", _MISSING), fe_layer)
+    _distribution_reach(chk, track, solver)
     train = (
         _train_section(chk, data["train"], base, title if _ok(title) else None)
         if "train" in data else _BAD

@@ -1,5 +1,6 @@
 """``[solver]``, ``[contact]`` and ``[track]``: the settings of the time integration, the
-wheel-rail contact and the rail on its foundation.
+wheel-rail contact, the rail on its foundation and the distribution of moving forces by
+the track.
 
 The admissible values of the solver keys are those of
 :class:`vsi_numba.solver.settings.SolverSettings` (its ``BOUNDS`` and defaults), which the
@@ -11,6 +12,7 @@ from __future__ import annotations
 from dataclasses import asdict
 
 from vsi_numba.config._check import _BAD, _MISSING, _Num, _ok, _Sentinel
+from vsi_numba.model import distribution as _dist
 from vsi_numba.model import track as _track
 from vsi_numba.solver.settings import BOUNDS, HHT_ALPHA_MIN, SolverSettings
 from vsi_numba.solver.settings import CONTACT_MODELS as _SOLVER_CONTACT_MODELS
@@ -99,15 +101,16 @@ def _rail_track_section(chk, d, fe_layer: bool) -> dict | _Sentinel:
     if d is _MISSING:
         d = {}
     keys = ("foundation_stiffness", "rail_EI", "foundation_damping", "rail_mass")
-    if chk.table(d, "track", {"model", *keys},
+    if chk.table(d, "track", {"model", *keys, *_DISTRIBUTION_KEYS},
                  what=" [track] of track values") is _BAD:
         return _BAD
     model = chk.choice(d, "track", "model", TRACK_MODELS, default="elastic")
+    dist = _load_distribution(chk, d, model)
     if model == "rigid":
         for key in keys:
             if key in d:
                 chk.warn(f"track.{key} is ignored: not used by track.model = 'rigid'")
-        return {"model": "rigid"}
+        return _BAD if dist is _BAD else {"model": "rigid", **dist}
     k = chk.get_number(d, "track", "foundation_stiffness", _Num(
         "a foundation modulus > 0 N/m per metre of track (both rails; about 3e7 .. 3e8)",
         gt=0, default=_track.FOUNDATION_DEFAULT))
@@ -121,7 +124,59 @@ def _rail_track_section(chk, d, fe_layer: bool) -> dict | _Sentinel:
     mr = chk.get_number(d, "track", "rail_mass", _Num(
         "a mass >= 0 and <= 2000 kg per metre of track moving with the rail (both rails; "
         "120 for two UIC60 rails, 0 for a massless rail)", ge=0, le=2000, default=0.0))
-    if not _ok(model, k, ei, c, mr):
+    if not _ok(model, k, ei, c, mr, dist):
         return _BAD
     return {"model": "elastic", "foundation_stiffness": float(k), "rail_EI": float(ei),
-            "foundation_damping": float(c), "rail_mass": float(mr)}
+            "foundation_damping": float(c), "rail_mass": float(mr), **dist}
+
+
+#: The keys of the distribution of moving forces (:mod:`vsi_numba.model.distribution`)
+#: and the kinds that use each length.
+_DISTRIBUTION_KEYS = ("load_distribution", "sleeper_spacing", "sleeper_width",
+                      "ballast_depth")
+_USED_BY = {"sleeper_spacing": ("rail", "rail_ballast", "elastic_track"),
+            "sleeper_width": ("rail_ballast",), "ballast_depth": ("rail_ballast",)}
+#: Plausible ranges (m): outside them a warning says what the value looks like.
+_PLAUSIBLE = {"sleeper_spacing": (0.45, 0.8, "sleepers are 0.55-0.75 m apart"),
+              "sleeper_width": (0.15, 0.45, "a sleeper is 0.2-0.35 m wide at its base"),
+              "ballast_depth": (0.15, 1.0, "ballast under the sleepers is 0.25-0.6 m deep")}
+
+
+def _load_distribution(chk, d, model) -> dict | _Sentinel:
+    """track.load_distribution and its lengths: the resolved keys (none for 'none', so
+    a configuration without the key keeps its stored form and hash)."""
+    kinds = _dist.LOAD_DISTRIBUTIONS
+    kind = chk.choice(d, "track", "load_distribution", kinds, default="none")
+    if kind is _BAD:
+        return _BAD
+    if kind == "elastic_track" and model == "rigid":
+        return chk.error("track.load_distribution", kind, "'none', 'rail' or "
+                         "'rail_ballast' with track.model = 'rigid' ('elastic_track' "
+                         "spreads the forces by the rail on the elastic foundation)")
+    specs = {
+        "sleeper_spacing": _Num("a sleeper spacing > 0 and <= 2 m (0.6 usual)", gt=0,
+                                le=2.0, default=_dist.SLEEPER_SPACING_DEFAULT),
+        "sleeper_width": _Num("a sleeper bottom width >= 0 and <= 1 m (about 0.3)", ge=0,
+                              le=1.0, default=_dist.SLEEPER_WIDTH_DEFAULT),
+        "ballast_depth": _Num("a ballast depth under the sleepers >= 0 and <= 2 m "
+                              "(0.3-0.5 usual)", ge=0, le=2.0,
+                              default=_dist.BALLAST_DEPTH_DEFAULT),
+    }
+    out = {"load_distribution": kind} if kind != "none" else {}
+    bad = False
+    for key, spec in specs.items():
+        if kind not in _USED_BY[key]:
+            if key in d:
+                chk.warn(f"track.{key} is ignored: not used by track.load_distribution = "
+                         f"'{kind}' (used by {' and '.join(_USED_BY[key])})")
+            continue
+        v = chk.get_number(d, "track", key, spec)
+        if v is _BAD:
+            bad = True
+            continue
+        lo, hi, usual = _PLAUSIBLE[key]
+        if not lo <= v <= hi:
+            chk.warn(f"track.{key} = {v:g} m looks implausible: {usual} (units: m)",
+                     kind="plausibility", keys=[f"track.{key}"])
+        out[key] = float(v)
+    return _BAD if bad else out

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vsi_numba.model import hermite
+from vsi_numba.model.distribution import LoadDistribution
 from vsi_numba.model.influence import StaticDeck, beam_deck
 from vsi_numba.model.track import ElasticTrack
 
@@ -61,6 +62,10 @@ class ModalBridge:
         the FE stiffness), see :mod:`vsi_numba.model.influence`; None when the model has
         none (a modes table, rigid track): then only deflections and rotations are
         available, from the modes.
+    load_distribution : LoadDistribution or None
+        How the track spreads the moving forces onto the deck
+        (:mod:`vsi_numba.model.distribution`); None: point forces on the track line.
+        Interaction trains are not affected (they see :attr:`track`).
     """
 
     kind: int
@@ -76,6 +81,7 @@ class ModalBridge:
     deck: ModalBridge | None = None
     track: ElasticTrack | None = None
     static: StaticDeck | None = None
+    load_distribution: LoadDistribution | None = None
 
     @property
     def n_modes(self) -> int:

@@ -271,7 +271,7 @@ class BatchResult:
         pk = self.packed
         n = int(self.n_steps[r]) + 1
         t = np.arange(n) * pk.params.dt
-        veh = pk.vehicles
+        veh = pk.kernel_vehicles  # the forces on the deck (distributed moving forces)
         x0 = np.concatenate([veh.wheel_x0, veh.load_x0])
         force = np.concatenate([self.out.X[h, :n],
                                 np.broadcast_to(veh.load_p, (n, veh.load_p.size))], axis=1)
@@ -381,7 +381,7 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     grid_x = np.ascontiguousarray(grid_x, dtype=np.float64)
     phi_g = (np.ascontiguousarray(phi_g, dtype=np.float64) if grid_x.size
              else np.zeros((0, 0)))
-    veh = packed.vehicles
+    veh = packed.kernel_vehicles
     n_m, n_v, n_w = packed.bridge.omega.size, packed.n_dof, veh.wheel_dof.size
     n_b = veh.body_dof.size
     n_p = phi_d.shape[0]
@@ -434,7 +434,8 @@ def _effect_fields(eff: LoadEffectTables | None, packed: Packed, n_r: int) -> di
         return {}
     f64 = np.float64
     n_c = eff.E.shape[1]
-    n_load = packed.vehicles.load_x0.size + packed.vehicles.wheel_dof.size
+    veh = packed.kernel_vehicles
+    n_load = veh.load_x0.size + veh.wheel_dof.size
     c = np.ascontiguousarray
     return dict(
         le_sup=c(eff.supports, f64), le_L=c(eff.spans, f64), le_Linv=1.0 / eff.spans,
@@ -442,7 +443,7 @@ def _effect_fields(eff: LoadEffectTables | None, packed: Packed, n_r: int) -> di
         le_A=c(eff.A, f64), le_B=c(eff.B, f64), le_X=c(eff.X, f64),
         le_sec0=c(np.searchsorted(eff.span, np.arange(eff.spans.size + 1)), np.int64),
         le_E=c(eff.E, f64), le_w2inv=c(eff.w2inv, f64),
-        le_order=c(np.argsort(packed.vehicles.load_x0, kind="stable"), np.int64),
+        le_order=c(np.argsort(veh.load_x0, kind="stable"), np.int64),
         le_val=np.zeros(n_c), le_Ms=np.zeros(eff.n_supports),
         le_acc=np.zeros((4, eff.spans.size)), le_lx=np.zeros(n_load),
         le_lp=np.zeros(n_load), le_ls=np.zeros(n_load, np.int64),

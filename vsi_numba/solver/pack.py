@@ -11,6 +11,7 @@ import numpy as np
 
 from vsi_numba.kernels import engine as ek
 from vsi_numba.model.bridge import ModalBridge
+from vsi_numba.model.distribution import expand
 from vsi_numba.model.irregularity import Profile, no_irregularity
 from vsi_numba.model.vehicle import NL_KINDS, Train
 from vsi_numba.solver.settings import CONTACT_MODELS, SolverSettings
@@ -32,9 +33,18 @@ class Packed:
     wheel_positions: np.ndarray  # m behind the first axle, per wheel (dynamic wheels first)
     load_positions: np.ndarray
     vehicle_names: list  # one per reported car body
-    run_length: float = 0.0  # m the first axle travels until the last leaves the bridge
+    run_length: float = 0.0  # m the first axle travels until the last force leaves the bridge
     free_vibration: float = 0.0  # s simulated after that
     static_loads: np.ndarray | None = None  # N, static contact force of every wheel
+    #: the vehicles as the kernels see them: ``vehicles`` with each moving force replaced
+    #: by the forces of the bridge's load distribution (None: ``vehicles`` itself, whose
+    #: moving forces are the axles the outputs report)
+    distributed: ek.VehicleArrays | None = None
+
+    @property
+    def kernel_vehicles(self) -> ek.VehicleArrays:
+        """The vehicle arrays the kernels run (:attr:`distributed` or :attr:`vehicles`)."""
+        return self.vehicles if self.distributed is None else self.distributed
 
     def n_steps(self, speed: float) -> int:
         """Time steps of a run at ``speed`` (m/s)."""
@@ -229,7 +239,16 @@ def pack(
             veh = veh._replace(track_kt=float(k_t), track_ct=float(c_t), track_mt=float(m_t),
                                track_z0=np.zeros(len(wdof)))  # set by initial_states
     veh = ek.with_patterns(veh)
-    all_pos = np.concatenate([wpos, lpos])
+    # the moving forces the kernels run: each axle spread by the track (outputs per axle)
+    dist, distributed = bridge.load_distribution, None
+    if dist is not None and dist.kind != "none" and lpos.size:
+        dpos, dp = expand(lpos, lp, dist)
+        distributed = veh._replace(load_x0=np.ascontiguousarray(x_front - dpos),
+                                   load_p=np.ascontiguousarray(dp, dtype=np.float64))
+        lpos_run = dpos  # the run ends when the last distributed force leaves
+    else:
+        lpos_run = lpos
+    all_pos = np.concatenate([wpos, lpos_run])
     last = all_pos.max() if all_pos.size else 0.0
     run_length = bridge.length + settings.approach + last
     t_exit = run_length / speed
@@ -256,6 +275,7 @@ def pack(
         n_dof=int(start[-1]), wheel_positions=wpos, load_positions=lpos,
         vehicle_names=body_names, run_length=float(run_length),
         free_vibration=float(settings.free_vibration), static_loads=_static_loads(veh),
+        distributed=distributed,
     )
 
 

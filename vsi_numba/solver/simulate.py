@@ -170,9 +170,14 @@ def static_deck_envelope(bridge: ModalBridge, train: Train, output_points, step:
         return np.zeros(points.size)
     settings = SolverSettings(dt=1e-3, approach=0.0)
     packed = pack(bridge, train, 1.0, None, settings)
-    Q = np.concatenate([static_wheel_loads(packed), packed.vehicles.load_p])
-    pos = np.concatenate([packed.wheel_positions, packed.load_positions])
-    fronts = np.arange(0.0, bridge.length + pos.max() + step, step)
+    if packed.distributed is None:
+        Q = np.concatenate([static_wheel_loads(packed), packed.vehicles.load_p])
+        pos = np.concatenate([packed.wheel_positions, packed.load_positions])
+    else:  # the moving forces as the track distributes them (bridge.load_distribution)
+        Q = np.concatenate([static_wheel_loads(packed), packed.distributed.load_p])
+        pos = np.concatenate([packed.wheel_positions,
+                              -settings.approach - packed.distributed.load_x0])
+    fronts = np.arange(min(0.0, pos.min()), bridge.length + pos.max() + step, step)
     x = fronts[:, None] - pos[None, :]
     # only the (front, axle) pairs with the axle on the deck: the shapes are zero off it
     f_i, k_i = np.nonzero((x >= 0.0) & (x <= bridge.length))

@@ -27,6 +27,10 @@ WHOLE_DECK_ACCELERATION = ("max_deck_acceleration_whole_deck",
 CAR_END = ("max_carbody_acceleration_car_end", "time_of_max_carbody_acceleration_car_end",
            "position_of_max_carbody_acceleration_car_end")
 
+#: The car-body accelerations (at the centres of gravity).
+CARBODY = ("max_carbody_acceleration", "time_of_max_carbody_acceleration",
+           "position_of_max_carbody_acceleration", "carbody_acceleration")
+
 #: Histories of the wheels in contact (a moving force's contact force is its load).
 CONTACT_HISTORIES = ("contact_force", "in_contact")
 
@@ -82,6 +86,8 @@ def not_offered(models, packed) -> dict[str, str]:
                f"({models[0].deck[2]:.4g} Hz)")
         out.update(dict.fromkeys(WHOLE_DECK_ACCELERATION, why))
     trains = [p for per in packed for p in per]
+    if not any(np.asarray(p.vehicles.body_dof).size for p in trains):
+        out.update(dict.fromkeys(CARBODY, "no train has a car body (moving forces only)"))
     if not any(int(p.vehicles.body_end_start[-1]) > 0 for p in trains):
         out.update(dict.fromkeys(CAR_END, "no train has a car body with ends (moving forces "
                                           "or sprung masses only)"))

@@ -281,7 +281,7 @@ def _zone_lines(zone_table) -> list[str]:
         if not np.isfinite(r["ΔQ/Q₀ max"]):
             parts.append(f"{where}: none")
             continue
-        parts.append(f"{where} **{r['ΔQ/Q₀ max']:.3f}** ({r['Train']}, "
+        parts.append(f"{where} **{r['ΔQ/Q₀ max']:.3f}** ({md(r['Train'])}, "
                      f"{r['Speed [km/h]']:.0f} km/h, axle {r['Axle']} at "
                      f"x = {r['x of the axle [m]']:.1f} m)")
     return ["- Wheel unloading by where the axle was at its minimum contact force (largest "

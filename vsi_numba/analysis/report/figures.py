@@ -26,7 +26,7 @@ def literal_names(fig, names):
     drawn)."""
     risky = sorted({n for n in names if n and ("$" in n or clean(n) != n)}, key=len,
                    reverse=True)
-    if fig is None or not risky:
+    if fig is None:
         return fig
     from matplotlib.text import Text
 
@@ -37,7 +37,22 @@ def literal_names(fig, names):
             new = new.replace(n, mathtext(n))
         if new != old:
             text.set_text(new)
+        if "$" in new and not _parses(new):  # a name cut short ("…") in a title
+            text.set_text(mathtext(new.replace(r"\$", "$")))
     return fig
+
+
+def _parses(text: str) -> bool:
+    """Whether matplotlib can draw ``text`` (its math text, if any, parses)."""
+    from matplotlib.mathtext import MathTextParser
+
+    if text.replace(r"\$", "").count("$") < 2:
+        return True
+    try:
+        MathTextParser("path").parse(text.replace(r"\$", ""))
+    except ValueError:
+        return False
+    return True
 
 # --------------------------------------------------------------------------------------
 # Figures
@@ -150,8 +165,8 @@ def _deck_history(ds, results, hist: _Histories, applicable):
     kmh = float(ds["speed_kmh"].sel(speed=speed))
     q0 = (float(ds["static_wheel_load"].sel(train=train, wheel=wheel))
           if wheel is not None and "static_wheel_load" in ds else None)
-    fig = plots.plot_case_history(case, plots.case_title(train, kmh, irr, point), point=point,
-                                  wheel=wheel, limit=a["limit"], q0=q0)
+    fig = plots.plot_case_history(case, plots.case_title(mathtext(train), kmh, irr, point),
+                                  point=point, wheel=wheel, limit=a["limit"], q0=q0)
     role = "governing train" if fallback else "governing case"
     caption = (f"Time histories of {md(train)} at {kmh:.0f} km/h ({_irr_text(irr)}), "
                f"the {role} of the deck acceleration check, at x = {point:g} m"
@@ -184,7 +199,8 @@ def _wheel_history(ds, results, hist: _Histories):
     length = float(ds.attrs["bridge_length"]) if "bridge_length" in ds.attrs else None
     dq = float(ds["max_wheel_unloading"].sel(sel))
     fig = plots.plot_case_history(
-        case, plots.case_title(train, kmh, irr) + f", axle {wheel}", wheel=wheel, q0=q0,
+        case, plots.case_title(mathtext(train), kmh, irr) + f", axle {wheel}", wheel=wheel,
+        q0=q0,
         min_position=pos if np.isfinite(pos) else None, bridge_length=length,
         speed=float(speed))
     caption = (f"Contact force of axle {wheel} of {md(train)} at {kmh:.0f} km/h "

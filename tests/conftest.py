@@ -60,7 +60,8 @@ INTERACTION_MODULES = frozenset({
     "test_hertz", "test_hostile", "test_impact_lcp", "test_imported", "test_load_effects",
     "test_nonlinear_on_damped_track", "test_nonlinear_suspension", "test_output_matrix",
     "test_report",
-    "test_resume", "test_study", "test_track", "test_track_damping", "test_validation",
+    "test_resume", "test_study", "test_track", "test_track_accuracy", "test_track_damping",
+    "test_validation",
     "test_variants", "test_variants_edges", "test_warm"})
 
 

@@ -1713,3 +1713,215 @@ def vehicle_on_damped_track(
         force[k] = contact(t, y)[1]
         acc[k] = phi_p @ rhs(t, y)[iqd]
     return DampedTrackResult(t=sol.t, force=force, deck_acceleration=acc, static_force=P0)
+
+
+# ---------------------------- vehicle on a damped rail with mass: rail modes, fixed-step BDF2
+
+
+@dataclass
+class ModalRailResult:
+    """Output of :func:`vehicle_on_modal_rail`."""
+
+    t: np.ndarray  # s
+    force: np.ndarray  # (n_t, n_w) N, wheel-rail contact forces (compression, 0 when off)
+    deck_acceleration: np.ndarray  # (n_t, n_p) m/s2 at ``points``, modes summed
+    static_force: np.ndarray  # (n_w,) N, contact forces of the static start
+    n_rail_modes: int
+
+
+def vehicle_on_modal_rail(
+    length: float, EI: float, mass_per_length: float, n_modes: int, zeta: float,
+    foundation: float, foundation_damping: float, rail_EI: float, rail_mass: float,
+    M: np.ndarray, C: np.ndarray, K: np.ndarray, gravity: np.ndarray, wheel_dofs,
+    wheel_offsets, contact_stiffness: float, profile: Callable, speed: float,
+    x_start: float, t_end: float, points=(), wavelength_min: float = 0.2,
+    margin: float = 15.0, dt: float = 5e-5, out_every: int = 1,
+) -> ModalRailResult:
+    """A vehicle on a rail (``rail_EI``, ``rail_mass`` kg/m) on a Kelvin-Voigt foundation
+    (``foundation`` k N/m per m, ``foundation_damping`` c N s/m per m) that bears on a
+    simply supported beam (``n_modes`` modes, damping ratio ``zeta``) where there is deck
+    and on rigid ground elsewhere -- the same continuous model as
+    :func:`vehicle_on_damped_track`, discretised differently: the rail over
+    [x_lo, x_hi] (the wheels' path and ``margin`` m each side, simply supported ends) by
+    its sine modes psi_n = sin(n pi (x - x_lo) / L_r) down to ``wavelength_min``
+    (kappa_n = n pi / L_r <= 2 pi / wavelength_min), so a wheel load is an exact point
+    load on the modes (no grid, no interpolation of the load):
+
+        (L_r / 2) (m' a_n'' + c a_n' + (k + EI_r kappa_n^4) a_n)
+            = sum_j B_nj (k q_j + c q_j') + sum_i psi_n(x_i) P_i,
+        q_j'' + 2 zeta w_j q_j' + w_j^2 q_j = sum_n B_nj (k a_n + c a_n') - (k q_j + c q_j') / m,
+
+    B_nj = int_0^L psi_n phi_j dx (Gauss quadrature), phi_j the mass-normalised deck modes
+    (int phi_j phi_l = delta_jl / m).  With ``rail_mass`` = 0 the rail equations are
+    first order.  Contact: a unilateral linear spring P_i = k_c max(0, u_i - w(x_i) -
+    r(x_i)).  Time: BDF2 (L-stable, second order) at the fixed step ``dt`` on the whole
+    first-order system, the constant part factored once and the active contacts added
+    by the Woodbury identity each step, the active set iterated to a fixed point (the
+    rail block is diagonal per mode: the linear solves go through the small
+    deck-and-vehicle Schur complement).  Starts from the static equilibrium at t = -dt
+    and 0 (``profile`` zero under the wheels).
+    """
+    wheel_dofs = np.asarray(wheel_dofs)
+    offs = np.asarray(wheel_offsets, float)
+    n_w, n_v, n_m = wheel_dofs.size, M.shape[0], n_modes
+    x_lo = x_start - offs.max() - margin
+    x_hi = x_start + speed * t_end + margin
+    Lr = x_hi - x_lo
+    n_r = int(np.ceil(2.0 * Lr / wavelength_min))
+    kap = np.pi * np.arange(1, n_r + 1) / Lr
+    k, c, mr = foundation, foundation_damping, rail_mass
+    massive = mr > 0.0
+    if not massive and c <= 0.0:
+        raise ValueError("a massless rail needs foundation damping (first-order rail)")
+    omega = ss_omega(length, EI, mass_per_length, n_m)
+    # B_nj by Gauss-Legendre quadrature, 8 points on each 5 cm cell of the deck
+    gp, gw = np.polynomial.legendre.leggauss(8)
+    edges = np.linspace(0.0, length, int(np.ceil(length / 0.05)) + 1)
+    hx = np.diff(edges)
+    xq = (edges[:-1, None] + 0.5 * hx[:, None] * (gp + 1.0)).ravel()
+    wq = (0.5 * hx[:, None] * gw).ravel()
+    phq = ss_shapes(length, mass_per_length, n_m, xq)  # (n_q, n_m)
+    B = np.zeros((n_r, n_m))
+    for s0 in range(0, n_r, 200):
+        sl = slice(s0, min(n_r, s0 + 200))
+        B[sl] = (np.sin(np.outer(kap[sl], xq - x_lo)) * wq) @ phq
+    half = 0.5 * Lr
+    stiff = k + rail_EI * kap**4  # (n_r,)
+    # state layout
+    ia = slice(0, n_r)
+    o = 2 * n_r if massive else n_r
+    iad = slice(n_r, 2 * n_r) if massive else None
+    iq, iqd = slice(o, o + n_m), slice(o + n_m, o + 2 * n_m)
+    iu, iud = slice(o + 2 * n_m, o + 2 * n_m + n_v), slice(o + 2 * n_m + n_v,
+                                                           o + 2 * n_m + 2 * n_v)
+    n_y = o + 2 * n_m + 2 * n_v
+    Minv = np.linalg.inv(M)
+    A = np.zeros((n_y, n_y))
+    b = np.zeros(n_y)
+    A[iq, iqd] = np.eye(n_m)
+    A[iu, iud] = np.eye(n_v)
+    A[iud, iu] = -Minv @ K
+    A[iud, iud] = -Minv @ C
+    b[iud] = Minv @ gravity
+    A[iqd, iq] = -np.diag(omega**2) - k / mass_per_length * np.eye(n_m)
+    A[iqd, iqd] = -np.diag(2 * zeta * omega) - c / mass_per_length * np.eye(n_m)
+    # the rows a rail load P psi enters (per unit P, times psi_n(x_i)) and the deck rows
+    if massive:
+        A[ia, iad] = np.eye(n_r)
+        A[iad, ia] = -np.diag(stiff / mr)
+        A[iad, iad] = -c / mr * np.eye(n_r)
+        A[iad, iq] = k * B / (mr * half)
+        A[iad, iqd] = c * B / (mr * half)
+        A[iqd, ia] += k * B.T
+        A[iqd, iad] += c * B.T
+        rail_rows, rail_scale = iad, 1.0 / (mr * half)
+        deck_load = np.zeros((n_m, n_r))  # the deck feels P only through the rail
+    else:
+        # c a' = -stiff a + (B (k q + c q') + psi P) / half
+        A[ia, ia] = -np.diag(stiff / c)
+        A[ia, iq] = k * B / (c * half)
+        A[ia, iqd] = B / half
+        # k a + c a' = -EI kappa^4 a + (B (k q + c q') + psi P) / half
+        A[iqd, ia] += B.T * (-rail_EI * kap**4)
+        A[iqd, iq] += k * (B.T @ B) / half
+        A[iqd, iqd] += c * (B.T @ B) / half
+        rail_rows, rail_scale = ia, 1.0 / (c * half)
+        deck_load = B.T / half  # (n_m, n_r): deck rows per unit psi P
+    phi_p = ss_shapes(length, mass_per_length, n_m, np.asarray(points, float))
+    wheel_rows = np.arange(n_w)
+
+    def gh(t):
+        """(G (n_y, n_w): d y'/d P_i, H (n_w, n_y): d pen_i / d y, x_i)."""
+        x = x_start + speed * t - offs
+        psi = np.sin(np.outer(kap, x - x_lo))  # (n_r, n_w)
+        G = np.zeros((n_y, n_w))
+        G[rail_rows] = psi * rail_scale
+        G[iqd] = deck_load @ psi
+        G[iud] = -Minv[:, wheel_dofs]
+        H = np.zeros((n_w, n_y))
+        H[:, ia] = -psi.T
+        H[wheel_rows, iu.start + wheel_dofs] = 1.0
+        return G, H, x
+
+    def static(t):
+        G, H, x = gh(t)
+        Af = A + contact_stiffness * G @ H
+        return np.linalg.solve(Af, -b)
+
+    y_prev, y = static(-dt), static(0.0)
+    gam = 2.0 * dt / 3.0
+    # I - gam A by blocks: the rail block R is diagonal per mode (a 2 x 2 block per mode
+    # with mass), the rest S (deck and vehicle, small) couples to it through q, q'
+    R = slice(0, o)
+    Ss = slice(o, n_y)
+    Ah = np.eye(n_y) - gam * A
+    if massive:
+        # [[1, -gam], [gam s / m', 1 + gam c / m']] per mode
+        d11, d12 = np.ones(n_r), -gam * np.ones(n_r)
+        d21, d22 = gam * stiff / mr, (1.0 + gam * c / mr) * np.ones(n_r)
+        det = d11 * d22 - d12 * d21
+
+        def dsolve(v):
+            v1, v2 = v[:n_r], v[n_r:]
+            return np.concatenate([((d22 * v1.T - d12 * v2.T) / det).T,
+                                   ((d11 * v2.T - d21 * v1.T) / det).T])
+    else:
+        dg = 1.0 + gam * stiff / c
+
+        def dsolve(v):
+            return (v.T / dg).T
+    E, F = Ah[R, Ss], Ah[Ss, R]
+    DinvE = dsolve(E)
+    # the Schur complement is small (2 n_m + 2 n_v): its inverse, once (a LAPACK solve
+    # per step costs more than the product here)
+    S_inv = np.linalg.inv(Ah[Ss, Ss] - F @ DinvE)
+
+    def solve(v):
+        yr = dsolve(v[R])
+        xs = S_inv @ (v[Ss] - F @ yr)
+        return np.concatenate([yr - DinvE @ xs, xs])
+
+    n_steps = int(np.ceil(t_end / dt - 1e-9))
+    n_out = n_steps // out_every + 1
+    ts = np.empty(n_out)
+    force = np.empty((n_out, n_w))
+    acc = np.empty((n_out, phi_p.shape[0]))
+    G, H, x = gh(0.0)
+    P0 = contact_stiffness * np.maximum(H @ y - profile(x), 0.0)
+
+    def record(j, t, y, G, P):
+        ts[j] = t
+        force[j] = P
+        acc[j] = phi_p @ (A[iqd] @ y + G[iqd] @ P)
+
+    record(0, 0.0, y, G, P0)
+    act = P0 > 0.0
+    for n in range(1, n_steps + 1):
+        t = n * dt
+        G, H, x = gh(t)
+        r = profile(x)
+        rhs = (4.0 * y - y_prev) / 3.0 + gam * b
+        sol = solve(np.column_stack([rhs, G]))
+        z, Z = sol[:, 0], sol[:, 1:]
+        for _ in range(50):
+            ia_ = np.flatnonzero(act)
+            if ia_.size:
+                # (I - gam A - gam k_c G_a H_a) y = rhs - gam k_c G_a r_a
+                Ga = gam * contact_stiffness * Z[:, ia_]
+                z1 = z - Ga @ r[ia_]
+                S = np.eye(ia_.size) - H[ia_] @ Ga
+                y_new = z1 + Ga @ np.linalg.solve(S, H[ia_] @ z1)
+            else:
+                y_new = z
+            pen = H @ y_new - r
+            new = pen > 0.0
+            if np.array_equal(new, act):
+                break
+            act = new
+        else:
+            raise RuntimeError(f"contact active set did not settle at t = {t}")
+        y_prev, y = y, y_new
+        if n % out_every == 0:
+            record(n // out_every, t, y, G, contact_stiffness * np.where(act, pen, 0.0))
+    return ModalRailResult(t=ts, force=force, deck_acceleration=acc, static_force=P0,
+                           n_rail_modes=n_r)

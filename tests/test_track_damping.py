@@ -23,29 +23,44 @@ from vsi_numba.solver.settings import SolverSettings
 from vsi_numba.solver.simulate import simulate
 
 
-def test_track_damping__wheel_element_is_the_receptance_to_first_order():
+def test_track_damping__wheel_element_fits_the_receptance_over_the_band():
     """The element k_t + i w c_t - w^2 m_t against the infinite rail's point receptance
     G(w) = beta_w / (2 k_w), k_w = k + i w c - w^2 m' (closed form, Hetenyi with a
-    complex foundation): equal at w -> 0 (first order), and within 3 % in modulus at
-    45 Hz (the wheelset on the track) for the default damping and a massless rail, the
-    first-order error (3/32)(w c / k)^2 ~ 4 % bounding it."""
+    complex foundation), relative complex error |E / G - 1| over the fit band 1-120 Hz.
+    Measured: massless rail, fitted max 8.7 % / rms 4.6 % / 2.1 % at 45 Hz (the
+    wheelset-on-track mode) against the first-order element's 13.4 % / 7.2 % / 3.4 %
+    (a 3-parameter element with m_t >= 0 cannot follow the w^(-3/4)-like receptance at
+    both ends: the fit is 5 % stiff at w -> 0 to be right at 40-120 Hz); 120 kg/m,
+    fitted 1.4 % / 0.6 % / 0.7 % against 22 % / 11 % / 3.9 %.  Bounds: the fitted
+    element's measured values x ~1.3 (max), and better than the first-order one
+    everywhere that counts (max, rms and at 45 Hz).  No damping and no mass: no element
+    (1 / G(0), 0, 0)."""
+    f = np.linspace(1.0, 120.0, 120)
+    w = 2 * np.pi * f
+    i45 = np.argmin(abs(f - 45.0))
+    for m, bound, bound45 in ((0.0, 0.11, 0.028), (120.0, 0.018, 0.009)):
+        t = ElasticTrack(rail_mass=m)
+        # the closed form's own check: beta_w / (2 k_w) -> beta / (2 k) = G(0) at w = 0
+        assert t.receptance(0.0).real == pytest.approx(t.green(0.0), rel=1e-12)
+        G = t.receptance(w)
+        k_t, c_t, m_t = t.wheel_element
+        assert k_t > 0 and c_t > 0 and m_t >= 0
+        err = np.abs(1.0 / ((k_t + 1j * w * c_t - w**2 * m_t) * G) - 1.0)
+        k1, c1, m1 = t.first_order_element
+        assert k1 == pytest.approx(1.0 / t.green(0.0), rel=1e-12)
+        assert c1 == pytest.approx(0.75 * t.foundation_damping / t.beta * 2.0, rel=1e-12)
+        assert m1 == pytest.approx(1.5 * m / t.beta, rel=1e-12)
+        err1 = np.abs(1.0 / ((k1 + 1j * w * c1 - w**2 * m1) * G) - 1.0)
+        assert err.max() < bound and err[i45] < bound45
+        assert err.max() < err1.max() and np.mean(err**2) < np.mean(err1**2)
+        assert err[i45] < err1[i45]
+    assert ElasticTrack(foundation_damping=0.0).wheel_element == (
+        ElasticTrack().axle_stiffness, 0.0, 0.0)
+    # the wheels' compliance carries the element's static compliance on its diagonal
     t = ElasticTrack()
-    k_t, c_t, m_t = t.wheel_element
-    assert k_t == pytest.approx(1.0 / t.green(0.0), rel=1e-12) and m_t == 0.0
-    assert c_t == pytest.approx(0.75 * t.foundation_damping / t.beta * 2.0, rel=1e-12)
-    w = 2 * np.pi * np.array([1e-3, 45.0])
-    G = t.receptance(w)
-    E = 1.0 / (k_t + 1j * w * c_t - w**2 * m_t)
-    # the closed form's own check: beta_w / (2 k_w) -> beta / (2 k) = G(0) at w = 0
-    assert t.receptance(0.0).real == pytest.approx(t.green(0.0), rel=1e-12)
-    assert abs(E[0] / G[0] - 1) < 1e-9
-    assert abs(abs(E[1]) / abs(G[1]) - 1) < 0.03
-    assert abs(np.angle(E[1] / G[1])) < 0.03
-    m = ElasticTrack(rail_mass=120.0)
-    assert m.wheel_element[2] == pytest.approx(1.5 * 120.0 / m.beta, rel=1e-12)
-    Gm = m.receptance(w[1])
-    Em = 1.0 / (k_t + 1j * w[1] * c_t - w[1] ** 2 * m.wheel_element[2])
-    assert abs(abs(Em) / abs(Gm) - 1) < 0.04
+    C = t.wheel_compliance([0.0, -2.5])
+    assert C[0, 0] == pytest.approx(1.0 / t.wheel_element[0], rel=1e-14)
+    assert C[0, 1] == t.green(2.5)
 
 
 # --------------------------------------------------------- a bogie over a damped track

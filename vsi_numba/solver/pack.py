@@ -222,7 +222,7 @@ def pack(
     )
     compliance = np.zeros((len(wdof), len(wdof)))
     if bridge.track is not None and len(wdof):
-        compliance += bridge.track.compliance(x_front - wpos)
+        compliance += bridge.track.wheel_compliance(x_front - wpos)
     if settings.contact_model == "hertz_linear" and len(wdof):
         q0 = _static_loads(veh)
         if np.any(q0 <= 0):

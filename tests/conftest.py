@@ -49,7 +49,7 @@ _HELPERS: list = []
 #: Test modules that run the moving-force kernels but not the interaction kernels
 #: (measured).
 MOVING_FORCE_MODULES = frozenset({
-    "test_cluster_listeners", "test_continuous_config", "test_dask_cluster",
+    "test_cluster_listeners", "test_code_profile", "test_continuous_config", "test_dask_cluster",
     "test_load_distribution", "test_load_effect_checks", "test_output_lock"})
 
 #: Test modules with a test that runs the interaction kernels (measured): one such test

@@ -582,7 +582,7 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
                      f"{max_span:g} m ({profile.clause('hslm_b_max_span')}); this deck has "
                      f"spans {', '.join(f'{x:g}' for x in static.spans)} m: use HSLM-A")
     factors = {"alpha": alpha, "maintenance": maintenance, "notes": notes,
-               "profile": profile, "rotation_clause": profile.clause(
+               "profile": profile, "rotation_clause": "EN 1990 A2.4.4.2.3, " + profile.clause(
                    "end_rotation_limit_abutment"),
                "phi_name": "Φ3" if maintenance == "standard" else "Φ2", "phi": phi,
                "length": lphi.value, "length_rule": lphi.rule,

@@ -361,7 +361,7 @@ def summary_with_load_effects(table: pd.DataFrame, c) -> pd.DataFrame:
             "utilisation": np.nan, "result": f"{r.governs} govern"
                                              + ("" if r.governs.endswith("s") else "s"),
             "governing_train": str(r.train), "governing_speed_kmh": float(r.speed_kmh),
-            "clause": "EN 1991-2 6.4.6.5(3) [R]"})
+            "clause": "EN 1991-2 6.4.6.5(3)"})
     if not c.rotation.empty:
         w = c.rotation.loc[c.rotation["utilisation"].idxmax()]
         e = c.envelopes[(c.envelopes["effect"] == "rotation")
@@ -376,7 +376,7 @@ def summary_with_load_effects(table: pd.DataFrame, c) -> pd.DataFrame:
                                 else f"{ph} × α × LM71"),
             "governing_speed_kmh": (float(e["real_speed_kmh"].iloc[0])
                                     if real and not e.empty else np.nan),
-            "clause": END_ROTATION_CLAUSE})
+            "clause": c.factors.get("rotation_clause", END_ROTATION_CLAUSE)})
     if not rows:
         return table
     return pd.concat([table, pd.DataFrame(rows, columns=table.columns)], ignore_index=True)

@@ -12,7 +12,8 @@ import pandas as pd
 import xarray as xr
 
 from vsi_numba.analysis.checks import profile_of, results_config
-from vsi_numba.analysis.report.document import Section, Table
+from vsi_numba.analysis.report.document import Markdown, Section, Table
+from vsi_numba.analysis.report.safe import md
 from vsi_numba.code_profile import DEFAULT_NAME, RECALLED, RECALLED_MEANING, default_profile
 
 #: Title (and anchor "code-profile") of the section.
@@ -64,7 +65,7 @@ def profile_section(ds: xr.Dataset) -> Section:
     """
     profile = profile_of(ds)
     n_over = len(profile.overridden)
-    head = (f"Profile: **{profile.name}**"
+    head = (f"Profile: **{md(profile.name)}**"
             + (f", {n_over} entr{'y' if n_over == 1 else 'ies'} overridden by the "
                "configuration (`[code_profile] overrides`), marked **override** below."
                if n_over else (" (no override)." if profile.name == DEFAULT_NAME else
@@ -76,16 +77,16 @@ def profile_section(ds: xr.Dataset) -> Section:
         over = ""
         if r["overridden"]:
             tag = f" {RECALLED}" if default_profile().entry(r["key"]).recalled else ""
-            over = (f"**override** (recommended {_number(r['default'])}, "
-                    f"{r['default_clause']}{tag})")
-        rows.append({"Key": f"`{r['key']}`", "Value": _number(r["value"]),
+            over = Markdown(f"**override** (recommended {_number(r['default'])}, "
+                            f"{md(r['default_clause'])}{tag})")
+        rows.append({"Key": Markdown(f"`{r['key']}`"), "Value": _number(r["value"]),
                      "Unit": "–" if r["unit"] == "1" else r["unit"], "Clause": r["clause"],
                      RECALLED: r["recalled"] or "", "Override": over,
                      "Description": r["description"] + (" (fixed)" if r["applies"] == "fixed"
                                                         else "")})
-    blocks.append(Table(pd.DataFrame(rows), f"Code profile: {profile.name}"))
-    blocks.append(f"{RECALLED}: {RECALLED_MEANING}. An override is the configuration's "
-                  "value and source. Entries read with the configuration "
+    blocks.append(Table(pd.DataFrame(rows), f"Code profile: {md(profile.name)}"))
+    blocks.append(f"Values marked {RECALLED} are {RECALLED_MEANING}. An override is the "
+                  "configuration's value and source. Entries read with the configuration "
                   f"({_APPLIES['input']}) took effect when the study was set up; "
                   "(fixed) entries are part of the model or of the run.")
     line = hslm_b_line(ds)

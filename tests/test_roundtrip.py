@@ -253,6 +253,10 @@ FEATURES = {
                                         "ballast_depth": 0.45}),
     "load_distribution_elastic": feature(track={"load_distribution": "elastic_track"}),
     "hslm_b": feature(train={"preset": "HSLM-B", "hslm_b": {"N": 10, "d": 3.5}}),
+    "code_profile": feature(code_profile={
+        "name": "DE national annex",
+        "overrides": {"deck_acceleration_limit_ballasted": 3.0,
+                      "wheel_unloading_limit": {"value": 0.5, "clause": "client rule R-12"}}}),
     "axle_list": feature(train={"axles": {"file": "axles.csv", "load_unit": "kN",
                                           "name": "axle list"}}),
     "catalogue_pattern": feature(

@@ -42,9 +42,10 @@ a warning says how many modes keep 95 % of the rail's static flexibility).
 interaction | moving_force for presets (default: interaction where the library has
 vehicle dynamics, moving forces for the HSLM load models); ``hslm_b`` = {``N``, ``d``}
 (required with the preset "HSLM-B": N forces of 170 kN at spacing d m, EN 1991-2 Fig.
-6.13 [R]); ``axles`` = {``file``, ``load_unit`` ("kN" | "N"), ``name``} adds a moving-force
-train from an axle-load CSV (columns ``position`` m behind the first axle, ``load``), alone
-or next to presets / a file.  A vehicle has ``kind`` =
+6.13 [R], within the code profile's range: N 10..20, d 2.5..3.5 m, else refused unless
+solver.allow_implausible); ``axles`` = {``file``, ``load_unit`` ("kN" | "N"), ``name``}
+adds a moving-force train from an axle-load CSV (columns ``position`` m behind the first
+axle, ``load``), alone or next to presets / a file.  A vehicle has ``kind`` =
 force (``load``, N) | sprung_mass (``mass``, ``stiffness``, ``damping`` 0,
 ``wheel_mass`` 0) | car (the [whole] values of ``data/trains.toml`` plus
 ``body_cg_to_front_bogie``, default mid-way) | user (``M``, ``C``, ``K``, ``wheel_dofs``,
@@ -77,11 +78,11 @@ that use them.
 ``[study]`` ``speeds_kmh`` (list, or {start, stop, step} with stop included when on the
 grid) or ``line_speed_kmh`` (then 140 .. 1.2 x line speed, step 5, 1.2 x line speed
 included); ``output`` (results/<stem>.nc); ``save_time_histories`` (true);
-``history_speeds_kmh`` (all); ``classification_factor`` (alpha of LM71, 1.0, in
-[0.75, 1.46], EN 1991-2 6.3.2(3) [R]) and ``track_maintenance`` ("standard": Phi_3,
-"careful": Phi_2, EN 1991-2 6.4.5.2 [R]) for the load-effect checks of `vsi report`;
-``load_effects`` (true: bending moment, shear, reactions and rotations reduced in the
-runs).
+``history_speeds_kmh`` (all); ``classification_factor`` (alpha of LM71, 1.0, in the code
+profile's range, [0.75, 1.46] by default, EN 1991-2 6.3.2(3) [R]) and
+``track_maintenance`` ("standard": Phi_3, "careful": Phi_2, EN 1991-2 6.4.5.2 [R]) for the
+load-effect checks of `vsi report`; ``load_effects`` (true: bending moment, shear,
+reactions and rotations reduced in the runs).
 Also: ``[bridge]`` ``track_type`` = ballasted (default) | direct_fastening (the EN 1990 A2
 deck-acceleration limit); ``damping_ratio`` = "EN1991-2" with ``deck_type`` (Table 6.6
 lower bound for the span); ``additional_damping`` (false; EN 1991-2 6.4.6.3.1, moving
@@ -91,6 +92,13 @@ forces only).  ``[solver]`` ``allow_coarse_dt``, ``allow_implausible``,
 of key paths, each with a list of values), ``vary_together`` (tables of key paths varied
 together, optional ``label``), ``mass_bounds`` (factors on ``mass_per_length``): the
 variants of a parametric study.
+``[code_profile]`` (:mod:`vsi_numba.code_profile`): ``name`` (the profile's name; "EN 1990
+A2 / EN 1991-2:2003 recommended values") and ``overrides`` (a table: entry key = a number
+in the entry's SI unit, or a table of value and clause naming the rule it comes from): the
+clause values of the checks (deck acceleration, comfort, wheel unloading and end rotation
+limits, Table 6.6 damping, L_Phi, Phi_2 / Phi_3, phi'', LM71, the alpha range, the HSLM
+applicability and HSLM-B's N and d), stored with the results so that `vsi report` uses the
+study's profile.
 The stored configuration of a results file (attribute config_json, :meth:`Config.resolved`) is
 written in these keys, defaults filled in and rules kept as rules, so that it reloads to
 the same configuration.

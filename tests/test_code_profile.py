@@ -230,6 +230,15 @@ def test_code_profile__config_errors_name_the_key_value_and_expectation(tmp_path
         assert "Traceback" not in res.output
 
 
+def test_code_profile__vsi_check_names_the_profile_and_its_overrides(tmp_path):
+    res = invoke("check", write(tmp_path / "c.toml", BASE + CLIENT))
+    assert res.exit_code == 0, res.output
+    assert ("code profile: Client rule set; overrides: deck_acceleration_limit_ballasted = 5"
+            in " ".join(res.output.split()))
+    res = invoke("check", write(tmp_path / "d.toml", BASE))
+    assert "code profile: EN 1990 A2 / EN 1991-2:2003 recommended values" in res.output
+
+
 def test_code_profile__implausible_override_warns(tmp_path):
     # 35 m/s2 is 10 x the recommended 3.5: a slip of units (e.g. 0.35 g written as 3.5 x 10)
     cfg = write(tmp_path / "w.toml", BASE + "[code_profile]\noverrides = "

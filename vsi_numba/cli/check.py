@@ -258,6 +258,7 @@ def check_command(config: Path, workers: int | None = None) -> int:
         from vsi_numba.model.distribution import describe_config
 
         pr.line(f"input: {describe_config(cfg.resolved())}")
+    pr.line(cfg.code_profile.summary())  # the clause values the checks will use
     pr.line(f"study: {n(est.n_runs, 'run')} = {n_v}{n(est.n_speeds, 'speed')} x "
             f"{n(est.n_trains, 'train')} x {n(est.n_realisations, 'track realisation')}, in "
             f"{n(est.n_batches, 'batch', 'batches')}; {n(est.n_steps, 'time step')}; "

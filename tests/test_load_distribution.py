@@ -299,6 +299,11 @@ def test_load_distribution__implausible_or_unused_values_warn():
     cfg = load_config({**BASE, "track": {"load_distribution": "rail", "ballast_depth": 0.4}})
     assert any("track.ballast_depth is ignored: not used by track.load_distribution = "
                "'rail'" in w for w in cfg.warnings)
+    # the forces ahead of the first axle reach beyond the approach: a sudden load
+    cfg = load_config({**BASE, "solver": {"approach": 2.0},
+                       "track": {"load_distribution": "elastic_track"}})
+    assert any("solver.approach = 2 m is shorter than the reach of track.load_distribution"
+               " = 'elastic_track' (6 m ahead of an axle)" in w for w in cfg.warnings)
     # with the rigid track the rail and the ballast still spread the moving forces
     cfg = load_config({**BASE, "track": {"model": "rigid", "load_distribution": "rail"}})
     assert cfg.build_bridge().load_distribution.kind == "rail"

@@ -230,3 +230,40 @@ def test_outputs__report_gives_the_load_effect_checks_or_says_why_not(tmp_path, 
         assert "Deck-end rotation" in section and "Not available" not in section
     else:
         assert "Not available" in section
+
+
+BUNDLED = {  # bundled configs, cut to a grid a test can afford (the text a user has)
+    "viaduct_25_32_25.toml": [("line_speed_kmh = 300.0", "speeds_kmh = [300.0, 360.0]"),
+                              ('preset = ["HSLM-A1", "HSLM-A2", "HSLM-A3", "HSLM-A4", "HSLM-A5",\n'
+                               '          "HSLM-A6", "HSLM-A7", "HSLM-A8", "HSLM-A9", "HSLM-A10"]',
+                               'preset = ["HSLM-A3"]')],
+    "ice3_continuous.toml": [("speeds_kmh = { start = 200.0, stop = 350.0, step = 50.0 }",
+                              "speeds_kmh = [300.0]"), ("seeds = [1, 2]", "seeds = [1]")],
+}
+
+
+@pytest.mark.parametrize("name", list(BUNDLED))
+def test_outputs__bundled_continuous_decks_report_every_load_effect(tmp_path, name):
+    text = (ROOT / "configs" / name).read_text()
+    for old, new in BUNDLED[name]:
+        assert old in text
+        text = text.replace(old, new)
+    path = tmp_path / name
+    path.write_text(text)
+    res = invoke("sweep", path, "-q", "-o", tmp_path / "out.nc", "--report", tmp_path / "rep")
+    assert res.exit_code == 0, res.output
+    with xr.open_dataset(tmp_path / "out.nc") as ds:
+        assert not set(json.loads(ds.attrs["not_computed"])) & LOAD_EFFECT_VARIABLES
+        for v in ("max_bending_moment", "max_shear_force", "max_support_reaction",
+                  "max_end_rotation"):
+            assert np.isfinite(ds[v].values).all(), v
+    import pandas as pd
+
+    summary = pd.read_csv(tmp_path / "rep" / "summary.csv")
+    checks = summary["check"].astype(str)
+    for effect in ("deflection", "bending moment", "shear force", "support reaction",
+                   "rotation"):
+        row = summary[checks.str.startswith("6.4.6.5(3)") & checks.str.contains(effect)]
+        assert len(row) == 1, (effect, list(checks))
+        assert np.isfinite(row["value"].iloc[0]) and row["value"].iloc[0] > 0
+    assert checks.str.startswith("Deck-end rotation").any()

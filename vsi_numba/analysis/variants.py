@@ -19,6 +19,7 @@ import xarray as xr
 from vsi_numba.analysis import checks as chk
 from vsi_numba.analysis.dataset import ResultsError, track_type
 from vsi_numba.analysis.report.text import NOT_RELIABLE, stored_warnings
+from vsi_numba.en1990 import deck_acceleration_limits
 
 #: Per-variant variables that become attributes of a variant's view.
 _PER_VARIANT = ("bridge_length", "acceleration_cutoff", "variant_config_json",
@@ -60,9 +61,11 @@ def variant_track_type(ds: xr.Dataset, k: int) -> str:
 
 
 def variant_limit(ds: xr.Dataset, k: int) -> float:
-    """EN 1990 A2 deck-acceleration limit of variant ``k`` (m s-2) from its track type
-    (3.5 ballasted, 5 direct fastening; 3.5 when the type is unknown)."""
-    return float(chk.DECK_ACCELERATION_LIMITS.get(variant_track_type(ds, k), 3.5))
+    """EN 1990 A2 deck-acceleration limit of variant ``k`` (m s-2) from its track type and
+    the study's code profile (recommended: 3.5 ballasted, 5 direct fastening; the ballasted
+    limit when the type is unknown)."""
+    limits = deck_acceleration_limits(chk.profile_of(ds))
+    return float(limits.get(variant_track_type(ds, k), limits["ballasted"]))
 
 
 def _limits(ds: xr.Dataset) -> np.ndarray:
@@ -73,7 +76,8 @@ def _limits(ds: xr.Dataset) -> np.ndarray:
 def _limits_text(ds: xr.Dataset) -> str:
     """``"3.5 m/s² (ballasted track)"``, one per track type of the variants."""
     types = sorted({variant_track_type(ds, k) for k in range(ds.sizes["variant"])})
-    return ", ".join(f"{chk.DECK_ACCELERATION_LIMITS.get(t, 3.5):g} m/s² ({t} track)"
+    limits = deck_acceleration_limits(chk.profile_of(ds))
+    return ", ".join(f"{limits.get(t, limits['ballasted']):g} m/s² ({t} track)"
                      for t in types)
 
 

@@ -151,6 +151,25 @@ def test_load_distribution__crawl_matches_the_distributed_static_load(tmp_path, 
     assert float(ds["static_wheel_load"].squeeze()) == P
 
 
+def test_load_distribution__load_effect_checks_crawl_the_distributed_load(tmp_path):
+    """The report's EN 1991-2 6.4.6 checks take the static reference of phi'_dyn from the
+    moving forces as the runs distributed them: at 5 km/h phi'_dyn is ~0, not the -12 %
+    of a distributed dynamic result over a point-force static one."""
+    from vsi_numba.analysis.checks.load_effects import load_effect_checks
+
+    ds = run(write_config(tmp_path, "le", '[track]\nload_distribution = "rail_ballast"\n'))
+    checks = load_effect_checks(ds)
+    env = checks.envelopes.set_index(["effect", "location"])
+    # 0.01 %: the crawl envelope is exact at the kinks (its grid holds every force
+    # crossing a breakpoint); the reference integrates the patches (quad)
+    assert env.loc[("moment", L / 2), "static"] == pytest.approx(
+        static_max(moment_line, "rail_ballast"), rel=1e-3)
+    phi = checks.phi_dyn.set_index(["effect", "train"])["phi_dyn"]
+    # the crawl's dynamic part and the ballast patches as 5 forces in the run (+0.09 %)
+    assert abs(phi[("moment", "le")]) < 2.5e-3
+    assert abs(phi[("deflection", "le")]) < 1e-3
+
+
 def test_load_distribution__elastic_track_spreads_like_the_winkler_foundation(tmp_path):
     """The foundation reaction of the rail on the Winkler foundation, sampled at the
     sleepers, against the continuous reaction integrated here."""

@@ -210,6 +210,21 @@ def describe_config(cfg: dict) -> str:
                     str(track.get("model", "elastic")))
 
 
+def from_track_config(track) -> LoadDistribution | None:
+    """The distribution of a resolved ``[track]`` table (a results file's stored
+    configuration), or None (no distribution, no table, the FE track layer)."""
+    if not isinstance(track, dict):
+        return None
+    kind = track.get("load_distribution", "none")
+    if kind == "none":
+        return None
+    rail = (ElasticTrack(float(track["foundation_stiffness"]), float(track["rail_EI"]))
+            if kind == "elastic_track" else None)
+    keys = ("sleeper_spacing", "sleeper_width", "ballast_depth")
+    return LoadDistribution(kind, **{k: float(track[k]) for k in keys if k in track},
+                            track=rail)
+
+
 def expand(positions, loads, distribution: LoadDistribution | None):
     """The forces of axles at ``positions`` (m behind the train's first axle) with
     ``loads`` (N) under ``distribution``: ``(positions, loads)`` of every distributed

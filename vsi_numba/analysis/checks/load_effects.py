@@ -312,7 +312,8 @@ class LoadEffectChecks(NamedTuple):
     envelopes : pandas.DataFrame
         One row per effect and location: ``effect``, ``location`` (m), ``dynamic``
         (max|E| over speeds and trains), ``train``, ``speed_kmh`` (of it), ``static``
-        (max|E| of the static crawl over trains), ``lm71`` (LM71 static, alpha = 1),
+        (max|E| of the static crawl over trains; moving forces distributed as the runs
+        distributed them, ``track.load_distribution``), ``lm71`` (LM71 static, alpha = 1),
         ``lm71_design`` (x Phi x alpha), ``real_design`` (max over speeds and trains of
         (1 + phi'_dyn + phi''/2) x static crawl = |dynamic| + phi''/2 x static),
         ``ratio`` (real_design / lm71_design), ``units``.
@@ -424,9 +425,11 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
     import pandas as pd
 
     from vsi_numba.analysis.checks.common import profile_of
-    from vsi_numba.analysis.checks.determinant import determinant_length
+    from vsi_numba.analysis.checks.determinant import determinant_length, results_config
+    from vsi_numba.analysis.checks.wheels import prescribed_wheels
     from vsi_numba.analysis.dataset import DETERMINISTIC, bridge_frequencies, prepare
     from vsi_numba.en1991 import dynamic_factor, irregularity_allowance
+    from vsi_numba.model.distribution import expand, from_track_config
     from vsi_numba.model.influence import influence
 
     ds = prepare(ds)
@@ -467,6 +470,9 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
     trains = [str(t) for t in ds["train"].values]
     wp = np.asarray(ds["wheel_position"].values, float)
     wl = np.asarray(ds["static_wheel_load"].values, float)
+    # the moving forces as the runs distributed them (track.load_distribution)
+    spread = from_track_config(results_config(ds).get("track"))
+    moving = prescribed_wheels(ds).values if spread is not None else None
     sup = static.supports
     ext = (0.0, static.length)
 
@@ -508,8 +514,14 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
         for t in range(len(trains)):
             ok = np.isfinite(wp[t]) & np.isfinite(wl[t]) & (wl[t] > 0)
             if ok.any():
-                e = crawl_envelope(line, wp[t][ok] - wp[t][ok].min(), wl[t][ok], bp, ext,
-                                   step=step, n_at=at.size)
+                pos, load = wp[t][ok], wl[t][ok]
+                if spread is not None:
+                    mf = moving[t][ok]
+                    dpos, dload = expand(pos[mf], load[mf], spread)
+                    pos = np.concatenate([pos[~mf], dpos])
+                    load = np.concatenate([load[~mf], dload])
+                e = crawl_envelope(line, pos - pos.min(), load, bp, ext, step=step,
+                                   n_at=at.size)
                 stat[t] = e.max if name == "deflection" else e.abs
         lm = lm71_envelope(line, bp, ext, step=step, n_at=at.size, model=model)
         lm_abs = lm.max if name == "deflection" else lm.abs

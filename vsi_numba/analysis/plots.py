@@ -21,9 +21,9 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.transforms import blended_transform_factory
 
-from vsi_numba.analysis.checks import resonance_speeds
+from vsi_numba.analysis.checks import profile_of, resonance_speeds
 from vsi_numba.analysis.dataset import bridge_frequencies, prepare
-from vsi_numba.en1990 import COMFORT_LEVELS
+from vsi_numba.en1990 import comfort_levels
 
 WIDTH = 6.5  # in, text width of an A4 report
 HEIGHT = 4.0  # in, one panel
@@ -306,13 +306,14 @@ def plot_wheel_unloading(ds: xr.Dataset, wu: xr.Dataset, zones: xr.Dataset | Non
 
 
 def plot_comfort(ds: xr.Dataset, cf: xr.Dataset) -> Figure:
-    """Car-body vertical acceleration vs speed with the EN 1990 Table A2.9 levels."""
+    """Car-body vertical acceleration vs speed with the EN 1990 Table A2.9 levels (those
+    of the results' code profile)."""
     ds = prepare(ds)
     fig, (ax,) = _figure()
     handles = _lines(ax, ds, cf)
     required = cf.attrs.get("required_level", "")
     styles = {"very good": ":", "good": "-.", "acceptable": "--"}
-    for name, value in COMFORT_LEVELS.items():
+    for name, value in comfort_levels(profile_of(ds)).items():
         color = LIMIT_COLOR if name == required else "0.35"
         h = _limit(ax, value, f"{name} ≤ {value:g} m/s²", color=color, style=styles[name])
         if name == required:

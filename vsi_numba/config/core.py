@@ -142,13 +142,7 @@ class Config:
     def load_distribution(self) -> _dist.LoadDistribution | None:
         """The distribution of the moving forces by the track (``track.load_distribution``,
         :mod:`vsi_numba.model.distribution`), or None: point forces on the deck line."""
-        track = self._resolved.get("track") or {}
-        kind = track.get("load_distribution", "none")
-        if kind == "none":
-            return None
-        keys = ("sleeper_spacing", "sleeper_width", "ballast_depth")
-        return _dist.LoadDistribution(kind, **{k: track[k] for k in keys if k in track},
-                                      track=self.rail_track if kind == "elastic_track" else None)
+        return _dist.from_track_config(self._resolved.get("track"))
 
     @property
     def rail_track(self) -> _track.ElasticTrack | None:
@@ -489,14 +483,8 @@ def _check_run_count(cfg: Config, source: str) -> None:
 def _distribution_reach(chk, track, solver) -> None:
     """Warn when the forces of ``track.load_distribution`` reach beyond the approach: the
     first axle's forward forces then start on the deck (a sudden load)."""
-    if not _ok(track, solver) or track.get("load_distribution", "none") == "none":
-        return
-    rail = (_track.ElasticTrack(track["foundation_stiffness"], track["rail_EI"])
-            if track["model"] == "elastic" else None)
-    keys = ("sleeper_spacing", "sleeper_width", "ballast_depth")
-    dist = _dist.LoadDistribution(track["load_distribution"],
-                                  **{k: track[k] for k in keys if k in track}, track=rail)
-    if solver["approach"] < dist.extent:
+    dist = _dist.from_track_config(track) if _ok(track, solver) else None
+    if dist is not None and solver["approach"] < dist.extent:
         chk.warn(f"solver.approach = {solver['approach']:g} m is shorter than the reach of "
                  f"track.load_distribution = '{dist.kind}' ({dist.extent:.3g} m ahead of "
                  "an axle): the first axle's forward forces start on the deck, a sudden "

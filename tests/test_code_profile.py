@@ -194,6 +194,11 @@ def test_code_profile__report_prints_the_profile_once_with_the_override_marked(s
     assert "[R]" not in damping  # Table 6.6 was verified in a retrieved source
     assert "Profile: **EN 1990 A2 / EN 1991-2:2003 recommended values** (no override)" \
         in section(md_default, "Code profile")
+    # the bridge section states the limit in force
+    assert "deck acceleration limit 5 m/s², client rule R-12 (override)" in section(
+        md_client, "Bridge")
+    assert "deck acceleration limit 3.5 m/s², EN 1990 A2.4.4.2.1(4)P" in section(
+        md_default, "Bridge")
     # the check lines cite the clause without [R]; the limit follows the profile
     for md, limit, result in ((md_default, "3.5 m/s²", "**FAIL**"),
                               (md_client, "5 m/s²", "pass")):

@@ -247,7 +247,7 @@ def _figures(ds: xr.Dataset, results: dict, runner: CaseRunner | None = None,
     if not isinstance(dyn, str):
         put(plots.plot_dynamic_amplification(ds, dyn), "dynamic_amplification.png",
             "Dynamic increment φ'dyn of the deck maximum displacement against speed; "
-            "dotted: φ''/2 (EN 1991-2 Annex C [R]).")
+            "dotted: φ''/2 (EN 1991-2 Annex C).")
     wu = results.get("wheel_unloading")
     applicable = None
     if not isinstance(wu, str) and wu is not None:
@@ -257,7 +257,8 @@ def _figures(ds: xr.Dataset, results: dict, runner: CaseRunner | None = None,
         put(plots.plot_wheel_unloading(ds, wu, wheel_unloading_by_zone(ds)),
             "wheel_unloading.png",
             "Minimum wheel–rail contact force and wheel unloading ΔQ/Q₀ (max over axles) "
-            "against speed, with the 0.6 limit (EN 14363 practice [R]); thin dash-dot / "
+            f"against speed, with the {wu.attrs['limit']:g} limit ({md(wu.attrs['clause'])}); "
+            "thin dash-dot / "
             "dotted: ΔQ/Q₀ of the axles whose minimum contact force lay on the deck / on the "
             "approach or exit track (largest over realisations)"
             + (f"; not drawn: {skipped} (prescribed moving forces, not applicable)"
@@ -266,7 +267,7 @@ def _figures(ds: xr.Dataset, results: dict, runner: CaseRunner | None = None,
     if not isinstance(cf, str) and bool(cf["value"].notnull().any()):
         put(plots.plot_comfort(ds, cf), "comfort.png",
             "Vertical car-body acceleration (max over vehicles) against speed with the "
-            "levels of comfort of EN 1990 Table A2.9 [R].")
+            f"levels of comfort of the code profile ({md(cf.attrs['clause'])}).")
     hist = _Histories(histories, runner)
     for name, make in (("time_history.png", lambda: _deck_history(histories, results, hist,
                                                                   applicable)),

@@ -226,14 +226,18 @@ def _bridge(ds: xr.Dataset, lphi: chk.DeterminantLength | None = None) -> list[s
     if rail is not None:
         out.append(f"- Track model at the wheels: {rail}")
     track = track_type(ds)
-    limit = chk.DECK_ACCELERATION_LIMITS.get(track)
+    profile = chk.profile_of(ds)  # the limits of the study's code profile
+    limits = {t: profile[k] for t, k in chk.DECK_ACCELERATION_KEYS.items()}
+    limit = limits.get(track)
+    clause = profile.clause(chk.DECK_ACCELERATION_KEYS[track]) if limit else ""
     out.append(f"- Track: {md(track)}"
-               + (f" (deck acceleration limit {limit:g} m/s², {chk.DECK_ACCELERATION_CLAUSE})"
+               + (f" (deck acceleration limit {limit:g} m/s², {md(clause)})"
                   if limit else " (unknown track type: no default acceleration limit)"))
     if track_type_assumed(ds):
         out.append(f"\n> **Note:** the results do not state the track type "
                    f"(track_type = '{md(a.get('track_type', ''))}'): the stricter ballasted-track "
-                   "limit 3.5 m/s² is used. For direct-fastened track the limit is 5 m/s².\n")
+                   f"limit {limits['ballasted']:g} m/s² is used. For direct-fastened track the "
+                   f"limit is {limits['direct_fastening']:g} m/s².\n")
     if f.size:
         shown = f[:10]
         out.append("- Natural frequencies [Hz]: " + ", ".join(f"{x:.3f}" for x in shown)
@@ -274,8 +278,8 @@ def _summary(results: dict, table: pd.DataFrame, pts: np.ndarray) -> list[str]:
     if not isinstance(acc, str) and acc is not None:
         a = acc.attrs
         shown = ", ".join(f"{x:g}" for x in pts[:8]) + (" …" if pts.size > 8 else "")
-        assumed = (" Track type not stated in the file: ballasted (3.5 m/s²) assumed."
-                   if a.get("track_type_assumed") else "")
+        assumed = (f" Track type not stated in the file: ballasted ({a['limit']:g} m/s²) "
+                   "assumed." if a.get("track_type_assumed") else "")
         if a.get("whole_deck"):
             out.append(f"- Deck acceleration: max over the whole deck (a grid along every "
                        f"span plus the {pts.size} output point{'s' if pts.size != 1 else ''}"

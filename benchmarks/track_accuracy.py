@@ -197,8 +197,9 @@ def summary(rows) -> str:
         for key in ("before", "after"):
             edq = np.array([r[key]["dq"] - r["ref"]["dq"] for r in sel])
             eac = np.array([r[key]["acc"] / r["ref"]["acc"] - 1 for r in sel])
-            out.append(f"rail {m:g} kg/m, {key}: dQ/Q0 error {edq.min():+.3f} .. {edq.max():+.3f}, "
-                       f"deck acceleration {100 * eac.min():+.1f} .. {100 * eac.max():+.1f} %")
+            out.append(f"- rail {m:g} kg/m, {key}: dQ/Q0 error {edq.min():+.3f} .. "
+                       f"{edq.max():+.3f}, deck acceleration {100 * eac.min():+.1f} .. "
+                       f"{100 * eac.max():+.1f} %")
     return "\n".join(out)
 
 

@@ -129,8 +129,10 @@ def _blocks(c: LoadEffectChecks):
     blocks: list = [
         f"EN 1991-2 6.4.6.5(3): per effect, the design value is the more unfavourable "
         f"of (1 + φ'dyn + φ''/2) × (static effect of the HSLM / real train) and "
-        f"{ph} × α × LM71. LM71 ({LM71_CLAUSE}): 4 × 250 kN at 1.6 m and "
-        f"80 kN/m outside the 6.4 m axle zone where unfavourable, placed most "
+        f"{ph} × α × LM71. LM71 ({LM71_CLAUSE}): 4 × {_limit(c, 'lm71_axle_load') / 1e3:g} "
+        f"kN at {_limit(c, 'lm71_axle_spacing'):g} m and {_limit(c, 'lm71_udl') / 1e3:g} kN/m "
+        f"outside the {4 * _limit(c, 'lm71_axle_spacing'):g} m axle zone where unfavourable, "
+        "placed most "
         f"unfavourably; α = {fa['alpha']:g} ({ALPHA_CLAUSE}, `study.classification_factor`); "
         f"{ph} = {fa['phi']:.4g} ({PHI_CLAUSE}, track maintenance "
         f"'{fa['maintenance']}', `study.track_maintenance`) with L_Φ = {fa['length']:g} m "

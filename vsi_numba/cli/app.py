@@ -148,6 +148,11 @@ def profile(
     raise typer.Exit(profile_command(config, plot))
 
 
+from vsi_numba.cli.verify import verify  # noqa: E402 - options kept with the command
+
+app.command()(verify)
+
+
 def main():  # pragma: no cover - console entry
     """Console entry: run the command, then leave without the interpreter's teardown.
 

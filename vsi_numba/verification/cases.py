@@ -1,0 +1,424 @@
+"""The verification cases: each writes a TOML config, runs it through ``vsi sweep``'s own
+command function, reads the netCDF file it wrote and compares figures with
+:mod:`vsi_numba.verification.reference`.
+
+A case is a function ``(workdir) -> list[Row]``; :data:`CASES` lists them in the order of
+the manual with the ``quick`` flag of ``vsi verify --quick``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from vsi_numba.verification import reference as ref
+
+
+@dataclass(frozen=True)
+class Row:
+    """One compared figure of a case (a row of verification.csv)."""
+
+    id: str
+    title: str
+    source: str
+    model: str
+    quantity: str
+    unit: str
+    reference: float
+    computed: float
+    tolerance: float  # on the relative error
+    tolerance_reason: str
+
+    @property
+    def error(self) -> float:
+        """Relative error ``computed / reference - 1``."""
+        return float(self.computed / self.reference - 1.0)
+
+    @property
+    def passed(self) -> bool:
+        """True when the relative error is within the tolerance (NaN fails)."""
+        return bool(abs(self.error) <= self.tolerance)
+
+
+@dataclass(frozen=True)
+class Case:
+    """A verification case: its id, title, whether ``--quick`` runs it, and its run."""
+
+    id: str
+    title: str
+    quick: bool
+    run: Callable[[Path], list[Row]]
+
+
+def sweep(workdir: Path, name: str, text: str):
+    """Write ``text`` as ``workdir/name.toml``, run it as ``vsi sweep -q --fresh`` does and
+    return the results file's dataset (loaded; dims speed, train, irregularity kept)."""
+    import xarray as xr
+
+    from vsi_numba.cli.sweep import sweep_command
+
+    cfg = workdir / f"{name}.toml"
+    out = workdir / f"{name}.nc"
+    cfg.write_text(text, encoding="utf-8")
+    code = sweep_command(cfg, out, None, None, True, True)
+    if code != 0:
+        raise RuntimeError(f"vsi sweep {cfg} exited with code {code}")
+    with xr.open_dataset(out) as ds:
+        return ds.load()
+
+
+def _ss_bridge(L, EI, m, zeta, n_modes, points):
+    return f"""
+        [bridge]
+        kind = "simply_supported"
+        spans = [{L!r}]
+        EI = {EI!r}
+        mass_per_length = {m!r}
+        damping_ratio = {zeta!r}
+        n_modes = {n_modes}
+        output_points = {list(points)!r}
+        """
+
+
+def _forces(offsets, load):
+    return "".join(f'\n[[train.vehicles]]\nkind = "force"\noffset = {o!r}\nload = {load!r}\n'
+                   for o in offsets)
+
+
+def _ei_for(f1, L, m):
+    """EI (N m2) giving the first frequency ``f1`` (Hz) of a simply supported span."""
+    return m * (2.0 * np.pi * f1 / (np.pi / L) ** 2) ** 2
+
+
+# ------------------------------------------------------------------ V01 Fryba moving force
+def v01_fryba(workdir: Path) -> list[Row]:
+    L, m, f1, P, approach = 20.0, 1.0e4, 2.0, 1.0e5, 0.5
+    EI = _ei_for(f1, L, m)
+    alphas = sorted(ref.FRYBA_DAF)
+    speeds = [a * 2.0 * f1 * L * 3.6 for a in alphas]
+    text = _ss_bridge(L, EI, m, 0.0, 10, [L / 2]) + "[train]\n" + _forces([0.0], P) + f"""
+        [track]
+        model = "rigid"
+        [solver]
+        dt = 2e-4
+        hht_alpha = 0.0
+        approach = {approach}
+        free_vibration = 0.05
+        [study]
+        speeds_kmh = {speeds!r}
+        save_time_histories = true
+        """
+    ds = sweep(workdir, "v01_fryba", text)
+    t = ds["time"].values
+    w_st = P * L**3 / (48.0 * EI)
+    rows = []
+    for i, a in enumerate(alphas):
+        v = float(ds["speed"].values[i])
+        on = (t >= approach / v) & (t <= (approach + L) / v)
+        w = ds["deck_displacement"].isel(speed=i, train=0, irregularity=0, point=0).values
+        rows.append(Row(
+            f"V01-{a:g}", f"Moving force on a simply supported beam, alpha = {a:g}",
+            ref.FRYBA_SOURCE, "moving force, 10 modes, undamped, HHT alpha = 0, dt 0.2 ms",
+            "DAF of midspan deflection while the force is on the span", "-",
+            ref.FRYBA_DAF[a], float(np.nanmax(w[on])) / w_st, 2e-3,
+            "table to 4 decimals (its alpha = 1.0 entry is 4e-4 above the series' 1.5481); "
+            "modes 11-60 and the peak sampled at dt: < 1e-4"))
+    return rows
+
+
+# ------------------------------------------------------------------ V02 Yang & Wu sprung mass
+def v02_yang_wu(workdir: Path) -> list[Row]:
+    p = ref.YANG_WU
+    approach = 1.0
+    text = _ss_bridge(p["L"], p["EI"], p["m"], 0.0, 10, [p["L"] / 2]) + f"""
+        [train]
+        [[train.vehicles]]
+        kind = "sprung_mass"
+        mass = {p["mass"]!r}
+        stiffness = {p["k"]!r}
+        [track]
+        model = "rigid"
+        [solver]
+        dt = 2e-4
+        hht_alpha = 0.0
+        approach = {approach}
+        free_vibration = 0.05
+        [study]
+        speeds_kmh = [100.0]
+        save_time_histories = true
+        """
+    ds = sweep(workdir, "v02_yang_wu", text).isel(speed=0, train=0, irregularity=0)
+    v = p["v"]
+    t = ds["time"].values
+    on = (t >= approach / v) & (t <= (approach + p["L"]) / v)
+    w = float(np.nanmax(ds["deck_displacement"].isel(point=0).values[on]))
+    acc = float(np.nanmax(np.abs(ds["carbody_acceleration"].isel(vehicle=0).values[on])))
+    sol = ref.sprung_mass_on_beam(p["L"], p["EI"], p["m"], p["mass"], p["k"], v)
+    model = "sprung mass, massless contact, rigid track, 10 modes, HHT alpha = 0, dt 0.2 ms"
+    title = "Sprung mass crossing a 25 m simply supported beam (Yang & Wu)"
+    ivp = ("solve_ivp (DOP853, rtol 1e-10) of the coupled sprung mass and 10-mode beam, "
+           "vsi_numba.verification.reference.sprung_mass_on_beam")
+    return [
+        Row("V02-w", title, ref.YANG_WU_SOURCE, model, "max midspan deflection while "
+            "the vehicle is on the span", "m", ref.YANG_WU_MIDSPAN, w, 1e-3,
+            "published to 5 figures; the peers of case S1 agree within 2e-4"),
+        Row("V02-a", title, ref.YANG_WU_SOURCE, model, "max |body acceleration| while on "
+            "the span", "m/s2", ref.YANG_WU_BODY_ACC, acc, 5e-3,
+            "published to 4 figures (3e-4); trapezoidal rule on the 17 Hz contact mode "
+            "at dt 0.2 ms"),
+        Row("V02-w-ivp", title, ivp, model, "max midspan deflection while on the span", "m",
+            sol["max_midspan"], w, 5e-4, "modes 11-20 (< 1e-5) and the trapezoidal rule's "
+            "period error at dt 0.2 ms (< 1e-5), peak sampled at dt"),
+        Row("V02-a-ivp", title, ivp, model, "max |body acceleration| while on the span",
+            "m/s2", sol["max_body_acceleration"], acc, 3e-3,
+            "the body acceleration carries the beam's higher modes through the spring: "
+            "period error and peak sampling at dt 0.2 ms"),
+    ]
+
+
+# ------------------------------------------------------------------ V03 simply supported effects
+def v03_ss_effects(workdir: Path) -> list[Row]:
+    L, EI, m, P = 10.0, 5e9, 1.0e4, 1.0e5
+    text = _ss_bridge(L, EI, m, 0.05, 4, [5.0, 2.5]) + "[train]\n" + _forces([0.0], P) + """
+        [track]
+        model = "rigid"
+        [solver]
+        dt = 1e-3
+        approach = 1.0
+        free_vibration = 0.2
+        [study]
+        speeds_kmh = [3.0]
+        save_time_histories = false
+        """
+    ds = sweep(workdir, "v03_ss_effects", text).isel(speed=0, train=0,
+                                                                       irregularity=0)
+    mid, quarter = ref.ss_crawl_effects(P, L, EI, 5.0), ref.ss_crawl_effects(P, L, EI, 2.5)
+    title = "Load effects of a force crossing a 10 m simply supported span at 3 km/h"
+    src = "influence lines of a simply supported span (statics; Roark, beam tables)"
+    model = "moving force, 4 modes + mode acceleration, 5 % damping, dt 1 ms"
+    reason = ("3 km/h: the dynamic part of the mode-accelerated effects is < 0.2 % of the "
+              "static")
+    m_ = ds["max_bending_moment"].values
+    return [
+        Row("V03-M-mid", title, src, model, "max bending moment at x = 5 m", "N m",
+            mid["moment"], float(m_[0]), 1e-2, reason),
+        Row("V03-M-quarter", title, src, model, "max bending moment at x = 2.5 m", "N m",
+            quarter["moment"], float(m_[1]), 1e-2, reason),
+        Row("V03-V-quarter", title, src, model, "max shear force at x = 2.5 m", "N",
+            quarter["shear_max"], float(ds["max_shear_force"].values[1]), 1e-2, reason),
+        Row("V03-R", title, src, model, "max reaction at the left support", "N",
+            mid["reaction"], float(ds["max_support_reaction"].values[0]), 1e-2, reason),
+        Row("V03-theta", title, src, model, "max end rotation at the left support", "rad",
+            mid["rotation"], float(ds["max_end_rotation"].values[0]), 1e-2,
+            reason + "; rotations converge fast with modes"),
+    ]
+
+
+# ------------------------------------------------------------------ V04 continuous deck
+def v04_continuous(workdir: Path) -> list[Row]:
+    L1, L2, EI, m, P = 10.0, 12.0, 5e9, 1.0e4, 1.0e5
+    text = f"""
+        [bridge]
+        kind = "continuous"
+        spans = [{L1}, {L2}]
+        EI = {EI}
+        mass_per_length = {m}
+        damping_ratio = 0.05
+        n_modes = 4
+        elements_per_span = 20
+        output_points = [5.0, 16.0]
+        [train]
+        """ + _forces([0.0], P) + """
+        [track]
+        model = "rigid"
+        [solver]
+        dt = 1e-3
+        approach = 1.0
+        free_vibration = 0.2
+        [study]
+        speeds_kmh = [3.0]
+        save_time_histories = false
+        """
+    ds = sweep(workdir, "v04_continuous", text).isel(speed=0, train=0,
+                                                                       irregularity=0)
+    r = ref.two_span_crawl_effects(P, L1, L2, EI, [5.0, 16.0])
+    k = int(np.argmin(abs(ds["deck_x"].values - L1)))
+    title = "Load effects of a force crossing a 10 + 12 m continuous deck at 3 km/h"
+    src = "three-moment equation (Clapeyron) and statics; end rotations by quadrature of M/EI"
+    model = "moving force, FE deck (20 elements a span), 4 modes + mode acceleration, dt 1 ms"
+    reason = "3 km/h: dynamic part < 0.2 % of the static (mode acceleration)"
+    return [
+        Row("V04-M1", title, src, model, "max bending moment at x = 5 m", "N m",
+            r["moment"][0], float(ds["max_bending_moment"].values[0]), 1e-2, reason),
+        Row("V04-M2", title, src, model, "max bending moment at x = 16 m", "N m",
+            r["moment"][1], float(ds["max_bending_moment"].values[1]), 1e-2, reason),
+        Row("V04-MB", title, src, model, "hogging moment over the middle support", "N m",
+            r["support_moment"], float(ds["min_bending_moment_whole_deck"].values[k]), 1e-2,
+            reason),
+        Row("V04-RB", title, src, model, "max reaction at the middle support", "N",
+            r["reaction"][1], float(ds["max_support_reaction"].values[1]), 1e-2, reason),
+        Row("V04-theta", title, src, model, "max end rotation at the left end", "rad",
+            r["rotation_a"], float(ds["max_end_rotation"].values[0]), 1e-2, reason),
+    ]
+
+
+# ------------------------------------------------------------------ V05/V06 trains of forces
+def _train_case(workdir, cid, L, d, label, quick_title):
+    m, f1, zeta, P, n, approach = 1.0e4, 4.0, 0.01, 1.0e5, 10, 1.0
+    EI = _ei_for(f1, L, m)
+    v = f1 * d  # the first resonance, i = 1
+    offsets = [k * d for k in range(n)]
+    text = _ss_bridge(L, EI, m, zeta, 1, [L / 2]) + "[train]\n" + _forces(offsets, P) + f"""
+        [track]
+        model = "rigid"
+        [solver]
+        dt = 5e-4
+        hht_alpha = 0.0
+        approach = {approach}
+        free_vibration = 1.0
+        [study]
+        speeds_kmh = [{v * 3.6!r}]
+        save_time_histories = false
+        """
+    ds = sweep(workdir, cid.lower(), text).isel(speed=0, train=0,
+                                                                  irregularity=0)
+    t_end = (approach + L + offsets[-1]) / v + 1.0
+    _, w, a = ref.train_of_forces(offsets, [P] * n, L, EI, m, zeta, 1, v, [L / 2], t_end,
+                                  x_start=-approach, nt=200001)
+    src = ("closed-form modal response of a force, superposed force by force "
+           "(Frýba); resonance v = n0 d / i, cancellation L/d = (2j - 1)/(2i) "
+           "(EN 1991-2 / ERRI D214 [R])")
+    model = "10 moving forces of 100 kN, 1 mode (4 Hz), 1 % damping, HHT alpha = 0, dt 0.5 ms"
+    reason = ("trapezoidal period error (w dt)^2/12 = 3e-5 over ~20 cycles of build-up, "
+              "peak sampled at dt")
+    title = f"{quick_title}: L = {L:g} m, d = {d:.4g} m, v = n0 d = {v * 3.6:.1f} km/h ({label})"
+    return [
+        Row(f"{cid}-w", title, src, model, "max midspan deflection", "m", float(w.max()),
+            float(ds["max_deck_displacement"].values[0]), 5e-3, reason),
+        Row(f"{cid}-a", title, src, model, "max |midspan acceleration|", "m/s2",
+            float(abs(a).max()), float(ds["max_deck_acceleration"].values[0]), 5e-3, reason),
+    ]
+
+
+def v05_resonance(workdir: Path) -> list[Row]:
+    return _train_case(workdir, "V05", 20.0, 15.0, "L/d = 4/3: build-up", "Resonance of a "
+                       "train of equal forces")
+
+
+def v06_cancellation(workdir: Path) -> list[Row]:
+    return _train_case(workdir, "V06", 20.0, 20.0 / 1.5, "L/d = 3/2: cancelled, j = 2",
+                       "Cancellation of the resonance of a train of equal forces")
+
+
+# ------------------------------------------------------------------ V07 HSLM-A1
+def v07_hslm(workdir: Path) -> list[Row]:
+    L, m, f1, zeta, approach = 15.0, 1.5e4, 6.0, 0.01, 1.0
+    EI = _ei_for(f1, L, m)
+    v = f1 * 18.0  # HSLM-A1: coach length D = 18 m
+    text = _ss_bridge(L, EI, m, zeta, 2, [L / 2]) + f"""
+        [train]
+        preset = "HSLM-A1"
+        model = "moving_force"
+        [track]
+        model = "rigid"
+        [solver]
+        dt = 2e-4
+        hht_alpha = 0.0
+        approach = {approach}
+        free_vibration = 0.5
+        [study]
+        speeds_kmh = [{v * 3.6!r}]
+        save_time_histories = false
+        """
+    ds = sweep(workdir, "v07_hslm", text).isel(speed=0, train=0,
+                                                                 irregularity=0)
+    pos = ds["wheel_position"].values.ravel()
+    loads = ds["static_wheel_load"].values.ravel()
+    ok = np.isfinite(pos)
+    pos, loads = pos[ok], loads[ok]
+    t_end = (approach + L + pos.max()) / v + 0.5
+    _, w, a = ref.train_of_forces(pos, loads, L, EI, m, zeta, 2, v, [L / 2], t_end,
+                                  x_start=-approach, nt=400001)
+    title = f"HSLM-A1 at its first resonance on a 15 m span (f1 = 6 Hz, {v * 3.6:.1f} km/h)"
+    src = ("numpy modal integration: closed-form modal response superposed axle by axle "
+           "(the axles and loads read from the results file)")
+    model = "HSLM-A1 moving forces, 2 modes, 1 % damping, HHT alpha = 0, dt 0.2 ms"
+    reason = ("resonance build-up over ~35 cycles: trapezoidal period error 1e-5 a cycle; "
+              "peak sampled at dt")
+    return [
+        Row("V07-w", title, src, model, "max midspan deflection", "m", float(w.max()),
+            float(ds["max_deck_displacement"].values[0]), 5e-3, reason),
+        Row("V07-a", title, src, model, "max |midspan acceleration|", "m/s2",
+            float(abs(a).max()), float(ds["max_deck_acceleration"].values[0]), 1e-2, reason
+            + "; the second mode (24 Hz) at 200 steps a period"),
+    ]
+
+
+# ------------------------------------------------------------------ V08 OpenSees dip (S2)
+def v08_opensees_dip(workdir: Path) -> list[Row]:
+    p = ref.YANG_WU
+    approach = 1.0
+    G = 4.57e-8 * 0.4575 ** (-0.149)
+    text = _ss_bridge(p["L"], p["EI"], p["m"], 0.0, 20, [p["L"] / 2]) + f"""
+        [train]
+        [[train.vehicles]]
+        kind = "sprung_mass"
+        mass = {p["mass"]!r}
+        stiffness = {p["k"]!r}
+        wheel_mass = 500.0
+        [irregularity]
+        kind = "cosine"
+        depth = 0.003
+        wavelength = 0.5
+        position = 12.25
+        [contact]
+        model = "hertz"
+        hertz_coefficient = {G!r}
+        [track]
+        model = "rigid"
+        [solver]
+        dt = 1e-4
+        hht_alpha = 0.0
+        approach = {approach}
+        free_vibration = 0.05
+        [study]
+        speeds_kmh = [100.0]
+        save_time_histories = true
+        """
+    ds = sweep(workdir, "v08_dip", text).isel(speed=0, train=0, irregularity=0)
+    v = p["v"]
+    t = ds["time"].values
+    on = (t >= approach / v) & (t <= (approach + p["L"]) / v)
+    w = float(np.nanmax(ds["deck_displacement"].isel(point=0).values[on]))
+    flags = ds["in_contact"].isel(wheel=0).values.astype(bool)
+    lost = np.flatnonzero(~flags & (t >= approach / v))
+    x_off = -approach + v * t[lost[0]] if lost.size else np.nan
+    title = "Lift-off on a 3 mm rail dip: sprung mass with a 500 kg wheel (OpenSees S2)"
+    model = "Hertz contact (G of R = 0.4575 m), rigid track, 20 modes, HHT alpha = 0, dt 0.1 ms"
+    return [
+        Row("V08-w", title, ref.S2_SOURCE, model, "max midspan deflection while on the span",
+            "m", ref.S2_MIDSPAN, w, 1e-2, "peer figure to 4 digits; the peer's FE beam "
+            "(20 elements) and rail-deflection term; its 0.2 and 0.1 ms runs differ 2e-3"),
+        Row("V08-x", title, ref.S2_SOURCE, model, "position of the first lift-off", "m",
+            ref.S2_FIRST_LIFT_OFF, float(x_off), 5e-3, "peer figure to 1 cm (8e-4) and "
+            "v dt = 2.8 mm; the lift-off point does not depend on the contact stiffness"),
+    ]
+
+
+CASES: tuple[Case, ...] = (
+    Case("V01", "Moving force on a simply supported beam (Frýba)", True, v01_fryba),
+    Case("V02", "Sprung mass on a simply supported beam (Yang & Wu)", True, v02_yang_wu),
+    Case("V03", "Load effects of a simply supported span at crawl speed", True,
+         v03_ss_effects),
+    Case("V04", "Load effects of a two-span continuous deck at crawl speed", False,
+         v04_continuous),
+    Case("V05", "Resonance of a train of equal forces", True, v05_resonance),
+    Case("V06", "Cancellation of the resonance of a train of equal forces", False,
+         v06_cancellation),
+    Case("V07", "HSLM-A1 at resonance on a simply supported span", False, v07_hslm),
+    Case("V08", "Lift-off on a rail dip against OpenSees (peer case S2)", False,
+         v08_opensees_dip),
+)

@@ -1,0 +1,148 @@
+"""Run the verification cases and write the manual: ``verification.csv`` (one row per
+compared figure) and ``verification.html`` (the same, with the installation and each
+case's source, inputs and tolerance reasons), in the report's look."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import math
+import platform
+import tempfile
+import time
+import traceback
+from pathlib import Path
+
+#: Columns of verification.csv, in order.
+COLUMNS = ("id", "case", "title", "source", "model", "quantity", "unit", "reference",
+           "computed", "error", "tolerance", "tolerance_reason", "pass", "vsi_numba", "numba",
+           "numpy", "scipy", "platform")
+
+
+def installation() -> dict[str, str]:
+    """The versions and machine the verification ran on."""
+    import numba
+    import numpy
+    import scipy
+
+    from vsi_numba import __version__
+
+    return {"vsi_numba": __version__, "numba": numba.__version__,
+            "numpy": numpy.__version__, "scipy": scipy.__version__,
+            "python": platform.python_version(), "platform": platform.platform(),
+            "machine": platform.machine(), "processor": platform.processor() or "-",
+            "date": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())}
+
+
+def run_cases(quick: bool = False, progress=None, workdir: Path | None = None):
+    """Run the cases (the ``quick`` subset or all) and return ``(rows, failures)``.
+
+    ``rows`` is a list of dicts with the :data:`COLUMNS`; ``failures`` maps a case id to
+    the message of a case that could not run (it counts as failed).  ``progress`` is
+    called with a line of text per case.  Each case's output of ``vsi sweep`` is kept in
+    ``<case>.log`` of ``workdir`` (a temporary directory by default).
+    """
+    from vsi_numba.verification.cases import CASES
+
+    rows: list[dict] = []
+    failures: dict[str, str] = {}
+    with contextlib.ExitStack() as stack:
+        if workdir is None:
+            workdir = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="vsi-verify-")))
+        for case in CASES:
+            if quick and not case.quick:
+                continue
+            start = time.perf_counter()
+            sub = Path(workdir) / case.id
+            sub.mkdir(parents=True, exist_ok=True)
+            log = io.StringIO()
+            try:
+                with contextlib.redirect_stdout(log), contextlib.redirect_stderr(log):
+                    result = case.run(sub)
+            except Exception as exc:  # a case that cannot run fails, the others go on
+                failures[case.id] = f"{type(exc).__name__}: {exc}"
+                (sub / f"{case.id}.log").write_text(log.getvalue() + traceback.format_exc(),
+                                                     encoding="utf-8")
+                if progress:
+                    progress(f"{case.id} {case.title}: could not run ({failures[case.id]})")
+                continue
+            (sub / f"{case.id}.log").write_text(log.getvalue(), encoding="utf-8")
+            for r in result:
+                err = r.error
+                rows.append({"id": r.id, "case": case.id, "title": r.title, "source": r.source,
+                             "model": r.model, "quantity": r.quantity, "unit": r.unit,
+                             "reference": r.reference, "computed": r.computed,
+                             "error": err, "tolerance": r.tolerance,
+                             "tolerance_reason": r.tolerance_reason, "pass": r.passed})
+            if progress:
+                n_ok = sum(r.passed for r in result)
+                progress(f"{case.id} {case.title}: {n_ok}/{len(result)} within tolerance "
+                         f"({time.perf_counter() - start:.1f} s)")
+    return rows, failures
+
+
+def write_csv(rows: list[dict], path: Path) -> Path:
+    """verification.csv: the :data:`COLUMNS`, one row per compared figure."""
+    import pandas as pd
+
+    frame = pd.DataFrame(rows, columns=list(COLUMNS))
+    frame.to_csv(path, index=False, float_format="%.10g")
+    return path
+
+
+def write_html(rows: list[dict], failures: dict[str, str], info: dict[str, str], path: Path,
+               quick: bool) -> Path:
+    """verification.html: the installation, a summary, then each case with its rows."""
+    import pandas as pd
+
+    from vsi_numba.analysis.report.document import Markdown, Section, Table
+    from vsi_numba.analysis.report.document import write_html as _write
+
+    n_fail = sum(not r["pass"] for r in rows) + len(failures)
+    verdict = "all figures within tolerance" if n_fail == 0 else f"**{n_fail} FAILED**"
+    head = Section("", [
+        f"{'Quick subset' if quick else 'Full set'} of the verification cases: "
+        f"{len(rows)} figures, {verdict}. Each case writes a configuration, runs it with "
+        "the command function of `vsi sweep`, reads the netCDF file and compares with a "
+        "reference computed independently of the package "
+        "(`vsi_numba.verification.reference`: closed forms, scipy integrations, published "
+        "and peer figures). Error = computed / reference - 1.",
+        Table(pd.DataFrame(list(info.items()), columns=["installation", "value"]),
+              "The installation verified")], level=0)
+    summary = pd.DataFrame([{"id": r["id"], "quantity": r["quantity"],
+                             "reference": r["reference"], "computed": r["computed"],
+                             "error": f"{r['error']:+.2e}", "tolerance": f"{r['tolerance']:.1e}",
+                             "pass": Markdown("pass" if r["pass"] else "**FAIL**")}
+                            for r in rows])
+    sections = [Section("Summary", [Table(summary, "Every compared figure", "{:.6g}")]
+                        + [f"- {cid}: could not run: {msg}" for cid, msg in failures.items()])]
+    cases: dict[str, list[dict]] = {}
+    for r in rows:
+        cases.setdefault(r["case"], []).append(r)
+    for cid, items in cases.items():
+        first = items[0]
+        lines = [f"- Model: {first['model']}"]
+        for r in items:
+            lines.append(f"- {r['id']} ({r['quantity']}, {r['unit']}): reference "
+                         f"{r['reference']:.6g}, computed {r['computed']:.6g}, error "
+                         f"{r['error']:+.2e}, tolerance {r['tolerance']:.1e} "
+                         f"({r['tolerance_reason']}); source: {r['source']}")
+        sections.append(Section(f"{cid}: {first['title']}", ["\n".join(lines)]))
+    title = "vsi_numba verification manual"
+    return _write(sections, path, title, header=[head])
+
+
+def run_verification(outdir, quick: bool = False, progress=None) -> tuple[list[dict], dict]:
+    """Run the cases, write ``outdir/verification.csv`` and ``outdir/verification.html``
+    and return ``(rows, failures)``; the run failed if any row fails or ``failures``."""
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    info = installation()
+    rows, failures = run_cases(quick=quick, progress=progress, workdir=outdir / "cases")
+    for r in rows:
+        if not math.isfinite(r["error"]):
+            r["pass"] = False
+        r.update({k: info[k] for k in ("vsi_numba", "numba", "numpy", "scipy", "platform")})
+    write_csv(rows, outdir / "verification.csv")
+    write_html(rows, failures, info, outdir / "verification.html", quick)
+    return rows, failures

@@ -1,0 +1,288 @@
+"""Reference solutions of the verification cases, independent of the rest of vsi_numba.
+
+This module imports numpy and scipy only, never another module of the package (a test
+parses it to keep it so): the figures it computes judge the engine, they do not come
+from it.  Closed forms, ``solve_ivp`` integrations of the coupled equations and
+published figures, each with its source.
+
+Conventions: SI units; vertical displacements, velocities and accelerations positive
+**down**; contact forces positive in compression; ``x`` from the left support; a force
+or vehicle that starts at ``x0`` is at ``x0 + v t``.  Simply supported beam:
+mass-normalised modes ``phi_j = sqrt(2/(m L)) sin(j pi x / L)``,
+``omega_j = (j pi / L)^2 sqrt(EI/m)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.integrate
+import scipy.optimize
+
+#: Gravity (m s-2), the value of the published cases.
+GRAVITY = 9.81
+
+# ----------------------------------------------------------------- published figures
+#: Frýba, *Vibration of solids and structures under moving loads* (1972/1999), the
+#: undamped simply supported beam under a constant force: the largest midspan deflection
+#: while the force is on the span over the static ``P L^3 / (48 EI)``, at the speed
+#: parameter ``alpha = v / (2 f1 L)`` (``= v / v_cr`` with ``v_cr = 2 f1 L``).  Values as
+#: tabulated to 4 decimals from the modal series (60 modes).
+FRYBA_DAF = {0.1: 1.0965, 0.3: 1.4105, 0.5: 1.7054, 0.62: 1.7317, 1.0: 1.5487}
+FRYBA_SOURCE = ("Frýba (1999), Vibration of solids and structures under moving loads, "
+                "ch. 1: undamped simply supported beam, modal series")
+
+#: Yang & Wu (2001): sprung mass 5750 kg, k = 1595 kN/m, on a 25 m simply supported beam
+#: (EI = 2.87e9 x 2.9 N m2, 2303 kg/m, undamped) at 100 km/h, smooth rail.
+YANG_WU = dict(L=25.0, EI=2.87e9 * 2.9, m=2303.0, mass=5750.0, k=1595e3, v=100.0 / 3.6)
+YANG_WU_MIDSPAN = 2.4073e-3  # m, largest midspan deflection (published)
+YANG_WU_BODY_ACC = 0.1480  # m/s2, largest body acceleration (published)
+YANG_WU_SOURCE = ("Yang & Wu (2001), Int. J. Struct. Stab. Dyn. 1(1); with the peers' "
+                  "figures in docs/data/peer_cases.md, case S1")
+
+#: OpenSees WheelRail (Hertz contact, 500 kg wheel, 3 mm x 0.5 m half-cosine dip at
+#: 12.5 m) on the Yang & Wu beam and sprung mass at 100 km/h, dt = 0.1 ms: case S2 of
+#: docs/data/peer_cases.md.
+S2_MIDSPAN = 2.674e-3  # m
+S2_FIRST_LIFT_OFF = 12.28  # m
+S2_SOURCE = ("OpenSees WheelRail (Gu, Liu et al. 2018), Newmark, Hertz contact; "
+             "docs/data/peer_cases.md, case S2")
+
+
+# ----------------------------------------------------------------- simply supported beam
+def ss_omega(L: float, EI: float, m: float, n_modes: int) -> np.ndarray:
+    """Circular natural frequencies (rad/s) of a simply supported Euler-Bernoulli beam."""
+    j = np.arange(1, n_modes + 1)
+    return (j * np.pi / L) ** 2 * np.sqrt(EI / m)
+
+
+def ss_shapes(L: float, m: float, n_modes: int, x) -> np.ndarray:
+    """Mass-normalised sine modes at ``x``, shape (len(x), n_modes); zero off the span."""
+    x = np.atleast_1d(np.asarray(x, float))
+    out = np.sqrt(2.0 / (m * L)) * np.sin(np.outer(x, np.pi * np.arange(1, n_modes + 1) / L))
+    out[(x < 0.0) | (x > L)] = 0.0
+    return out
+
+
+def _sdof_sine_from_rest(F, Om, om, zeta, t):
+    """``q'' + 2 zeta om q' + om^2 q = F sin(Om t)`` from rest: (q, q'), shape (nt, n).
+
+    Exact, including the undamped resonance ``Om = om``.
+    """
+    t = np.asarray(t, float)[:, None]
+    F, Om, om = (np.asarray(a, float)[None, :] for a in (F, Om, om))
+    if zeta == 0.0:
+        den = om**2 - Om**2
+        res = np.abs(den) <= 1e-12 * om**2
+        den_s = np.where(res, 1.0, den)
+        q = F * (np.sin(Om * t) - Om / om * np.sin(om * t)) / den_s
+        qd = F * Om * (np.cos(Om * t) - np.cos(om * t)) / den_s
+        q_r = F / (2 * om**2) * (np.sin(om * t) - om * t * np.cos(om * t))
+        qd_r = 0.5 * F * t * np.sin(om * t)
+        return np.where(res, q_r, q), np.where(res, qd_r, qd)
+    D = (om**2 - Om**2) ** 2 + (2 * zeta * om * Om) ** 2
+    ap = F * (om**2 - Om**2) / D
+    bp = -F * 2 * zeta * om * Om / D
+    wd = om * np.sqrt(1.0 - zeta**2)
+    a = -bp
+    b = (zeta * om * a - ap * Om) / wd
+    e = np.exp(-zeta * om * t)
+    c, s = np.cos(wd * t), np.sin(wd * t)
+    q = ap * np.sin(Om * t) + bp * np.cos(Om * t) + e * (a * c + b * s)
+    qd = (ap * Om * np.cos(Om * t) - bp * Om * np.sin(Om * t)
+          + e * ((-zeta * om * a + wd * b) * c + (-zeta * om * b - wd * a) * s))
+    return q, qd
+
+
+def _sdof_free(q0, qd0, om, zeta, tau):
+    """Free vibration of ``q'' + 2 zeta om q' + om^2 q = 0`` from (q0, qd0): (q, q')."""
+    tau = np.asarray(tau, float)[:, None]
+    wd = om * np.sqrt(1.0 - zeta**2)
+    e = np.exp(-zeta * om * tau)
+    b = (qd0 + zeta * om * q0) / wd
+    c, s = np.cos(wd * tau), np.sin(wd * tau)
+    q = e * (q0 * c + b * s)
+    qd = e * ((-zeta * om * q0 + wd * b) * c + (-zeta * om * b - wd * q0) * s)
+    return q, qd
+
+
+def moving_force_modal(P, L, EI, m, v, t, n_modes, zeta=0.0):
+    """Modal response (q, q', q''), each (len(t), n_modes), to a force P entering at t = 0.
+
+    The exact solution of ``q_j'' + 2 zeta w_j q_j' + w_j^2 q_j = P phi_j(v t)`` while the
+    force is on the span and free vibration afterwards; zero for ``t < 0``.
+    """
+    t = np.atleast_1d(np.asarray(t, float))
+    om = ss_omega(L, EI, m, n_modes)
+    Om = np.arange(1, n_modes + 1) * np.pi * v / L
+    F = np.full(n_modes, P * np.sqrt(2.0 / (m * L)))
+    T = L / v
+    q = np.zeros((t.size, n_modes))
+    qd = np.zeros_like(q)
+    on = (t >= 0.0) & (t <= T)
+    after = t > T
+    if np.any(on):
+        q[on], qd[on] = _sdof_sine_from_rest(F, Om, om, zeta, t[on])
+    if np.any(after):
+        qT, qdT = _sdof_sine_from_rest(F, Om, om, zeta, [T])
+        q[after], qd[after] = _sdof_free(qT[0], qdT[0], om, zeta, t[after] - T)
+    force = np.where(on[:, None], F * np.sin(np.outer(t, Om)), 0.0)
+    qdd = force - 2 * zeta * om * qd - om**2 * q
+    return q, qd, qdd
+
+
+def moving_force_daf(alpha: float, n_modes: int = 60) -> float:
+    """Frýba's dynamic amplification of the midspan deflection (undamped, modal series).
+
+    ``max_t w(L/2, t) / (P L^3 / 48 EI)`` while the force is on the span, at
+    ``alpha = v / (2 f1 L)``; the maximum refined by a bounded scalar search.
+    """
+    L = EI = m = P = 1.0
+    v = alpha * 2.0 * (np.pi / 2.0) * L  # f1 = pi/2 for L = EI = m = 1
+    T = L / v
+    phi = ss_shapes(L, m, n_modes, [0.5 * L])[0]
+
+    def w(tt):
+        return moving_force_modal(P, L, EI, m, v, np.atleast_1d(tt), n_modes)[0] @ phi
+
+    tg = np.linspace(0.0, T, 40001)
+    wg = w(tg)
+    i = int(np.argmax(wg))
+    lo, hi = tg[max(i - 1, 0)], tg[min(i + 1, tg.size - 1)]
+    res = scipy.optimize.minimize_scalar(lambda s: -w(s)[0], bounds=(lo, hi),
+                                         method="bounded", options={"xatol": 1e-12})
+    return float(max(wg[i], -res.fun) * 48.0)
+
+
+def train_of_forces(positions, loads, L, EI, m, zeta, n_modes, v, x, t_end, x_start=0.0,
+                    nt=40001):
+    """Deflection and acceleration histories of forces crossing a simply supported beam.
+
+    Superposition, force by force, of the exact modal response
+    (:func:`moving_force_modal`); force ``k`` is at ``x_start - positions[k] + v t``.
+
+    Returns
+    -------
+    t : ndarray, shape (nt,)
+    w, a : ndarray, shape (nt, len(x))
+        Deflection (m) and acceleration (m/s2), positive down.
+    """
+    t = np.linspace(0.0, t_end, nt)
+    q = np.zeros((t.size, n_modes))
+    qdd = np.zeros_like(q)
+    for p, load in zip(positions, loads, strict=True):
+        tau = t - (p - x_start) / v  # the force enters the span at tau = 0
+        qk, _, qddk = moving_force_modal(load, L, EI, m, v, tau, n_modes, zeta)
+        q += qk
+        qdd += qddk
+    phi = ss_shapes(L, m, n_modes, x)
+    return t, q @ phi.T, qdd @ phi.T
+
+
+# ----------------------------------------------------------------- sprung mass on a beam
+def sprung_mass_on_beam(L, EI, m, mass, k, v, n_modes=10, g=GRAVITY, zeta=0.0):
+    """A sprung mass (massless contact point) crossing a simply supported beam.
+
+    The coupled equations, integrated by ``solve_ivp`` (DOP853, rtol 1e-10) from static
+    equilibrium at ``x = 0``, ``t = 0`` until the contact point leaves the span::
+
+        M z'' = M g - F,   F = k (z - w(v t)),
+        q_j'' + 2 zeta w_j q_j' + w_j^2 q_j = F phi_j(v t).
+
+    Returns
+    -------
+    dict
+        ``max_midspan`` (m), ``max_body_acceleration`` (|z''|, m/s2), ``min_force`` and
+        ``max_force`` (N), each the largest over a 20001-point grid of the crossing.
+    """
+    om = ss_omega(L, EI, m, n_modes)
+    kk = np.pi * np.arange(1, n_modes + 1) / L
+    amp = np.sqrt(2.0 / (m * L))
+    n = n_modes
+
+    def force(t, s):
+        phi = amp * np.sin(kk * v * t)
+        return k * (s[2 * n] - phi @ s[:n]), phi
+
+    def rhs(t, s):
+        f, phi = force(t, s)
+        out = np.empty_like(s)
+        out[:n] = s[n:2 * n]
+        out[n:2 * n] = f * phi - 2 * zeta * om * s[n:2 * n] - om**2 * s[:n]
+        out[2 * n] = s[2 * n + 1]
+        out[2 * n + 1] = g - f / mass
+        return out
+
+    s0 = np.zeros(2 * n + 2)
+    s0[2 * n] = mass * g / k
+    T = L / v
+    t = np.linspace(0.0, T, 20001)
+    sol = scipy.integrate.solve_ivp(rhs, (0.0, T), s0, method="DOP853", rtol=1e-10,
+                                    atol=1e-14, t_eval=t)
+    y = sol.y
+    w_mid = ss_shapes(L, m, n, [0.5 * L])[0] @ y[:n]
+    phi_c = amp * np.sin(np.outer(v * t, kk))  # (nt, n): the modes under the vehicle
+    f = k * (y[2 * n] - np.einsum("ij,ji->i", phi_c, y[:n]))
+    acc = g - f / mass
+    return dict(max_midspan=float(w_mid.max()), max_body_acceleration=float(abs(acc).max()),
+                min_force=float(f.min()), max_force=float(f.max()))
+
+
+# ----------------------------------------------------------------- static load effects
+def ss_crawl_effects(P, L, EI, x):
+    """Extreme static effects of a force P crossing a simply supported span.
+
+    Influence lines: the moment at ``x`` is largest with the force there,
+    ``P x (L - x) / L``; the shear at ``x`` ranges over ``[-P x / L, P (L - x) / L]``
+    (up on the left of the cut); each reaction reaches ``P``; the left end rotation
+    ``theta_A(a) = P a b (L + b) / (6 EI L)`` (``b = L - a``, dw/dx with w down) is
+    largest at ``a = L (1 - 1/sqrt 3)``: ``P L^2 / (9 sqrt 3 EI)``.
+    """
+    return dict(moment=P * x * (L - x) / L, shear_max=P * (L - x) / L, shear_min=-P * x / L,
+                reaction=P, rotation=P * L**2 / (9.0 * np.sqrt(3.0) * EI))
+
+
+def two_span_crawl_effects(P, L1, L2, EI, x, n=2201):
+    """Extreme static effects of a force P crossing two continuous spans (equal EI).
+
+    Three-moment equation for the support moment ``M_B``, statics for the rest;
+    the extremes over ``n`` force positions.  Returns the max sagging moment at ``x``,
+    the hogging moment over the middle support, the max reactions (A, B, C) and the end
+    rotations ``theta_A`` (max) and ``theta_C`` (min), by quadrature of ``M / EI``.
+    """
+    lt = L1 + L2
+    x = np.asarray(x, float)
+    x1 = np.linspace(0, L1, 2001)
+    x2 = np.linspace(L1, lt, 2001)
+
+    def moment(a, xs):
+        if a <= L1:
+            mb = -P * a * (L1**2 - a**2) / (2 * L1 * lt)
+            ra = P * (L1 - a) / L1 + mb / L1
+            m1 = ra * xs - P * np.clip(xs - a, 0, None)
+            span2 = np.zeros_like(xs)
+        else:
+            b = lt - a
+            mb = -P * b * (L2**2 - b**2) / (2 * L2 * lt)
+            ra = mb / L1
+            m1 = ra * xs
+            s, b2 = np.clip(xs - L1, 0, L2), a - L1
+            span2 = P * np.where(s <= b2, s * (L2 - b2) / L2, b2 * (L2 - s) / L2)
+        m2 = mb * (lt - xs) / L2 + span2
+        return np.where(xs <= L1, m1, m2), mb, ra
+
+    grid = np.linspace(0.0, lt, n)
+    mom, mbs, reac, th = [], [], [], []
+    for a in grid:
+        mx, mb, ra = moment(a, x)
+        p2, b2 = (0.0, 0.0) if a <= L1 else (P, a - L1)
+        rc = p2 * b2 / L2 + mb / L2
+        mom.append(mx)
+        mbs.append(mb)
+        reac.append([ra, P - ra - rc, rc])
+        m1 = moment(a, x1)[0]
+        m2 = moment(a, x2)[0]
+        th.append([np.trapezoid((L1 - x1) * m1, x1) / (EI * L1),
+                   -np.trapezoid((x2 - L1) * m2, x2) / (EI * L2)])
+    mom, reac, th = np.array(mom), np.array(reac), np.array(th)
+    return dict(moment=mom.max(0), support_moment=min(mbs), reaction=reac.max(0),
+                rotation_a=th[:, 0].max(), rotation_c=th[:, 1].min())

@@ -12,7 +12,6 @@ from scipy.integrate import quad
 from scipy.signal import lsim
 from typer.testing import CliRunner
 
-from vsi_numba.analysis.report.echo import input_echo
 from vsi_numba.cli import app
 from vsi_numba.config import ConfigError, load_config
 
@@ -272,21 +271,29 @@ def test_load_distribution__none_is_bit_for_bit_the_run_without_the_key(tmp_path
 
 
 def test_load_distribution__input_echo_says_what_moving_forces_act_on(tmp_path):
-    """The report's input echo and ``vsi check``: the deck directly, or the distribution."""
+    """The input echo of ``vsi report`` and ``vsi check``: the deck directly, or the
+    distribution."""
     plain = write_config(tmp_path, "plain")
     dist = write_config(tmp_path, "dist", '[track]\nload_distribution = "rail"\n')
 
     def echo(path):
-        table = input_echo(run(path)).blocks[0]
-        return dict(zip(table.frame["Input"], table.frame["Value"], strict=True))
+        run(path)
+        out = tmp_path / f"{path.stem}_report"
+        res = CliRunner().invoke(app, ["report", str(path.with_suffix(".nc")), "-o",
+                                       str(out)])
+        assert res.exit_code == 0, res.output
+        rows = [line for line in (out / "report.md").read_text().splitlines()
+                if line.startswith("| Moving forces |")]
+        assert len(rows) == 1
+        return rows[0]
 
-    assert echo(plain)["Moving forces act on"] == DIRECT
-    text = echo(dist)["Moving forces act on"]
-    assert "P/4, P/2, P/4" in text and "a = 0.6 m" in text
-    for path, expected in ((plain, DIRECT), (dist, "distributed by the rail")):
+    assert f"| Moving forces | {DIRECT} |" == echo(plain)
+    text = echo(dist)
+    assert "distributed by the rail: P/4, P/2, P/4 on three sleepers at a = 0.6 m" in text
+    for path, expected in ((plain, DIRECT), (dist, "moving forces distributed by the rail")):
         res = CliRunner().invoke(app, ["check", str(path)])
         assert res.exit_code == 0, res.output
-        assert expected in " ".join(res.output.split())
+        assert f"input: {expected}" in " ".join(res.output.split())
 
 
 BASE = {"bridge": {"kind": "simply_supported", "spans": [L], "EI": EI,

@@ -217,7 +217,7 @@ def input_echo(ds: xr.Dataset, variant_note: str = "") -> Section:
         else:
             rows.append(("Track model", "rigid-track idealisation (kink at the deck ends)"))
     if cfg and _has_moving_forces(ds):
-        rows.append(("Moving forces act on", describe_config(cfg)))
+        rows.append(("Moving forces", describe_config(cfg)))
     contact = cfg.get("contact") if isinstance(cfg.get("contact"), dict) else None
     if contact is not None:
         text = str(contact.get("model", "rigid"))

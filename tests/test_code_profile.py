@@ -351,3 +351,19 @@ def test_hslm_b__report_labels_the_parameters_user_given(tmp_path):
     trains = section(md, "Trains")
     row = next(line for line in trains.splitlines() if line.startswith("| HSLM-B"))
     assert "user-given" in row and "standard" not in row
+
+
+def test_code_profile__damaged_stored_section_falls_back_to_the_recommended_values():
+    """A stored section the configuration reader would refuse (hand-edited results file):
+    unknown keys, fixed entries and non-numbers keep the recommended value, valid
+    overrides apply."""
+    from vsi_numba.code_profile import default_profile, profile_from
+
+    p = profile_from({"name": "edited", "overrides": {
+        "no_such_entry": 1.0, "hslm_b_load": 1.0, "comfort_good": "x",
+        "wheel_unloading_limit": {"value": 0.5, "clause": "R-12"}}})
+    assert p["hslm_b_load"] == default_profile()["hslm_b_load"] == 170e3
+    assert p["comfort_good"] == 1.3
+    assert p["wheel_unloading_limit"] == 0.5 and p.overridden == ("wheel_unloading_limit",)
+    assert p.clause("wheel_unloading_limit") == "R-12 (override)"
+    assert profile_from(None) is default_profile()

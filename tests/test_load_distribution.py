@@ -14,6 +14,7 @@ from typer.testing import CliRunner
 
 from vsi_numba.cli import app
 from vsi_numba.config import ConfigError, load_config
+from vsi_numba.model.distribution import describe_config
 
 # a short simply supported span: 6 m, f1 = 19.5 Hz, one or eight forces of 170 kN
 L, EI, MASS, P, ZETA = 6.0, 2.0e9, 1.0e4, 170e3, 0.02
@@ -330,6 +331,14 @@ def test_load_distribution__implausible_or_unused_values_warn():
                        "track": {"load_distribution": "elastic_track"}})
     assert any("solver.approach = 2 m is shorter than the reach of track.load_distribution"
                " = 'elastic_track' (6 m ahead of an axle)" in w for w in cfg.warnings)
+    # interaction trains only: nothing to distribute
+    cfg = load_config({**BASE, "train": {"preset": "ICE3"},
+                       "track": {"load_distribution": "rail"}})
+    assert any("track.load_distribution = 'rail' is not used: no train of the study has "
+               "moving forces" in w for w in cfg.warnings)
+    # an FE track layer is the track: its rail spreads the moving forces
+    assert describe_config({"bridge": {"track": {"rail_EI": 1.3e7}}}).startswith(
+        "moving forces act on the rail of the FE track layer")
     # with the rigid track the rail and the ballast still spread the moving forces
     cfg = load_config({**BASE, "track": {"model": "rigid", "load_distribution": "rail"}})
     assert cfg.build_bridge().load_distribution.kind == "rail"

@@ -480,11 +480,19 @@ def _check_run_count(cfg: Config, source: str) -> None:
                           source=source)
 
 
-def _distribution_reach(chk, track, solver) -> None:
-    """Warn when the forces of ``track.load_distribution`` reach beyond the approach: the
-    first axle's forward forces then start on the deck (a sudden load)."""
-    dist = _dist.from_track_config(track) if _ok(track, solver) else None
-    if dist is not None and solver["approach"] < dist.extent:
+def _distribution_checks(chk, track, solver, train) -> None:
+    """Warn when ``track.load_distribution`` has no moving force to act on (interaction
+    trains only), or when its forces reach beyond the approach: the first axle's forward
+    forces then start on the deck (a sudden load)."""
+    dist = _dist.from_track_config(track) if _ok(track) else None
+    if dist is None:
+        return
+    if _ok(train) and not any(np.size(v.loads) for tr in train.trains
+                              for v in tr.vehicles):
+        chk.warn(f"track.load_distribution = '{dist.kind}' is not used: no train of the "
+                 "study has moving forces (it spreads moving forces only; interaction "
+                 "trains see the track of track.model)", keys=["track.load_distribution"])
+    elif _ok(solver) and solver["approach"] < dist.extent:
         chk.warn(f"solver.approach = {solver['approach']:g} m is shorter than the reach of "
                  f"track.load_distribution = '{dist.kind}' ({dist.extent:.3g} m ahead of "
                  "an axle): the first axle's forward forces start on the deck, a sudden "
@@ -510,11 +518,11 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     bridge = _bridge_section(chk, data["bridge"], base, cutoff) if "bridge" in data else _BAD
     fe_layer = isinstance(data.get("bridge"), dict) and "track" in data["bridge"]
     track = _rail_track_section(chk, data.get("track", _MISSING), fe_layer)
-    _distribution_reach(chk, track, solver)
     train = (
         _train_section(chk, data["train"], base, title if _ok(title) else None)
         if "train" in data else _BAD
     )
+    _distribution_checks(chk, track, solver, train)
     irr = _irregularity_section(chk, data.get("irregularity", _MISSING), base)
     stem = path.stem if path is not None else "run"
     code_profile = _code_profile_section(chk, data.get("code_profile", _MISSING))

@@ -47,6 +47,133 @@ def require(ds: xr.Dataset, names, what: str) -> None:
         )
 
 
+#: Variables of the schema that hold text, not numbers.
+_TEXT_VARIABLES = frozenset({"message", "train_status", "damping_rule", "variant_config_json",
+                             "vehicle_name", "train", "variant"})
+
+#: Dims whose coordinate values the analyses use as positions (m) or times (s).
+_POSITION_DIMS = {"point": "x of the output points, m", "deck_x": "x of the whole-deck "
+                  "sections, m", "support": "x of the supports, m", "time": "time, s"}
+
+
+def _shown(values, n: int = 4) -> str:
+    values = np.ravel(np.asarray(values, dtype=object)).tolist()
+    text = ", ".join(repr(v) if isinstance(v, str) else f"{v:g}" if isinstance(v, float)
+                     else str(v) for v in values[:n])
+    return text + (f", ... ({len(values)} values)" if len(values) > n else "")
+
+
+def _schema_dims() -> dict[str, tuple[str, ...]]:
+    """name -> the dims a variable of the results schema has after the case dims."""
+    from vsi_numba.io.schema import DIAGNOSTICS, ENVELOPES, HISTORIES
+
+    return {name: tuple(d) if isinstance(d, tuple) else (d,) if d else ()
+            for name, (d, *_r) in {**ENVELOPES, **DIAGNOSTICS, **HISTORIES}.items()}
+
+
+def validate(ds: xr.Dataset) -> None:
+    """Refuse, with what is wrong, a file the analyses cannot use (a foreign or edited
+    netCDF file): raises :class:`ResultsError`.
+
+    Checked: ``speed`` numeric, finite, positive, distinct and not empty; ``train`` and
+    ``irregularity`` values distinct; every variable of the results schema numeric (text
+    variables excepted) and on its dims; a coordinate for every position dim (``point``,
+    ``deck_x``, ``support``, ``time``) a variable uses, numeric and finite; ``frequency``
+    numeric with a finite positive value when the load-effect envelopes need it; the
+    stored configuration's values the checks read (``study.classification_factor``,
+    ``bridge.spans``) numbers.
+    """
+    import json
+
+    sp = ds["speed"]
+    if sp.ndim > 1 or (sp.ndim == 1 and sp.dims != ("speed",)):
+        raise ResultsError(f"`speed` is on the dims {sp.dims}; expected the dimension "
+                           "`speed` (m s-1)")
+    if sp.dtype.kind not in "fiu":
+        raise ResultsError(f"`speed` holds {sp.dtype} values ({_shown(sp.values)});"
+                           " expected numbers (m s-1)")
+    v = np.atleast_1d(np.asarray(sp.values, float))
+    if v.size == 0:
+        raise ResultsError("`speed` is empty: the results hold no case")
+    bad = v[~(np.isfinite(v) & (v > 0))]
+    if bad.size:
+        raise ResultsError(f"`speed` has {bad.size} value(s) that are not finite and "
+                           f"positive ({_shown(bad.tolist())}); expected train speeds > 0 "
+                           "(m s-1)")
+    if np.unique(v).size != v.size:
+        dup = sorted({x for x in v.tolist() if v.tolist().count(x) > 1})
+        raise ResultsError(f"`speed` repeats the value(s) {_shown(dup)} m s-1: each case "
+                           "must have its own speed")
+    if "speed_kmh" in ds.variables and ds["speed_kmh"].dims not in ((), ("speed",)):
+        raise ResultsError(f"`speed_kmh` is on the dims {ds['speed_kmh'].dims}; expected "
+                           "(speed)")
+    for dim in ("train", "irregularity", "variant"):
+        if dim in ds.variables and ds[dim].ndim == 1:
+            vals = [x.item() if hasattr(x, "item") else x for x in ds[dim].values]
+            if len(set(map(str, vals))) != len(vals):
+                dup = sorted({str(x) for x in vals if list(map(str, vals)).count(str(x)) > 1})
+                raise ResultsError(f"`{dim}` repeats {_shown(dup)}: each {dim} must be named "
+                                   "once")
+    schema = _schema_dims()
+    case = set(CASE_DIMS) | {"variant"}
+    for name, da in ds.variables.items():
+        if name in _TEXT_VARIABLES or name in CASE_DIMS or name == "speed_kmh":
+            continue
+        if name in schema or name in _POSITION_DIMS or name == "frequency":
+            if da.dtype.kind not in "fiub":
+                raise ResultsError(f"`{name}` holds {da.dtype} values, not numbers: "
+                                   "expected the numbers of the results schema "
+                                   f"({da.attrs.get('units', 'see vsi_numba.io.schema')})")
+        if name in schema:
+            own = tuple(d for d in da.dims if d not in case)
+            if own != schema[name]:
+                raise ResultsError(f"`{name}` is on the dims {da.dims}; expected the case "
+                                   f"dims followed by {schema[name] or '(nothing)'}")
+    used = {d for da in ds.data_vars.values() for d in da.dims}
+    for dim, what in _POSITION_DIMS.items():
+        if dim in used and ds.sizes.get(dim, 0):
+            if dim not in ds.variables:
+                users = [n for n, da in ds.data_vars.items() if dim in da.dims][:3]
+                raise ResultsError(f"the results have no `{dim}` coordinate ({what}) for the "
+                                   f"dim {dim} of {', '.join(users)}")
+            x = ds[dim]
+            if x.dtype.kind not in "fiu" or not np.isfinite(np.asarray(x.values,
+                                                                       float)).all():
+                raise ResultsError(f"the `{dim}` coordinate ({what}) holds "
+                                   f"{_shown(x.values)}: expected finite "
+                                   "numbers")
+    from vsi_numba.io.schema import LOAD_EFFECTS
+
+    if any(f"max_{n}" in ds.variables for n in LOAD_EFFECTS):
+        f = (np.asarray(ds["frequency"].values, float).ravel() if "frequency" in ds.variables
+             else np.zeros(0))
+        if not (np.isfinite(f) & (f > 0)).any():
+            raise ResultsError("the load-effect checks need the bridge's first natural "
+                               "frequency, and the results have no finite positive "
+                               "`frequency` (Hz)")
+    try:
+        cfg = json.loads(str(ds.attrs.get("config_json", "") or "{}"))
+    except ValueError:
+        cfg = {}
+    cfg = cfg if isinstance(cfg, dict) else {}
+    study = cfg.get("study") if isinstance(cfg.get("study"), dict) else {}
+    bridge = cfg.get("bridge") if isinstance(cfg.get("bridge"), dict) else {}
+
+    def number(x) -> bool:
+        return (isinstance(x, int | float) and not isinstance(x, bool)
+                and bool(np.isfinite(x)))
+
+    alpha = study.get("classification_factor")
+    if alpha is not None and not (number(alpha) and alpha > 0):
+        raise ResultsError(f"the stored configuration (attribute config_json) has "
+                           f"study.classification_factor = {alpha!r}; expected a number > 0")
+    spans = bridge.get("spans")
+    if spans is not None and not all(number(x) and x > 0 for x in np.ravel(
+            np.asarray(spans, dtype=object))):
+        raise ResultsError(f"the stored configuration (attribute config_json) has "
+                           f"bridge.spans = {spans!r}; expected span lengths > 0 (m)")
+
+
 def is_prepared(ds: xr.Dataset) -> bool:
     """True when ``ds`` came out of :func:`prepare`."""
     return bool(ds.attrs.get("_vsi_prepared", 0))
@@ -77,6 +204,7 @@ def prepare(ds: xr.Dataset) -> xr.Dataset:
         return ds
     if "speed" not in ds.variables:
         raise ResultsError("the results have no `speed` coordinate (m s-1)")
+    validate(ds)
     # Train properties written as coordinates become variables, so they get the train dim.
     ds = ds.reset_coords([n for n in TRAIN_VARIABLES if n in ds.coords and n not in ds.dims])
     if "train_status" not in ds.variables and "train_status" in ds.attrs:  # `vsi run` file

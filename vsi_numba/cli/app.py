@@ -132,6 +132,16 @@ def report(
     outdir: Path | None = typer.Option(None, "-o", "--output", help="report directory"),
 ):
     """Write the EN 1990 A2 checks, figures and a Markdown report for a results file."""
+    from vsi_numba.cli.common import EXIT_USAGE, Printer
+    from vsi_numba.io.paths import path_length_problem
+
+    for path, what in ((results, "results file"), (outdir, "report directory")):
+        problem = None if path is None else path_length_problem(
+            path, what, "choose a shorter path" if what == "results file" else
+            "choose a shorter report directory (-o DIR)")
+        if problem is not None:
+            Printer().line(f"vsi report: {problem}", stderr=True)
+            raise typer.Exit(EXIT_USAGE)
     from vsi_numba.cli.report import report_command
 
     raise typer.Exit(report_command(results, outdir))

@@ -66,6 +66,12 @@ def init_command(path: Path) -> int:
     if path.suffix.lower() != ".toml":
         pr.error(f"{path}: expected a file name ending in .toml")
         return EXIT_USAGE
+    from vsi_numba.io.paths import path_length_problem
+
+    problem = path_length_problem(path, "configuration", "choose a shorter name")
+    if problem is not None:
+        pr.error(problem)
+        return EXIT_USAGE
     if path.exists() or path.is_symlink():
         pr.error(f"{path} exists: refusing to overwrite it; give another file name "
                  "(vsi init NEW.toml) or remove it first")

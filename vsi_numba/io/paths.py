@@ -58,19 +58,21 @@ def fitting_name(name: str, prefix: str = "", suffix: str = "",
     return f"{prefix}{head}-{digest}{suffix}"
 
 
-def path_length_problem(path: Path) -> str | None:
-    """Why ``path`` cannot be a file name here (too long in all or in one component)."""
+def path_length_problem(path: Path, what: str = "output",
+                        remedy: str = "choose a shorter output (-o PATH)") -> str | None:
+    """Why ``path`` cannot be a file name here (too long in all or in one component);
+    ``what`` names the path in the message, ``remedy`` ends it."""
+    path = Path(path)
     text = os.fsencode(str(path))
     if len(text) >= path_max():
-        return (f"the output path is {len(text)} bytes long; the longest path this system "
-                f"accepts is {path_max() - 1} bytes: choose a shorter output (-o PATH)")
+        return (f"the {what} path is {len(text)} bytes long; the longest path this system "
+                f"accepts is {path_max() - 1} bytes: {remedy}")
     limit = name_max(path.parent if str(path.parent) else ".")
     for part in path.parts:
         if len(os.fsencode(part)) > limit:
             shown = part if len(part) <= 60 else part[:40] + "..." + part[-12:]
-            return (f"the output path component {shown!r} is {len(os.fsencode(part))} bytes "
-                    f"long; file names here are at most {limit} bytes: choose a shorter "
-                    "output (-o PATH)")
+            return (f"the {what} path component {shown!r} is {len(os.fsencode(part))} bytes "
+                    f"long; file names here are at most {limit} bytes: {remedy}")
     return None
 
 

@@ -176,9 +176,22 @@ def test_report_atomic__sigterm_and_ctrl_c_exit_130_old_report_kept(two_reports,
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.nc", "rep"]
 
 
-def test_report_atomic__sweep_report_phase_sigterm_exits_130(tmp_path):
-    """SIGTERM in the report phase of ``vsi sweep --report`` exits 130, as in the sweep
-    phase; the results file is kept and no report directory is left half-written."""
+#: ``vsi sweep`` with SIGTERM sent to itself as it prints the governing results (the
+#: phase between the study and the report).
+_TERM_IN_GOVERNING = """
+import os, signal, sys
+from vsi_numba.cli import app, sweep
+sweep._print_governing = lambda path, pr: os.kill(os.getpid(), signal.SIGTERM)
+sys.argv = ["vsi", *sys.argv[1:]]
+app()
+"""
+
+
+@pytest.mark.parametrize("phase", ["report", "governing"])
+def test_report_atomic__sweep_sigterm_after_the_study_exits_130(tmp_path, phase):
+    """SIGTERM in the report phase of ``vsi sweep --report`` (and while it prints the
+    governing results) exits 130, as in the sweep phase; the results file is kept and
+    no report directory is left half-written."""
     (tmp_path / "c.toml").write_text(
         'title = "t"\n[bridge]\nkind = "simply_supported"\nspans = [20.0]\nEI = 1e10\n'
         "mass_per_length = 1e4\nn_modes = 2\n"
@@ -186,8 +199,12 @@ def test_report_atomic__sweep_report_phase_sigterm_exits_130(tmp_path):
         '[[train.vehicles]]\nkind = "force"\nload = 170e3\noffset = 3.0\n'
         "[solver]\ndt = 2e-3\nfree_vibration = 0.1\n"
         "[study]\nspeeds_kmh = [200.0]\noutput = \"r.nc\"\n")
-    res = _vsi("sweep", "c.toml", "-q", "--report", "rep", cwd=tmp_path,
-               env_extra={atomic.KILL_ENV: "2:TERM"})
+    args = ["sweep", "c.toml", "-q", "--report", "rep"]
+    if phase == "report":
+        res = _vsi(*args, cwd=tmp_path, env_extra={atomic.KILL_ENV: "2:TERM"})
+    else:
+        res = subprocess.run([sys.executable, "-c", _TERM_IN_GOVERNING, *args], cwd=tmp_path,
+                             capture_output=True, text=True, timeout=600, check=False)
     assert res.returncode == 130, res.stderr[-2000:]
     assert "interrupted" in res.stderr and "Traceback" not in res.stderr
     with xr.open_dataset(tmp_path / "r.nc") as ds:

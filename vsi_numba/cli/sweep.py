@@ -101,7 +101,12 @@ def sweep_command(config: Path, output: Path | None, workers: int | None,
         code = fail(f"{n_failed} of {outcome.n_runs} cases failed numerically "
                     "(status != 0, outputs NaN); see the 'status' and 'message' variables",
                     1)
-    _print_governing(out_path, pr)
+    try:  # Ctrl-C or SIGTERM between the phases: 130 as in them, no traceback
+        with _sigterm_as_interrupt():
+            _print_governing(out_path, pr)
+    except KeyboardInterrupt:
+        return fail(f"interrupted: the results file {out_path} is written"
+                    + ("; no report was made" if report_dir is not None else ""), 130)
     if report_dir is not None:  # 0 or 1 here: the results file is written
         code = code or _report(out_path, report_dir, quiet)
     return code

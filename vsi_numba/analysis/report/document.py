@@ -12,7 +12,12 @@ both formats without knowing either, e.g. a section of load effects::
 :func:`write_markdown` writes the PNG files next to ``report.md`` and links them;
 :func:`write_html` embeds them as base64 PNG, renders the Markdown with markdown-it
 (CommonMark + tables) and needs nothing outside the file (no fonts, scripts or images
-from the network).
+from the network; links other than anchors and relative paths are not rendered).
+
+Text blocks and captions are Markdown written by the report: a name or field from a
+configuration or a results file goes into them through
+:func:`~vsi_numba.analysis.report.safe.md` (shown literally). Table cells are text
+unless marked :class:`Markdown`.
 """
 
 from __future__ import annotations

@@ -178,12 +178,19 @@ def static_deck_envelope(bridge: ModalBridge, train: Train, output_points, step:
         pos = np.concatenate([packed.wheel_positions,
                               -settings.approach - packed.distributed.load_x0])
     fronts = np.arange(min(0.0, pos.min()), bridge.length + pos.max() + step, step)
-    x = fronts[:, None] - pos[None, :]
-    # only the (front, axle) pairs with the axle on the deck: the shapes are zero off it
-    f_i, k_i = np.nonzero((x >= 0.0) & (x <= bridge.length))
-    phi_q = bridge.shapes(x[f_i, k_i]) * Q[k_i, None]
-    modal = np.stack([np.bincount(f_i, weights=phi_q[:, j], minlength=fronts.size)
-                      for j in range(bridge.n_modes)], axis=1) / bridge.omega**2
+    modal = np.empty((fronts.size, bridge.n_modes))
+    # fronts in blocks of ~4 million (front, axle) pairs: a long axle list (2,000 axles,
+    # 5 km) would otherwise hold every pair at once (1.7 GB); the sums are the same
+    block = max(1, 4_000_000 // max(pos.size, 1))
+    for a in range(0, fronts.size, block):
+        fr = fronts[a:a + block]
+        x = fr[:, None] - pos[None, :]
+        # only the (front, axle) pairs with the axle on the deck: the shapes are zero off it
+        f_i, k_i = np.nonzero((x >= 0.0) & (x <= bridge.length))
+        phi_q = bridge.shapes(x[f_i, k_i]) * Q[k_i, None]
+        modal[a:a + fr.size] = np.stack(
+            [np.bincount(f_i, weights=phi_q[:, j], minlength=fr.size)
+             for j in range(bridge.n_modes)], axis=1) / bridge.omega**2
     w = modal @ bridge.output_shapes(points).T
     return np.max(np.abs(w), axis=0)
 

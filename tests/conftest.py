@@ -63,7 +63,7 @@ INTERACTION_MODULES = frozenset({
     "test_nonlinear_on_damped_track", "test_nonlinear_suspension", "test_output_matrix",
     "test_report",
     "test_resume", "test_study", "test_track", "test_track_accuracy", "test_track_damping",
-    "test_validation",
+    "test_validation", "test_verify",
     "test_variants", "test_variants_edges", "test_warm"})
 
 

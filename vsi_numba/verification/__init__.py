@@ -1,7 +1,7 @@
 """Verification of vsi_numba on the user's installation (``vsi verify``).
 
 Each case of :mod:`~vsi_numba.verification.cases` runs a configuration through the
-public path (a TOML file, the command function of ``vsi sweep``, the netCDF file it
+public path (a TOML file, the study runner ``vsi sweep`` calls, the netCDF file it
 writes) and compares figures with :mod:`~vsi_numba.verification.reference`, which computes
 its references independently of the package (closed forms, ``solve_ivp``, published and
 peer figures).  :mod:`~vsi_numba.verification.manual` runs the cases and writes

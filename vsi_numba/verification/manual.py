@@ -103,7 +103,7 @@ def write_html(rows: list[dict], failures: dict[str, str], info: dict[str, str],
     head = Section("", [
         f"{'Quick subset' if quick else 'Full set'} of the verification cases: "
         f"{len(rows)} figures, {verdict}. Each case writes a configuration, runs it with "
-        "the command function of `vsi sweep`, reads the netCDF file and compares with a "
+        "the study runner that `vsi sweep` calls, reads the netCDF file and compares with a "
         "reference computed independently of the package "
         "(`vsi_numba.verification.reference`: closed forms, scipy integrations, published "
         "and peer figures). Error = computed / reference - 1.",

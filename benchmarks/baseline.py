@@ -25,8 +25,8 @@ complement, no pre-factorisation):
 * a wheel landing (free -> active), and a wheel in contact crossing an end of the deck
   (where the rail velocity v phi'(x) q jumps to or from the rigid track's), is a plastic
   impact: a velocity-level solve with the mass matrix, then accelerations and forces
-  consistent with the HHT equilibrium and the rail acceleration (design note 1.4), both
-  as dense KKT solves;
+  consistent with the HHT equilibrium and the rail acceleration (docs/manual/theory.md,
+  "Contact and impacts"), both as dense KKT solves;
 * moving point forces enter ``R0`` through ``sum_k P_k phi(x_k(t))``.
 
 Conventions shared with ``vsi_numba.solver.simulate`` (needed to compare histories step

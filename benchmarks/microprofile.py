@@ -4,8 +4,9 @@ Each driver below calls one function (or one stretch) of ``vsi_numba.kernels.eng
 ``n`` times inside a jitted loop, from a mid-passage state (the train on the deck), so
 the per-call time excludes Python.  The drivers are compiled WITHOUT the on-disk cache on
 purpose: numba does not track callees in another module, so a cached driver could run a
-stale copy of the engine (stack notes 2.4).  Compiling them costs a minute or two on this
-machine, hence the micro-profile only runs in the ``normal`` and ``full`` modes.
+stale copy of the engine (docs/manual/developer.md, "The numba cache").  Compiling them
+costs a minute or two on this machine, hence the micro-profile only runs in the
+``normal`` and ``full`` modes.
 
 The model is a study's (``study_spec`` of a config dict: the packed train, the profile of
 the first realisation and the deck operators with the load effects, as ``vsi sweep``

@@ -4,7 +4,7 @@ Everything here uses numpy and scipy only and never imports ``vsi_numba``: the
 validation tests compare the engine with these closed forms, ``solve_ivp`` integrations
 of the coupled equations and event-driven solutions, never with the engine's own output.
 
-Conventions (those of the design note, section 2)
+Conventions (those of docs/manual/theory.md, "Conventions")
 --------------------------------------------------
 * SI units (m, s, kg, N).
 * Vertical displacements, velocities and accelerations are positive **down**; gravity
@@ -30,7 +30,7 @@ import scipy.integrate
 import scipy.linalg
 import scipy.optimize
 
-#: Gravity (m s-2), the value used by the published train data and the design note.
+#: Gravity (m s-2), the value used by the published train data and the theory manual.
 GRAVITY = 9.81
 
 

@@ -38,7 +38,7 @@ FUZZ_STATS: dict[str, int] = {}
 
 HAS_CLI_RUN = importlib.util.find_spec("vsi_numba.cli.run") is not None
 
-# Every key name of the config language (design note section 4 plus the documented
+# Every key name of the config language (docs/manual/config.md plus the documented
 # additions): typos are filtered against it so that a mutated key is surely unknown.
 KNOWN_KEYS = {
     "title", "bridge", "train", "irregularity", "solver", "contact", "study",

@@ -1,7 +1,8 @@
 """Tests of the track irregularity models (vsi_numba.model.irregularity).
 
 References are computed here independently: the PSD formulas are re-typed from
-notes/railway.md section 5 in their published units and integrated with scipy.quad.
+docs/manual/theory.md, "Track irregularities", in their published units and integrated
+with scipy.quad.
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 References: the check values of the package data file (computed by its compiler with its
 own script, independent of this code: lever rule for static loads, a separate 6-DOF
-eigen-solve), the HSLM-A table of notes/railway.md section 3.7 typed in here, Karoumi's
+eigen-solve), the HSLM-A table of docs/manual/trains.md typed in here, Karoumi's
 recursive HSLM-A spacing, and static solves / matrix assemblies written in this file.
 """
 
@@ -36,7 +36,7 @@ DATA = tomllib.loads(
 VEHICLES = {v["id"]: v for v in DATA["vehicle"]}
 TRAINS = {t["id"]: t for t in DATA["train"]}
 
-# notes/railway.md section 3.7: train, N, D (m), d (m), P (kN)
+# docs/manual/trains.md (HSLM-A table): train, N, D (m), d (m), P (kN)
 HSLM_TABLE = [
     ("HSLM-A1", 18, 18.0, 2.0, 170.0),
     ("HSLM-A2", 17, 19.0, 3.5, 200.0),
@@ -130,7 +130,7 @@ def car_matrices(w, spacing, wheelbase, cg_front):
 
 
 def karoumi_positions(N, D, d):
-    """HSLM-A axles by cumulative spacings (Karoumi's recursion, notes/trains.md s. 4)."""
+    """HSLM-A axles by cumulative spacings (Karoumi's recursion, docs/manual/trains.md)."""
     gap = D - 1.5 * d - 3.525 / 2
     sp = [3.0, 11.0, 3.0, 3.525, d, gap] + [d, D - d] * N + [d, gap, d, 3.525, 3.0, 11.0, 3.0]
     return np.concatenate([[0.0], np.cumsum(sp)])

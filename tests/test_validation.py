@@ -157,9 +157,10 @@ def test_quarter_car__crossing_simply_supported_beam_matches_solve_ivp(quarter_c
 def test_quarter_car__leaving_the_deck_is_a_consistent_impact(quarter_car_reference):
     """At the far support the deflected deck's slope meets level track: the rail velocity
     under the wheel jumps (by v phi'(L) q), so the wheel velocity must jump with it, as
-    at a landing (design note 1.4: velocity-level impact solve).  The reference does
-    exactly that; afterwards the contact force is the static load plus the slowly varying
-    suspension force.  A scheme that only imposes the displacement constraint leaves a
+    at a landing (docs/manual/theory.md, "Contact and impacts": velocity-level impact
+    solve).  The reference does exactly that; afterwards the contact force is the static
+    load plus the slowly varying suspension force.  A scheme that only imposes the displacement
+    constraint leaves a
     velocity inconsistency that makes the contact force ring at the Nyquist frequency
     (and, with alpha = 0, grow until a spurious lift-off)."""
     dt = 2.5e-4
@@ -399,8 +400,9 @@ def test_railway_car__free_vibration_on_rigid_track_at_its_eigenfrequencies():
     v, approach, length, dt = 30.0, 1.0, 12.0, 5e-4
     bump = cosine_defect(-0.01, 10.0, 1.0)  # 10 mm bump, 10 m long: keeps contact
     # alpha = -0.05: with alpha = 0 the constrained wheel accelerations (hence contact
-    # forces) carry an undamped period-2dt oscillation over an irregularity (design note
-    # 1.4); its numerical damping of the car modes is negligible (w dt <= 0.04)
+    # forces) carry an undamped period-2dt oscillation over an irregularity (docs/manual/
+    # theory.md, "Contact and impacts"); its numerical damping of the car modes is
+    # negligible (w dt <= 0.04)
     ds = _run(br.rigid(length), car, v, dt=dt, alpha=-0.05, approach=approach,
               free_vibration=5.0, profile=bump, points=[0.0])
     assert ds.in_contact.values.all()

@@ -2,11 +2,12 @@
 
 Each entry of :data:`TABLE` is a clause value: its key, value, SI unit, clause, a
 description and whether it was *recalled* from the standard and not re-read against the
-primary text ([R], ``shared/notes/railway.md``).  The default profile is
-:data:`DEFAULT_NAME`; a configuration may override any entry that is not marked fixed
-(``[code_profile]``: a national annex, a client's rule), and the profile used travels with
-the results (the ``code_profile`` section of the stored configuration, ``config_json``),
-so that ``vsi report`` on a results file checks it with the profile of its study.
+primary text ([R], ``docs/manual/theory.md``, "The checks and their clauses").  The
+default profile is :data:`DEFAULT_NAME`; a configuration may override any entry that is
+not marked fixed (``[code_profile]``: a national annex, a client's rule), and the
+profile used travels with the results (the ``code_profile`` section of the stored
+configuration, ``config_json``), so that ``vsi report`` on a results file checks it with the
+profile of its study.
 
 Where an entry applies (:attr:`Entry.applies`):
 

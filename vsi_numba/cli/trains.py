@@ -83,7 +83,7 @@ def trains_command(name: str | None = None) -> int:
               f"{t.total_mass / 1e3:.1f} t", highlight=False)
     if lib.status_warning(canon):
         out.print(f"[yellow]warning: data status {t.status!r}; do not use this train for "
-                  "validation. Documented doubts (notes/trains.md):[/]", highlight=False)
+                  "validation. Documented doubts (docs/manual/trains.md):[/]", highlight=False)
         for d in lib.documented_doubts(canon):
             out.print(f"  - {d}", markup=False, highlight=False)
     table = Table(title=f"{canon}: axles", box=None,

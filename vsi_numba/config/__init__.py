@@ -1,6 +1,6 @@
 """TOML configuration: parse, validate (every error at once), build the model objects.
 
-The keys are the contract of the design note, section 4: same names, same meaning, SI
+The keys are the contract of docs/manual/config.md: same names, same meaning, SI
 units unless the key says otherwise (``speeds_kmh``).  A config is data only: nothing in
 it is evaluated or imported.
 

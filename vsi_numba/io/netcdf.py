@@ -1,6 +1,6 @@
 """netCDF writing and reading: CF encodings, atomic writes, provenance attributes.
 
-Layout rules (stack notes, section 4):
+Layout rules (docs/manual/developer.md, "Results files"):
 
 * floats get ``_FillValue = NaN``; integers get no ``_FillValue`` (xarray cannot put NaN
   in an integer variable); coordinates that index a dimension get none either;
@@ -156,9 +156,10 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
 def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> Path:
     """Write ``ds`` to ``path`` with the CF encodings, atomically.
 
-    The old encodings of a dataset read from disk are dropped first (stack notes 4.4).
-    Errors of the netCDF library (e.g. a full disk, reported as ``RuntimeError`` by HDF5)
-    are re-raised as ``OSError`` naming the file; the target is left untouched.
+    The old encodings of a dataset read from disk are dropped first
+    (docs/manual/developer.md, "Results files").  Errors of the netCDF library (e.g. a
+    full disk, reported as ``RuntimeError`` by HDF5) are re-raised as ``OSError`` naming the file;
+    the target is left untouched.
     """
     path = Path(path)
     ds = ds.drop_encoding()

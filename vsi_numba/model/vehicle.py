@@ -1,6 +1,6 @@
 """Vehicles as linear multibody subsystems, and trains as vehicles at offsets.
 
-Conventions (see the design note, section 2)
+Conventions (see docs/manual/theory.md, "Conventions")
 --------------------------------------------
 * Vertical displacements are positive **down**; gravity acts in the positive direction.
 * Positions along a vehicle are measured **backwards** from its leading (first) axle:

@@ -3,7 +3,7 @@
 The wrapper validates and packs the model into contiguous float64 arrays, finds the
 static equilibrium of the train on the approach track, runs the numba time loop and
 turns the kernel's status code and raw histories into an ``xarray.Dataset`` with the
-names and attributes of ``vsi_numba.io.schema`` (design note, section 3).
+names and attributes of ``vsi_numba.io.schema`` (docs/manual/theory.md, "Results files").
 """
 
 from __future__ import annotations

@@ -15,10 +15,11 @@ alone writes the results, so workers never write to a shared file system.
   on every study here.  The threads are daemons: on Ctrl-C the study stops at once, the
   batches in flight are dropped.
 * ``ProcessBackend`` - ``concurrent.futures.ProcessPoolExecutor`` with the **spawn**
-  start method (numba's GNU OpenMP layer is not fork-safe, stack notes 2.5), fed with
-  whole batches; each worker rebuilds the model once.  Workers die with their parent,
-  also when it dies while they start (``PR_SET_PDEATHSIG`` on Linux, a parent-pid check
-  and a watchdog thread); the multiprocessing resource tracker then ends too and
+  start method (numba's GNU OpenMP layer is not fork-safe, docs/manual/developer.md,
+  "Processes and threads"), fed with whole batches; each worker rebuilds the model
+  once.  Workers die with their parent, also when it dies while they start
+  (``PR_SET_PDEATHSIG`` on Linux, a parent-pid check and a watchdog thread); the multiprocessing
+  resource tracker then ends too and
   removes the pool's semaphores from ``/dev/shm``.
 * ``DaskBackend`` - a ``dask.distributed`` cluster with chunks of neighbouring batches
   as tasks (:func:`dask_chunks`) and the spec scattered to every worker once: a

@@ -1,7 +1,7 @@
 """The train library: EN 1991-2 HSLM-A load models and published multibody trains.
 
 Data come from the package file ``vsi_numba/data/trains.toml`` (provenance, checks and
-doubts of every entry: ``notes/trains.md``).  All values are SI (m, kg, N); axle loads
+doubts of every entry: ``docs/manual/trains.md``).  All values are SI (m, kg, N); axle loads
 are whole-axle loads (both rails), the convention of the file's ``[whole]`` blocks.
 
 Two models of each real train
@@ -18,7 +18,7 @@ Two models of each real train
 
 HSLM-A1 .. A10 exist as moving forces only (they are load models, not vehicles).
 
-Articulation (open question in notes/trains.md section 6, item 8)
+Articulation (open question in docs/manual/trains.md, "Documented doubts")
 ------------------------------------------------------------------
 The data describe a Jacobs bogie TTB-2D style: each of the two cars brings its own
 half-bogie with two wheelsets, placed at the same point.  Here each coincident pair

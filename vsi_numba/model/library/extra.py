@@ -4,7 +4,7 @@ user, and an axle-load list read from a CSV file.
 HSLM-B (EN 1991-2 6.4.6.1.1, Annex E, Fig. 6.13 [R]) is N point forces of 170 kN at a
 uniform spacing d, for simply supported spans L < 7 m; N and d are read from the curves
 of Fig. 6.13 as functions of the span.  Those curve values are not available here
-([NF], ``notes/railway.md``), so the library lists HSLM-B without data and the
+([NF], ``docs/manual/trains.md``), so the library lists HSLM-B without data and the
 configuration gives N and d (``train.hslm_b = {N = ..., d = ...}``).
 """
 

@@ -27,7 +27,7 @@ def status_warning(name: str) -> str:
     """Return a warning text for a train whose data status calls for one, else ``""``.
 
     Trains with status suspect, reconstruction or secondary get one paragraph: the
-    status, its meaning and the entry's documented doubts (``notes/trains.md``).
+    status, its meaning and the entry's documented doubts (``docs/manual/trains.md``).
     """
     canon, kind, spec = _spec(name)
     if kind == "hslm" or spec.status not in _WARN_STATUSES:
@@ -37,7 +37,7 @@ def status_warning(name: str) -> str:
     doubts = documented_doubts(canon)
     if doubts:
         text += " Documented doubts: " + "; ".join(doubts) + "."
-    return text + " See notes/trains.md; do not use it for validation."
+    return text + " See docs/manual/trains.md; do not use it for validation."
 
 
 def documented_doubts(name: str) -> list[str]:

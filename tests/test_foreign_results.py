@@ -141,3 +141,40 @@ def test_long_names__init_and_report_refuse_with_a_message(tmp_path):
         assert res.exit_code == 2, out
         assert ("file names here are at most" in out or "longest path" in out), out
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("header, expected", [
+    ("%%MatrixMarket matrix coordinate real symmetric\n100000000 100000000 500000000\n"
+     "1 1 1.0\n", "the header says 500,000,000 entries, but the file has only"),
+    ("%%MatrixMarket matrix array real general\n100000 100000\n1.0\n",
+     "the header says a dense 100,000 x 100,000 array"),
+])
+def test_matrix_market__header_sizes_refused_before_allocating(tmp_path, header, expected):
+    """An 80-byte Matrix Market file announcing 10^10 values: vsi check names the key and
+    the header (exit 2) and the process never grows past 400 MB (it allocated 3.7 GiB
+    before its error; 400 MB: the interpreter with numpy, scipy and the package is
+    ~250 MB here)."""
+    import shutil
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    (tmp_path / "data").mkdir()
+    for f in ("two_span_M.mtx", "two_span_stations.csv"):
+        shutil.copy(root / "configs" / "data" / f, tmp_path / "data" / f)
+    (tmp_path / "data" / "two_span_K.mtx").write_text(header)
+    config = tmp_path / "m.toml"
+    config.write_text((root / "configs" / "two_span_imported.toml").read_text())
+    code = ("import sys\nfrom vsi_numba.cli import app\n"
+            "try:\n    app(['check', sys.argv[1]], standalone_mode=False)\n"
+            "except SystemExit:\n    pass\n"
+            "rc = 0\n"
+            "hwm = [l.split()[1] for l in open('/proc/self/status') if l.startswith('VmHWM')]\n"
+            "print('HWM', hwm[0], file=sys.stderr)\n")
+    proc = subprocess.run([sys.executable, "-c", code, str(config)], capture_output=True,
+                          text=True, timeout=300, env={**os.environ, "PYTHONPATH": str(root)})
+    err = " ".join(proc.stderr.split())
+    assert "bridge.stiffness_matrix" in err and expected in err, err
+    assert "Traceback" not in err
+    hwm_kb = int(err.rsplit("HWM ", 1)[1].split()[0])
+    assert hwm_kb < 400 * 1024, hwm_kb

@@ -35,9 +35,40 @@ from vsi_numba.model.influence import StaticDeck
 # ------------------------------------------------------------------------------ matrices
 
 
+def _mtx_header_problem(path: Path) -> str | None:
+    """Why the sizes in the header of a Matrix Market file cannot be its content, read
+    before anything is allocated (``scipy.io.mminfo``): an 80-byte file that announces
+    10^5 x 10^5 values made ``mmread`` allocate gigabytes before it failed.  Every value
+    (array) or entry (coordinate) takes at least 2 or 4 bytes of the file, and a matrix
+    of n DOFs needs about n entries."""
+    try:
+        rows, cols, entries, fmt, _field, _symmetry = scipy.io.mminfo(str(path))
+        size = path.stat().st_size
+    except Exception as exc:  # noqa: BLE001 - mmread says why below
+        return f"unreadable header: {type(exc).__name__}: {' '.join(str(exc).split())[:120]}"
+    rows, cols, entries = int(rows), int(cols), int(entries)
+    if rows != cols:
+        return f"the header says {rows:,} x {cols:,}: not square"
+    if fmt == "array" and 2 * rows * cols > size:
+        return (f"the header says a dense {rows:,} x {cols:,} array, {rows * cols:,} values, "
+                f"but the file has only {size:,} bytes")
+    if fmt == "coordinate":
+        if 4 * entries > size:
+            return (f"the header says {entries:,} entries, but the file has only {size:,} "
+                    "bytes")
+        if rows > 4 * entries + 1000:
+            return (f"the header says {rows:,} x {cols:,} with only {entries:,} entries: "
+                    "too few for a stiffness or mass matrix of that size")
+    return None
+
+
 def _read_mtx(path: Path, key, name, p: _Problems):
     if not path.is_file():
         p.add(key, name, f"an existing Matrix Market file (looked for {path.resolve()})")
+        return None
+    problem = _mtx_header_problem(path)
+    if problem is not None:
+        p.add(key, name, f"a Matrix Market file whose header fits its content ({problem})")
         return None
     try:
         a = scipy.io.mmread(str(path))

@@ -101,3 +101,33 @@ def test_check__prints_modes_damping_and_speed_grid(tmp_path):
     np.testing.assert_allclose(printed, f, rtol=1e-3)  # 4 significant digits printed
     assert "damping ratios 2.00, 1.50 %" in line  # as given (2 %, 1.5 %)
     assert re.search(r"speeds: 3 from 200 to 250 km/h, step 25 km/h", res.output)
+
+
+def test_run__many_seeds_generates_the_first_profile_only(tmp_path, monkeypatch):
+    """``vsi run`` computes the first realisation: of 2,000 seeds it generates one
+    profile (all 2,000 took minutes and gigabytes), and its results are those of the
+    first realisation of a 2-seed sweep of the same track range, bit for bit."""
+    import xarray as xr
+
+    from vsi_numba.model import irregularity as irr
+
+    def config(name, seeds):
+        path = tmp_path / f"{name}.toml"
+        path.write_text(warned_config(tmp_path).read_text().replace(
+            "[solver]", "[irregularity]\nkind = \"psd\"\nspectrum = \"german_low\"\n"
+            f"wavelength_min = 3.0\nwavelength_max = 30.0\nseeds = {seeds}\n[solver]"))
+        return path
+
+    calls = []
+    real = irr.psd_profile
+    monkeypatch.setattr(irr, "psd_profile", lambda *a, **k: calls.append(a) or real(*a, **k))
+    res = invoke("run", config("many", list(range(7, 2007))), "-o", tmp_path / "r.nc", "-q")
+    assert res.exit_code == 0, res.output
+    assert len(calls) == 1 and calls[0][3] == 7, [c[3] for c in calls[:5]]
+    monkeypatch.undo()
+    res = invoke("sweep", config("two", [7, 8]), "-o", tmp_path / "s.nc", "-q")
+    assert res.exit_code == 0, res.output
+    with xr.open_dataset(tmp_path / "r.nc") as r, xr.open_dataset(tmp_path / "s.nc") as s:
+        for name in ("max_deck_acceleration", "max_deck_displacement"):
+            np.testing.assert_array_equal(r[name].values,
+                                          s[name].sel(irregularity=[7]).values)

@@ -411,7 +411,7 @@ def _execute_locked(cfg, spec, output, workers, scheduler, progress, backend, fr
     specs = [study_spec(c) for c in vcfgs] if variants else [spec]
     models = []
     for sp, c in zip(specs, vcfgs, strict=True):
-        m = _build_model(c)
+        m = _build_model(c, first_realisation=first_case)
         if first_case:
             first = next(iter(m.profiles))
             m = dataclasses.replace(m, trains=m.trains[:1],

@@ -93,7 +93,24 @@ def _remember(spec: StudySpec, model: StudyModel) -> None:
     _MODELS[spec] = model
 
 
-def _build_model(cfg) -> StudyModel:
+def _first_realisation(cfg):
+    """``cfg`` with only its first PSD seed (a shallow copy; ``cfg`` itself unchanged):
+    ``vsi run`` computes the first realisation only, and a profile depends on its seed
+    and the track range alone, so the others need not be generated (10,000 seeds took
+    minutes and gigabytes before the two runs of a ``vsi run``)."""
+    import copy
+
+    irr = cfg._resolved.get("irregularity", {})
+    if irr.get("kind") != "psd" or len(irr.get("seeds", ())) <= 1:
+        return cfg
+    out = copy.copy(cfg)
+    out._resolved = {**cfg._resolved, "irregularity": {**irr, "seeds": list(irr["seeds"][:1])}}
+    return out
+
+
+def _build_model(cfg, first_realisation: bool = False) -> StudyModel:
+    """The model of ``cfg``; ``first_realisation``: the profile of its first track
+    realisation only (the rest of the model is the same)."""
     from vsi_numba.config.physics import train_extent
     from vsi_numba.solver.simulate import deck_operators, default_points
 
@@ -103,7 +120,8 @@ def _build_model(cfg) -> StudyModel:
     x_range = profile_range(bridge.length, [train_extent(t) for t in trains],
                             settings.approach,
                             settings.free_vibration)
-    profiles = dict(cfg.irregularities(*x_range))
+    profiles = dict((_first_realisation(cfg) if first_realisation else cfg).irregularities(
+        *x_range))
     points = default_points(bridge, cfg.output_points)
     return StudyModel(cfg, bridge, trains, settings, points, profiles, x_range,
                       np.asarray(cfg.speeds_kmh, float),

@@ -311,8 +311,9 @@ def test_simulate__load_effect_variables_and_signs():
 
 def test_study__load_effects_in_the_file_and_the_switch(tmp_path):
     """A small sweep (two interaction trains, PSD profiles): the load effects on their
-    dims with their coordinates; ``[study] load_effects = false`` leaves them NaN and
-    every other variable bit for bit the same; a bad value is refused by key path."""
+    dims with their coordinates; ``[study] load_effects = false`` leaves them out of the
+    file (named, with the reason, in ``not_computed``) and every other variable bit for
+    bit the same; a bad value is refused by key path."""
     from study_trains import TRAINS_TOML  # noqa: F401  (write_study needs it)
     from test_study import write_study
 
@@ -340,9 +341,13 @@ def test_study__load_effects_in_the_file_and_the_switch(tmp_path):
     (off_dir / "study.toml").write_text(text)
     off = run_study(off_dir / "study.toml", tmp_path / "off.nc", backend="serial")
     effect_names = {n for n in ENVELOPES if any(n.endswith(k) for k in LOAD_EFFECTS)}
+    import json
+
+    not_computed = json.loads(off.attrs["not_computed"])
     for name in ENVELOPES:
         if name in effect_names:
-            assert np.all(np.isnan(off[name].values)), name
+            assert name not in off.variables, name
+            assert "load_effects = false" in not_computed[name]
         else:
             np.testing.assert_array_equal(off[name].values, on[name].values)
     (off_dir / "study.toml").write_text(text.replace("load_effects = false",

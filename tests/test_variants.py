@@ -67,6 +67,9 @@ def test_vary__mass_and_damping_one_file_equal_to_separate_runs(tmp_path):
                                                f"mass_per_length = {m!r}"))
         with run_study(one, tmp_path / f"one{k}.nc", backend="serial") as ref:
             for name in ENVELOPES:
+                if name not in ref.variables:  # not offered (moving forces: no car body)
+                    assert name not in ds.variables, name
+                    continue
                 np.testing.assert_array_equal(ds[name].isel(variant=k).values,
                                               ref[name].values, err_msg=name)
             np.testing.assert_allclose(ds["frequency"].isel(variant=k), ref["frequency"],

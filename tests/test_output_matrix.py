@@ -228,8 +228,12 @@ def test_outputs__report_gives_the_load_effect_checks_or_says_why_not(tmp_path, 
     if bridge in ("simply_supported", "continuous"):
         assert "6.4.6.5(3)" in section
         assert "Deck-end rotation" in section and "Not available" not in section
-    else:
-        assert "Not available" in section
+    else:  # the reason the study stored, not a guess
+        assert "Not available: the study did not compute the load effects" in section
+        assert ("no static deck model" in section if bridge == "matrices"
+                else "the bridge is rigid" in section)
+    # the damped track's accuracy is stated where interaction trains ran on it
+    assert ("| Track model accuracy |" in text) == (track == "elastic")
 
 
 BUNDLED = {  # bundled configs, cut to a grid a test can afford (the text a user has)

@@ -357,6 +357,18 @@ def _nanmax(a, axis):
     return np.where(np.isneginf(m), np.nan, m)
 
 
+def _not_computed(ds) -> dict:
+    """The results' ``not_computed`` attribute (variable -> reason), {} if absent or
+    unreadable."""
+    import json
+
+    try:
+        out = json.loads(str(ds.attrs.get("not_computed", "{}")))
+    except ValueError:
+        return {}
+    return {str(k): str(v) for k, v in out.items()} if isinstance(out, dict) else {}
+
+
 def static_deck_of(ds):
     """The :class:`~vsi_numba.model.influence.StaticDeck` of a results file's beam deck
     (``bridge.kind`` simply_supported or continuous in the stored configuration), or the
@@ -434,6 +446,9 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
 
     ds = prepare(ds)
     if not any(v in ds.variables for v in _LOAD_EFFECT_VARIABLES):
+        why = _not_computed(ds).get("max_bending_moment")
+        if why:  # the study said why when it wrote the file
+            return f"the study did not compute the load effects: {why}"
         return ("the results hold no load-effect envelopes (bending moment, shear force, "
                 "support reactions, rotations): a file written before they were computed, "
                 "or a bridge that cannot give them (imported modes table, rigid track)")

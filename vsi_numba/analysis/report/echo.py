@@ -22,6 +22,7 @@ from vsi_numba.analysis.report.document import Markdown, Section, Table
 from vsi_numba.analysis.report.safe import cell, code
 from vsi_numba.analysis.report.text import sha256_text
 from vsi_numba.model.distribution import describe_config
+from vsi_numba.model.track import TRACK_ACCURACY_NOTE
 
 
 def fmt_number(value, unit: str = "", digits: int = 4) -> str:
@@ -142,6 +143,20 @@ def _has_moving_forces(ds: xr.Dataset) -> bool:
     return bool(prescribed_wheels(ds).any())
 
 
+def _moving_forces_only(ds: xr.Dataset) -> bool:
+    """Whether every wheel of the file is a moving force (no wheel on the track model)."""
+    from vsi_numba.analysis.checks.wheels import prescribed_wheels
+
+    if "static_wheel_load" not in ds or "train" not in ds.dims:
+        return False  # not known: say how accurate the track model is
+    pres = np.asarray(prescribed_wheels(ds).values, bool)
+    has = np.isfinite(np.asarray(ds["static_wheel_load"].values, float))
+    if has.shape != pres.shape:  # per variant: the wheels of any variant
+        has = has.reshape(-1, *pres.shape).any(0) if has.size % max(pres.size, 1) == 0 \
+            else np.ones_like(pres)
+    return bool(pres[has].all())
+
+
 def input_echo(ds: xr.Dataset, variant_note: str = "") -> Section:
     """The analysis input, from the results file."""
     cfg = results_config(ds)
@@ -214,6 +229,8 @@ def input_echo(ds: xr.Dataset, variant_note: str = "") -> Section:
                          f"deck and the approaches; rail EI = {fmt_number(ei, 'N m²')} (both "
                          f"rails), foundation k = {fmt_number(k, 'N/m²')}, "
                          f"{fmt_number(2 * k / beta / 1e6, 'kN/mm')} under one axle"))
+            if not _moving_forces_only(ds):
+                rows.append(("Track model accuracy", TRACK_ACCURACY_NOTE))
         else:
             rows.append(("Track model", "rigid-track idealisation (kink at the deck ends)"))
     if cfg and _has_moving_forces(ds):

@@ -51,6 +51,9 @@ def test_verify__quick_set_through_the_cli(tmp_path):
     html = (tmp_path / "verification.html").read_text(encoding="utf-8")
     assert all(i in html for i in table["id"])
     assert "all figures within tolerance" in html and "FAIL" not in html
+    # each case shows its inputs: the configuration it ran
+    assert html.count('<code class="language-toml">') == len(quick)
+    assert len(list((tmp_path / "cases").glob("V*/*.toml"))) == len(quick)
     assert "verification: " in res.output and "all within tolerance" in res.output
 
 

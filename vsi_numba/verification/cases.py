@@ -183,6 +183,118 @@ def v02_yang_wu(workdir: Path) -> list[Row]:
     ]
 
 
+# ------------------------------------------------------------------ V09 quarter car
+def v09_quarter_car(workdir: Path) -> list[Row]:
+    p = ref.YANG_WU
+    approach, zeta, c, m_w = 1.0, 0.02, 2.0e4, 1000.0
+    text = _ss_bridge(p["L"], p["EI"], p["m"], zeta, 10, [p["L"] / 2]) + f"""
+        [train]
+        [[train.vehicles]]
+        kind = "sprung_mass"
+        mass = {p["mass"]!r}
+        stiffness = {p["k"]!r}
+        damping = {c!r}
+        wheel_mass = {m_w!r}
+        [track]
+        model = "rigid"
+        [solver]
+        dt = 1e-4
+        hht_alpha = 0.0
+        approach = {approach}
+        free_vibration = 0.05
+        [study]
+        speeds_kmh = [100.0]
+        save_time_histories = true
+        """
+    ds = sweep(workdir, "v09_quarter_car", text).isel(speed=0, train=0, irregularity=0)
+    v = p["v"]
+    t = ds["time"].values
+    on = (t >= approach / v) & (t <= (approach + p["L"]) / v)
+    w = float(np.nanmax(ds["deck_displacement"].isel(point=0).values[on]))
+    acc = float(np.nanmax(np.abs(ds["carbody_acceleration"].isel(vehicle=0).values[on])))
+    force = ds["contact_force"].isel(wheel=0).values[on]
+    sol = ref.quarter_car_on_beam(p["L"], p["EI"], p["m"], zeta, p["mass"], p["k"], c, m_w, v)
+    title = ("Quarter car (5750 kg body, 1000 kg wheel, 20 kN s/m) crossing the Yang & Wu "
+             "beam with 2 % damping at 100 km/h")
+    src = ("solve_ivp (DOP853, rtol 1e-10) of the body, the wheel held on the beam "
+           "(convective terms) and the 10-mode damped beam, "
+           "vsi_numba.verification.reference.quarter_car_on_beam")
+    model = ("sprung mass with wheel mass and damping, rigid contact and track, 10 modes, "
+             "HHT alpha = 0, dt 0.1 ms")
+    reason = ("the same model: the trapezoidal rule's period error and the peak sampled at "
+              "dt 0.1 ms; measured ")
+    return [
+        Row("V09-w", title, src, model, "max midspan deflection while on the span", "m",
+            sol["max_midspan"], w, 1e-6, reason + "5e-9 ((w1 dt)^2/8 = 3e-8)"),
+        Row("V09-a", title, src, model, "max |body acceleration| while on the span",
+            "m/s2", sol["max_body_acceleration"], acc, 1e-5, reason + "3.9e-6"),
+        Row("V09-Xmin", title, src, model, "min contact force while on the span", "N",
+            sol["min_force"], float(force.min()), 5e-5, reason + "5.2e-6 (the wheel's "
+            "inertia carries the higher modes)"),
+        Row("V09-Xmax", title, src, model, "max contact force while on the span", "N",
+            sol["max_force"], float(force.max()), 5e-5, reason + "1.4e-5 (the wheel's "
+            "inertia carries the higher modes)"),
+    ]
+
+
+# ------------------------------------------------------------------ V10 bump stop
+def v10_bump_stop(workdir: Path) -> list[Row]:
+    mass, k, c, gap, k_stop = 5750.0, 1.595e6, 2.0e4, 0.01, 5.0e6
+    depth, wavelength, position, length, approach = -0.02, 4.0, 10.0, 30.0, 1.0
+    text = f"""
+        [bridge]
+        kind = "rigid"
+        spans = [{length!r}]
+        [train]
+        [[train.vehicles]]
+        kind = "sprung_mass"
+        mass = {mass!r}
+        stiffness = {k!r}
+        damping = {c!r}
+        bump_stop = {{ gap = {gap!r}, stiffness = {k_stop!r} }}
+        [irregularity]
+        kind = "cosine"
+        depth = {depth!r}
+        wavelength = {wavelength!r}
+        position = {position!r}
+        [track]
+        model = "rigid"
+        [solver]
+        dt = 1e-4
+        hht_alpha = 0.0
+        approach = {approach}
+        free_vibration = 0.05
+        [study]
+        speeds_kmh = [100.0]
+        save_time_histories = true
+        """
+    ds = sweep(workdir, "v10_bump_stop", text).isel(speed=0, train=0, irregularity=0)
+    v = 100.0 / 3.6
+    t = ds["time"].values
+    on = t <= (approach + length) / v
+    acc = float(np.nanmax(np.abs(ds["carbody_acceleration"].isel(vehicle=0).values[on])))
+    force = ds["contact_force"].isel(wheel=0).values[on]
+    sol = ref.sprung_mass_bump_stop_on_rigid_rail(mass, k, c, gap, k_stop, depth, wavelength,
+                                                  position, v, -approach, length)
+    title = (f"Sprung mass whose bump stop closes (by {1e3 * (sol['max_compression'] - gap):.1f}"
+             " mm) over a 20 mm, 4 m cosine bump at 100 km/h, rigid track")
+    src = ("solve_ivp (DOP853, rtol 1e-11) of the sprung mass with the piecewise-linear stop "
+           "on the rigid rail, "
+           "vsi_numba.verification.reference.sprung_mass_bump_stop_on_rigid_rail")
+    model = ("sprung mass, 20 kN s/m, bump stop 10 mm / 5 MN/m, rigid bridge and track, "
+             "HHT alpha = 0, dt 0.1 ms")
+    reason = ("the step that closes the stop is solved on its branches (second order in "
+              "dt) and the peak sampled at dt; measured ")
+    return [
+        Row("V10-a", title, src, model, "max |body acceleration|", "m/s2",
+            sol["max_body_acceleration"], acc, 2e-5, reason + "4.4e-6"),
+        Row("V10-Xmax", title, src, model, "max contact force", "N", sol["max_force"],
+            float(force.max()), 1e-5, reason + "2.1e-6"),
+        Row("V10-Xmin", title, src, model, "min contact force", "N", sol["min_force"],
+            float(force.min()), 5e-5, reason + "1.2e-5 (of a force 13 % of the largest)"),
+    ]
+
+
 # ------------------------------------------------------------------ V03 simply supported effects
 def v03_ss_effects(workdir: Path) -> list[Row]:
     L, EI, m, P = 10.0, 5e9, 1.0e4, 1.0e5
@@ -428,4 +540,8 @@ CASES: tuple[Case, ...] = (
     Case("V07", "HSLM-A1 at resonance on a simply supported span", False, v07_hslm),
     Case("V08", "Lift-off on a rail dip against OpenSees (peer case S2)", False,
          v08_opensees_dip),
+    Case("V09", "Quarter car with wheel mass and damping on a damped beam", False,
+         v09_quarter_car),
+    Case("V10", "Nonlinear suspension: a bump stop that closes over a bump", False,
+         v10_bump_stop),
 )

@@ -91,12 +91,16 @@ def write_csv(rows: list[dict], path: Path) -> Path:
 
 
 def write_html(rows: list[dict], failures: dict[str, str], info: dict[str, str], path: Path,
-               quick: bool) -> Path:
-    """verification.html: the installation, a summary, then each case with its rows."""
+               quick: bool, workdir: Path | None = None) -> Path:
+    """verification.html: the installation, a summary, then each case with its rows and
+    its inputs (the configuration files of ``workdir/<case>/``, when given)."""
+    import textwrap
+
     import pandas as pd
 
     from vsi_numba.analysis.report.document import Markdown, Section, Table
     from vsi_numba.analysis.report.document import write_html as _write
+    from vsi_numba.verification.cases import CASES
 
     n_fail = sum(not r["pass"] for r in rows) + len(failures)
     verdict = "all figures within tolerance" if n_fail == 0 else f"**{n_fail} FAILED**"
@@ -119,15 +123,20 @@ def write_html(rows: list[dict], failures: dict[str, str], info: dict[str, str],
     cases: dict[str, list[dict]] = {}
     for r in rows:
         cases.setdefault(r["case"], []).append(r)
+    titles = {c.id: c.title for c in CASES}
     for cid, items in cases.items():
         first = items[0]
         lines = [f"- Model: {first['model']}"]
         for r in items:
-            lines.append(f"- {r['id']} ({r['quantity']}, {r['unit']}): reference "
-                         f"{r['reference']:.6g}, computed {r['computed']:.6g}, error "
-                         f"{r['error']:+.2e}, tolerance {r['tolerance']:.1e} "
+            lines.append(f"- {r['id']} ({r['title']}; {r['quantity']}, {r['unit']}): "
+                         f"reference {r['reference']:.6g}, computed {r['computed']:.6g}, "
+                         f"error {r['error']:+.2e}, tolerance {r['tolerance']:.1e} "
                          f"({r['tolerance_reason']}); source: {r['source']}")
-        sections.append(Section(f"{cid}: {first['title']}", ["\n".join(lines)]))
+        blocks = ["\n".join(lines)]
+        for cfg in sorted((Path(workdir) / cid).glob("*.toml")) if workdir else []:
+            text = textwrap.dedent(cfg.read_text(encoding="utf-8")).strip()
+            blocks.append(f"Input `{cfg.name}`:\n\n```toml\n{text}\n```")
+        sections.append(Section(f"{cid}: {titles.get(cid, first['title'])}", blocks))
     title = "vsi_numba verification manual"
     return _write(sections, path, title, header=[head])
 
@@ -144,5 +153,5 @@ def run_verification(outdir, quick: bool = False, progress=None) -> tuple[list[d
             r["pass"] = False
         r.update({k: info[k] for k in ("vsi_numba", "numba", "numpy", "scipy", "platform")})
     write_csv(rows, outdir / "verification.csv")
-    write_html(rows, failures, info, outdir / "verification.html", quick)
+    write_html(rows, failures, info, outdir / "verification.html", quick, outdir / "cases")
     return rows, failures

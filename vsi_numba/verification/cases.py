@@ -295,6 +295,59 @@ def v10_bump_stop(workdir: Path) -> list[Row]:
     ]
 
 
+# ------------------------------------------------------------------ V11 LM71 static effects
+def v11_lm71(workdir: Path) -> list[Row]:
+    import pandas as pd
+    import xarray as xr
+
+    from vsi_numba.analysis.report import write_report
+
+    L, EI, m, P = 10.0, 5e9, 1.0e4, 1.0e5
+    text = _ss_bridge(L, EI, m, 0.05, 4, [5.0, 2.5]) + "[train]\n" + _forces([0.0], P) + """
+        [track]
+        model = "rigid"
+        [solver]
+        dt = 1e-3
+        approach = 1.0
+        free_vibration = 0.2
+        [study]
+        speeds_kmh = [3.0]
+        save_time_histories = false
+        """
+    sweep(workdir, "v11_lm71", text)
+    nc = workdir / "v11_lm71.nc"
+    with xr.open_dataset(nc) as ds:  # the report of vsi report, written by its function
+        write_report(ds, workdir / "report", source_path=nc)
+    table = pd.read_excel(workdir / "report" / "tables.xlsx", sheet_name="load_effect_envelopes")
+
+    def lm71(effect, x):
+        row = table[(table["effect"] == effect) & (abs(table["location"] - x) < 1e-9)]
+        return float(row["lm71"].iloc[0])
+
+    title = "LM71 static effects on a 10 m simply supported span (the report's LM71 column)"
+    src = ("influence lines, LM71 of EN 1991-2 6.3.2 Fig. 6.1 [R] (4 x 250 kN at 1.6 m, "
+           "80 kN/m beyond 0.8 m on the unfavourable parts) moved in 1 mm steps, "
+           "vsi_numba.verification.reference.lm71_extreme")
+    model = "vsi report's load-effect table (tables.xlsx, load_effect_envelopes, lm71)"
+    reason = ("statics: the lines are piecewise linear and the maxima at positions both "
+              "scans hit; round-off, measured <= 2.2e-10")
+    reason_theta = ("the rotation's line is cubic: the distributed load's integral by "
+                    "trapezoid on the grids of the reference and the report; measured 2.1e-6")
+    rows = []
+    for rid, effect, x, unit, what in (
+            ("V11-M-mid", "moment", 5.0, "N m", "bending moment at x = 5 m"),
+            ("V11-M-quarter", "moment", 2.5, "N m", "bending moment at x = 2.5 m"),
+            ("V11-V-quarter", "shear", 2.5, "N", "shear force at x = 2.5 m"),
+            ("V11-R", "reaction", 0.0, "N", "reaction at the left support"),
+            ("V11-theta", "rotation", 0.0, "rad", "end rotation at the left support")):
+        reference_value = ref.lm71_extreme(L, ref.ss_influence(L, EI, x, effect))
+        theta = effect == "rotation"
+        rows.append(Row(rid, title, src, model, f"LM71 {what}", unit, reference_value,
+                        lm71(effect, x), 1e-5 if theta else 1e-9,
+                        reason_theta if theta else reason))
+    return rows
+
+
 # ------------------------------------------------------------------ V03 simply supported effects
 def v03_ss_effects(workdir: Path) -> list[Row]:
     L, EI, m, P = 10.0, 5e9, 1.0e4, 1.0e5
@@ -544,4 +597,5 @@ CASES: tuple[Case, ...] = (
          v09_quarter_car),
     Case("V10", "Nonlinear suspension: a bump stop that closes over a bump", False,
          v10_bump_stop),
+    Case("V11", "LM71 static load effects on a simply supported span", False, v11_lm71),
 )

@@ -396,3 +396,52 @@ def sprung_mass_bump_stop_on_rigid_rail(mass, k, c, gap, k_stop, depth, waveleng
     acc = g - f / mass
     return dict(max_body_acceleration=float(abs(acc).max()), max_force=float(f.max()),
                 min_force=float(f.min()), max_compression=float(comp.max()))
+
+
+#: LM71 (EN 1991-2 6.3.2, Fig. 6.1 [R]): four point forces of 250 kN at 1.6 m and
+#: 80 kN/m beyond 0.8 m of the outer forces, on the unfavourable parts of an influence
+#: line only.
+LM71_AXLE, LM71_SPACING, LM71_UDL = 250e3, 1.6, 80e3
+
+
+def lm71_extreme(L, influence, step=1e-3):
+    """Largest effect of LM71 on a simply supported span of an influence line.
+
+    ``influence(xi)`` is the effect of a unit force at ``xi`` (zero off the span).  The
+    four forces are moved in steps of ``step`` m across the span; the distributed load
+    covers the positive parts of the line beyond 0.8 m of the outer forces, integrated
+    exactly on a 0.5 mm grid (trapezoid of a piecewise-linear line).
+    """
+    xi = np.linspace(0.0, L, int(round(L / 5e-4)) + 1)
+    eta = np.maximum(influence(xi), 0.0)
+    cum = np.concatenate([[0.0], np.cumsum(0.5 * (eta[1:] + eta[:-1]) * np.diff(xi))])
+
+    def area(a, b):  # integral of the positive line over [a, b] within the span
+        a, b = np.clip(a, 0.0, L), np.clip(b, 0.0, L)
+        return np.interp(b, xi, cum) - np.interp(a, xi, cum)
+
+    s = np.arange(-4 * LM71_SPACING, L + step, step)  # the first force's abscissa
+    pts = s[:, None] + LM71_SPACING * np.arange(4)[None, :]
+    inside = (pts >= 0.0) & (pts <= L)
+    forces = LM71_AXLE * np.where(inside, influence(np.clip(pts, 0.0, L)), 0.0).sum(axis=1)
+    udl = LM71_UDL * (area(0.0, s - 0.8) + area(s + 3 * LM71_SPACING + 0.8, L))
+    return float((forces + udl).max())
+
+
+def ss_influence(L, EI, x, effect):
+    """Influence line of a simply supported span: the effect at ``x`` (m) of a unit force
+    at ``xi``: "moment" (sagging), "shear" (just right of x, up on the left of the cut),
+    "reaction" (left support, up) or "rotation" (dw/dx at the left end, w down)."""
+    def line(xi):
+        xi = np.asarray(xi, float)
+        if effect == "moment":
+            return np.where(xi <= x, xi * (L - x) / L, x * (L - xi) / L)
+        if effect == "shear":
+            return np.where(xi <= x, -xi / L, 1.0 - xi / L)
+        if effect == "reaction":
+            return 1.0 - xi / L
+        if effect == "rotation":
+            b = L - xi
+            return xi * b * (L + b) / (6.0 * EI * L)
+        raise ValueError(effect)
+    return line

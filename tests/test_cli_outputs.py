@@ -131,3 +131,32 @@ def test_run__many_seeds_generates_the_first_profile_only(tmp_path, monkeypatch)
         for name in ("max_deck_acceleration", "max_deck_displacement"):
             np.testing.assert_array_equal(r[name].values,
                                           s[name].sel(irregularity=[7]).values)
+
+
+def test_check__results_file_and_peak_disk_within_1_5x(tmp_path):
+    """vsi check states the peak disk (the case store with every batch plus the results
+    file, written as a temporary file inside the store); estimated within 1.5x of the
+    measured file and of store + file (measured deterministically: the store kept after
+    the write).  1.5x: the bar the estimates are held to (docs/check_estimates.md)."""
+    import shutil
+
+    from vsi_numba.cli.check import estimate_study
+    from vsi_numba.config import load_config
+    from vsi_numba.study.runner import execute_study
+    from vsi_numba.study.store import store_path
+
+    quick = tmp_path / "quickstart.toml"
+    shutil.copy(ROOT / "configs" / "quickstart.toml", quick)
+    for config in (warned_config(tmp_path), quick):
+        res = invoke("check", config)
+        assert res.exit_code == 0, res.output
+        assert re.search(r"peak disk ~[\d.]+ [kM]B \(the file and the case store",
+                         " ".join(res.output.split())), res.output
+        out = tmp_path / f"{config.stem}.nc"
+        execute_study(load_config(config), out, keep_cases=True)
+        file = out.stat().st_size
+        peak = file + sum(p.stat().st_size for p in store_path(out).iterdir())
+        est = estimate_study(load_config(config))
+        assert 1 / 1.5 <= est.disk_bytes / file <= 1.5, (config.name, est.disk_bytes, file)
+        assert 1 / 1.5 <= est.peak_disk_bytes / peak <= 1.5, (config.name,
+                                                               est.peak_disk_bytes, peak)

@@ -19,13 +19,20 @@ vibration.  From there:
   kernels) + the raw time histories of the batches in flight (two per worker); the
   results file is written one stored batch at a time, so the study's size does not
   count.
-* **disk** = :data:`FILE_OVERHEAD_BYTES` + the envelopes (float64, one value per run
-  and output point, wheel or vehicle of the widest train) + the time histories kept
-  (float32, compressed: about :data:`HISTORY_COMPRESSION` of the raw size, per real
-  wheel, output point and vehicle).
+* **results file** = the sweep's own disk model (:func:`vsi_numba.study.store.study_need`:
+  the netCDF overhead, every envelope in float64 including the load-effect grid and
+  supports, the per-variable overhead) + the values of the time histories each history
+  run writes (float32, its own train's wheels and vehicles; the NaN padding to the
+  longest run compresses to nothing), compressed to about :data:`HISTORY_COMPRESSION`.
+* **peak disk** = the case store (every batch, uncompressed ``.npz``) + the results
+  file: the file is written, as a temporary file inside the store, before the store is
+  removed.
 
-The constants were measured on this project's 2-core machine with a warm numba cache;
-``tests/test_cli_conveniences.py`` checks the estimate against a real small run.
+The constants were measured on this project's 2-core machine with a warm numba cache
+(``benchmarks/check_estimates.py`` prints estimate against measurement for the bundled
+studies and a long axle list; the table and the load it was measured under are in
+``docs/check_estimates.md``); ``tests/test_cli_conveniences.py`` checks the estimate
+against a real small run.
 """
 
 from __future__ import annotations
@@ -38,18 +45,23 @@ import numpy as np
 from vsi_numba.cli.common import EXIT_USAGE, Printer, load_config
 
 #: Seconds of a warm start: interpreter, imports, the numba cache, writing the file.
-STARTUP_SECONDS = 2.0
+STARTUP_SECONDS = 3.0
 #: Measured kernel time / :func:`~vsi_numba.study.batches.step_cost` estimate.
-KERNEL_FACTOR = 1.0
+KERNEL_FACTOR = 1.3
+#: Kernel seconds per moving load (axle) and time step (a 2,000-axle list: 75,438 steps
+#: in ~2.8 s of CPU, measured under load).
+MOVING_LOAD_SECONDS = 12e-9
 #: Seconds per MB of results written (netCDF, compression of the histories).
 WRITE_SECONDS_PER_MB = 0.05
 #: Resident memory of a sweep without its batches (MB): Python, numpy, numba, xarray,
 #: dask and the checks printed at its end.
-BASE_MEMORY_MB = 250.0
-#: Bytes of a results file without runs (coordinates, attributes, the stored config).
-FILE_OVERHEAD_BYTES = 90e3
-#: Compressed / raw size of the float32 time histories (zlib level 4 with shuffle).
-HISTORY_COMPRESSION = 0.5
+BASE_MEMORY_MB = 285.0
+#: Compressed / raw size of the float32 time histories written (zlib level 4 with
+#: shuffle) of interaction runs: 0.40-0.43 measured on the bundled studies.
+HISTORY_COMPRESSION = 0.42
+#: The same for moving-force runs (smooth deck and load-effect histories compress less:
+#: 0.69 measured).
+MOVING_FORCE_HISTORY_COMPRESSION = 0.75
 
 _MB = 2.0**20
 
@@ -91,6 +103,7 @@ class StudyEstimate:
     cpu_seconds: float
     memory_bytes: float
     disk_bytes: float
+    peak_disk_bytes: float = 0.0
     frequencies_hz: tuple = ()
     damping_ratios: tuple = ()
     additional_damping: float = 0.0
@@ -113,7 +126,8 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
     """
     import numpy as np
 
-    from vsi_numba.io.schema import ENVELOPES
+    from vsi_numba.io.schema import HISTORIES
+    from vsi_numba.io.space import NC_VARIABLE_OVERHEAD, history_row_bytes
     from vsi_numba.study.backends import available_cores
     from vsi_numba.study.batches import history_bytes
     from vsi_numba.study.spec import (
@@ -127,13 +141,15 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
 
     vcfgs = [v for _, v in cfg.variants] or [cfg]
     first_model = None
-    plan, steps, hist_runs, raw_hist, disk_hist = [], 0, 0, 0.0, 0.0
-    env_width = {"point": 0, "wheel": 0, "vehicle": 0}
+    specs, models = [], []
+    plan, steps, hist_runs, raw_hist, hist_written, load_seconds = [], 0, 0, 0.0, 0.0, 0.0
     grid = None
     for k, c in enumerate(vcfgs):
         spec = study_spec(c)
         model = _build_model(c)
         _remember(spec, model)
+        specs.append(spec)
+        models.append(model)
         first_model = first_model or model
         grid = grid or study_grid(model)
         batches = study_plan(spec, model, grid, variant=k if cfg.variants else None,
@@ -142,19 +158,23 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
         packed = _packed_trains(spec, model)
         speeds = np.asarray(grid.speeds_kmh, float) / 3.6
         n_i = len(grid.irregularities)
-        env_width["point"] = max(env_width["point"], model.output_points.size)
         for p in packed:
-            n_wheel = p.wheel_positions.size + p.load_positions.size
-            env_width["wheel"] = max(env_width["wheel"], n_wheel)
-            env_width["vehicle"] = max(env_width["vehicle"], p.vehicles.body_dof.size)
             for i_s, v in enumerate(speeds):
                 n = p.n_steps(v)
                 steps += n * n_i
+                # the moving-force kernel visits every load each step (the batch plan's
+                # step cost leaves this out: it only balances the batches)
+                load_seconds += MOVING_LOAD_SECONDS * p.load_positions.size * n * n_i
                 if grid.history_speeds[i_s]:
                     hist_runs += n_i
-                    width = (2 * model.output_points.size + 2 * p.wheel_positions.size
-                             + p.vehicles.body_dof.size)
-                    disk_hist += n_i * (n + 1) * width * 4 * HISTORY_COMPRESSION
+                    # the values a history run writes (its own train's wheels and
+                    # vehicles); the NaN padding to the longest run compresses to nothing
+                    hist_written += n_i * (n + 1) * (
+                        HISTORY_COMPRESSION if p.vehicles.wheel_dof.size else
+                        MOVING_FORCE_HISTORY_COMPRESSION) * history_row_bytes(
+                        model.output_points.size, p.vehicles.wheel_dof.size,
+                        p.vehicles.body_dof.size,
+                        np.asarray(model.bridge.supports).size)
         raw_hist = max([raw_hist] + [sum(history_bytes(packed[b.i_train], int(
             packed[b.i_train].n_steps(speeds[s]))) for s, h in zip(b.speeds, b.histories,
                                                                      strict=True) if h)
@@ -162,11 +182,22 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
     n_s, n_t, n_i = grid.shape
     n_runs = n_s * n_t * n_i * len(vcfgs)
     n_workers = max(1, min(workers or available_cores(), len(plan)))
-    per_run = sum(env_width.get(dims[0], 0) if dims else 1
-                  for dims, *_ in ENVELOPES.values())
-    disk_env = 8.0 * n_runs * per_run
-    disk = FILE_OVERHEAD_BYTES + disk_env + disk_hist
-    kernel = KERNEL_FACTOR * sum(b.cost for b in plan)
+    # the disk model of the sweep itself (vsi_numba.io.space): every stored batch, the
+    # results file's envelopes and raw histories; the histories compress to about
+    # HISTORY_COMPRESSION of their raw size
+    from vsi_numba.study.runner import _Study
+    from vsi_numba.study.store import study_need
+
+    need = study_need(_Study(cfg, specs, models, grid, plan,
+                             [lab for lab, _ in cfg.variants] or None, "", "", ""), plan)
+    # (the disk model's per-variable overhead is an upper bound for the space check;
+    # measured, the envelopes' is small and the chunked histories' about twice it)
+    disk = (need.final_min + hist_written
+            + (2 * NC_VARIABLE_OVERHEAD * len(HISTORIES) if hist_runs else 0))
+    # the results file is written (as a temporary file in the store) while every batch
+    # is still stored: the peak is the store plus the file
+    peak_disk = need.store + disk
+    kernel = KERNEL_FACTOR * (sum(b.cost for b in plan) + load_seconds)
     fixed = STARTUP_SECONDS + WRITE_SECONDS_PER_MB * disk / _MB
     seconds, cpu_seconds = fixed + kernel / n_workers, fixed + kernel
     memory = BASE_MEMORY_MB * _MB + 2 * n_workers * raw_hist
@@ -174,7 +205,7 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
         n_variants=len(vcfgs), n_speeds=n_s, n_trains=n_t, n_realisations=n_i,
         n_runs=n_runs, n_batches=len(plan), n_history_runs=hist_runs, n_steps=int(steps),
         workers=n_workers, seconds=seconds, cpu_seconds=cpu_seconds, memory_bytes=memory,
-        disk_bytes=disk,
+        disk_bytes=disk, peak_disk_bytes=peak_disk,
         frequencies_hz=tuple(float(f) for f in first_model.bridge.frequencies),
         damping_ratios=tuple(float(z) for z in np.broadcast_to(
             first_model.bridge.damping, first_model.bridge.frequencies.shape)),
@@ -268,6 +299,8 @@ def check_command(config: Path, workers: int | None = None) -> int:
     pr.line(f"estimate (warm numba cache, {est.workers} worker"
             f"{'' if est.workers == 1 else 's'}): time ~{_duration(est.seconds)}, peak "
             f"memory ~{_size(est.memory_bytes)}, results file ~{_size(est.disk_bytes)} "
-            f"({cfg.output_path}); a first run adds 1-3 min of compilation")
+            f"({cfg.output_path}), peak disk ~{_size(est.peak_disk_bytes)} (the file and "
+            "the case store beside it while it is written); a first run adds 1-3 min of "
+            "compilation")
     pr.line("nothing was run (vsi sweep runs it)")
     return 0

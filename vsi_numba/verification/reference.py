@@ -179,7 +179,7 @@ def train_of_forces(positions, loads, L, EI, m, zeta, n_modes, v, x, t_end, x_st
 
 
 # ----------------------------------------------------------------- sprung mass on a beam
-def sprung_mass_on_beam(L, EI, m, mass, k, v, n_modes=10, g=GRAVITY, zeta=0.0):
+def sprung_mass_on_beam(L, EI, m, mass, k, v, n_modes=10, g=GRAVITY, zeta=0.0, times=()):
     """A sprung mass (massless contact point) crossing a simply supported beam.
 
     The coupled equations, integrated by ``solve_ivp`` (DOP853, rtol 1e-10) from static
@@ -192,7 +192,8 @@ def sprung_mass_on_beam(L, EI, m, mass, k, v, n_modes=10, g=GRAVITY, zeta=0.0):
     -------
     dict
         ``max_midspan`` (m), ``max_body_acceleration`` (|z''|, m/s2), ``min_force`` and
-        ``max_force`` (N), each the largest over a 20001-point grid of the crossing.
+        ``max_force`` (N), each the largest over a 20001-point grid of the crossing, and
+        ``midspan_at``: the midspan deflection (m) at each of ``times`` (s, dense output).
     """
     om = ss_omega(L, EI, m, n_modes)
     kk = np.pi * np.arange(1, n_modes + 1) / L
@@ -217,14 +218,16 @@ def sprung_mass_on_beam(L, EI, m, mass, k, v, n_modes=10, g=GRAVITY, zeta=0.0):
     T = L / v
     t = np.linspace(0.0, T, 20001)
     sol = scipy.integrate.solve_ivp(rhs, (0.0, T), s0, method="DOP853", rtol=1e-10,
-                                    atol=1e-14, t_eval=t)
+                                    atol=1e-14, t_eval=t, dense_output=True)
     y = sol.y
-    w_mid = ss_shapes(L, m, n, [0.5 * L])[0] @ y[:n]
+    phi_mid = ss_shapes(L, m, n, [0.5 * L])[0]
+    w_mid = phi_mid @ y[:n]
+    at = [float(phi_mid @ sol.sol(ti)[:n]) for ti in times]
     phi_c = amp * np.sin(np.outer(v * t, kk))  # (nt, n): the modes under the vehicle
     f = k * (y[2 * n] - np.einsum("ij,ji->i", phi_c, y[:n]))
     acc = g - f / mass
     return dict(max_midspan=float(w_mid.max()), max_body_acceleration=float(abs(acc).max()),
-                min_force=float(f.min()), max_force=float(f.max()))
+                min_force=float(f.min()), max_force=float(f.max()), midspan_at=at)
 
 
 # ----------------------------------------------------------------- static load effects

@@ -154,10 +154,11 @@ def test_hostile__implausible_input_is_refused_naming_keys_and_override():
     assert any("more than 50 mm" in w for w in ok.warnings)
 
 
-def test_hostile__line_speed_next_to_speeds_is_an_error():
-    errs = errors_of(cfg(study__line_speed_kmh=300.0))
-    assert errs[0].startswith("study.line_speed_kmh = 300.0: expected either "
-                              "study.speeds_kmh or study.line_speed_kmh")
+def test_hostile__line_speed_next_to_speeds_sets_the_en_range():
+    c = load_config(cfg(study__line_speed_kmh=300.0))  # speeds stop below 360 km/h
+    assert c.speeds_kmh.max() < 360.0
+    assert any("below the EN range up to 1.2 x study.line_speed_kmh = 360 km/h" in w
+               for w in c.warnings), c.warnings
     # the resolved config of a line-speed study keeps both keys, and reloads
     c = load_config(cfg(study__speeds_kmh=..., study__line_speed_kmh=160.0))
     assert load_config(c.resolved()).speeds_kmh.tolist() == c.speeds_kmh.tolist()

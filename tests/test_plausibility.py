@@ -164,3 +164,37 @@ def test_check__bump_stop_enters_the_time_step_check(tmp_path):
     code, out = check(tmp_path, train=SPRUNG.format(k=k, stop=soft), dt=1e-3,
                       speeds="speeds_kmh = [100.0]")
     assert code == 0 and "solver.dt" not in out, out
+
+
+def test_check__speeds_short_of_the_en_range_of_the_line_speed(tmp_path):
+    """EN 1991-2 6.4.6.2 [R]: speeds up to 1.2 x the line speed."""
+    code, out = check(tmp_path, speeds="speeds_kmh = [200.0, 300.0]\nline_speed_kmh = 300.0")
+    assert code == 0, out
+    assert ("study.speeds_kmh: the fastest speed is 300 km/h, below the EN range up to "
+            "1.2 x study.line_speed_kmh = 360 km/h") in out
+    code, out = check(tmp_path, speeds="speeds_kmh = [200.0, 360.0]\nline_speed_kmh = 300.0")
+    assert code == 0 and "EN range" not in out, out
+
+
+CAR = """[[train.vehicles]]
+kind = "car"
+body_mass = {body}
+body_pitch_inertia = 2.0e6
+bogie_mass = 3000.0
+bogie_pitch_inertia = 2000.0
+wheelset_mass = 1800.0
+bogie_spacing = 17.5
+wheelbase = 2.5
+primary_stiffness = 1.0e6
+primary_damping = 1.0e4
+secondary_stiffness = 3.0e5
+secondary_damping = 2.0e4
+"""
+
+
+def test_check__car_body_mass_in_tonnes(tmp_path):
+    code, out = check(tmp_path, train=CAR.format(body=40.0), speeds="speeds_kmh = [200.0]")
+    assert code == 2, out
+    assert "train.vehicles[0].body_mass = 40 kg looks like tonnes (40 t = 40000 kg)" in out
+    code, out = check(tmp_path, train=CAR.format(body=40000.0), speeds="speeds_kmh = [200.0]")
+    assert code == 0 and "looks like" not in out, out

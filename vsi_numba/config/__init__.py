@@ -20,7 +20,9 @@ Keys (units; default)
 ``[bridge]`` ``kind`` = simply_supported | continuous | rigid | modes_file (required);
 ``spans`` (m, one per span; one value for simply_supported and rigid); ``EI`` (N m^2) and
 ``mass_per_length`` (kg/m), a number or one per span; ``damping_ratio`` (-, a number or
-one per mode; 0); ``n_modes`` (10 unless ``max_frequency``, Hz, is given; both: the
+one per mode; 0); ``n_modes`` (simply_supported and continuous: every mode up to the
+deck-acceleration cut-off, ``solver.acceleration_cutoff`` or EN 1990 A2 max(30 Hz,
+1.5 f1, f3); [bridge.track] and matrices: 10) or ``max_frequency`` (Hz; both: the
 smaller set); ``elements_per_span`` (continuous; 40); ``output_points`` (m; every
 mid-span).  Imported bridges (formats: :mod:`vsi_numba.model.imported`), read and
 checked at load time: modes_file (``file``, netCDF or CSV; ``track_line`` when it has
@@ -56,7 +58,8 @@ train's first axle; 0) and ``name``.  Vehicles are listed front to back, not ove
 (``spectrum``, ``wavelength_min``, ``wavelength_max``, ``seeds``, ``dx``) | file
 (``path``, ``x_column`` x, ``r_column`` r, ``r_unit`` m, ``dx``); ``[[irregularity.defects]]``
 (cosine / step) are added to every realisation.
-``[solver]`` ``dt`` (s; 1e-3), ``hht_alpha`` (-0.3), ``approach`` (m; 5),
+``[solver]`` ``dt`` (s; 1e-3, halved until the highest bridge mode within that cut-off
+has 10 steps per period), ``hht_alpha`` (-0.3), ``approach`` (m; 5),
 ``free_vibration`` (s; 1), ``max_iterations`` (50), ``max_subdivisions`` (4),
 ``acceleration_cutoff`` (Hz; EN 1990 A2 rule).
 ``[contact]`` ``model`` = rigid (default) | hertz | hertz_linear (as offered by
@@ -77,7 +80,8 @@ foundation reaction of the elastic track at the sleepers) spreads moving forces
 that use them.
 ``[study]`` ``speeds_kmh`` (list, or {start, stop, step} with stop included when on the
 grid) or ``line_speed_kmh`` (then 140 .. 1.2 x line speed, step 5, 1.2 x line speed
-included); ``output`` (results/<stem>.nc); ``save_time_histories`` (true);
+included; both: speeds stopping below 1.2 x line speed are warned); ``output``
+(results/<stem>.nc); ``save_time_histories`` (true);
 ``history_speeds_kmh`` (all); ``classification_factor`` (alpha of LM71, 1.0, in the code
 profile's range, [0.75, 1.46] by default, EN 1991-2 6.3.2(3) [R]) and
 ``track_maintenance`` ("standard": Phi_3, "careful": Phi_2, EN 1991-2 6.4.5.2 [R]) for the

@@ -163,8 +163,10 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
         n_modes = chk.get_number(d, path, "n_modes", n_spec)
         fmax = chk.get_number(d, path, "max_frequency",
                               _Num("a frequency > 0 Hz", gt=0, default=None))
-        if n_modes is None and fmax is None and kind != "modes_file":
-            n_modes = 10  # modes_file: default every mode of the file
+        if n_modes is None and fmax is None and (kind == "matrices" or "track" in d):
+            n_modes = DEFAULT_N_MODES  # modes_file: default every mode of the file
+        # simply supported and continuous decks: by default every mode up to the cut-off
+        # (_flexible_bridge), n_modes and max_frequency left out of the resolved config
         res.update(damping_ratio=damping, n_modes=n_modes, max_frequency=fmax)
     if kind == "continuous":
         eps = chk.get_number(d, path, "elements_per_span", _Num(
@@ -487,6 +489,30 @@ def _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes, fmax,
     return out
 
 
+#: Modes kept when neither n_modes nor max_frequency is given, for the decks whose
+#: modes are not chosen by frequency (the FE track layer, imported matrices).
+DEFAULT_N_MODES = 10
+
+
+def default_max_frequency(frequencies, solver_cutoff=None) -> float:
+    """The highest frequency (Hz) a simply supported or continuous deck keeps when
+    neither ``bridge.n_modes`` nor ``bridge.max_frequency`` is given: the cut-off of the
+    deck-acceleration check (``solver.acceleration_cutoff``, else EN 1990 A2.4.4.2.1
+    max(30 Hz, 1.5 f1, f3) [R]).
+
+    The checks need no mode above it, and the load effects need none either: they are
+    computed by the mode-acceleration method (the static response to the wheel forces
+    from the influence lines plus the modal correction), in which a mode far above the
+    excitation adds only its quasi-static part, already exact in the static term.  A
+    fixed count instead (10 modes) reached 2 kHz on a 6 m span, which no ordinary time
+    step resolves: the under-resolved modes' corrections put shear and reactions of a
+    25 m deck ~3 % off at dt = 1 ms.
+    """
+    f = np.asarray(frequencies, float)
+    cut = en1990.frequency_cutoff(f) if solver_cutoff is None else float(solver_cutoff)
+    return float(max(cut, f[0])) * (1 + 1e-9)
+
+
 #: Shortest span (m) named as the cause when a deck gives no finite frequencies.
 MIN_SPAN = 1.0
 
@@ -518,6 +544,8 @@ def _flexible_bridge(chk, kind, length, spans, ei, mass, n_modes, fmax, eps, sol
                 return chk.error("bridge.max_frequency", fmax,
                                  f"a frequency >= the first mode ({allf[0]:.4g} Hz), else no "
                                  "mode is retained")
+            if n_modes is None and fmax is None:
+                fmax = default_max_frequency(allf, solver_cutoff)
             if kind == "simply_supported":
                 return _bridge.simply_supported(length, ei1, m1, n_modes, fmax, 0.0), allf
             keep = _bridge.n_modes_kept(allf, n_modes, fmax)

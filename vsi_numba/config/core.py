@@ -41,6 +41,7 @@ from vsi_numba.config.irregularity import (
 )
 from vsi_numba.config.limits import MAX_CONFIG_BYTES, MAX_RUNS
 from vsi_numba.config.physics import (
+    _default_time_step,
     _physics_warnings,
     _plausibility,
     _refuse,
@@ -555,6 +556,7 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
                 f"spans of a railway bridge >= {MIN_SPAN:g} m (units: m)")
         if chk.errors:
             raise ConfigError(chk.errors, source=source)
+    _default_time_step(solver, data.get("solver"), bridge)
     _physics_warnings(chk, bridge, train, irr, solver, study.resolved, contact, track)
     _plausibility(chk, bridge, train, irr, solver, study.resolved, contact)
     _track_plausibility(chk, train, solver, track, bridge)

@@ -12,6 +12,9 @@ MAX_MODES = 1000  # cap on bridge.n_modes
 MAX_ELEMENTS = 1000  # cap on spans * elements_per_span (the eigenproblem runs at load time)
 MAX_USER_DOFS = 200  # cap on the size of a user vehicle
 MAX_VEHICLES = 500  # cap on explicit vehicles
+#: The default time step is not halved below this (s): a deck needing less (f3 above
+#: 10 kHz) is refused by the budget or the plausibility checks, not run for ever
+DT_DEFAULT_MIN = 1e-6
 DT_ERROR = 0.25  # dt * f above this (fewer than 4 steps per period): error
 MAX_STEPS = 50_000_000  # time steps of the slowest run: above this the run is refused
 #: time steps of the slowest run beyond which no override runs it (no machine could)

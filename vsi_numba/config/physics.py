@@ -13,6 +13,7 @@ import numpy as np
 from vsi_numba.config.irregularity import _defect_profile
 from vsi_numba.config.limits import (
     DECK_FREQUENCY_FACTOR,
+    DT_DEFAULT_MIN,
     DT_ERROR,
     DT_RESOLUTION,
     HARD_MAX_STEPS,
@@ -40,6 +41,7 @@ from vsi_numba.model import track as _track
 from vsi_numba.model.irregularity import profile_range
 from vsi_numba.model.library import static_axle_loads
 from vsi_numba.model.psd import PSD_PERIOD, psd_grid
+from vsi_numba.solver.settings import SolverSettings
 
 #: The defaults of the [track] values (messages).
 _DEFAULT_TRACK = {"foundation_stiffness": _track.FOUNDATION_DEFAULT,
@@ -359,6 +361,13 @@ def _vehicle_unit_slips(train) -> list[str]:
         if not axles:
             continue
         mean = v.total_weight / axles
+        body = r.get("body_mass")
+        if mean >= MIN_AXLE_LOAD and r.get("kind") == "car" and body < MIN_BODY_MASS:
+            out.append(f"{path}.body_mass = {body:g} kg looks like tonnes ({body:g} t = "
+                       f"{body * 1e3:g} kg): a railway car body weighs 10-60 t, more than "
+                       f"its bogies ({path}.bogie_mass = {r['bogie_mass']:g} kg); masses "
+                       "are in kg")
+            continue
         if mean >= MIN_AXLE_LOAD:
             continue
         if r.get("kind") == "force":
@@ -386,9 +395,17 @@ def _unit_slips(bridge, train, solver) -> bool:
     return bool(_vehicle_unit_slips(train)) or _deck_mass_slip(None, bridge, solver)
 
 
+#: A car body lighter than this (kg) next to bogies in kg: the body mass in tonnes
+MIN_BODY_MASS = 1000.0
+#: The speeds of a dynamic study reach this multiple of the line speed (EN 1991-2
+#: 6.4.6.2 [R]).
+EN_SPEED_FACTOR = 1.2
+
+
 def _speed_slips(chk, study):
     """A line speed, or a study whose fastest speed is, below
-    :data:`MIN_STUDY_SPEED_KMH` while 3.6 x it is a railway speed: m/s typed as km/h."""
+    :data:`MIN_STUDY_SPEED_KMH` while 3.6 x it is a railway speed: m/s typed as km/h;
+    speeds given next to a line speed that stop short of :data:`EN_SPEED_FACTOR` x it."""
     line = study.get("line_speed_kmh")
     if line is not None and line < MIN_STUDY_SPEED_KMH:
         chk.warn(f"study.line_speed_kmh = {line:g} km/h looks like m/s ({line:g} m/s = "
@@ -397,10 +414,50 @@ def _speed_slips(chk, study):
                  ["study.line_speed_kmh"])
         return
     top = max(study["speeds_kmh"])
+    if line is not None and top < EN_SPEED_FACTOR * line * (1 - 1e-9):
+        chk.warn(f"study.speeds_kmh: the fastest speed is {top:g} km/h, below the EN range "
+                 f"up to {EN_SPEED_FACTOR:g} x study.line_speed_kmh = "
+                 f"{EN_SPEED_FACTOR * line:.4g} km/h (EN 1991-2 6.4.6.2 [R]): the speeds "
+                 "between are not checked", "input",
+                 ["study.speeds_kmh", "study.line_speed_kmh"])
     if line is None and top < MIN_STUDY_SPEED_KMH and top * 3.6 >= MIN_STUDY_SPEED_KMH:
         chk.warn(f"study.speeds_kmh: the fastest speed is {top:g} km/h, which looks like "
                  f"m/s ({top:g} m/s = {top * 3.6:.4g} km/h); the key is in km/h",
                  "plausibility", ["study.speeds_kmh"])
+
+
+def _checked_frequency(model, solver) -> tuple[float, float]:
+    """The highest retained bridge mode (Hz) within the checks' cut-off, and the cut-off
+    (``solver.acceleration_cutoff``, else EN 1990 A2 max(30 Hz, 1.5 f1, f3) [R])."""
+    freqs = np.asarray(model.frequencies, float)
+    f_cut = solver["acceleration_cutoff"]
+    if f_cut is None:
+        f_cut = frequency_cutoff(freqs)
+    return float(freqs[freqs <= f_cut * (1 + 1e-9)].max(initial=freqs[0])), f_cut
+
+
+def default_time_step(bridge, solver) -> float:
+    """``solver.dt`` when the config does not give it (s): 1 ms, halved until the
+    highest retained bridge mode within the checks' cut-off has at least
+    1 / :data:`DT_RESOLUTION` steps per period (0.5 ms for a 6 m deck whose f3 is
+    196 Hz; 1 ms on most decks of 15 m and more).  Vehicles, contact and track springs
+    keep their own checks."""
+    dt = SolverSettings.dt
+    model = bridge.model
+    if not model.n_modes or model.kind == "rigid":
+        return dt
+    f_chk, _ = _checked_frequency(model, solver)
+    while dt * f_chk > DT_RESOLUTION * (1 + 1e-9) and dt > DT_DEFAULT_MIN:
+        dt /= 2.0
+    return dt
+
+
+def _default_time_step(solver, given, bridge) -> None:
+    """Fill ``solver["dt"]`` with :func:`default_time_step` when ``given`` (the
+    ``[solver]`` table as written) has no ``dt``."""
+    if isinstance(given, dict) and "dt" in given:
+        return
+    solver["dt"] = default_time_step(bridge, solver)
 
 
 def _physics_warnings(chk, bridge, train, irr, solver, study, contact, track):
@@ -427,11 +484,7 @@ def _physics_warnings(chk, bridge, train, irr, solver, study, contact, track):
     if model.n_modes:
         fmax = float(model.frequencies[-1])
         # the modes that enter the checks: those up to the deck-acceleration cut-off
-        freqs = np.asarray(model.frequencies, float)
-        f_cut = solver["acceleration_cutoff"]
-        if f_cut is None:
-            f_cut = frequency_cutoff(freqs)
-        f_chk = float(freqs[freqs <= f_cut * (1 + 1e-9)].max(initial=freqs[0]))
+        f_chk, f_cut = _checked_frequency(model, solver)
         if dt * f_chk > DT_ERROR and not solver.get("allow_coarse_dt"):
             chk.errors.append(
                 f"solver.dt = {dt:g}: expected a time step giving at least "

@@ -198,3 +198,14 @@ def test_check__car_body_mass_in_tonnes(tmp_path):
     assert "train.vehicles[0].body_mass = 40 kg looks like tonnes (40 t = 40000 kg)" in out
     code, out = check(tmp_path, train=CAR.format(body=40000.0), speeds="speeds_kmh = [200.0]")
     assert code == 0 and "looks like" not in out, out
+
+
+def test_check__user_vehicle_masses_in_tonnes(tmp_path):
+    train = ('[[train.vehicles]]\nkind = "user"\nM = [[5.75, 0.0], [0.0, 0.1]]\n'
+             "C = [[0.0, 0.0], [0.0, 0.0]]\nK = [[1.0e6, -1.0e6], [-1.0e6, 1.0e6]]\n"
+             "wheel_dofs = [1]\nwheel_positions = [0.0]")
+    code, out = check(tmp_path, train=train, speeds="speeds_kmh = [200.0]")
+    assert code == 2, out
+    # 5.85 kg x 9.81 m/s^2 on one axle
+    assert "train.vehicles[0].M, train.vehicles[0].gravity: a static axle load of " \
+        f"{5.85 * 9.81:.4g} N" in out and "looks like tonnes typed as kg" in out

@@ -377,8 +377,13 @@ def _vehicle_unit_slips(train) -> list[str]:
         else:
             keys = [k for k in ("mass", "body_mass", "bogie_mass", "wheelset_mass",
                                 "wheel_mass") if r.get(k)]
-            shown = ", ".join(f"{path}.{k} = {r[k]:g}" for k in keys) or path
-            first = float(r[keys[0]]) if keys else 0.0
+            if not keys:  # a user vehicle: its matrices
+                out.append(f"{path}.M, {path}.gravity: a static axle load of {mean:.4g} N "
+                           f"({mean / 9.81:.3g} kg per axle; a railway axle carries 5-25 t) "
+                           "looks like tonnes typed as kg; masses are in kg, gravity in N")
+                continue
+            shown = ", ".join(f"{path}.{k} = {r[k]:g}" for k in keys)
+            first = float(r[keys[0]])
             verb = "look" if len(keys) > 1 else "looks"
             msg = (f"{shown} kg {verb} like tonnes: a static axle load of {mean:.4g} N "
                    f"({mean / 9.81:.3g} kg per axle; a railway axle carries 5-25 t); "

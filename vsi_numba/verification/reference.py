@@ -448,3 +448,19 @@ def ss_influence(L, EI, x, effect):
             return xi * b * (L + b) / (6.0 * EI * L)
         raise ValueError(effect)
     return line
+
+
+def ss_mode_table(L, EI, m, n_modes, dx):
+    """Rows ``(mode, frequency Hz, modal_mass kg, x m, shape, slope 1/m)`` of the sine
+    modes ``sin(j pi x / L)`` of a simply supported span at stations ``dx`` apart: the
+    table another program would export (modal mass ``m L / 2`` of the unit shape)."""
+    x = np.linspace(0.0, L, int(round(L / dx)) + 1)
+    f = ss_omega(L, EI, m, n_modes) / (2.0 * np.pi)
+    rows = []
+    for j in range(1, n_modes + 1):
+        k = j * np.pi / L
+        shape, slope = np.sin(k * x), k * np.cos(k * x)
+        shape[[0, -1]] = 0.0
+        rows += [(j, f[j - 1], m * L / 2.0, xi, s, d)
+                 for xi, s, d in zip(x, shape, slope, strict=True)]
+    return rows

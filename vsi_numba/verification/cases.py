@@ -538,10 +538,10 @@ def v04_continuous(workdir: Path) -> list[Row]:
 
 
 # ------------------------------------------------------------------ V05/V06 trains of forces
-def _train_case(workdir, cid, L, d, label, quick_title):
+def _train_case(workdir, cid, L, d, label, quick_title, i=1):
     m, f1, zeta, P, n, approach = 1.0e4, 4.0, 0.01, 1.0e5, 10, 1.0
     EI = _ei_for(f1, L, m)
-    v = f1 * d  # the first resonance, i = 1
+    v = f1 * d / i  # the i-th resonance
     offsets = [k * d for k in range(n)]
     text = _ss_bridge(L, EI, m, zeta, 1, [L / 2]) + "[train]\n" + _forces(offsets, P) + f"""
         [track]
@@ -564,20 +564,29 @@ def _train_case(workdir, cid, L, d, label, quick_title):
            "(Frýba); resonance v = n0 d / i, cancellation L/d = (2j - 1)/(2i) "
            "(EN 1991-2 / ERRI D214 [R])")
     model = "10 moving forces of 100 kN, 1 mode (4 Hz), 1 % damping, HHT alpha = 0, dt 0.5 ms"
-    reason = ("trapezoidal period error (w dt)^2/12 = 3e-5 a cycle over ~20 cycles of "
-              "build-up, peak sampled at dt: measured <= 3.4e-5")
-    title = f"{quick_title}: L = {L:g} m, d = {d:.4g} m, v = n0 d = {v * 3.6:.1f} km/h ({label})"
+    reason = (f"trapezoidal period error (w dt)^2/12 = 3e-5 a cycle over ~{20 * i} cycles "
+              "of build-up, peak sampled at dt: measured <= "
+              + ("3.4e-5" if i == 1 else "1.0e-4"))
+    tol = 1e-4 if i == 1 else 3e-4
+    speed = "n0 d" if i == 1 else f"n0 d / {i}"
+    title = (f"{quick_title}: L = {L:g} m, d = {d:.4g} m, v = {speed} = {v * 3.6:.1f} km/h "
+             f"({label})")
     return [
         Row(f"{cid}-w", title, src, model, "max midspan deflection", "m", float(w.max()),
-            float(ds["max_deck_displacement"].values[0]), 1e-4, reason),
+            float(ds["max_deck_displacement"].values[0]), tol, reason),
         Row(f"{cid}-a", title, src, model, "max |midspan acceleration|", "m/s2",
-            float(abs(a).max()), float(ds["max_deck_acceleration"].values[0]), 1e-4, reason),
+            float(abs(a).max()), float(ds["max_deck_acceleration"].values[0]), tol, reason),
     ]
 
 
 def v05_resonance(workdir: Path) -> list[Row]:
     return _train_case(workdir, "V05", 20.0, 15.0, "L/d = 4/3: build-up", "Resonance of a "
                        "train of equal forces")
+
+
+def v14_second_resonance(workdir: Path) -> list[Row]:
+    return _train_case(workdir, "V14", 20.0, 15.0, "i = 2: a force every second cycle",
+                       "Second resonance of a train of equal forces", i=2)
 
 
 def v06_cancellation(workdir: Path) -> list[Row]:
@@ -704,4 +713,6 @@ CASES: tuple[Case, ...] = (
          v12_order),
     Case("V13", "A deck imported as a modes table (CSV) under a moving force", False,
          v13_imported_modes),
+    Case("V14", "Second resonance of a train of equal forces (v = n0 d / 2)", False,
+         v14_second_resonance),
 )

@@ -181,7 +181,7 @@ def static_deck_envelope(bridge: ModalBridge, train: Train, output_points, step:
     modal = np.empty((fronts.size, bridge.n_modes))
     # only the (front, axle) pairs with the axle on the deck (the shapes are zero off
     # it), found by a search in the sorted positions (a margin of 1 um, then the exact
-    # test), summed per front in ascending axle order as before, in blocks of ~4 million
+    # test), summed per front in ascending axle order as before, in blocks of ~1 million
     # pairs: a 20,000-axle list is linear in its length, not quadratic
     order = np.argsort(pos, kind="stable")
     ps = pos[order]
@@ -192,7 +192,7 @@ def static_deck_envelope(bridge: ModalBridge, train: Train, output_points, step:
     start = 0
     while start < fronts.size:
         base = cum[start - 1] if start else 0
-        end = max(start + 1, int(np.searchsorted(cum, base + 4_000_000, "right")))
+        end = max(start + 1, int(np.searchsorted(cum, base + 1_000_000, "right")))
         c = cnt[start:end]
         f_i = np.repeat(np.arange(end - start), c)
         offs = np.arange(f_i.size) - np.repeat(np.cumsum(c) - c, c)

@@ -39,6 +39,12 @@ YANG_WU_BODY_ACC = 0.1480  # m/s2, largest body acceleration (published)
 YANG_WU_SOURCE = ("Yang & Wu (2001), Int. J. Struct. Stab. Dyn. 1(1); with the peers' "
                   "figures in docs/data/peer_cases.md, case S1")
 
+#: OpenSees WheelRail on case S1 (Hertz contact of a 0.4575 m wheel, 10 kg wheel mass):
+#: the largest midspan deflection, +0.16 % on the rigid contact's 2.40732 mm.
+S1_OPENSEES_MIDSPAN = 2.41122e-3  # m
+S1_OPENSEES_SOURCE = ("OpenSees WheelRail (xara Tcl), 20 Euler FE, Hertz contact, 10 kg "
+                      "wheel; docs/data/peer_cases.md, case S1")
+
 #: OpenSees WheelRail (Hertz contact, 500 kg wheel, 3 mm x 0.5 m half-cosine dip at
 #: 12.5 m) on the Yang & Wu beam and sprung mass at 100 km/h, dt = 0.1 ms: case S2 of
 #: docs/data/peer_cases.md.

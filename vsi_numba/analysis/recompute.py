@@ -128,7 +128,8 @@ class CaseRunner:
         self._model = (bridge, trains, settings, profiles)
         return self._model
 
-    def run(self, train: str, speed: float, irregularity: int = DETERMINISTIC) -> xr.Dataset:
+    def run(self, train: str, speed: float, irregularity: int = DETERMINISTIC,
+            dt: float | None = None) -> xr.Dataset:
         """Simulate one case with time histories.
 
         Parameters
@@ -139,6 +140,8 @@ class CaseRunner:
             Speed (m s-1).
         irregularity : int
             Realisation id (seed; -1 = deterministic track).
+        dt : float, optional
+            Time step (s) instead of the stored configuration's (a convergence check).
 
         Returns
         -------
@@ -161,6 +164,10 @@ class CaseRunner:
                                  f"stored configuration ({', '.join(map(str, profiles))})")
         from vsi_numba.solver.simulate import simulate
 
+        if dt is not None:
+            import dataclasses
+
+            settings = dataclasses.replace(settings, dt=float(dt))
         _check_budget(bridge, trains[str(train)], float(speed), settings, self.points.size)
         bridge = self._bridge_for(trains[str(train)])  # the bridge the train ran on
         sim = simulate(bridge, trains[str(train)], float(speed), profiles[int(irregularity)],

@@ -35,6 +35,7 @@ from vsi_numba.analysis.recompute import CaseRunner
 from vsi_numba.analysis.report import profile as code_profile
 from vsi_numba.analysis.report import tables as tbl
 from vsi_numba.analysis.report.atomic import atomic_directory, checkpoint
+from vsi_numba.analysis.report.convergence import convergence_section
 from vsi_numba.analysis.report.document import (
     Figure,
     Section,
@@ -251,6 +252,8 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
     add(_cases(env))
     add(_statistics(results, env))
     body.append(load_effects.section)
+    body.append(convergence_section(env, results, runner))
+    checkpoint()
     for extra_section in sections or []:
         sec = extra_section(env, results) if callable(extra_section) else extra_section
         if sec is not None:

@@ -29,6 +29,9 @@ DT_THRESHOLD = 0.05
 #: value above which it is flagged.
 RESONANCE_THRESHOLD = 0.05
 
+#: What a re-run may raise (it is reported, the report goes on).
+_RERUN_ERRORS = (RecomputeError, ValueError, ArithmeticError, MemoryError)
+
 #: Resonance orders i of v_i = f1 D / i looked at.
 ORDERS = (1, 2, 3, 4)
 
@@ -129,7 +132,7 @@ def convergence_section(env: xr.Dataset, results: dict, runner: CaseRunner | Non
         return Section(title, ["Not checked: no check has a governing case."])
     try:
         _, _, settings, _ = runner.model()
-    except RecomputeError as exc:
+    except _RERUN_ERRORS as exc:
         return Section(title, [f"Not checked: the governing cases cannot be re-run ({exc})."])
     dt = float(settings.dt)
     cache: dict = {}
@@ -146,7 +149,7 @@ def convergence_section(env: xr.Dataset, results: dict, runner: CaseRunner | Non
         try:
             a = quantity(rerun(train, speed, irr, dt), name)
             b = quantity(rerun(train, speed, irr, dt / 2), name)
-        except RecomputeError as exc:
+        except _RERUN_ERRORS as exc:
             notes.append(f"{label}: not re-run ({exc}).")
             continue
         change = (b - a) / abs(a) if np.isfinite(a) and a != 0 else np.nan
@@ -160,7 +163,7 @@ def convergence_section(env: xr.Dataset, results: dict, runner: CaseRunner | Non
                 res_text = f"{v_res * 3.6:.1f} km/h: {c:.4g} ({100 * res_change:+.1f} %)"
                 if np.isfinite(res_change) and res_change > RESONANCE_THRESHOLD:
                     flag = True
-            except RecomputeError as exc:
+            except _RERUN_ERRORS as exc:
                 res_text = f"{v_res * 3.6:.1f} km/h: not re-run ({exc})"
         if flag:
             flagged.append(label)

@@ -68,7 +68,9 @@ def _read_mtx(path: Path, key, name, p: _Problems):
         return None
     problem = _mtx_header_problem(path)
     if problem is not None:
-        p.add(key, name, f"a Matrix Market file whose header fits its content ({problem})")
+        what = ("readable by scipy.io.mmread" if problem.startswith("unreadable header")
+                else "whose header fits its content")
+        p.add(key, name, f"a Matrix Market file {what} ({problem})")
         return None
     try:
         a = scipy.io.mmread(str(path))

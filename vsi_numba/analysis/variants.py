@@ -167,8 +167,8 @@ def _all_failed(ds: xr.Dataset) -> bool:
 
 
 _ALL_FAILED = ("every run of every variant failed numerically (status != 0, outputs NaN): "
-               "there is nothing to check. Fix the run (see the warnings and README 'When "
-               "things go wrong') and run it again")
+               "there is nothing to check. Fix the run (see the warnings and "
+               "docs/reference/troubleshooting.md) and run it again")
 
 
 def peak_deck_acceleration(ds: xr.Dataset) -> xr.DataArray:

@@ -7,7 +7,7 @@ from pathlib import Path
 from vsi_numba.cli.common import EXIT_USAGE, Printer
 
 #: The starter configuration: a small EN 1991-2 dynamic check that runs in seconds.
-#: Every key is explained; the full key reference is the README's configuration table.
+#: Every key is explained; the full key reference is docs/reference/configuration.md.
 TEMPLATE = '''\
 # vsi_numba configuration (TOML). Units: SI (m, s, kg, N) except keys ending in _kmh.
 # Check it without running:  vsi check {name}

@@ -80,7 +80,7 @@ def report_command(results: Path, outdir: Path | None = None) -> int:
             error(f"'{results}': every case ({n}) failed numerically (status != 0, "
                   "outputs NaN): there is nothing to check"
                   + (f"; e.g. {msgs[0]}" if msgs else "") + ". Fix the run (see the "
-                  "warnings and README 'When things go wrong') and run it again")
+                  "warnings and docs/reference/troubleshooting.md) and run it again")
             return 1
         for r in stored_warnings(data):
             error(f"warning: {r['message']}")

@@ -3,7 +3,7 @@ impact projection and the HHT-alpha time loop.
 
 Every jitted function of the time-loop call graph lives in this one module: numba's
 cache is keyed on the defining file only, so a callee in another module could be loaded
-stale (stack notes, section 2.4).
+stale (docs/manual/developer.md, "The numba cache").
 
 Legend (Neves et al., Eng. Struct. 69 (2014), Eqs. (3)-(12))
 -------------------------------------------------------------
@@ -1589,9 +1589,10 @@ def impact_update(br, veh, prm, st, wk, dt):
     n_m = st.q.shape[0]
     n_v = st.u.shape[0]
     n_w = veh.wheel_dof.shape[0]
-    # A landing is a plastic, unilateral impact (design note 1.4): make the
-    # velocities compatible with the rail with compressive impulses only (an LCP:
-    # a wheel whose rail moves away is released, whatever its gap), then the
+    # A landing is a plastic, unilateral impact (docs/manual/theory.md, "Contact and
+    # impacts"): make the velocities compatible with the rail with compressive
+    # impulses only (an LCP: a wheel whose rail moves away is released, whatever its
+    # gap), then the
     # accelerations consistent with the HHT equilibrium  M a1 + (1+alpha) B^T X1 = h
     # and X1 >= 0 (a wheel whose force would be tensile is released too).  h of
     # the completed step is h_step = M a1 + (1+alpha) B^T X_step; the velocity jump

@@ -16,6 +16,7 @@ loads.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -165,8 +166,6 @@ class CaseRunner:
         from vsi_numba.solver.simulate import simulate
 
         if dt is not None:
-            import dataclasses
-
             settings = dataclasses.replace(settings, dt=float(dt))
         _check_budget(bridge, trains[str(train)], float(speed), settings, self.points.size)
         bridge = self._bridge_for(trains[str(train)])  # the bridge the train ran on

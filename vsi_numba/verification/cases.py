@@ -97,12 +97,9 @@ def _ei_for(f1, L, m):
 
 
 # ------------------------------------------------------------------ V01 Fryba moving force
-def v01_fryba(workdir: Path) -> list[Row]:
-    L, m, f1, P, approach = 20.0, 1.0e4, 2.0, 1.0e5, 0.5
-    EI = _ei_for(f1, L, m)
-    alphas = sorted(ref.FRYBA_DAF)
-    speeds = [a * 2.0 * f1 * L * 3.6 for a in alphas]
-    text = _ss_bridge(L, EI, m, 0.0, 10, [L / 2]) + "[train]\n" + _forces([0.0], P) + f"""
+def _fryba_run(approach: float, speeds) -> str:
+    """The rigid-track, undamped-integration part of the moving-force cases' config."""
+    return f"""
         [track]
         model = "rigid"
         [solver]
@@ -114,19 +111,32 @@ def v01_fryba(workdir: Path) -> list[Row]:
         speeds_kmh = {speeds!r}
         save_time_histories = true
         """
-    ds = sweep(workdir, "v01_fryba", text)
+
+
+def _daf(ds, i: int, approach: float, L: float, P: float, EI: float) -> float:
+    """Peak midspan deflection while the force is on the span / P L^3 / (48 EI), speed i."""
+    v = float(ds["speed"].values[i])
     t = ds["time"].values
-    w_st = P * L**3 / (48.0 * EI)
+    on = (t >= approach / v) & (t <= (approach + L) / v)
+    w = ds["deck_displacement"].isel(speed=i, train=0, irregularity=0, point=0).values
+    return float(np.nanmax(w[on])) / (P * L**3 / (48.0 * EI))
+
+
+def v01_fryba(workdir: Path) -> list[Row]:
+    L, m, f1, P, approach = 20.0, 1.0e4, 2.0, 1.0e5, 0.5
+    EI = _ei_for(f1, L, m)
+    alphas = sorted(ref.FRYBA_DAF)
+    speeds = [a * 2.0 * f1 * L * 3.6 for a in alphas]
+    text = (_ss_bridge(L, EI, m, 0.0, 10, [L / 2]) + "[train]\n" + _forces([0.0], P)
+            + _fryba_run(approach, speeds))
+    ds = sweep(workdir, "v01_fryba", text)
     rows = []
     for i, a in enumerate(alphas):
-        v = float(ds["speed"].values[i])
-        on = (t >= approach / v) & (t <= (approach + L) / v)
-        w = ds["deck_displacement"].isel(speed=i, train=0, irregularity=0, point=0).values
         rows.append(Row(
             f"V01-{a:g}", f"Moving force on a simply supported beam, alpha = {a:g}",
             ref.FRYBA_SOURCE, "moving force, 10 modes, undamped, HHT alpha = 0, dt 0.2 ms",
             "DAF of midspan deflection while the force is on the span", "-",
-            ref.FRYBA_DAF[a], float(np.nanmax(w[on])) / w_st, 1e-3 if a == 1.0 else 1e-4,
+            ref.FRYBA_DAF[a], _daf(ds, i, approach, L, P, EI), 1e-3 if a == 1.0 else 1e-4,
             "the table's alpha = 1.0 entry is 4e-4 above its own series (1.5481)" if a == 1.0
             else "table rounded to 4 decimals (<= 5e-5); modes 11-60, the period error and the "
             "peak sampled at dt 0.2 ms: < 2e-5"))
@@ -417,33 +427,17 @@ def v13_imported_modes(workdir: Path) -> list[Row]:
         damping_ratio = 0.0
         output_points = [{L / 2!r}]
         [train]
-        """ + _forces([0.0], P) + f"""
-        [track]
-        model = "rigid"
-        [solver]
-        dt = 2e-4
-        hht_alpha = 0.0
-        approach = {approach}
-        free_vibration = 0.05
-        [study]
-        speeds_kmh = {speeds!r}
-        save_time_histories = true
-        """
+        """ + _forces([0.0], P) + _fryba_run(approach, speeds)
     ds = sweep(workdir, "v13_imported", text)
-    t = ds["time"].values
-    w_st = P * L**3 / (48.0 * EI)
     rows = []
     for i, a in enumerate(alphas):
-        v = float(ds["speed"].values[i])
-        on = (t >= approach / v) & (t <= (approach + L) / v)
-        w = ds["deck_displacement"].isel(speed=i, train=0, irregularity=0, point=0).values
         rows.append(Row(
             f"V13-{a:g}", f"Moving force on a deck imported as a modes table, alpha = {a:g}",
             ref.FRYBA_SOURCE + "; the table: the sine modes at 0.25 m stations with slopes "
             "(vsi_numba.verification.reference.ss_mode_table)",
             "modes_file (CSV, 10 modes, Hermite cubics between stations), moving force, "
             "HHT alpha = 0, dt 0.2 ms", "DAF of midspan deflection while the force is on "
-            "the span", "-", ref.FRYBA_DAF[a], float(np.nanmax(w[on])) / w_st,
+            "the span", "-", ref.FRYBA_DAF[a], _daf(ds, i, approach, L, P, EI),
             1e-3 if a == 1.0 else 1e-4,
             "as V01 (the table's alpha = 1.0 entry is 4e-4 above its series); the Hermite "
             "cubic of mode 10 between 0.25 m stations: < 1e-4 of its ordinates"))

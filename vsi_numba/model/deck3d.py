@@ -435,7 +435,6 @@ def simply_supported(
     n_t = _torsion_kept(f_t, float(planar.frequencies[-1]), max_frequency, n_torsion_modes)
     f_t = f_t[:n_t]
     freqs, order = _merge(planar.frequencies, f_t)
-    n_m = freqs.size
     half_waves = max(n_b, n_t, 1)
     nodes = np.linspace(0.0, L, SINE_TABLE_PER_HALF_WAVE * half_waves + 1)
     kb = np.pi * np.arange(1, n_b + 1) / L

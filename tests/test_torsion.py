@@ -1,0 +1,220 @@
+"""Decks in space (vsi_numba.model.deck3d): torsional modes, eccentric tracks and the deck
+twist against references written here (closed-form St-Venant torsion, a torsion FE
+model assembled in the test), and today's planar model bit for bit without torsion."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vsi_numba.model import bridge as br
+from vsi_numba.model import deck3d as d3
+from vsi_numba.model import vehicle as vh
+from vsi_numba.model.irregularity import no_irregularity
+from vsi_numba.solver.pack import pack
+from vsi_numba.solver.settings import SolverSettings
+from vsi_numba.solver.simulate import run_batch
+
+# a 20 m box-girder deck carrying two tracks
+L, EI, MASS = 20.0, 2.0e10, 15000.0
+GJ, IP = 2.0e10, 4.0e4
+ECC = 2.2
+S = 1.435
+
+
+def _rotation(x, a, span, gj=GJ):
+    """St-Venant rotation (rad per N m) at x of a unit torque at a, fork-supported span
+    [0, span] (x, a in the span): piecewise linear, the kink at the torque."""
+    x = np.asarray(x, float)
+    inside = (x >= 0) & (x <= span)
+    return np.where(inside, np.where(x <= a, x * (span - a), a * (span - x)) / (gj * span),
+                    0.0)
+
+
+def test_simply_supported_torsional_frequencies_closed_form():
+    deck = d3.simply_supported(L, EI, MASS, d3.Torsion(GJ, IP, 0.02),
+                               [{"eccentricity": ECC}], n_modes=4, n_torsion_modes=6)
+    tor = deck.torsional_share > 0.5
+    j = np.arange(1, 7)
+    # closed form omega_j = (j pi / L) sqrt(GJ / I_p); the model evaluates the same
+    # formula: agreement to round-off
+    np.testing.assert_allclose(deck.frequencies[tor], j * np.pi / L * np.sqrt(GJ / IP)
+                               / (2 * np.pi), rtol=1e-12)
+    np.testing.assert_allclose(deck.frequencies[~tor], br.simply_supported(
+        L, EI, MASS, n_modes=4).frequencies, rtol=1e-12)
+    np.testing.assert_array_equal(deck.bending.damping[tor], 0.02)
+    # unit modal mass of the torsional modes, int I_p theta_j theta_k dx = delta_jk, by
+    # Gauss quadrature of the tabulated shapes (Hermite table of the sines: 2.5e-7 of the
+    # amplitude, squared and integrated: 1e-6 is 4x the table's error)
+    g, w = np.polynomial.legendre.leggauss(8)
+    edges = np.linspace(0, L, 41)
+    xq = (0.5 * (edges[:-1] + edges[1:])[:, None] + 0.5 * np.diff(edges)[:, None] * g).ravel()
+    wq = np.tile(0.5 * np.diff(edges)[0] * w, edges.size - 1)
+    th = deck.theta(xq)[:, tor]
+    np.testing.assert_allclose(IP * (th * wq[:, None]).T @ th, np.eye(6), atol=1e-6)
+
+
+def test_track_line_and_rails_are_phi_plus_y_theta():
+    deck = d3.simply_supported(L, EI, MASS, d3.Torsion(GJ, IP),
+                               [{"eccentricity": ECC}, {"eccentricity": -ECC}], n_modes=3,
+                               n_torsion_modes=3)
+    x = np.linspace(0.0, L, 57)
+    k = np.pi * np.arange(1, 4) / L
+    phi = np.sqrt(2 / (MASS * L)) * np.sin(np.outer(x, k))
+    theta = np.sqrt(2 / (IP * L)) * np.sin(np.outer(x, k))
+    tor = deck.torsional_share > 0.5
+    for t, y in ((0, ECC), (1, -ECC)):
+        want = np.zeros((x.size, 6))
+        want[:, ~tor] = phi
+        want[:, tor] = y * theta
+        # the kernels' table (Hermite cubics of the sines, 32 intervals per half wave of
+        # the highest mode: (k h)^4 / 384 = 2.5e-7 of the amplitude; 1e-6 relative)
+        got = deck.track_bridge(t).shapes(x)
+        np.testing.assert_allclose(got, want, atol=1e-6 * np.abs(want).max())
+        left, right = deck.rail_shapes(t, x)
+        np.testing.assert_allclose(left - right, S * deck.theta(x), atol=1e-15)
+    with pytest.raises(d3.SpaceModelError, match="train.track = 3"):
+        deck.track_bridge(2)
+
+
+def test_crawl_twist_against_st_venant_rotation_of_a_point_torque():
+    """A force P crawls along the eccentric track: the deck twist over 3 m from the
+    kernels' modal coordinates against s (theta(x) - theta(x + 3)) of the point torque
+    P e, closed form."""
+    n_t = 60
+    deck = d3.simply_supported(L, EI, MASS, d3.Torsion(GJ, IP, 0.05),
+                               [{"eccentricity": ECC}], n_modes=4, n_torsion_modes=n_t,
+                               damping_ratio=0.05)
+    bridge = deck.track_bridge(0)
+    P = 200e3
+    train = vh.Train("P", (vh.moving_force(P),), (0.0,))
+    v = 1.0
+    settings = SolverSettings(dt=0.01, approach=0.0, free_vibration=0.0)
+    packed = pack(bridge, train, v, None, settings)
+    res = run_batch(packed, no_irregularity(), [v], [10.0], settings, bridge,
+                    keep_histories=[True])
+    n = int(res.n_steps[0]) + 1
+    q = res.out.q[0, :n]
+    starts = np.array([-1.5, 2.0, 6.0, 8.5, 14.0, 17.0])
+    twist = q @ deck.twist_operator(0, starts).T  # (time, window)
+    a = np.clip(np.arange(n) * settings.dt * v, 0.0, L)  # the force's abscissa
+    ref = S * P * ECC * (_rotation(starts[None, :], a[:, None], L)
+                         - _rotation(starts[None, :] + 3.0, a[:, None], L))
+    # the same static twist from the first n_t terms of the modal series of the point
+    # torque, sum_j theta_j(x) theta_j(a) / w_j^2 (closed-form modes, written here)
+    j = np.arange(1, n_t + 1)
+    th = lambda x: np.sqrt(2 / (IP * L)) * np.sin(np.multiply.outer(x, j * np.pi / L))  # noqa: E731
+    w2 = (j * np.pi / L) ** 2 * GJ / IP
+    series = S * P * ECC * np.einsum("tj,twj->tw", th(a) / w2,
+                                     th(starts[None, :] + 0 * a[:, None])
+                                     * ((starts[None, :] >= 0)[..., None])
+                                     - th(starts[None, :] + 3.0 + 0 * a[:, None]))
+    peak = np.abs(ref).max()
+    # kernels against the truncated series: what is left is the dynamic part of a crawl
+    # at 1 m/s (measured 0.11 % of the peak): tolerance 0.3 %
+    assert np.abs(twist - series).max() <= 3e-3 * peak
+    # and against the closed form: the series converges like 1/n at the torque (the kink
+    # of theta): its own truncation error (1.3 % of the peak with 60 modes, computed
+    # here) plus the same 0.3 %
+    trunc = np.abs(series - ref).max()
+    assert trunc <= 0.02 * peak
+    assert np.abs(twist - ref).max() <= trunc + 3e-3 * peak
+    # sign: a load on the left track (y > 0) turns the deck left side down (theta > 0):
+    # a window starting at mid-span of the loaded half twists positive (theta decreases)
+    assert twist[np.argmin(np.abs(a - 6.0)), 2] > 0
+
+
+def _torsion_fe(spans, gj, ip, ne):
+    """Torsion of a continuous deck, linear elements, theta = 0 at every support
+    (written here, independent of the package)."""
+    sup = np.concatenate([[0.0], np.cumsum(spans)])
+    x = np.unique(np.concatenate([np.linspace(a, b, ne + 1) for a, b in
+                                  zip(sup[:-1], sup[1:], strict=True)]))
+    n = x.size
+    K = np.zeros((n, n))
+    M = np.zeros((n, n))
+    for e in range(n - 1):
+        h = x[e + 1] - x[e]
+        K[e:e + 2, e:e + 2] += gj / h * np.array([[1, -1], [-1, 1]])
+        M[e:e + 2, e:e + 2] += ip * h / 6 * np.array([[2, 1], [1, 2]])
+    fixed = np.searchsorted(x, sup)
+    free = np.setdiff1d(np.arange(n), fixed)
+    return x, K, M, free
+
+
+def test_continuous_two_span_torsion_frequencies_and_static_twist():
+    spans = [20.0, 25.0]
+    ne = 40
+    deck = d3.continuous(spans, EI, MASS, d3.Torsion(GJ, IP, 0.01),
+                         [{"eccentricity": ECC}], n_modes=4, n_torsion_modes=6,
+                         elements_per_span=ne)
+    tor = deck.torsional_share > 0.5
+    assert tor.sum() == 6 and (~tor).sum() == 4
+    # torsion restrained at the middle support: each span twists on its own,
+    # f = j / (2 L_s) sqrt(GJ / I_p); linear elements with consistent mass overestimate
+    # by (k h)^2 / 24 (k = j pi / L_s, h = L_s / 40): tolerance 2x that bound per mode
+    fam = sorted((j / (2 * s) * np.sqrt(GJ / IP), j * np.pi / s * (s / ne))
+                 for s in spans for j in range(1, 5))[:6]
+    closed, kh = np.array(fam).T
+    rel = deck.frequencies[tor] / closed - 1
+    assert np.all(rel >= 0) and np.all(rel <= 2 * kh**2 / 24), rel
+    # bending modes: those of the planar FE deck (the same eigen-solve holds both)
+    np.testing.assert_allclose(deck.frequencies[~tor], br.continuous(
+        spans, EI, MASS, n_modes=4, elements_per_span=ne).frequencies, rtol=1e-9)
+    # static twist of a load on the eccentric track: the package's influence line
+    # (closed form) against the test's FE static solve, at nodes (the linear FE is exact
+    # at the nodes for point torques at nodes: agreement to round-off)
+    x, K, M, free = _torsion_fe(spans, GJ, IP, ne)
+    starts = np.array([-2.0, 3.0, 16.5, 19.0, 21.0, 33.0, 43.0])
+    line = deck.static_twist_line(0, starts)
+    for a in (5.0, 17.5, 20.0, 31.25, 42.5):
+        f = np.zeros(x.size)
+        f[np.searchsorted(x, a)] = ECC  # the torque of a unit force at y = ECC
+        th = np.zeros(x.size)
+        th[free] = np.linalg.solve(K[np.ix_(free, free)], f[free])
+        want = S * (np.interp(starts, x, th, left=0.0, right=0.0)
+                    - np.interp(starts + 3.0, x, th, left=0.0, right=0.0))
+        np.testing.assert_allclose(line(np.array([a]))[:, 0], want, rtol=1e-9,
+                                   atol=1e-12 * np.abs(want).max())
+        # and from the package's modes, all torsional modes kept: the static modal sum
+        # sum_j T_j w_j(a, e) / w_j^2 is the FE static solution (complete basis)
+    full = d3.continuous(spans, EI, MASS, d3.Torsion(GJ, IP), [{"eccentricity": ECC}],
+                         n_modes=2, n_torsion_modes=2 * ne - 1, elements_per_span=ne)
+    a = 31.25
+    modal = (full.twist_operator(0, starts) / full.bending.omega**2) @ \
+        full.track_shapes(0, [a])[0]
+    np.testing.assert_allclose(modal, line(np.array([a]))[:, 0], rtol=1e-7,
+                               atol=1e-9 * np.abs(modal).max())
+
+
+@pytest.mark.parametrize("kind", ["simply_supported", "continuous"])
+@pytest.mark.parametrize("ecc", [0.0, 2.2])
+def test_no_torsion_is_todays_model_bit_for_bit(kind, ecc):
+    if kind == "simply_supported":
+        planar = br.simply_supported(L, EI, MASS, n_modes=6, damping_ratio=0.01)
+        deck = d3.simply_supported(L, EI, MASS, None, [{"eccentricity": ecc}], n_modes=6,
+                                   damping_ratio=0.01)
+    else:
+        planar = br.continuous([15.0, 20.0], EI, MASS, n_modes=6, damping_ratio=0.01)
+        deck = d3.continuous([15.0, 20.0], EI, MASS, None, [{"eccentricity": ecc}],
+                             n_modes=6, damping_ratio=0.01)
+    train = vh.Train("P", (vh.moving_force(100e3), vh.moving_force(100e3)), (0.0, 3.0))
+    settings = SolverSettings(dt=2e-3)
+    a = pack(planar, train, 50.0, None, settings).bridge
+    b = pack(deck.track_bridge(0), train, 50.0, None, settings).bridge
+    for name, va, vb in zip(a._fields, a, b, strict=True):
+        if isinstance(va, np.ndarray):
+            assert va.tobytes() == vb.tobytes() and va.shape == vb.shape, name
+        else:
+            assert va == vb, name
+
+
+def test_bad_track_and_torsion_inputs_name_the_key():
+    with pytest.raises(d3.SpaceModelError, match=r"bridge.torsion.GJ = -1.0.*> 0"):
+        d3.Torsion(-1.0, IP)
+    with pytest.raises(d3.SpaceModelError, match=r"bridge.torsion.damping_ratio"):
+        d3.Torsion(GJ, IP, 1.5)
+    with pytest.raises(d3.SpaceModelError, match=r"bridge.tracks\[1\]: unknown key"):
+        d3.tracks_from([{"eccentricity": 2.0}, {"eccentricty": -2.0}])
+    with pytest.raises(d3.SpaceModelError, match=r"bridge.tracks\[0\]: eccentricity"):
+        d3.tracks_from([{"eccentricity": float("nan")}])

@@ -218,3 +218,51 @@ def test_bad_track_and_torsion_inputs_name_the_key():
         d3.tracks_from([{"eccentricity": 2.0}, {"eccentricty": -2.0}])
     with pytest.raises(d3.SpaceModelError, match=r"bridge.tracks\[0\]: eccentricity"):
         d3.tracks_from([{"eccentricity": float("nan")}])
+
+
+def test_static_twist_check_lm71_brute_force_and_limits():
+    """EN 1990 A2.4.4.2.2: LM71 x Phi x alpha on one track, placed most unfavourably,
+    against a brute-force placement written here (closed-form rotation, axle group
+    centre every 2 cm, the 80 kN/m wherever it twists the same way)."""
+    from vsi_numba.analysis.checks.twist import static_twist_check, twist_limit
+
+    deck = d3.simply_supported(L, EI, MASS, d3.Torsion(GJ, IP), [{"eccentricity": ECC},
+                                                               {"eccentricity": -ECC}],
+                               n_modes=2)
+    alpha, phi = 1.21, 1.12
+    checks = static_twist_check(deck, 250.0, alpha, phi)
+    assert [(c.loaded, c.track) for c in checks] == [(1, 1), (1, 2), (2, 1), (2, 2)]
+    best = max(checks, key=lambda c: c.utilisation)
+    # brute force: window starts and load positions on fine grids
+    xs = np.linspace(0.0, L, 8001)  # UDL integration grid (2.5 mm)
+    dx = xs[1] - xs[0]
+    starts = np.linspace(-3.0, L, 231)
+    line = S * ECC * (_rotation(starts[:, None], xs[None, :], L)
+                      - _rotation(starts[:, None] + 3.0, xs[None, :], L))  # m/N
+    pos = np.clip(line, 0, None)
+    neg = np.clip(-line, 0, None)
+    cum = [np.concatenate([np.zeros((starts.size, 1)), np.cumsum(0.5 * (p[:, 1:] + p[:, :-1])
+                                                                 * dx, axis=1)], axis=1)
+           for p in (pos, neg)]
+    worst = 0.0
+    for c in np.arange(-3.2, L + 3.2, 0.02):
+        axles = c + np.array([-2.4, -0.8, 0.8, 2.4])
+        on = (axles >= 0) & (axles <= L)
+        pts = 250e3 * (S * ECC * (_rotation(starts[:, None], axles[None, on], L)
+                                  - _rotation(starts[:, None] + 3.0, axles[None, on], L))
+                       ).sum(axis=1)
+        i0, i1 = np.searchsorted(xs, [c - 3.2, c + 3.2])
+        i0, i1 = min(i0, xs.size - 1), min(i1, xs.size - 1)
+        for sign, cu in ((1.0, cum[0]), (-1.0, cum[1])):
+            udl = 80e3 * (cu[:, -1] - (cu[:, i1] - cu[:, i0]))
+            worst = max(worst, np.max(sign * pts + udl))
+    worst *= alpha * phi
+    # grids of 2 cm / 2.5 mm against the check's crossings: measured 1.0e-5, tolerance 3x
+    assert best.value == pytest.approx(worst, rel=3e-5)
+    # a 20 m span, GJ = 2e10, e = 2.2 m: about a millimetre (plausible for a box girder)
+    assert 2e-4 < best.value < 5e-3
+    assert best.limit == 1.5e-3
+    assert [twist_limit(v) for v in (120.0, 120.1, 200.0, 200.1)] == [4.5e-3, 3e-3, 3e-3,
+                                                                      1.5e-3]
+    # a beam deck twists as a whole: track 2 (same gauge) sees the twist of track 1
+    np.testing.assert_allclose(checks[1].twist_max, checks[0].twist_max)

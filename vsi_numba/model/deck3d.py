@@ -353,23 +353,31 @@ class BeamDeck3D:
             supports=ax.supports, description=f"{ax.description}; {where}",
             deck=ax, static=ax.static)
 
-    def static_twist_line(self, k: int, at, base: float = TWIST_BASE):
+    def static_twist_line(self, k: int, at, base: float = TWIST_BASE,
+                          loaded: int | None = None):
         """Influence line of the static twist (m per N) of track ``k`` at the window
-        starts ``at`` under a unit downward force on track ``k``: a callable
-        ``line(x_load) -> (len(at), len(x_load))`` (closed-form St-Venant torsion, a
-        point torque y_k per newton)."""
+        starts ``at`` under a unit downward force on track ``loaded`` (default ``k``): a
+        callable ``line(x_load) -> (len(at), len(x_load))`` (closed-form St-Venant
+        torsion of the point torque y_loaded per newton; the bending part does not twist
+        a beam deck)."""
         if not self.has_torsion:
             raise SpaceModelError("the deck twist needs the deck's torsion: give "
                                   "bridge.torsion = { GJ = ..., polar_mass = ... }")
-        tr = self._track(k)
+        s = float(self._track(k).gauge)
+        y = float(self._track(k if loaded is None else loaded).eccentricity)
         at = np.atleast_1d(np.asarray(at, float))
-        s, y = float(tr.gauge), float(tr.eccentricity)
         sup, gj = self.supports, self.GJ
 
         def line(x_load):
             return s * y * (torsion_green(sup, gj, at, x_load)
                             - torsion_green(sup, gj, at + base, x_load))
         return line
+
+    def twist_breakpoints(self, at, base: float = TWIST_BASE) -> np.ndarray:
+        """Where the static twist lines at the window starts ``at`` have kinks: the
+        supports and both ends of every window (for the LM71 placement search)."""
+        at = np.atleast_1d(np.asarray(at, float))
+        return np.unique(np.concatenate([self.supports, at, at + base]))
 
 
 def twist_grid(supports, intervals: int = 32, base: float = TWIST_BASE) -> np.ndarray:

@@ -53,7 +53,7 @@ MOVING_FORCE_MODULES = frozenset({
     "test_load_distribution", "test_load_effect_checks", "test_output_lock",
     "test_foreign_results", "test_cli_outputs",
     "test_report_atomic", "test_report_summary", "test_default_modes",
-    "test_report_convergence"})
+    "test_report_convergence", "test_torsion", "test_imported_tracks"})
 
 #: Test modules with a test that runs the interaction kernels (measured): one such test
 #: early would make its process wait for the compilation.

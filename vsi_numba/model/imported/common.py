@@ -3,7 +3,7 @@ the checks and steps applied to mode shapes along a track line."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.interpolate
@@ -54,12 +54,17 @@ class ImportResult:
     warnings : tuple of str
     lines : tuple of str
         The track lines available in the data.
+    line_shapes : dict
+        Other lines asked for (``extra_lines`` of
+        :func:`~vsi_numba.model.imported.modes_from_matrices`): name -> (x, values,
+        slopes), the retained modes with the signs and normalisation of ``bridge``.
     """
 
     bridge: _br.ModalBridge
     all_frequencies: np.ndarray
     warnings: tuple[str, ...] = ()
     lines: tuple[str, ...] = ()
+    line_shapes: dict = field(default_factory=dict)
 
 
 # ------------------------------------------------------------------------ shared steps

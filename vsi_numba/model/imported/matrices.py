@@ -224,6 +224,7 @@ def modes_from_matrices(
     names: dict | None = None,
     line: str = "",
     dof_base: int = 0,
+    extra_lines: dict | None = None,
 ) -> ImportResult:
     """Modes of FE matrices, tabulated along a track line.
 
@@ -258,6 +259,10 @@ def modes_from_matrices(
         Name of the track line (messages, description).
     dof_base : int
         Numbering base of the DOFs in messages (the arrays are 0-based).
+    extra_lines : dict, optional
+        Other lines to tabulate the same modes on (rails, other tracks): name ->
+        ``(x, dofs, rotation_dofs or None)`` as for the main line; returned in
+        ``ImportResult.line_shapes`` with the main line's mode signs.
 
     Returns
     -------
@@ -411,7 +416,31 @@ def modes_from_matrices(
                             "DOFs (wrong rotation_dof column, or too few stations per mode?)")
     else:
         slopes = _spline_slopes(x, values)
+    sign = np.sign(values[np.argmax(np.abs(values), axis=0), np.arange(values.shape[1])])
+    sign[sign == 0] = 1.0
     values, slopes = _flip_positive(values, slopes)
+    line_shapes = {}
+    for name, (xe, de, re) in (extra_lines or {}).items():
+        xe = np.asarray(xe, float)
+        de = np.asarray(de, dtype=np.int64)
+        bad = (de < 0) | (de >= n)
+        if re is not None:
+            re = np.asarray(re, dtype=np.int64)
+            bad |= (re < 0) | (re >= n)
+        if bad.any() or not _check_stations(p, "station_map", names["stations"], xe, name,
+                                            length):
+            if bad.any():
+                p.add("station_map", names["stations"],
+                      f"DOFs of the {n}-DOF matrices on line '{name}'")
+            continue
+        ve = phi[de] * sign
+        se = (rotation_sign * phi[re] * sign if re is not None
+              else _spline_slopes(xe, ve))
+        xe = xe.copy()
+        xe[0] = 0.0
+        if length is not None:
+            xe[-1] = length
+        line_shapes[name] = (xe, np.ascontiguousarray(ve), np.ascontiguousarray(se))
     zeta = _damping(p, damping_ratio, None, n_keep, warnings)
     p.raise_if_any()
     xs = x.copy()
@@ -437,7 +466,8 @@ def modes_from_matrices(
                           stations=xs, dofs=dofs, rotation_dofs=rot,
                           rotation_sign=float(rotation_sign)),
     )
-    return ImportResult(bridge, freqs.copy(), tuple(warnings), (line,) if line else ())
+    return ImportResult(bridge, freqs.copy(), tuple(warnings), (line,) if line else (),
+                        line_shapes)
 
 
 def _read_station_map(path: Path, name, p: _Problems, dof_base: int):

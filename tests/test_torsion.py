@@ -266,3 +266,40 @@ def test_static_twist_check_lm71_brute_force_and_limits():
                                                                       1.5e-3]
     # a beam deck twists as a whole: track 2 (same gauge) sees the twist of track 1
     np.testing.assert_allclose(checks[1].twist_max, checks[0].twist_max)
+
+
+def test_per_track_envelopes_are_rows_of_the_output_operator():
+    """Twist and track-line displacement envelopes need no kernel change: stacked under
+    the planar output operator, the kernels' envelope is max_t |row @ q| of each row
+    (checked against the histories of the same run)."""
+    from vsi_numba.solver.simulate import deck_operators
+
+    deck = d3.simply_supported(L, EI, MASS, d3.Torsion(GJ, IP, 0.02),
+                               [{"eccentricity": ECC}, {"eccentricity": -ECC}], n_modes=4,
+                               damping_ratio=0.02)
+    bridge = deck.track_bridge(0)
+    points = [5.0, 10.0]
+    rows = d3.output_rows(deck, points)
+    assert rows.has_twist.all() and rows.twist.shape == (2, rows.starts.size, deck.n_modes)
+    settings = SolverSettings(dt=2e-3, free_vibration=0.1)
+    phi_d, phi_a, cutoff = deck_operators(bridge, points, settings)[:3]
+    extra = np.concatenate([rows.disp.reshape(-1, deck.n_modes),
+                            rows.twist.reshape(-1, deck.n_modes)])
+    stacked_d = np.ascontiguousarray(np.vstack([phi_d, extra]))
+    stacked_a = np.ascontiguousarray(np.vstack([phi_a, np.zeros_like(extra)]))
+    train = vh.Train("P", tuple(vh.moving_force(150e3) for _ in range(4)),
+                     (0.0, 3.0, 17.0, 20.0))
+    v = 60.0
+    packed = pack(bridge, train, v, None, settings)
+    res = run_batch(packed, no_irregularity(), [v], points, settings, bridge,
+                    keep_histories=[True], deck=(stacked_d, stacked_a, cutoff))
+    n = int(res.n_steps[0]) + 1
+    q = res.out.q[0, :n]
+    np.testing.assert_allclose(res.red.disp[0, phi_d.shape[0]:],
+                               np.abs(q @ extra.T).max(axis=0), rtol=1e-12)
+    # the first rows are today's deck outputs (the axis), untouched
+    np.testing.assert_allclose(res.red.disp[0, :2], np.abs(q @ phi_d.T).max(axis=0),
+                               rtol=1e-12)
+    # track 1 is loaded: its line deflects more than the axis and than track 2
+    d1, d2 = res.red.disp[0, 2:4], res.red.disp[0, 4:6]
+    assert np.all(d1 > res.red.disp[0, :2]) and np.all(d1 > d2)

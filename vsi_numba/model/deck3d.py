@@ -577,3 +577,48 @@ def continuous(
     return BeamDeck3D(bending, Table(nodes, np.ascontiguousarray(th), dth, linear=True),
                       Table(nodes, np.ascontiguousarray(th), dth), tracks, supports,
                       GJ=gj, torsional_share=share)
+
+
+@dataclass(frozen=True)
+class OutputRows:
+    """Rows of the output operators of a deck in space, to stack under the planar
+    ``phi_d`` / ``phi_a`` of :func:`vsi_numba.solver.batch.deck_operators`: the kernels'
+    envelope loop takes ``max_t |row @ q|`` and ``max_t |row_a @ qdd|`` of every row, so
+    per-track outputs need no kernel change.
+
+    ``disp`` (n_track, n_p, n_m): deck displacement along each track line at the output
+    points (acceleration rows: the same, with the modes above the cut-off zeroed by the
+    caller); ``twist`` (n_track, n_w, n_m): twist over ``base`` of each track at the
+    window starts ``starts`` (n_w,), all-NaN rows for a track without rails.
+    """
+
+    disp: np.ndarray
+    twist: np.ndarray
+    starts: np.ndarray
+    has_twist: np.ndarray  # (n_track,) bool
+
+
+def output_rows(deck, points, starts=None, base: float = TWIST_BASE) -> OutputRows:
+    """:class:`OutputRows` of ``deck`` (:class:`BeamDeck3D` or
+    :class:`~vsi_numba.model.imported.lines.LineDeck3D`) at the output ``points`` and
+    the twist window ``starts`` (default: the output points and the whole-deck twist
+    grid, merged)."""
+    points = np.atleast_1d(np.asarray(points, float))
+    if starts is None:
+        starts = np.unique(np.concatenate([deck.twist_grid(base=base), points]))
+    starts = np.atleast_1d(np.asarray(starts, float))
+    n_t, n_m = len(deck.tracks), deck.n_modes
+    disp = np.stack([deck.track_shapes(k, points) for k in range(n_t)])
+    twist = np.full((n_t, starts.size, n_m), np.nan)
+    has = np.zeros(n_t, bool)
+    for k in range(n_t):
+        if isinstance(deck, BeamDeck3D) and not deck.has_torsion:
+            twist[k] = 0.0  # no torsion: the deck does not twist
+            has[k] = True
+            continue
+        try:
+            twist[k] = deck.twist_operator(k, starts, base)
+            has[k] = True
+        except SpaceModelError:
+            pass
+    return OutputRows(disp, twist, starts, has)

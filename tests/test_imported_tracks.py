@@ -321,3 +321,20 @@ def test_grillage_static_twist_check(exported):
     dz = np.interp(z, x, rl, left=0, right=0) - np.interp(z, x, rr, left=0, right=0)
     axles_only = abs(dz[0] - dz[1])
     assert c.value >= axles_only * (1 - 1e-9) and axles_only > 0.3 * c.value
+
+
+def test_one_track_line_is_todays_import_bit_for_bit(exported):
+    """A track named by one line of the station map gives the modes read_matrices gives
+    for that line, bit for bit."""
+    from vsi_numba.model.imported import read_matrices
+
+    d, (x, K, M, fixed, dof) = exported
+    old = read_matrices(d / "K.mtx", d / "M.mtx", d / "stations.csv", track_line="A/left",
+                        fixed_dofs=fixed.tolist(), n_modes=8, spans=[L]).bridge
+    new = read_matrices_tracks(d / "K.mtx", d / "M.mtx", d / "stations.csv",
+                               [{"line": "A/left"}], fixed_dofs=fixed.tolist(), n_modes=8,
+                               spans=[L]).track_bridge(0)
+    for name in ("frequencies", "damping", "nodes", "values", "slopes", "supports",
+                 "effective_mass_fraction"):
+        a, b = getattr(old, name), getattr(new, name)
+        assert a.tobytes() == b.tobytes(), name

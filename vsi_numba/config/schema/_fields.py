@@ -1,0 +1,160 @@
+"""The building blocks of the declared schema: numbers with bounds, and :func:`key`, the
+one declaration of a configuration key (type, bounds, default, unit, description and the
+expectation its error message states).
+
+A key is declared once, as a field of a section model (:mod:`.models`)::
+
+    dt: Num(gt=0) = key(1e-3, unit="s", doc="time step", expected="a time step > 0 s")
+
+From that declaration come the JSON Schema shipped with the package, the key reference of
+the documentation, the ``vsi init`` template and the numeric checks of the section readers
+(:func:`spec_of` turns the field into the reader's :class:`~vsi_numba.config._check._Num`).
+"""
+
+from __future__ import annotations
+
+import types
+import typing
+from typing import Annotated, Any, Union
+
+import annotated_types as at
+from pydantic import BaseModel, ConfigDict, Field
+from pydantic_core import PydanticUndefined
+
+#: Every section model: unknown keys are errors, numbers are TOML numbers (no strings, no
+#: booleans), integers stay integers, nan and inf are refused.
+STRICT = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False,
+                    populate_by_name=False, use_attribute_docstrings=False)
+
+
+class Section(BaseModel):
+    """Base of every section model (one TOML table)."""
+
+    model_config = STRICT
+
+
+def Num(*, gt=None, ge=None, lt=None, le=None):  # noqa: N802 (reads as a type)
+    """A finite real number (a TOML integer or float) within the given bounds."""
+    return Annotated[float, Field(gt=gt, ge=ge, lt=lt, le=le)]
+
+
+def Int(*, gt=None, ge=None, lt=None, le=None):  # noqa: N802
+    """A TOML integer within the given bounds."""
+    return Annotated[int, Field(gt=gt, ge=ge, lt=lt, le=le)]
+
+
+#: A non-empty string.
+Text = Annotated[str, Field(min_length=1)]
+
+#: Marks a key without a default (required, or required under a condition the
+#: description states).
+REQUIRED: Any = PydanticUndefined
+
+
+def key(default: Any = None, *, doc: str, unit: str = "", expected: str = "",
+        default_text: str = "", required: bool = False, example: Any = None):
+    """Declare a configuration key.
+
+    Parameters
+    ----------
+    default : object
+        The value taken when the key is absent; None when the default is a rule (then
+        ``default_text`` states it) or the key is optional.
+    doc : str
+        What the key is (the key reference, the JSON Schema description, the template's
+        comment).
+    unit : str
+        Its unit ("m", "N m^2", "km/h"; "" for none).
+    expected : str
+        The expectation of its error message ("a span length > 0 m").
+    default_text : str
+        The default in words when it is a rule ("every mode up to the cut-off").
+    required : bool
+        The key must be given (missing-key error).
+    example : object
+        A value for the ``vsi init`` template and the documentation (optional).
+    """
+    extra = {"unit": unit}
+    if expected:
+        extra["expected"] = expected
+    if default_text:
+        extra["default_text"] = default_text
+    if example is not None:
+        extra["example"] = example
+    if required:
+        return Field(description=doc, json_schema_extra=extra)
+    return Field(default, description=doc, json_schema_extra=extra)
+
+
+# -- reading the declarations back
+
+def extras(model: type[BaseModel], name: str) -> dict:
+    """The unit, expectation, default text and example of a field."""
+    e = model.model_fields[name].json_schema_extra
+    return dict(e) if isinstance(e, dict) else {}
+
+
+def keys_of(*models: type[BaseModel]) -> set[str]:
+    """The key names of one or more section models."""
+    return set().union(*(m.model_fields for m in models))
+
+
+def _bounds_and_type(tp) -> tuple[dict, type | None]:
+    """The bounds of the first bounded number in an annotation (through unions and
+    lists) and its base type."""
+    origin = typing.get_origin(tp)
+    if origin is Annotated:
+        base, *meta = typing.get_args(tp)
+        b = {}
+        for m in meta:
+            for c in getattr(m, "metadata", [m]):
+                for name, cls in (("gt", at.Gt), ("ge", at.Ge), ("lt", at.Lt), ("le", at.Le)):
+                    if isinstance(c, cls):
+                        b[name] = getattr(c, name)
+        if base in (int, float):
+            return b, base
+        return _bounds_and_type(base)
+    if tp in (int, float):
+        return {}, tp
+    if origin in (Union, types.UnionType, list):
+        for arg in typing.get_args(tp):
+            b, base = _bounds_and_type(arg)
+            if base is not None:
+                return b, base
+    return {}, None
+
+
+def spec_of(model: type[BaseModel], name: str, *, required: bool | None = None, **override):
+    """The numeric check of a declared key (:class:`~vsi_numba.config._check._Num`):
+    its bounds, integer-ness, default (``_MISSING`` when required) and expectation."""
+    from vsi_numba.config._check import _MISSING, _Num
+
+    f = model.model_fields[name]
+    bounds, base = _bounds_and_type(f.annotation)
+    for m in f.metadata:  # bounds given on the field itself
+        for attr in ("gt", "ge", "lt", "le"):
+            if getattr(m, attr, None) is not None:
+                bounds[attr] = getattr(m, attr)
+    req = f.is_required() if required is None else required
+    kw = {"expected": extras(model, name).get("expected", f.description or name),
+          **bounds, "integer": base is int,
+          "default": _MISSING if req else f.get_default()}
+    kw.update(override)
+    return _Num(**kw)
+
+
+def kinds_of(union) -> dict[str, type[BaseModel]]:
+    """``{kind: model}`` of a union of models told apart by their ``kind`` key."""
+    out = {}
+    for arg in _union_args(union):
+        kind = arg.model_fields["kind"]
+        for lit in typing.get_args(kind.annotation) or (kind.default,):
+            out[lit] = arg
+    return out
+
+
+def _union_args(tp):
+    if typing.get_origin(tp) is Annotated:
+        return _union_args(typing.get_args(tp)[0])
+    return [a for a in typing.get_args(tp) if isinstance(a, type)
+            and issubclass(a, BaseModel)]

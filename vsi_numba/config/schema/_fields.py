@@ -158,3 +158,63 @@ def _union_args(tp):
         return _union_args(typing.get_args(tp)[0])
     return [a for a in typing.get_args(tp) if isinstance(a, type)
             and issubclass(a, BaseModel)]
+
+
+def section_models(tp) -> list[type[BaseModel]]:
+    """The models of a table's annotation: one, or one per kind of a union."""
+    if isinstance(tp, type) and issubclass(tp, BaseModel):
+        return [tp]
+    if typing.get_origin(tp) is Annotated:
+        return section_models(typing.get_args(tp)[0])
+    if typing.get_origin(tp) in (Union, types.UnionType):
+        return [m for a in typing.get_args(tp) for m in section_models(a)]
+    return []
+
+
+def model_for(tp, data) -> type[BaseModel] | None:
+    """The model of a table's annotation that reads ``data`` (its kind's, for a union)."""
+    models = section_models(tp)
+    if len(models) <= 1:
+        return models[0] if models else None
+    for m in models:
+        kind = m.model_fields["kind"]
+        given = data.get("kind", kind.get_default()) if isinstance(data, dict) else None
+        if given in typing.get_args(kind.annotation):
+            return m
+    return None
+
+
+def required_paths(data, tp=None, path: str = "") -> set[str]:
+    """The key paths of ``data`` (a parsed configuration) that its tables declare
+    required (``bridge``, ``bridge.spans``, ``train.vehicles[0].mass``, ...).  Keys of
+    which one of several must be given (``train.preset`` / ``train.vehicles``,
+    ``study.speeds_kmh`` / ``line_speed_kmh``) are not among them."""
+    if tp is None:
+        from vsi_numba.config.schema.models import VsiConfig as tp
+    model = model_for(tp, data)
+    out: set[str] = set()
+    if model is None or not isinstance(data, dict):
+        return out
+    kind_default = any(m.model_fields["kind"].get_default() is not None
+                       for m in section_models(tp) if "kind" in m.model_fields)
+    for name, f in model.model_fields.items():
+        if name not in data:
+            continue
+        p = f"{path}.{name}" if path else name
+        if f.is_required() and not (name == "kind" and kind_default):
+            out.add(p)
+        sub = data[name]
+        if isinstance(sub, dict):
+            out |= required_paths(sub, f.annotation, p)
+        elif isinstance(sub, list) and typing.get_origin(f.annotation) is list:
+            (item,) = typing.get_args(f.annotation)
+            for i, v in enumerate(sub):
+                out |= required_paths(v, item, f"{p}[{i}]")
+    return out
+
+
+def all_keys() -> set[str]:
+    """Every key name of the configuration language (the fields of every table)."""
+    from vsi_numba.config.schema.models import SECTIONS
+
+    return {name for _, tp in SECTIONS for m in section_models(tp) for name in m.model_fields}

@@ -7,14 +7,12 @@ from __future__ import annotations
 
 import copy
 import json
-import re
 from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-import vsi_numba.config as config_pkg
 from vsi_numba.config import load_config
 from vsi_numba.study.spec import _build_model, model_fingerprint
 
@@ -319,7 +317,8 @@ def documented_keys() -> set[str]:
     from vsi_numba.config.schema.models import Overrides, Report, SourcedValue
 
     free = {"report", *Overrides.model_fields, *Report.model_fields,
-            *SourcedValue.model_fields, "gap", "force", "post_damping", "bump_stop", "damper_blowoff", "primary_bump_stop", "primary_damper_blowoff",
+            *SourcedValue.model_fields, "gap", "force", "post_damping", "bump_stop",
+            "damper_blowoff", "primary_bump_stop", "primary_damper_blowoff",
             "secondary_bump_stop", "secondary_damper_blowoff"}
     return all_keys() - free
 

@@ -36,6 +36,8 @@ from vsi_numba.config.limits import (
     MAX_MODES,
     MAX_OUTPUT_POINTS,
 )
+from vsi_numba.config.schema import models as _m
+from vsi_numba.config.schema._fields import keys_of, kinds_of, spec_of
 from vsi_numba.model import bridge as _bridge
 
 BRIDGE_KINDS = ("simply_supported", "continuous", "rigid", "modes_file", "matrices")
@@ -80,30 +82,14 @@ TRACK_TYPES = tuple(en1990.DECK_ACCELERATION_LIMITS)
 
 def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeSpec | _Sentinel:
     path = "bridge"
-    allowed_all = {
-        "kind", "spans", "EI", "mass_per_length", "damping_ratio", "n_modes",
-        "max_frequency", "elements_per_span", "output_points", "file", *_IMPORT_KEYS,
-        "track", "track_type", "deck_type", "additional_damping",
-    }
+    used = {kind: keys_of(m) for kind, m in kinds_of(_m.Bridge).items()}  # declared
+    allowed_all = set().union(*used.values())
     if not isinstance(d, Mapping):
         return chk.error(path, d, "a table [bridge] with kind, spans, EI, mass_per_length")
     kind = chk.choice(d, path, "kind", BRIDGE_KINDS)
-    classic = allowed_all - {"file", "track", *_IMPORT_KEYS}
-    modal = {"kind", "damping_ratio", "n_modes", "max_frequency", "output_points", "spans",
-             "track_line"}
-    used = {
-        "simply_supported": classic - {"elements_per_span"},
-        "continuous": classic | {"track"},
-        "rigid": {"kind", "spans", "output_points"},
-        "modes_file": modal | {"file", "mass_normalised"},
-        "matrices": modal | {"stiffness_matrix", "mass_matrix", "station_map", "fixed_dofs",
-                             "dof_base", "rotation_sign", "vertical_dofs"},
-    }
     if kind is _BAD:
         chk.table(d, path, allowed_all)
         return _BAD
-    for k in used:
-        used[k] = used[k] | {"track_type"}
     ignored = {k: f"not used by bridge.kind = '{kind}'" for k in allowed_all - used[kind]}
     ignored.pop("track", None)
     chk.table(d, path, used[kind], ignored=ignored, elsewhere={"track": (
@@ -248,19 +234,8 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
                        all_frequencies=allf, output_points=np.asarray(points, float))
 
 
-_TRACK_FIELDS = {
-    "rail_EI": _Num("a bending stiffness of both rails > 0 N m^2 (2 x 6.42e6 for UIC60)",
-                    gt=0),
-    "rail_mass_per_length": _Num("a mass of both rails > 0 kg/m (2 x 60.3 for UIC60)", gt=0),
-    "pad_stiffness": _Num("a rail pad stiffness per sleeper (both rail seats) > 0 N/m", gt=0),
-    "pad_damping": _Num("a rail pad damping per sleeper >= 0 N s/m", ge=0, default=0.0),
-    "sleeper_mass": _Num("a sleeper mass > 0 kg", gt=0),
-    "sleeper_spacing": _Num("a sleeper spacing > 0 m", gt=0),
-    "ballast_stiffness": _Num("a ballast stiffness per sleeper > 0 N/m", gt=0),
-    "ballast_damping": _Num("a ballast damping per sleeper >= 0 N s/m", ge=0, default=0.0),
-    "rail_elements_per_bay": _Num("an integer number of rail elements between sleepers, "
-                                  "1 .. 8", ge=1, le=8, integer=True, default=2),
-}
+#: The keys of ``[bridge.track]`` as declared (:class:`~.schema.models.BridgeTrack`).
+_TRACK_FIELDS = {k: spec_of(_m.BridgeTrack, k) for k in _m.BridgeTrack.model_fields}
 MAX_TRACK_DOFS = 4000  # deck + rail + sleepers (dense eigensolution at load time)
 FLEXIBILITY_WARNING = 0.95  # share of the static rail flexibility kept by the modes
 

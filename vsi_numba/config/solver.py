@@ -9,13 +9,12 @@ validated section becomes (:meth:`vsi_numba.config.Config.solver_settings`).
 
 from __future__ import annotations
 
-from dataclasses import asdict
-
-from vsi_numba.config._check import _BAD, _MISSING, _Num, _ok, _Sentinel
+from vsi_numba.config._check import _BAD, _MISSING, _ok, _Sentinel
+from vsi_numba.config.schema import models as _m
+from vsi_numba.config.schema._fields import keys_of, spec_of
 from vsi_numba.model import distribution as _dist
-from vsi_numba.model import track as _track
-from vsi_numba.solver.settings import BOUNDS, HHT_ALPHA_MIN, SolverSettings
 from vsi_numba.solver.settings import CONTACT_MODELS as _SOLVER_CONTACT_MODELS
+from vsi_numba.solver.settings import HHT_ALPHA_MIN
 
 CONTACT_MODELS = tuple(_SOLVER_CONTACT_MODELS)
 TRACK_MODELS = ("elastic", "rigid")
@@ -29,36 +28,19 @@ SOLVER_OVERRIDES = {
 }
 
 
-def _setting(key: str, expected: str, **kw) -> _Num:
-    """The spec of a ``[solver]`` key: the bounds of :data:`BOUNDS`, the default of
-    :class:`SolverSettings`."""
-    return _Num(expected, **asdict(BOUNDS[key]), **kw)
-
-
-_SOLVER_FIELDS = {
-    "dt": _setting("dt", "a time step > 0 s", default=SolverSettings.dt),
-    "hht_alpha": _setting("hht_alpha", "-1/3 <= hht_alpha <= 0",
-                          default=SolverSettings.hht_alpha),
-    "approach": _setting("approach", "a length of approach track >= 0 m",
-                         default=SolverSettings.approach),
-    "free_vibration": _setting("free_vibration", "a duration >= 0 s",
-                               default=SolverSettings.free_vibration),
-    "max_iterations": _setting("max_iterations", "an integer 1 <= max_iterations <= 10000",
-                               integer=True, default=SolverSettings.max_iterations),
-    "max_subdivisions": _setting("max_subdivisions", "an integer 0 <= max_subdivisions <= 30",
-                                 integer=True, default=SolverSettings.max_subdivisions),
-    "acceleration_cutoff": _setting("acceleration_cutoff", "a frequency > 0 Hz",
-                                    default=SolverSettings.acceleration_cutoff),
-}
+#: The numeric keys of ``[solver]``, as declared (:class:`~.schema.models.Solver`: the
+#: bounds of :data:`BOUNDS`, the defaults of :class:`SolverSettings`).
+_SOLVER_FIELDS = {k: spec_of(_m.Solver, k) for k in _m.Solver.model_fields
+                  if k not in SOLVER_OVERRIDES}
 #: contact.hertz_coefficient: > 0 (SolverSettings), and < 1 (a G of 1 m N^-2/3 is a typo)
-_HERTZ_MAX = 1.0
+_HERTZ_MAX = _m.HERTZ_MAX
 
 
 def _solver_section(chk, d) -> dict | _Sentinel:
     if d is _MISSING:
         d = {}
-    if chk.table(d, "solver", set(_SOLVER_FIELDS), what=" [solver] (dt, hht_alpha, ...)",
-                 hidden=SOLVER_OVERRIDES) is _BAD:
+    if chk.table(d, "solver", keys_of(_m.Solver) - set(SOLVER_OVERRIDES),
+                 what=" [solver] (dt, hht_alpha, ...)", hidden=SOLVER_OVERRIDES) is _BAD:
         return _BAD
     vals = chk.numbers(d, "solver", _SOLVER_FIELDS)
     for key in SOLVER_OVERRIDES:
@@ -73,13 +55,12 @@ def _solver_section(chk, d) -> dict | _Sentinel:
 def _contact_section(chk, d) -> dict | _Sentinel:
     if d is _MISSING:
         return {"model": "rigid"}
-    if chk.table(d, "contact", {"model", "hertz_coefficient"},
+    if chk.table(d, "contact", keys_of(_m.Contact),
                  what=" [contact] with model = 'rigid'") is _BAD:
         return _BAD
     model = chk.choice(d, "contact", "model", CONTACT_MODELS, default="rigid")
-    spec = _Num("a Hertz constant G > 0 m N^-2/3 (about 4e-8 for a wheel on a rail)",
-                gt=BOUNDS["hertz_coefficient"].gt, lt=_HERTZ_MAX,
-                default=_MISSING if model not in ("rigid", _BAD) else None)
+    spec = spec_of(_m.Contact, "hertz_coefficient",
+                   required=model not in ("rigid", _BAD))
     if model == "rigid":
         if "hertz_coefficient" in d:
             chk.warn("contact.hertz_coefficient is ignored: not used by contact.model = 'rigid'")
@@ -101,7 +82,7 @@ def _rail_track_section(chk, d, fe_layer: bool) -> dict | _Sentinel:
     if d is _MISSING:
         d = {}
     keys = ("foundation_stiffness", "rail_EI", "foundation_damping", "rail_mass")
-    if chk.table(d, "track", {"model", *keys, *_DISTRIBUTION_KEYS},
+    if chk.table(d, "track", keys_of(_m.Track),
                  what=" [track] of track values") is _BAD:
         return _BAD
     model = chk.choice(d, "track", "model", TRACK_MODELS, default="elastic")
@@ -111,19 +92,7 @@ def _rail_track_section(chk, d, fe_layer: bool) -> dict | _Sentinel:
             if key in d:
                 chk.warn(f"track.{key} is ignored: not used by track.model = 'rigid'")
         return _BAD if dist is _BAD else {"model": "rigid", **dist}
-    k = chk.get_number(d, "track", "foundation_stiffness", _Num(
-        "a foundation modulus > 0 N/m per metre of track (both rails; about 3e7 .. 3e8)",
-        gt=0, default=_track.FOUNDATION_DEFAULT))
-    ei = chk.get_number(d, "track", "rail_EI", _Num(
-        "a bending stiffness of both rails > 0 N m^2 (1.283e7 for two UIC60 rails)",
-        gt=0, default=_track.RAIL_EI_UIC60))
-    c = chk.get_number(d, "track", "foundation_damping", _Num(
-        "a foundation damping >= 0 and <= 2e6 N s/m per metre of track (both rails; "
-        f"{_track.FOUNDATION_DAMPING_DEFAULT:.3g} for ballasted track, 0 for an elastic "
-        "foundation)", ge=0, le=2e6, default=_track.FOUNDATION_DAMPING_DEFAULT))
-    mr = chk.get_number(d, "track", "rail_mass", _Num(
-        "a mass >= 0 and <= 2000 kg per metre of track moving with the rail (both rails; "
-        "120 for two UIC60 rails, 0 for a massless rail)", ge=0, le=2000, default=0.0))
+    k, ei, c, mr = (chk.get_number(d, "track", key, spec_of(_m.Track, key)) for key in keys)
     if not _ok(model, k, ei, c, mr, dist):
         return _BAD
     return {"model": "elastic", "foundation_stiffness": float(k), "rail_EI": float(ei),
@@ -153,15 +122,7 @@ def _load_distribution(chk, d, model) -> dict | _Sentinel:
         return chk.error("track.load_distribution", kind, "'none', 'rail' or "
                          "'rail_ballast' with track.model = 'rigid' ('elastic_track' "
                          "spreads the forces by the rail on the elastic foundation)")
-    specs = {
-        "sleeper_spacing": _Num("a sleeper spacing > 0 and <= 2 m (0.6 usual)", gt=0,
-                                le=2.0, default=_dist.SLEEPER_SPACING_DEFAULT),
-        "sleeper_width": _Num("a sleeper bottom width >= 0 and <= 1 m (about 0.3)", ge=0,
-                              le=1.0, default=_dist.SLEEPER_WIDTH_DEFAULT),
-        "ballast_depth": _Num("a ballast depth under the sleepers >= 0 and <= 2 m "
-                              "(0.3-0.5 usual)", ge=0, le=2.0,
-                              default=_dist.BALLAST_DEPTH_DEFAULT),
-    }
+    specs = {key: spec_of(_m.Track, key) for key in _USED_BY}
     out = {"load_distribution": kind} if kind != "none" else {}
     bad = False
     for key, spec in specs.items():

@@ -23,48 +23,28 @@ from vsi_numba.config._check import (
     _show,
 )
 from vsi_numba.config.limits import MAX_CONFIG_BYTES, MAX_USER_DOFS, MAX_VEHICLES
+from vsi_numba.config.schema import models as _m
+from vsi_numba.config.schema._fields import keys_of, kinds_of, spec_of
 from vsi_numba.model import library as _lib
 from vsi_numba.model import vehicle as _veh
 from vsi_numba.model.library import extra as _extra
 
 VEHICLE_KINDS = ("force", "sprung_mass", "car", "user")
 TRAIN_MODELS = _lib.MODELS
-_VEHICLE_FIELDS: dict[str, dict[str, _Num]] = {
-    "force": {"load": _Num("a force > 0 N (positive down)", gt=0)},
-    "sprung_mass": {
-        "mass": _Num("a mass > 0 kg", gt=0),
-        "stiffness": _Num("a stiffness > 0 N/m", gt=0),
-        "damping": _Num("a damping >= 0 N s/m", ge=0, default=0.0),
-        "wheel_mass": _Num("a mass >= 0 kg (0 = massless contact point)", ge=0, default=0.0),
-    },
-    "car": {
-        "body_mass": _Num("a mass > 0 kg", gt=0),
-        "body_pitch_inertia": _Num("a pitch inertia > 0 kg m^2", gt=0),
-        "bogie_mass": _Num("a mass > 0 kg", gt=0),
-        "bogie_pitch_inertia": _Num("a pitch inertia > 0 kg m^2", gt=0),
-        "wheelset_mass": _Num("a mass > 0 kg", gt=0),
-        "bogie_spacing": _Num("a distance between bogie centres > 0 m", gt=0),
-        "wheelbase": _Num("an axle distance within a bogie > 0 m", gt=0),
-        "primary_stiffness": _Num("a stiffness > 0 N/m (per wheelset)", gt=0),
-        "primary_damping": _Num("a damping >= 0 N s/m (per wheelset)", ge=0),
-        "secondary_stiffness": _Num("a stiffness > 0 N/m (per bogie)", gt=0),
-        "secondary_damping": _Num("a damping >= 0 N s/m (per bogie)", ge=0),
-        "body_cg_to_front_bogie": _Num(
-            "a distance >= 0 m behind the front bogie centre", ge=0, default=None),
-    },
-    "user": {},
-}
-_USER_KEYS = ("M", "C", "K", "wheel_dofs", "wheel_positions", "gravity", "body_dof")
+_NONLINEAR_TABLES = ("bump_stop", "damper_blowoff", "primary_bump_stop",
+                     "primary_damper_blowoff", "secondary_bump_stop",
+                     "secondary_damper_blowoff")
 _COMMON_VEHICLE_KEYS = ("kind", "offset", "name")
+#: The numeric keys of each vehicle kind, as declared (:mod:`.schema.models`).
+_VEHICLE_FIELDS: dict[str, dict[str, _Num]] = {
+    kind: {k: spec_of(m, k) for k in m.model_fields
+           if k not in (*_COMMON_VEHICLE_KEYS, *_NONLINEAR_TABLES)}
+    for kind, m in kinds_of(_m.Vehicle).items() if kind != "user"}
+_VEHICLE_FIELDS["user"] = {}
+_USER_KEYS = tuple(k for k in _m.UserVehicle.model_fields if k not in _COMMON_VEHICLE_KEYS)
 # nonlinear suspension elements: key -> (model class, fields, the damping key it needs)
-_BUMP_STOP_FIELDS = {
-    "gap": _Num("a clearance > 0 m (compression beyond the static position)", gt=0),
-    "stiffness": _Num("a stiffness > 0 N/m (added beyond the gap)", gt=0),
-}
-_BLOWOFF_FIELDS = {
-    "force": _Num("a blow-off force > 0 N", gt=0),
-    "post_damping": _Num("a damping >= 0 N s/m beyond the blow-off", ge=0, default=0.0),
-}
+_BUMP_STOP_FIELDS = {k: spec_of(_m.BumpStop, k) for k in _m.BumpStop.model_fields}
+_BLOWOFF_FIELDS = {k: spec_of(_m.DamperBlowoff, k) for k in _m.DamperBlowoff.model_fields}
 _NONLINEAR_KEYS: dict[str, dict[str, tuple]] = {
     "sprung_mass": {
         "bump_stop": (_veh.BumpStop, _BUMP_STOP_FIELDS, None),
@@ -303,7 +283,7 @@ def _get_preset(chk, name, path, model):
 
 def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
     path = "train"
-    allowed = {"preset", "model", "vehicles", "file", "name", "hslm_b", "axles"}
+    allowed = keys_of(_m.Train)
     ignored = {"name": "it names the train of [[train.vehicles]]; presets keep their names"}
     if isinstance(d, Mapping) and "vehicles" in d:
         ignored = {"model": "it applies to library presets, not to [[train.vehicles]]"}
@@ -391,17 +371,14 @@ def _hslm_b(chk, v, model, res):
     if not isinstance(v, Mapping):
         return chk.error(path, v, "a table {N = <number of forces>, d = <spacing in m>} "
                                   "read from EN 1991-2 Fig. 6.13 [R]")
-    if chk.table(v, path, {"N", "d"}) is _BAD:
+    if chk.table(v, path, keys_of(_m.HslmB)) is _BAD:
         return _BAD
     missing = [k for k in ("N", "d") if k not in v]
     for k in missing:
         chk.error(f"{path}.{k}", _MISSING, _extra.HSLM_B_MISSING)
     if missing:
         return _BAD
-    vals = chk.numbers(v, path, {
-        "N": _Num("a whole number of point forces >= 1 (EN 1991-2 Fig. 6.13 [R])", ge=1,
-                  le=10_000, integer=True),
-        "d": _Num("a uniform spacing > 0 m (EN 1991-2 Fig. 6.13 [R])", gt=0, le=1_000)})
+    vals = chk.numbers(v, path, {k: spec_of(_m.HslmB, k) for k in ("N", "d")})
     if not _ok(*vals.values()):
         return _BAD
     if model == "interaction":
@@ -418,7 +395,7 @@ def _axle_train(chk, v, base_dir, res):
     if not isinstance(v, Mapping):
         return chk.error(path, v, "a table {file = \"axles.csv\", load_unit = \"kN\"} "
                                   "(CSV columns position in m behind the first axle, load)")
-    if chk.table(v, path, {"file", "load_unit", "name"}) is _BAD:
+    if chk.table(v, path, keys_of(_m.Axles)) is _BAD:
         return _BAD
     given, full = chk.file(v, path, "file", base_dir, "axle loads (CSV: position, load)")
     unit = chk.choice(v, path, "load_unit", tuple(_extra.LOAD_UNITS), default="kN")

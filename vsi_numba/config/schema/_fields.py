@@ -145,19 +145,8 @@ def spec_of(model: type[BaseModel], name: str, *, required: bool | None = None, 
 
 def kinds_of(union) -> dict[str, type[BaseModel]]:
     """``{kind: model}`` of a union of models told apart by their ``kind`` key."""
-    out = {}
-    for arg in _union_args(union):
-        kind = arg.model_fields["kind"]
-        for lit in typing.get_args(kind.annotation) or (kind.default,):
-            out[lit] = arg
-    return out
-
-
-def _union_args(tp):
-    if typing.get_origin(tp) is Annotated:
-        return _union_args(typing.get_args(tp)[0])
-    return [a for a in typing.get_args(tp) if isinstance(a, type)
-            and issubclass(a, BaseModel)]
+    return {lit: m for m in section_models(union)
+            for lit in typing.get_args(m.model_fields["kind"].annotation)}
 
 
 def section_models(tp) -> list[type[BaseModel]]:

@@ -245,7 +245,7 @@ def template(values: dict[str, dict[str, Any]], header: str) -> str:
 
 
 def _is_table(tp) -> bool:
-    return bool(_models(tp)) and not typing.get_origin(tp) in (Union, types.UnionType)
+    return bool(_models(tp)) and typing.get_origin(tp) not in (Union, types.UnionType)
 
 
 def _line(model, name, value) -> str:

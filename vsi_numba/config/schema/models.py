@@ -72,9 +72,9 @@ class BridgeTrack(Section):
         expected="an integer number of rail elements between sleepers, 1 .. 8")
 
 
-PerSpan = Union[PosNum, list[PosNum]]
-Damping = Union[Num(ge=0, lt=1), list[Num(ge=0, lt=1)], Literal["EN1991-2"]]
-Points = Union[float, list[float]]
+PerSpan = PosNum | list[PosNum]
+Damping = Num(ge=0, lt=1) | list[Num(ge=0, lt=1)] | Literal["EN1991-2"]
+Points = float | list[float]
 
 
 class _Deck(Section):
@@ -195,7 +195,7 @@ class DofPattern(Section):
 
 Matrices.model_rebuild()
 
-Bridge = Annotated[Union[SimplySupported, Continuous, Rigid, ModesFile, Matrices],
+Bridge = Annotated[SimplySupported | Continuous | Rigid | ModesFile | Matrices,
                    Field(discriminator="kind")]
 
 
@@ -304,7 +304,7 @@ class UserVehicle(_Vehicle):
     body_dof: int = key(-1, doc="the DOF of the body acceleration (-1: none)")
 
 
-Vehicle = Annotated[Union[ForceVehicle, SprungMassVehicle, CarVehicle, UserVehicle],
+Vehicle = Annotated[ForceVehicle | SprungMassVehicle | CarVehicle | UserVehicle,
                     Field(discriminator="kind")]
 
 
@@ -333,7 +333,7 @@ class Train(Section):
     """``[train]``: exactly one of ``preset``, ``file`` or ``[[train.vehicles]]`` (``axles``
     may come alone or next to presets / a file)."""
 
-    preset: Union[Text, list[Text]] = key(
+    preset: Text | list[Text] = key(
         None, doc="library train name or list of names, one train each (`vsi trains` "
                   "lists them)", example=["HSLM-A1", "HSLM-A4", "ICE3"])
     model: one_of(_lib.MODELS) = key(
@@ -392,7 +392,7 @@ class StepDefect(_StepKeys):
     kind: Literal["step"] = key(required=True, doc="defect kind")
 
 
-Defect = Annotated[Union[CosineDefect, StepDefect], Field(discriminator="kind")]
+Defect = Annotated[CosineDefect | StepDefect, Field(discriminator="kind")]
 _Defects.model_rebuild()
 
 
@@ -423,7 +423,7 @@ class PsdIrregularity(_Defects):
                                  expected="a wavelength > 0 m")
     wavelength_max: PosNum = key(required=True, unit="m", doc="longest wavelength",
                                  expected="a wavelength > 0 m")
-    seeds: Union[Int(ge=0, lt=2**63), list[Int(ge=0, lt=2**63)]] = key(
+    seeds: Int(ge=0, lt=2 ** 63) | list[Int(ge=0, lt=2 ** 63)] = key(
         required=True, doc="random seeds, one realisation each",
         expected="a non-empty list of distinct integer seeds >= 0")
     dx: PosNum = key(None, unit="m", default_text="wavelength_min / 20",
@@ -447,9 +447,9 @@ def _irregularity_kind(v):
 
 
 Irregularity = Annotated[
-    Union[Annotated[NoIrregularity, Tag("none")], Annotated[CosineIrregularity, Tag("cosine")],
-          Annotated[StepIrregularity, Tag("step")], Annotated[PsdIrregularity, Tag("psd")],
-          Annotated[FileIrregularity, Tag("file")]],
+    Annotated[NoIrregularity, Tag("none")] | Annotated[CosineIrregularity, Tag("cosine")]
+    | Annotated[StepIrregularity, Tag("step")] | Annotated[PsdIrregularity, Tag("psd")]
+    | Annotated[FileIrregularity, Tag("file")],
     Discriminator(_irregularity_kind)]
 
 
@@ -572,7 +572,7 @@ class SpeedGrid(Section):
 class Study(Section):
     """``[study]``: the speeds, the output file, what is kept and the variants."""
 
-    speeds_kmh: Union[Speed, list[Speed], SpeedGrid] = key(
+    speeds_kmh: Speed | list[Speed] | SpeedGrid = key(
         None, unit="km/h", default_text="required (or line_speed_kmh)",
         doc=f"a list of speeds (at most {MAX_SPEEDS}), or {{start, stop, step}}",
         expected="a list of speeds > 0 km/h, or a table {start, stop, step} in km/h")
@@ -585,7 +585,7 @@ class Study(Section):
                        doc="the netCDF results file, relative to the config's directory",
                        expected="a path to a netCDF file ending in .nc")
     save_time_histories: bool = key(True, doc="write time histories (envelopes always are)")
-    history_speeds_kmh: Union[Speed, list[Speed]] = key(
+    history_speeds_kmh: Speed | list[Speed] = key(
         None, unit="km/h", default_text="every speed",
         doc="keep time histories only for these speeds",
         expected="a list of speeds (km/h) taken from study.speeds_kmh")
@@ -614,7 +614,7 @@ class Study(Section):
 # ---------------------------------------------------------------- [report] [code_profile]
 
 MAX_TEXT = 200
-_Line = Union[Annotated[str, Field(min_length=1, max_length=MAX_TEXT)], int, float]
+_Line = Annotated[str, Field(min_length=1, max_length=MAX_TEXT)] | int | float
 
 
 class Report(Section):
@@ -643,7 +643,7 @@ def _override_fields():
         if e.applies == "fixed":
             continue
         unit = "" if e.unit == "1" else e.unit
-        tp = Union[int, SourcedValue] if e.integer else Union[float, SourcedValue]
+        tp = (int if e.integer else float) | SourcedValue
         out[e.key] = (tp, key(None, unit=unit, default_text=f"{e.value:g}",
                               doc=f"{e.description} ({e.clause})"))
     return out

@@ -37,7 +37,7 @@ from vsi_numba.config.limits import (
     MAX_OUTPUT_POINTS,
 )
 from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import keys_of, kinds_of, spec_of
+from vsi_numba.config.schema._fields import keys_of, kinds_of
 from vsi_numba.model import bridge as _bridge
 
 BRIDGE_KINDS = ("simply_supported", "continuous", "rigid", "modes_file", "matrices")
@@ -123,7 +123,7 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
 
     res: dict[str, Any] = {"kind": kind}
     # EN 1990 A2.4.4.2.1(4)P: the deck-acceleration limit depends on the track form
-    res["track_type"] = chk.choice(d, path, "track_type", TRACK_TYPES, default="ballasted")
+    res["track_type"] = chk.fields(d, path, _m.Rigid, ["track_type"])["track_type"]
     if isinstance(spans, list):
         res["spans"] = spans
     flexible = kind in ("simply_supported", "continuous")
@@ -234,8 +234,8 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
                        all_frequencies=allf, output_points=np.asarray(points, float))
 
 
-#: The keys of ``[bridge.track]`` as declared (:class:`~.schema.models.BridgeTrack`).
-_TRACK_FIELDS = {k: spec_of(_m.BridgeTrack, k) for k in _m.BridgeTrack.model_fields}
+#: The keys of ``[bridge.track]`` (declared: :class:`~.schema.models.BridgeTrack`).
+_TRACK_FIELDS = tuple(_m.BridgeTrack.model_fields)
 MAX_TRACK_DOFS = 4000  # deck + rail + sleepers (dense eigensolution at load time)
 FLEXIBILITY_WARNING = 0.95  # share of the static rail flexibility kept by the modes
 
@@ -319,7 +319,7 @@ def _track_section(chk, t, spans):
     if chk.table(t, path, set(_TRACK_FIELDS), what=" [bridge.track] of track-layer values") \
             is _BAD:
         return _BAD
-    vals = chk.numbers(t, path, _TRACK_FIELDS)
+    vals = chk.fields(t, path, _m.BridgeTrack)
     if not _ok(*vals.values()):
         return _BAD
     if isinstance(spans, list):

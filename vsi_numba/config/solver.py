@@ -11,8 +11,7 @@ from __future__ import annotations
 
 from vsi_numba.config._check import _BAD, _MISSING, _ok, _Sentinel
 from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import keys_of, spec_of
-from vsi_numba.model import distribution as _dist
+from vsi_numba.config.schema._fields import keys_of
 from vsi_numba.solver.settings import CONTACT_MODELS as _SOLVER_CONTACT_MODELS
 from vsi_numba.solver.settings import HHT_ALPHA_MIN
 
@@ -29,9 +28,9 @@ SOLVER_OVERRIDES = {
 
 
 #: The numeric keys of ``[solver]``, as declared (:class:`~.schema.models.Solver`: the
-#: bounds of :data:`BOUNDS`, the defaults of :class:`SolverSettings`).
-_SOLVER_FIELDS = {k: spec_of(_m.Solver, k) for k in _m.Solver.model_fields
-                  if k not in SOLVER_OVERRIDES}
+#: bounds of :data:`~vsi_numba.solver.settings.BOUNDS`, the defaults of
+#: :class:`~vsi_numba.solver.settings.SolverSettings`).
+_SOLVER_FIELDS = [k for k in _m.Solver.model_fields if k not in SOLVER_OVERRIDES]
 #: contact.hertz_coefficient: > 0 (SolverSettings), and < 1 (a G of 1 m N^-2/3 is a typo)
 _HERTZ_MAX = _m.HERTZ_MAX
 
@@ -42,10 +41,8 @@ def _solver_section(chk, d) -> dict | _Sentinel:
     if chk.table(d, "solver", keys_of(_m.Solver) - set(SOLVER_OVERRIDES),
                  what=" [solver] (dt, hht_alpha, ...)", hidden=SOLVER_OVERRIDES) is _BAD:
         return _BAD
-    vals = chk.numbers(d, "solver", _SOLVER_FIELDS)
-    for key in SOLVER_OVERRIDES:
-        if key in d:
-            vals[key] = chk.boolean(d, "solver", key, False)
+    vals = chk.fields(d, "solver", _m.Solver, _SOLVER_FIELDS)
+    vals.update(chk.fields(d, "solver", _m.Solver, [k for k in SOLVER_OVERRIDES if k in d]))
     if not _ok(*vals.values()):
         return _BAD
     vals["hht_alpha"] = max(vals["hht_alpha"], HHT_ALPHA_MIN)
@@ -58,14 +55,13 @@ def _contact_section(chk, d) -> dict | _Sentinel:
     if chk.table(d, "contact", keys_of(_m.Contact),
                  what=" [contact] with model = 'rigid'") is _BAD:
         return _BAD
-    model = chk.choice(d, "contact", "model", CONTACT_MODELS, default="rigid")
-    spec = spec_of(_m.Contact, "hertz_coefficient",
-                   required=model not in ("rigid", _BAD))
+    model = chk.fields(d, "contact", _m.Contact, ["model"])["model"]
     if model == "rigid":
         if "hertz_coefficient" in d:
             chk.warn("contact.hertz_coefficient is ignored: not used by contact.model = 'rigid'")
         return {"model": "rigid"}
-    g = chk.get_number(d, "contact", "hertz_coefficient", spec)
+    g = chk.fields(d, "contact", _m.Contact, ["hertz_coefficient"],
+                   required={"hertz_coefficient": model is not _BAD})["hertz_coefficient"]
     if not _ok(model, g):
         return _BAD
     return {"model": model, "hertz_coefficient": g}
@@ -85,14 +81,14 @@ def _rail_track_section(chk, d, fe_layer: bool) -> dict | _Sentinel:
     if chk.table(d, "track", keys_of(_m.Track),
                  what=" [track] of track values") is _BAD:
         return _BAD
-    model = chk.choice(d, "track", "model", TRACK_MODELS, default="elastic")
+    model = chk.fields(d, "track", _m.Track, ["model"])["model"]
     dist = _load_distribution(chk, d, model)
     if model == "rigid":
         for key in keys:
             if key in d:
                 chk.warn(f"track.{key} is ignored: not used by track.model = 'rigid'")
         return _BAD if dist is _BAD else {"model": "rigid", **dist}
-    k, ei, c, mr = (chk.get_number(d, "track", key, spec_of(_m.Track, key)) for key in keys)
+    k, ei, c, mr = chk.fields(d, "track", _m.Track, keys).values()
     if not _ok(model, k, ei, c, mr, dist):
         return _BAD
     return {"model": "elastic", "foundation_stiffness": float(k), "rail_EI": float(ei),
@@ -114,24 +110,22 @@ _PLAUSIBLE = {"sleeper_spacing": (0.45, 0.8, "sleepers are 0.55-0.75 m apart"),
 def _load_distribution(chk, d, model) -> dict | _Sentinel:
     """track.load_distribution and its lengths: the resolved keys (none for 'none', so
     a configuration without the key keeps its stored form and hash)."""
-    kinds = _dist.LOAD_DISTRIBUTIONS
-    kind = chk.choice(d, "track", "load_distribution", kinds, default="none")
+    kind = chk.fields(d, "track", _m.Track, ["load_distribution"])["load_distribution"]
     if kind is _BAD:
         return _BAD
     if kind == "elastic_track" and model == "rigid":
         return chk.error("track.load_distribution", kind, "'none', 'rail' or "
                          "'rail_ballast' with track.model = 'rigid' ('elastic_track' "
                          "spreads the forces by the rail on the elastic foundation)")
-    specs = {key: spec_of(_m.Track, key) for key in _USED_BY}
     out = {"load_distribution": kind} if kind != "none" else {}
     bad = False
-    for key, spec in specs.items():
+    for key in _USED_BY:
         if kind not in _USED_BY[key]:
             if key in d:
                 chk.warn(f"track.{key} is ignored: not used by track.load_distribution = "
                          f"'{kind}' (used by {' and '.join(_USED_BY[key])})")
             continue
-        v = chk.get_number(d, "track", key, spec)
+        v = chk.fields(d, "track", _m.Track, [key])[key]
         if v is _BAD:
             bad = True
             continue

@@ -24,7 +24,7 @@ from vsi_numba.config._check import (
 )
 from vsi_numba.config.limits import MAX_CONFIG_BYTES, MAX_USER_DOFS, MAX_VEHICLES
 from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import keys_of, kinds_of, spec_of
+from vsi_numba.config.schema._fields import keys_of, kinds_of
 from vsi_numba.model import library as _lib
 from vsi_numba.model import vehicle as _veh
 from vsi_numba.model.library import extra as _extra
@@ -35,26 +35,26 @@ _NONLINEAR_TABLES = ("bump_stop", "damper_blowoff", "primary_bump_stop",
                      "primary_damper_blowoff", "secondary_bump_stop",
                      "secondary_damper_blowoff")
 _COMMON_VEHICLE_KEYS = ("kind", "offset", "name")
-#: The numeric keys of each vehicle kind, as declared (:mod:`.schema.models`).
-_VEHICLE_FIELDS: dict[str, dict[str, _Num]] = {
-    kind: {k: spec_of(m, k) for k in m.model_fields
-           if k not in (*_COMMON_VEHICLE_KEYS, *_NONLINEAR_TABLES)}
-    for kind, m in kinds_of(_m.Vehicle).items() if kind != "user"}
-_VEHICLE_FIELDS["user"] = {}
+#: The declaration of each vehicle kind (:mod:`vsi_numba.config.schema.models`) and its
+#: numeric keys.
+_VEHICLE_MODELS = kinds_of(_m.Vehicle)
+_VEHICLE_FIELDS: dict[str, tuple[str, ...]] = {
+    kind: tuple(k for k in m.model_fields
+                if k not in (*_COMMON_VEHICLE_KEYS, *_NONLINEAR_TABLES))
+    for kind, m in _VEHICLE_MODELS.items() if kind != "user"}
+_VEHICLE_FIELDS["user"] = ()
 _USER_KEYS = tuple(k for k in _m.UserVehicle.model_fields if k not in _COMMON_VEHICLE_KEYS)
 # nonlinear suspension elements: key -> (model class, fields, the damping key it needs)
-_BUMP_STOP_FIELDS = {k: spec_of(_m.BumpStop, k) for k in _m.BumpStop.model_fields}
-_BLOWOFF_FIELDS = {k: spec_of(_m.DamperBlowoff, k) for k in _m.DamperBlowoff.model_fields}
 _NONLINEAR_KEYS: dict[str, dict[str, tuple]] = {
     "sprung_mass": {
-        "bump_stop": (_veh.BumpStop, _BUMP_STOP_FIELDS, None),
-        "damper_blowoff": (_veh.DamperBlowoff, _BLOWOFF_FIELDS, "damping"),
+        "bump_stop": (_veh.BumpStop, _m.BumpStop, None),
+        "damper_blowoff": (_veh.DamperBlowoff, _m.DamperBlowoff, "damping"),
     },
     "car": {
-        "primary_bump_stop": (_veh.BumpStop, _BUMP_STOP_FIELDS, None),
-        "primary_damper_blowoff": (_veh.DamperBlowoff, _BLOWOFF_FIELDS, "primary_damping"),
-        "secondary_bump_stop": (_veh.BumpStop, _BUMP_STOP_FIELDS, None),
-        "secondary_damper_blowoff": (_veh.DamperBlowoff, _BLOWOFF_FIELDS,
+        "primary_bump_stop": (_veh.BumpStop, _m.BumpStop, None),
+        "primary_damper_blowoff": (_veh.DamperBlowoff, _m.DamperBlowoff, "primary_damping"),
+        "secondary_bump_stop": (_veh.BumpStop, _m.BumpStop, None),
+        "secondary_damper_blowoff": (_veh.DamperBlowoff, _m.DamperBlowoff,
                                      "secondary_damping"),
     },
 }
@@ -69,7 +69,8 @@ def _nonlinear(chk, v, path, kind, vals, res):
     """The vehicle's nonlinear suspension elements (``{key: BumpStop | DamperBlowoff}``),
     or ``_BAD``; their resolved tables go to ``res``."""
     out = {}
-    for key, (cls, fields, damping_key) in _NONLINEAR_KEYS.get(kind, {}).items():
+    for key, (cls, model, damping_key) in _NONLINEAR_KEYS.get(kind, {}).items():
+        fields = model.model_fields
         if key not in v:
             continue
         kp = f"{path}.{key}"
@@ -79,7 +80,7 @@ def _nonlinear(chk, v, path, kind, vals, res):
             out[key] = chk.error(kp, tbl, f"a table{what}")
             continue
         chk.table(tbl, kp, set(fields))
-        got = chk.numbers(tbl, kp, fields)
+        got = chk.fields(tbl, kp, model)
         if not _ok(*got.values()):
             out[key] = _BAD
             continue
@@ -196,8 +197,7 @@ def _vehicle(chk, v, path, index):
             elsewhere.setdefault(k, f"no such key for kind = '{kind}' (it belongs to kind = "
                                     f"'{other}')")
     chk.table(v, path, allowed, elsewhere=elsewhere)
-    offset = chk.get_number(v, path, "offset", _Num(
-        "an offset >= 0 m behind the train's first axle", ge=0, default=0.0))
+    offset = chk.fields(v, path, _VEHICLE_MODELS[kind], ["offset"])["offset"]
     name = chk.string(v, path, "name", "a vehicle name (string)", default=f"{kind}{index}")
     res = {"kind": kind, "offset": offset, "name": name}
     if kind == "user":
@@ -207,7 +207,7 @@ def _vehicle(chk, v, path, index):
                 res[k] = _as_list(v[k])
         res.setdefault("body_dof", -1)
         return veh, offset, res
-    vals = chk.numbers(v, path, _VEHICLE_FIELDS[kind])
+    vals = chk.fields(v, path, _VEHICLE_MODELS[kind], _VEHICLE_FIELDS[kind])
     res.update(_drop_none(vals))
     nonlinear = _nonlinear(chk, v, path, kind, vals, res)
     if not _ok(*vals.values(), *nonlinear.values(), name):
@@ -304,7 +304,7 @@ def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
                           default=title if title else "custom")
         res["name"] = name
         return _explicit_train(chk, d["vehicles"], name, res)
-    model = chk.choice(d, path, "model", TRAIN_MODELS, default=None)
+    model = chk.fields(d, path, _m.Train, ["model"])["model"]
     if model is not None and model is not _BAD:
         res["model"] = model
     extra = []
@@ -378,7 +378,7 @@ def _hslm_b(chk, v, model, res):
         chk.error(f"{path}.{k}", _MISSING, _extra.HSLM_B_MISSING)
     if missing:
         return _BAD
-    vals = chk.numbers(v, path, {k: spec_of(_m.HslmB, k) for k in ("N", "d")})
+    vals = chk.fields(v, path, _m.HslmB, ["N", "d"])
     if not _ok(*vals.values()):
         return _BAD
     if model == "interaction":
@@ -398,7 +398,7 @@ def _axle_train(chk, v, base_dir, res):
     if chk.table(v, path, keys_of(_m.Axles)) is _BAD:
         return _BAD
     given, full = chk.file(v, path, "file", base_dir, "axle loads (CSV: position, load)")
-    unit = chk.choice(v, path, "load_unit", tuple(_extra.LOAD_UNITS), default="kN")
+    unit = chk.fields(v, path, _m.Axles, ["load_unit"])["load_unit"]
     name = chk.string(v, path, "name", "a train name (string)", default=None)
     if not _ok(given, full, unit, name):
         return _BAD

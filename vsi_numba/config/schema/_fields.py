@@ -13,12 +13,13 @@ the documentation, the ``vsi init`` template and the numeric checks of the secti
 
 from __future__ import annotations
 
+import functools
 import types
 import typing
-from typing import Annotated, Any, Union
+from typing import Annotated, Any, Literal, Union
 
 import annotated_types as at
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
 from pydantic_core import PydanticUndefined
 
 #: Every section model: unknown keys are errors, numbers are TOML numbers (no strings, no
@@ -207,3 +208,28 @@ def all_keys() -> set[str]:
     from vsi_numba.config.schema.models import SECTIONS
 
     return {name for _, tp in SECTIONS for m in section_models(tp) for name in m.model_fields}
+
+
+@functools.cache
+def adapter(model: type[BaseModel], name: str) -> TypeAdapter:
+    """The validator of one declared key (its annotation and bounds, strict)."""
+    f = model.model_fields[name]
+    tp = Annotated[(f.annotation, *f.metadata)] if f.metadata else f.annotation
+    return TypeAdapter(tp, config=ConfigDict(strict=True, allow_inf_nan=False))
+
+
+def choices_of(model: type[BaseModel], name: str) -> tuple | None:
+    """The values of a key declared as a closed set (``Literal``), else None."""
+    tp = model.model_fields[name].annotation
+    return typing.get_args(tp) if typing.get_origin(tp) is Literal else None
+
+
+def expected_of(model: type[BaseModel], name: str) -> str:
+    """The expectation of a key's error message: its declared one, else from its type."""
+    e = extras(model, name).get("expected")
+    if e:
+        return e
+    tp = model.model_fields[name].annotation
+    if tp is bool:
+        return "true or false"
+    return model.model_fields[name].description or name

@@ -144,20 +144,15 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
                       f"'{EN_DAMPING}' (the Table 6.6 lower bound of that deck type)")
         if "additional_damping" in d:
             _additional_damping(chk, d, kind, spans, res)
-        n_spec = _Num(f"an integer number of modes 1 <= n_modes <= {MAX_MODES}", ge=1,
-                      le=MAX_MODES, integer=True, default=None)
-        n_modes = chk.get_number(d, path, "n_modes", n_spec)
-        fmax = chk.get_number(d, path, "max_frequency",
-                              _Num("a frequency > 0 Hz", gt=0, default=None))
+        n_modes, fmax = chk.fields(d, path, _m.Continuous, ["n_modes", "max_frequency"]
+                                   ).values()
         if n_modes is None and fmax is None and (kind == "matrices" or "track" in d):
             n_modes = DEFAULT_N_MODES  # modes_file: default every mode of the file
         # simply supported and continuous decks: by default every mode up to the cut-off
         # (_flexible_bridge), n_modes and max_frequency left out of the resolved config
         res.update(damping_ratio=damping, n_modes=n_modes, max_frequency=fmax)
     if kind == "continuous":
-        eps = chk.get_number(d, path, "elements_per_span", _Num(
-            "an integer number of elements 1 <= elements_per_span <= 400", ge=1, le=400,
-            integer=True, default=40))
+        eps = chk.fields(d, path, _m.Continuous, ["elements_per_span"])["elements_per_span"]
         if _ok(eps) and n_spans is not None and n_spans * eps > MAX_ELEMENTS:
             eps = chk.error("bridge.elements_per_span", eps,
                             f"at most {MAX_ELEMENTS} elements in all ({n_spans} spans x "

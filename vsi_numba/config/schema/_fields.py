@@ -7,8 +7,9 @@ A key is declared once, as a field of a section model (:mod:`.models`)::
     dt: Num(gt=0) = key(1e-3, unit="s", doc="time step", expected="a time step > 0 s")
 
 From that declaration come the JSON Schema shipped with the package, the key reference of
-the documentation, the ``vsi init`` template and the numeric checks of the section readers
-(:func:`spec_of` turns the field into the reader's :class:`~vsi_numba.config._check._Num`).
+the documentation, the ``vsi init`` template and the checks of the section readers
+(:meth:`vsi_numba.config._check._Checker.fields` validates a key with :func:`adapter` and
+reports it with its declared expectation).
 """
 
 from __future__ import annotations
@@ -18,7 +19,6 @@ import types
 import typing
 from typing import Annotated, Any, Literal, Union
 
-import annotated_types as at
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
 from pydantic_core import PydanticUndefined
 
@@ -98,50 +98,6 @@ def extras(model: type[BaseModel], name: str) -> dict:
 def keys_of(*models: type[BaseModel]) -> set[str]:
     """The key names of one or more section models."""
     return set().union(*(m.model_fields for m in models))
-
-
-def _bounds_and_type(tp) -> tuple[dict, type | None]:
-    """The bounds of the first bounded number in an annotation (through unions and
-    lists) and its base type."""
-    origin = typing.get_origin(tp)
-    if origin is Annotated:
-        base, *meta = typing.get_args(tp)
-        b = {}
-        for m in meta:
-            for c in getattr(m, "metadata", [m]):
-                for name, cls in (("gt", at.Gt), ("ge", at.Ge), ("lt", at.Lt), ("le", at.Le)):
-                    if isinstance(c, cls):
-                        b[name] = getattr(c, name)
-        if base in (int, float):
-            return b, base
-        return _bounds_and_type(base)
-    if tp in (int, float):
-        return {}, tp
-    if origin in (Union, types.UnionType, list):
-        for arg in typing.get_args(tp):
-            b, base = _bounds_and_type(arg)
-            if base is not None:
-                return b, base
-    return {}, None
-
-
-def spec_of(model: type[BaseModel], name: str, *, required: bool | None = None, **override):
-    """The numeric check of a declared key (:class:`~vsi_numba.config._check._Num`):
-    its bounds, integer-ness, default (``_MISSING`` when required) and expectation."""
-    from vsi_numba.config._check import _MISSING, _Num
-
-    f = model.model_fields[name]
-    bounds, base = _bounds_and_type(f.annotation)
-    for m in f.metadata:  # bounds given on the field itself
-        for attr in ("gt", "ge", "lt", "le"):
-            if getattr(m, attr, None) is not None:
-                bounds[attr] = getattr(m, attr)
-    req = f.is_required() if required is None else required
-    kw = {"expected": extras(model, name).get("expected", f.description or name),
-          **bounds, "integer": base is int,
-          "default": _MISSING if req else f.get_default()}
-    kw.update(override)
-    return _Num(**kw)
 
 
 def kinds_of(union) -> dict[str, type[BaseModel]]:

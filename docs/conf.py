@@ -4,10 +4,9 @@ Build (from the repository root)::
 
     python -m sphinx -W -b html docs docs/_build/html
 
-Two small directives keep pages in step with the code: ``config-keys`` renders the key
-reference of ``vsi_numba/config/__init__.py``'s docstring (read with ``ast``, nothing is
-imported), and ``verification-table`` renders a ``verification.csv`` written by
-``vsi verify``.
+A small directive keeps a page in step with the code: ``verification-table`` renders a
+``verification.csv`` written by ``vsi verify``.  (The key reference,
+``reference/config_keys.md``, is generated from the config models and committed.)
 """
 
 from __future__ import annotations
@@ -19,7 +18,6 @@ from pathlib import Path
 
 from docutils import nodes
 from docutils.parsers.rst import Directive, directives
-from docutils.statemachine import StringList
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -45,22 +43,6 @@ napoleon_google_docstring = False
 autodoc_typehints = "none"
 html_theme = "alabaster"
 html_static_path: list[str] = []
-
-
-class ConfigKeys(Directive):
-    """The ``Keys`` section of the config package's docstring, parsed as reST."""
-
-    has_content = False
-
-    def run(self):
-        text = ast.get_docstring(ast.parse(
-            (ROOT / "vsi_numba" / "config" / "__init__.py").read_text("utf-8")))
-        start = text.index("Keys (units; default)")
-        body = text[start:text.index("\nModules\n-------")].splitlines()[2:]
-        node = nodes.section()
-        node.document = self.state.document
-        self.state.nested_parse(StringList(body, "vsi_numba/config/__init__.py"), 0, node)
-        return node.children
 
 
 class VerificationTable(Directive):
@@ -104,6 +86,5 @@ class VerificationTable(Directive):
 
 
 def setup(app):
-    app.add_directive("config-keys", ConfigKeys)
     app.add_directive("verification-table", VerificationTable)
     return {"parallel_read_safe": True}

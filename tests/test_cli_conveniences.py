@@ -23,7 +23,7 @@ from vsi_numba.cli.init import TEMPLATE
 from vsi_numba.config import load_config
 
 ROOT = Path(__file__).resolve().parents[1]
-COMMANDS = ["run", "sweep", "check", "init", "trains", "modes", "report", "profile"]
+COMMANDS = ["run", "sweep", "check", "init", "schema", "trains", "modes", "report", "profile"]
 
 
 def invoke(*args):

@@ -27,6 +27,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from vsi_numba.config import Config, ConfigError, load_config
+from vsi_numba.config.schema._fields import all_keys, required_paths
 
 SEED = 20261121
 N_DICT_CASES = 210  # mutated mappings (each also as a TOML file and through the CLI)
@@ -38,36 +39,21 @@ FUZZ_STATS: dict[str, int] = {}
 
 HAS_CLI_RUN = importlib.util.find_spec("vsi_numba.cli.run") is not None
 
-# Every key name of the config language (docs/manual/config.md plus the documented
-# additions): typos are filtered against it so that a mutated key is surely unknown.
-KNOWN_KEYS = {
-    "title", "bridge", "train", "irregularity", "solver", "contact", "study",
-    "kind", "spans", "EI", "mass_per_length", "damping_ratio", "n_modes", "max_frequency",
-    "elements_per_span", "output_points", "file", "preset", "model", "vehicles", "offset",
-    "name", "load", "mass", "stiffness", "damping", "wheel_mass", "body_mass",
-    "body_pitch_inertia", "bogie_mass", "bogie_pitch_inertia", "wheelset_mass",
-    "bogie_spacing", "wheelbase", "primary_stiffness", "primary_damping",
-    "secondary_stiffness", "secondary_damping", "body_cg_to_front_bogie", "M", "C", "K",
-    "wheel_dofs", "wheel_positions", "gravity", "body_dof", "depth", "wavelength", "position",
-    "height", "length", "shape", "spectrum", "wavelength_min", "wavelength_max", "seeds", "dx",
-    "path", "x_column", "r_column", "r_unit", "defects", "dt", "hht_alpha", "approach",
-    "free_vibration", "max_iterations", "max_subdivisions", "acceleration_cutoff",
-    "speeds_kmh", "output", "save_time_histories", "line_speed_kmh", "history_speeds_kmh",
-    "start", "stop", "step",
-}
+# Every key name of the config language (the declared keys of vsi_numba.config.schema):
+# typos are filtered against it so that a mutated key is surely unknown.
+KNOWN_KEYS = all_keys()
 
-# Deleting one of these always invalidates the base configs below (no base carries a key
-# that another one makes optional, e.g. no line_speed_kmh next to speeds_kmh).
-REQUIRED = re.compile(
-    r"^(bridge|train|study|bridge\.(kind|spans|EI|mass_per_length)|train\.preset"
-    r"|train\.vehicles|train\.vehicles\[\d+\]\.(kind|mass|stiffness|load|body_mass"
-    r"|body_pitch_inertia|bogie_mass|bogie_pitch_inertia|wheelset_mass|bogie_spacing"
-    r"|wheelbase|primary_stiffness|primary_damping|secondary_stiffness|secondary_damping"
-    r"|M|C|K|wheel_dofs|wheel_positions)"
-    r"|irregularity\.(depth|wavelength|position|spectrum|wavelength_min|wavelength_max|seeds"
-    r"|path)|irregularity\.defects\[\d+\]\.(kind|depth|wavelength|position|height|length)"
-    r"|study\.speeds_kmh(\.(start|stop|step))?)$"
-)
+# Deleting one of these always invalidates the base configs below: the keys the config
+# models declare required (for the kind at hand), and the one-of keys the bases give alone
+# (no base carries a key that another one makes optional, e.g. no line_speed_kmh next to
+# speeds_kmh).
+ONE_OF = {"train.preset", "train.vehicles", "study.speeds_kmh"}
+
+
+def _required(data) -> set[str]:
+    return required_paths(data) | ONE_OF
+
+
 # must be > 0 (zero, negative, nan and -inf are invalid)
 POSITIVE = {
     "spans", "EI", "mass_per_length", "mass", "stiffness", "load", "body_mass",
@@ -284,7 +270,7 @@ def mutate(base: dict, rng: random.Random, ops=SINGLE_OPS + ("special", "several
         return _special(data, rng)
     leaves = list(_leaves(data))
     cands = {
-        "delete": [x for x in leaves if REQUIRED.match(x[0])],
+        "delete": [x for x in leaves if x[0] in _required(data)],
         "wrong_type": leaves,
         "bad_number": [x for x in leaves if _name(x[0]) in POSITIVE | NON_NEGATIVE
                        and isinstance(x[3], int | float) and not isinstance(x[3], bool)],

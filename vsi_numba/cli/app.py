@@ -106,6 +106,18 @@ def init(
 
 
 @app.command()
+def schema(
+    output: Path | None = typer.Option(None, "-o", "--output",
+                                       help="write the schema to this file"),
+):
+    """Print the JSON Schema of a configuration file (key completion and checks in TOML
+    editors: taplo, Even Better TOML)."""
+    from vsi_numba.cli.schema import schema_command
+
+    raise typer.Exit(schema_command(output))
+
+
+@app.command()
 def trains(name: str | None = typer.Argument(None, help="train name: print its axle table")):
     """List the train library, or print one train's axles."""
     from vsi_numba.cli.trains import trains_command

@@ -5,51 +5,41 @@ from __future__ import annotations
 from pathlib import Path
 
 from vsi_numba.cli.common import EXIT_USAGE, Printer
+from vsi_numba.config.schema.generate import Raw, template
 
-#: The starter configuration: a small EN 1991-2 dynamic check that runs in seconds.
-#: Every key is explained; the full key reference is docs/reference/configuration.md.
-TEMPLATE = '''\
+#: The values of the starter configuration: a small EN 1991-2 dynamic check that runs in
+#: seconds.  Every other key of each table is listed commented out, with its default, unit
+#: and description, from the declared keys (:mod:`vsi_numba.config.schema.models`).
+STARTER = {
+    "": {"title": "EN 1991-2 dynamic check of a 20 m simply supported span"},
+    "bridge": {"kind": "simply_supported", "spans": [20.0], "EI": Raw("3.5e10"),
+               "mass_per_length": 15000.0, "damping_ratio": "EN1991-2",
+               "deck_type": "prestressed_concrete", "additional_damping": True, "n_modes": 3,
+               "track_type": "ballasted"},
+    "train": {"preset": ["HSLM-A1", "HSLM-A4", "ICE3"]},
+    "irregularity": {"kind": "none"},
+    "solver": {"dt": Raw("1e-3"), "approach": 5.0, "free_vibration": 0.5},
+    "study": {"speeds_kmh": Raw("{ start = 200.0, stop = 300.0, step = 50.0 }"),
+              "output": Raw('"results/@STEM@.nc"'), "history_speeds_kmh": [300.0]},
+}
+_HEADER = """\
 # vsi_numba configuration (TOML). Units: SI (m, s, kg, N) except keys ending in _kmh.
-# Check it without running:  vsi check {name}
-# Run the study:              vsi sweep {name} --report {stem}_report
-title = "EN 1991-2 dynamic check of a 20 m simply supported span"
+# Check it without running:  vsi check @NAME@
+# Run the study:              vsi sweep @NAME@ --report @STEM@_report
+# Every key: docs/reference/config_keys.md; editor completion: `vsi schema` (JSON Schema).
+# The commented keys show their defaults ("...": a rule or none, see the key reference).
+"""
 
-[bridge]
-kind = "simply_supported"      # simply_supported | continuous | rigid | modes_file | matrices
-spans = [20.0]                 # m (one value for simply_supported; one per span if continuous)
-EI = 3.5e10                    # N m^2 (a number, or one per span)
-mass_per_length = 15000.0      # kg/m: deck + ballast + track (f1 = 6.0 Hz here)
-damping_ratio = "EN1991-2"     # a number (0.01 = 1 %), one per mode, or the Table 6.6 rule ...
-deck_type = "prestressed_concrete"   # ... for this deck type (steel_composite, ...)
-additional_damping = true      # EN 1991-2 6.4.6.3.1 (L < 30 m): added for moving forces only
-n_modes = 3                    # modes kept (or max_frequency = 30.0, Hz)
-track_type = "ballasted"       # ballasted (3.5 m/s2 limit) | direct_fastening (5 m/s2)
-# output_points = [5.0, 10.0, 15.0]   # m from the left support; default: mid-span
 
-[train]
-# library trains (`vsi trains` lists them): HSLM-A1..A10 are moving forces, ICE3 a
-# multibody model (interaction); or [[train.vehicles]] / file = "my_trains.toml"
-preset = ["HSLM-A1", "HSLM-A4", "ICE3"]
+def _template() -> str:
+    text = template(STARTER, _HEADER)
+    text = text.replace("{", "{{").replace("}", "}}")
+    return text.replace("@NAME@", "{name}").replace("@STEM@", "{stem}")
 
-[irregularity]
-kind = "none"                  # none | cosine | step | psd (random track, one per seed) | file
-# kind = "psd"
-# spectrum = "german_low"
-# wavelength_min = 3.0          # m
-# wavelength_max = 80.0         # m
-# seeds = [1, 2, 3]
 
-[solver]
-dt = 1e-3                      # s: at least 10 steps per period of the highest mode
-approach = 5.0                 # m of track ahead of the bridge where the train starts
-free_vibration = 0.5           # s simulated after the last axle leaves the bridge
-
-[study]
-speeds_kmh = {{ start = 200.0, stop = 300.0, step = 50.0 }}   # km/h, or a list
-# line_speed_kmh = 250.0        # instead: 140 km/h .. 1.2 x line speed in 5 km/h steps
-output = "results/{stem}.nc"   # relative to this file's directory
-history_speeds_kmh = [300.0]   # keep time histories for these speeds only
-'''
+#: The starter configuration (``str.format`` with ``name`` and ``stem``), generated from
+#: :data:`STARTER` and the declared keys.
+TEMPLATE = _template()
 
 
 def init_command(path: Path) -> int:

@@ -232,6 +232,43 @@ class _Checker:
         """Read several numeric keys; the result maps key -> value (or ``_BAD``)."""
         return {k: self.get_number(tbl, path, k, s) for k, s in specs.items()}
 
+    def fields(self, tbl, path: str, model, keys=None, *, required=None, notes=None) -> dict:
+        """Read declared keys of ``model`` (:mod:`vsi_numba.config.schema.models`) from
+        ``tbl``, each validated by its declaration (type, bounds; pydantic, strict) and
+        reported in the message style of this module: key path, value, the declared
+        expectation (for a closed set: the choices and a did-you-mean).  An absent key
+        takes its declared default; a required one (``required`` overrides the
+        declaration per key) is reported missing.  Returns key -> value or ``_BAD``."""
+        from pydantic import ValidationError
+
+        from vsi_numba.config.schema._fields import adapter, choices_of, expected_of
+
+        out = {}
+        for key in (keys if keys is not None else model.model_fields):
+            f = model.model_fields[key]
+            p = _join(path, key)
+            choices = choices_of(model, key)
+            expected = expected_of(model, key)
+            if choices is not None:
+                listing = ", ".join(f"'{c}'" for c in choices)
+                expected = (f"one of {listing}" if len(choices) > 1 else listing) + (
+                    (notes or {}).get(key, ""))
+            if key not in tbl:
+                req = f.is_required() if required is None or key not in required \
+                    else required[key]
+                out[key] = self.error(p, _MISSING, expected) if req else f.get_default()
+                continue
+            v = tbl[key]
+            try:
+                out[key] = adapter(model, key).validate_python(v)
+            except ValidationError:
+                hint = ""
+                if choices is not None and isinstance(v, str):
+                    guess = _did_you_mean(v, choices)
+                    hint = f" (did you mean '{guess}'?)" if guess else ""
+                out[key] = self.error(p, v, expected + hint)
+        return out
+
     def number_list(self, value, path: str, item: _Num, *, expected: str,
                     scalar_ok: bool = False, min_len: int = 1, max_len: int | None = None):
         """Read a list of numbers (or a single number when ``scalar_ok``)."""

@@ -36,6 +36,8 @@ from vsi_numba.config.limits import (
     MAX_MODES,
     MAX_OUTPUT_POINTS,
 )
+from vsi_numba.config.schema import models as _m
+from vsi_numba.config.schema._fields import keys_of, kinds_of
 from vsi_numba.model import bridge as _bridge
 
 BRIDGE_KINDS = ("simply_supported", "continuous", "rigid", "modes_file", "matrices")
@@ -80,30 +82,14 @@ TRACK_TYPES = tuple(en1990.DECK_ACCELERATION_LIMITS)
 
 def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeSpec | _Sentinel:
     path = "bridge"
-    allowed_all = {
-        "kind", "spans", "EI", "mass_per_length", "damping_ratio", "n_modes",
-        "max_frequency", "elements_per_span", "output_points", "file", *_IMPORT_KEYS,
-        "track", "track_type", "deck_type", "additional_damping",
-    }
+    used = {kind: keys_of(m) for kind, m in kinds_of(_m.Bridge).items()}  # declared
+    allowed_all = set().union(*used.values())
     if not isinstance(d, Mapping):
         return chk.error(path, d, "a table [bridge] with kind, spans, EI, mass_per_length")
     kind = chk.choice(d, path, "kind", BRIDGE_KINDS)
-    classic = allowed_all - {"file", "track", *_IMPORT_KEYS}
-    modal = {"kind", "damping_ratio", "n_modes", "max_frequency", "output_points", "spans",
-             "track_line"}
-    used = {
-        "simply_supported": classic - {"elements_per_span"},
-        "continuous": classic | {"track"},
-        "rigid": {"kind", "spans", "output_points"},
-        "modes_file": modal | {"file", "mass_normalised"},
-        "matrices": modal | {"stiffness_matrix", "mass_matrix", "station_map", "fixed_dofs",
-                             "dof_base", "rotation_sign", "vertical_dofs"},
-    }
     if kind is _BAD:
         chk.table(d, path, allowed_all)
         return _BAD
-    for k in used:
-        used[k] = used[k] | {"track_type"}
     ignored = {k: f"not used by bridge.kind = '{kind}'" for k in allowed_all - used[kind]}
     ignored.pop("track", None)
     chk.table(d, path, used[kind], ignored=ignored, elsewhere={"track": (
@@ -137,7 +123,7 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
 
     res: dict[str, Any] = {"kind": kind}
     # EN 1990 A2.4.4.2.1(4)P: the deck-acceleration limit depends on the track form
-    res["track_type"] = chk.choice(d, path, "track_type", TRACK_TYPES, default="ballasted")
+    res["track_type"] = chk.fields(d, path, _m.Rigid, ["track_type"])["track_type"]
     if isinstance(spans, list):
         res["spans"] = spans
     flexible = kind in ("simply_supported", "continuous")
@@ -158,20 +144,15 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
                       f"'{EN_DAMPING}' (the Table 6.6 lower bound of that deck type)")
         if "additional_damping" in d:
             _additional_damping(chk, d, kind, spans, res)
-        n_spec = _Num(f"an integer number of modes 1 <= n_modes <= {MAX_MODES}", ge=1,
-                      le=MAX_MODES, integer=True, default=None)
-        n_modes = chk.get_number(d, path, "n_modes", n_spec)
-        fmax = chk.get_number(d, path, "max_frequency",
-                              _Num("a frequency > 0 Hz", gt=0, default=None))
+        n_modes, fmax = chk.fields(d, path, _m.Continuous, ["n_modes", "max_frequency"]
+                                   ).values()
         if n_modes is None and fmax is None and (kind == "matrices" or "track" in d):
             n_modes = DEFAULT_N_MODES  # modes_file: default every mode of the file
         # simply supported and continuous decks: by default every mode up to the cut-off
         # (_flexible_bridge), n_modes and max_frequency left out of the resolved config
         res.update(damping_ratio=damping, n_modes=n_modes, max_frequency=fmax)
     if kind == "continuous":
-        eps = chk.get_number(d, path, "elements_per_span", _Num(
-            "an integer number of elements 1 <= elements_per_span <= 400", ge=1, le=400,
-            integer=True, default=40))
+        eps = chk.fields(d, path, _m.Continuous, ["elements_per_span"])["elements_per_span"]
         if _ok(eps) and n_spans is not None and n_spans * eps > MAX_ELEMENTS:
             eps = chk.error("bridge.elements_per_span", eps,
                             f"at most {MAX_ELEMENTS} elements in all ({n_spans} spans x "
@@ -248,19 +229,8 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
                        all_frequencies=allf, output_points=np.asarray(points, float))
 
 
-_TRACK_FIELDS = {
-    "rail_EI": _Num("a bending stiffness of both rails > 0 N m^2 (2 x 6.42e6 for UIC60)",
-                    gt=0),
-    "rail_mass_per_length": _Num("a mass of both rails > 0 kg/m (2 x 60.3 for UIC60)", gt=0),
-    "pad_stiffness": _Num("a rail pad stiffness per sleeper (both rail seats) > 0 N/m", gt=0),
-    "pad_damping": _Num("a rail pad damping per sleeper >= 0 N s/m", ge=0, default=0.0),
-    "sleeper_mass": _Num("a sleeper mass > 0 kg", gt=0),
-    "sleeper_spacing": _Num("a sleeper spacing > 0 m", gt=0),
-    "ballast_stiffness": _Num("a ballast stiffness per sleeper > 0 N/m", gt=0),
-    "ballast_damping": _Num("a ballast damping per sleeper >= 0 N s/m", ge=0, default=0.0),
-    "rail_elements_per_bay": _Num("an integer number of rail elements between sleepers, "
-                                  "1 .. 8", ge=1, le=8, integer=True, default=2),
-}
+#: The keys of ``[bridge.track]`` (declared: :class:`~.schema.models.BridgeTrack`).
+_TRACK_FIELDS = tuple(_m.BridgeTrack.model_fields)
 MAX_TRACK_DOFS = 4000  # deck + rail + sleepers (dense eigensolution at load time)
 FLEXIBILITY_WARNING = 0.95  # share of the static rail flexibility kept by the modes
 
@@ -344,7 +314,7 @@ def _track_section(chk, t, spans):
     if chk.table(t, path, set(_TRACK_FIELDS), what=" [bridge.track] of track-layer values") \
             is _BAD:
         return _BAD
-    vals = chk.numbers(t, path, _TRACK_FIELDS)
+    vals = chk.fields(t, path, _m.BridgeTrack)
     if not _ok(*vals.values()):
         return _BAD
     if isinstance(spans, list):

@@ -27,6 +27,8 @@ from vsi_numba.code_profile import (
     profile_from,
 )
 from vsi_numba.config._check import _BAD, _MISSING, _join, _Num, _show
+from vsi_numba.config.schema import models as _m
+from vsi_numba.config.schema._fields import keys_of
 
 #: An override further than this factor from the recommended value gets a warning.
 IMPLAUSIBLE_FACTOR = 3.0
@@ -40,7 +42,7 @@ def _code_profile_section(chk, d):
     path = "code_profile"
     if d is _MISSING:
         return None
-    if chk.table(d, path, {"name", "overrides"}, what=" [code_profile] with name and "
+    if chk.table(d, path, keys_of(_m.CodeProfile), what=" [code_profile] with name and "
                  f"overrides, e.g. overrides = {_EXAMPLE}") is _BAD:
         return _BAD
     name = chk.string(d, path, "name", "the name of the profile (a string), e.g. "
@@ -66,7 +68,7 @@ def _code_profile_section(chk, d):
         clause = None
         vp = kp
         if isinstance(raw, Mapping):
-            if chk.table(raw, kp, {"value", "clause"}) is _BAD:
+            if chk.table(raw, kp, keys_of(_m.SourcedValue)) is _BAD:
                 continue
             clause = chk.string(raw, kp, "clause", "the clause or rule the value comes "
                                 "from (a string)", default=None)

@@ -48,6 +48,7 @@ from vsi_numba.config.physics import (
     _track_plausibility,
 )
 from vsi_numba.config.report import _report_section
+from vsi_numba.config.schema import VsiConfig, keys_of
 from vsi_numba.config.solver import (
     SOLVER_OVERRIDES,
     _contact_section,
@@ -503,8 +504,7 @@ def _distribution_checks(chk, track, solver, train) -> None:
 
 def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     chk = _Checker()
-    top = {"title", "bridge", "train", "irregularity", "solver", "contact", "track", "study",
-           "report", "code_profile"}
+    top = keys_of(VsiConfig)  # the declared tables (vsi_numba.config.schema.models)
     chk.table(data, "", top)
     default_title = path.stem if path is not None else "untitled"
     title = chk.string(data, "", "title", "a title (string)", default=None, nonempty=False)

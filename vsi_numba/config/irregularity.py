@@ -19,38 +19,29 @@ from vsi_numba.config._check import (
     _ok,
     _Sentinel,
 )
+from vsi_numba.config.schema import models as _m
+from vsi_numba.config.schema._fields import expected_of
 from vsi_numba.model import irregularity as _irr
 
 IRREGULARITY_KINDS = ("none", "cosine", "step", "psd", "file")
 DEFECT_KINDS = ("cosine", "step")
-_DEFECT_FIELDS: dict[str, dict[str, _Num]] = {
-    "cosine": {
-        "depth": _Num("a depth != 0 m (> 0: dip, < 0: bump), |depth| < 1 m", gt=-1, lt=1),
-        "wavelength": _Num("a wavelength > 0 m", gt=0),
-        "position": _Num("a position x (m) where the defect starts"),
-    },
-    "step": {
-        "height": _Num("a level change != 0 m (> 0: the rail ends lower), |height| < 1 m",
-                       gt=-1, lt=1),
-        "length": _Num("a transition length > 0 m", gt=0),
-        "position": _Num("a position x (m) where the transition starts"),
-    },
-}
-_PSD_FIELDS = {
-    "wavelength_min": _Num("a wavelength > 0 m", gt=0),
-    "wavelength_max": _Num("a wavelength > 0 m", gt=0),
-    "dx": _Num("a sample spacing > 0 m", gt=0, default=None),
-}
+#: The numeric keys of the isolated defects (cosine, step) and their declarations
+#: (:mod:`vsi_numba.config.schema.models`).
+_DEFECT_FIELDS = {"cosine": ("depth", "wavelength", "position"),
+                  "step": ("height", "length", "position")}
+_DEFECT_MODELS = {"cosine": _m.CosineDefect, "step": _m.StepDefect}
+_PSD_FIELDS = ("wavelength_min", "wavelength_max", "dx")
 
 
 def _defect(chk, d, path, kind) -> dict | _Sentinel:
     """Read the keys of an isolated defect (cosine, step) at ``path``."""
-    vals = chk.numbers(d, path, _DEFECT_FIELDS[kind])
+    model = _DEFECT_MODELS[kind]
+    vals = chk.fields(d, path, model, _DEFECT_FIELDS[kind])
     amp = "depth" if kind == "cosine" else "height"
     if _ok(vals[amp]) and vals[amp] == 0.0:
-        vals[amp] = chk.error(_join(path, amp), d[amp], _DEFECT_FIELDS[kind][amp].expected)
+        vals[amp] = chk.error(_join(path, amp), d[amp], expected_of(model, amp))
     if kind == "step":
-        vals["shape"] = chk.choice(d, path, "shape", _irr.STEP_SHAPES, default="cosine")
+        vals.update(chk.fields(d, path, model, ["shape"]))
     if not _ok(*vals.values()):
         return _BAD
     return {"kind": kind, **vals}
@@ -100,8 +91,8 @@ def _irregularity_section(chk, d, base_dir: Path) -> _IrregularitySpec | _Sentin
         if ok:
             res.update(vals)
     elif kind == "psd":
-        res["spectrum"] = chk.choice(d, path, "spectrum", tuple(_irr.SPECTRA))
-        vals = chk.numbers(d, path, _PSD_FIELDS)
+        res["spectrum"] = chk.fields(d, path, _m.PsdIrregularity, ["spectrum"])["spectrum"]
+        vals = chk.fields(d, path, _m.PsdIrregularity, _PSD_FIELDS)
         if _ok(vals["wavelength_min"], vals["wavelength_max"]) and not (
             vals["wavelength_max"] > vals["wavelength_min"]
         ):
@@ -134,8 +125,7 @@ def _irregularity_section(chk, d, base_dir: Path) -> _IrregularitySpec | _Sentin
         res["path"] = given
         xcol = chk.string(d, path, "x_column", "a column name (string)", default="x")
         rcol = chk.string(d, path, "r_column", "a column name (string)", default="r")
-        unit = chk.choice(d, path, "r_unit", ("m", "mm"), default="m")
-        dx = chk.get_number(d, path, "dx", _Num("a sample spacing > 0 m", gt=0, default=None))
+        unit, dx = chk.fields(d, path, _m.FileIrregularity, ["r_unit", "dx"]).values()
         res.update(_drop_none({"x_column": xcol, "r_column": rcol, "r_unit": unit, "dx": dx}))
         ok = _ok(given, full, xcol, rcol, unit, dx)
         if ok:

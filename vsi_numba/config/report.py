@@ -19,6 +19,8 @@ document = "VSI-V12-001"
 from __future__ import annotations
 
 from vsi_numba.config._check import _BAD, _MISSING, _ok
+from vsi_numba.config.schema._fields import keys_of
+from vsi_numba.config.schema.models import Report
 
 #: The keys of ``[report]``, each a string, with what the report shows for it.
 REPORT_KEYS = {
@@ -40,7 +42,7 @@ def _report_section(chk, d) -> dict | None:
     """Validate ``[report]``; return its strings (None when the file has no section)."""
     if d is _MISSING:
         return None
-    if chk.table(d, "report", set(REPORT_KEYS),
+    if chk.table(d, "report", keys_of(Report),
                  what=" [report] of text fields (project, revision, checked_by, ...)") is _BAD:
         return _BAD
     out = {}

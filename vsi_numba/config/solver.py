@@ -9,13 +9,11 @@ validated section becomes (:meth:`vsi_numba.config.Config.solver_settings`).
 
 from __future__ import annotations
 
-from dataclasses import asdict
-
-from vsi_numba.config._check import _BAD, _MISSING, _Num, _ok, _Sentinel
-from vsi_numba.model import distribution as _dist
-from vsi_numba.model import track as _track
-from vsi_numba.solver.settings import BOUNDS, HHT_ALPHA_MIN, SolverSettings
+from vsi_numba.config._check import _BAD, _MISSING, _ok, _Sentinel
+from vsi_numba.config.schema import models as _m
+from vsi_numba.config.schema._fields import keys_of
 from vsi_numba.solver.settings import CONTACT_MODELS as _SOLVER_CONTACT_MODELS
+from vsi_numba.solver.settings import HHT_ALPHA_MIN
 
 CONTACT_MODELS = tuple(_SOLVER_CONTACT_MODELS)
 TRACK_MODELS = ("elastic", "rigid")
@@ -29,41 +27,22 @@ SOLVER_OVERRIDES = {
 }
 
 
-def _setting(key: str, expected: str, **kw) -> _Num:
-    """The spec of a ``[solver]`` key: the bounds of :data:`BOUNDS`, the default of
-    :class:`SolverSettings`."""
-    return _Num(expected, **asdict(BOUNDS[key]), **kw)
-
-
-_SOLVER_FIELDS = {
-    "dt": _setting("dt", "a time step > 0 s", default=SolverSettings.dt),
-    "hht_alpha": _setting("hht_alpha", "-1/3 <= hht_alpha <= 0",
-                          default=SolverSettings.hht_alpha),
-    "approach": _setting("approach", "a length of approach track >= 0 m",
-                         default=SolverSettings.approach),
-    "free_vibration": _setting("free_vibration", "a duration >= 0 s",
-                               default=SolverSettings.free_vibration),
-    "max_iterations": _setting("max_iterations", "an integer 1 <= max_iterations <= 10000",
-                               integer=True, default=SolverSettings.max_iterations),
-    "max_subdivisions": _setting("max_subdivisions", "an integer 0 <= max_subdivisions <= 30",
-                                 integer=True, default=SolverSettings.max_subdivisions),
-    "acceleration_cutoff": _setting("acceleration_cutoff", "a frequency > 0 Hz",
-                                    default=SolverSettings.acceleration_cutoff),
-}
+#: The numeric keys of ``[solver]``, as declared (:class:`~.schema.models.Solver`: the
+#: bounds of :data:`~vsi_numba.solver.settings.BOUNDS`, the defaults of
+#: :class:`~vsi_numba.solver.settings.SolverSettings`).
+_SOLVER_FIELDS = [k for k in _m.Solver.model_fields if k not in SOLVER_OVERRIDES]
 #: contact.hertz_coefficient: > 0 (SolverSettings), and < 1 (a G of 1 m N^-2/3 is a typo)
-_HERTZ_MAX = 1.0
+_HERTZ_MAX = _m.HERTZ_MAX
 
 
 def _solver_section(chk, d) -> dict | _Sentinel:
     if d is _MISSING:
         d = {}
-    if chk.table(d, "solver", set(_SOLVER_FIELDS), what=" [solver] (dt, hht_alpha, ...)",
-                 hidden=SOLVER_OVERRIDES) is _BAD:
+    if chk.table(d, "solver", keys_of(_m.Solver) - set(SOLVER_OVERRIDES),
+                 what=" [solver] (dt, hht_alpha, ...)", hidden=SOLVER_OVERRIDES) is _BAD:
         return _BAD
-    vals = chk.numbers(d, "solver", _SOLVER_FIELDS)
-    for key in SOLVER_OVERRIDES:
-        if key in d:
-            vals[key] = chk.boolean(d, "solver", key, False)
+    vals = chk.fields(d, "solver", _m.Solver, _SOLVER_FIELDS)
+    vals.update(chk.fields(d, "solver", _m.Solver, [k for k in SOLVER_OVERRIDES if k in d]))
     if not _ok(*vals.values()):
         return _BAD
     vals["hht_alpha"] = max(vals["hht_alpha"], HHT_ALPHA_MIN)
@@ -73,18 +52,16 @@ def _solver_section(chk, d) -> dict | _Sentinel:
 def _contact_section(chk, d) -> dict | _Sentinel:
     if d is _MISSING:
         return {"model": "rigid"}
-    if chk.table(d, "contact", {"model", "hertz_coefficient"},
+    if chk.table(d, "contact", keys_of(_m.Contact),
                  what=" [contact] with model = 'rigid'") is _BAD:
         return _BAD
-    model = chk.choice(d, "contact", "model", CONTACT_MODELS, default="rigid")
-    spec = _Num("a Hertz constant G > 0 m N^-2/3 (about 4e-8 for a wheel on a rail)",
-                gt=BOUNDS["hertz_coefficient"].gt, lt=_HERTZ_MAX,
-                default=_MISSING if model not in ("rigid", _BAD) else None)
+    model = chk.fields(d, "contact", _m.Contact, ["model"])["model"]
     if model == "rigid":
         if "hertz_coefficient" in d:
             chk.warn("contact.hertz_coefficient is ignored: not used by contact.model = 'rigid'")
         return {"model": "rigid"}
-    g = chk.get_number(d, "contact", "hertz_coefficient", spec)
+    g = chk.fields(d, "contact", _m.Contact, ["hertz_coefficient"],
+                   required={"hertz_coefficient": model is not _BAD})["hertz_coefficient"]
     if not _ok(model, g):
         return _BAD
     return {"model": model, "hertz_coefficient": g}
@@ -101,29 +78,17 @@ def _rail_track_section(chk, d, fe_layer: bool) -> dict | _Sentinel:
     if d is _MISSING:
         d = {}
     keys = ("foundation_stiffness", "rail_EI", "foundation_damping", "rail_mass")
-    if chk.table(d, "track", {"model", *keys, *_DISTRIBUTION_KEYS},
+    if chk.table(d, "track", keys_of(_m.Track),
                  what=" [track] of track values") is _BAD:
         return _BAD
-    model = chk.choice(d, "track", "model", TRACK_MODELS, default="elastic")
+    model = chk.fields(d, "track", _m.Track, ["model"])["model"]
     dist = _load_distribution(chk, d, model)
     if model == "rigid":
         for key in keys:
             if key in d:
                 chk.warn(f"track.{key} is ignored: not used by track.model = 'rigid'")
         return _BAD if dist is _BAD else {"model": "rigid", **dist}
-    k = chk.get_number(d, "track", "foundation_stiffness", _Num(
-        "a foundation modulus > 0 N/m per metre of track (both rails; about 3e7 .. 3e8)",
-        gt=0, default=_track.FOUNDATION_DEFAULT))
-    ei = chk.get_number(d, "track", "rail_EI", _Num(
-        "a bending stiffness of both rails > 0 N m^2 (1.283e7 for two UIC60 rails)",
-        gt=0, default=_track.RAIL_EI_UIC60))
-    c = chk.get_number(d, "track", "foundation_damping", _Num(
-        "a foundation damping >= 0 and <= 2e6 N s/m per metre of track (both rails; "
-        f"{_track.FOUNDATION_DAMPING_DEFAULT:.3g} for ballasted track, 0 for an elastic "
-        "foundation)", ge=0, le=2e6, default=_track.FOUNDATION_DAMPING_DEFAULT))
-    mr = chk.get_number(d, "track", "rail_mass", _Num(
-        "a mass >= 0 and <= 2000 kg per metre of track moving with the rail (both rails; "
-        "120 for two UIC60 rails, 0 for a massless rail)", ge=0, le=2000, default=0.0))
+    k, ei, c, mr = chk.fields(d, "track", _m.Track, keys).values()
     if not _ok(model, k, ei, c, mr, dist):
         return _BAD
     return {"model": "elastic", "foundation_stiffness": float(k), "rail_EI": float(ei),
@@ -145,32 +110,22 @@ _PLAUSIBLE = {"sleeper_spacing": (0.45, 0.8, "sleepers are 0.55-0.75 m apart"),
 def _load_distribution(chk, d, model) -> dict | _Sentinel:
     """track.load_distribution and its lengths: the resolved keys (none for 'none', so
     a configuration without the key keeps its stored form and hash)."""
-    kinds = _dist.LOAD_DISTRIBUTIONS
-    kind = chk.choice(d, "track", "load_distribution", kinds, default="none")
+    kind = chk.fields(d, "track", _m.Track, ["load_distribution"])["load_distribution"]
     if kind is _BAD:
         return _BAD
     if kind == "elastic_track" and model == "rigid":
         return chk.error("track.load_distribution", kind, "'none', 'rail' or "
                          "'rail_ballast' with track.model = 'rigid' ('elastic_track' "
                          "spreads the forces by the rail on the elastic foundation)")
-    specs = {
-        "sleeper_spacing": _Num("a sleeper spacing > 0 and <= 2 m (0.6 usual)", gt=0,
-                                le=2.0, default=_dist.SLEEPER_SPACING_DEFAULT),
-        "sleeper_width": _Num("a sleeper bottom width >= 0 and <= 1 m (about 0.3)", ge=0,
-                              le=1.0, default=_dist.SLEEPER_WIDTH_DEFAULT),
-        "ballast_depth": _Num("a ballast depth under the sleepers >= 0 and <= 2 m "
-                              "(0.3-0.5 usual)", ge=0, le=2.0,
-                              default=_dist.BALLAST_DEPTH_DEFAULT),
-    }
     out = {"load_distribution": kind} if kind != "none" else {}
     bad = False
-    for key, spec in specs.items():
+    for key in _USED_BY:
         if kind not in _USED_BY[key]:
             if key in d:
                 chk.warn(f"track.{key} is ignored: not used by track.load_distribution = "
                          f"'{kind}' (used by {' and '.join(_USED_BY[key])})")
             continue
-        v = chk.get_number(d, "track", key, spec)
+        v = chk.fields(d, "track", _m.Track, [key])[key]
         if v is _BAD:
             bad = True
             continue

@@ -22,11 +22,12 @@ from vsi_numba.config._check import (
     _Sentinel,
 )
 from vsi_numba.config.limits import MAX_SPEEDS
+from vsi_numba.config.schema import models as _m
+from vsi_numba.config.schema._fields import keys_of
 from vsi_numba.config.variants import _vary_axes
 from vsi_numba.en1991 import (
     ALPHA_CLAUSE,
     ALPHA_RANGE,
-    TRACK_MAINTENANCE,
     resonance_speeds_kmh,
 )
 from vsi_numba.model.irregularity import SPEED_BOUND_KMH
@@ -66,27 +67,21 @@ def _line_speed_grid(line: float) -> list[float]:
 def _study_section(chk, d, default_output: str, base_dir: Path, profile=None
                    ) -> _StudySpec | _Sentinel:
     path = "study"
-    allowed = {"speeds_kmh", "output", "save_time_histories", "line_speed_kmh",
-               "history_speeds_kmh", "vary", "vary_together", "mass_bounds",
-               "refine_resonance", "classification_factor", "track_maintenance",
-               "load_effects"}
+    allowed = keys_of(_m.Study)
     if d is _MISSING:
         return chk.error(path, _MISSING, "a table [study] with speeds_kmh (km/h) or "
                                          "line_speed_kmh")
     if chk.table(d, path, allowed, what=" [study] with speeds_kmh") is _BAD:
         return _BAD
-    line = chk.get_number(d, path, "line_speed_kmh", _Num(
-        f"a line speed > 0 km/h (at most {SPEED_BOUND_KMH:g})", gt=0, le=SPEED_BOUND_KMH,
-        default=None))
+    line = chk.fields(d, path, _m.Study, ["line_speed_kmh"])["line_speed_kmh"]
     speeds = _BAD
     expected = ("a list of speeds > 0 km/h, or a table {start, stop, step} in km/h")
     if "speeds_kmh" in d:
         raw = _as_list(d["speeds_kmh"])
         if isinstance(raw, Mapping):
-            g = chk.table(raw, "study.speeds_kmh", {"start", "stop", "step"})
+            g = chk.table(raw, "study.speeds_kmh", keys_of(_m.SpeedGrid))
             if g is not _BAD:
-                vals = chk.numbers(raw, "study.speeds_kmh", {
-                    "start": _SPEED, "stop": _SPEED, "step": _Num("a step > 0 km/h", gt=0)})
+                vals = chk.fields(raw, "study.speeds_kmh", _m.SpeedGrid)
                 if _ok(*vals.values()):
                     if vals["stop"] < vals["start"]:
                         chk.error("study.speeds_kmh.stop", vals["stop"],
@@ -122,7 +117,7 @@ def _study_section(chk, d, default_output: str, base_dir: Path, profile=None
             elif out_full.is_dir():
                 output = chk.error("study.output", output, f"a file path ({out_full} is a "
                                                            "directory)")
-    save = chk.boolean(d, path, "save_time_histories", True)
+    save = chk.fields(d, path, _m.Study, ["save_time_histories"])["save_time_histories"]
     hist = None
     if "history_speeds_kmh" in d:
         hist = chk.number_list(d["history_speeds_kmh"], "study.history_speeds_kmh", _SPEED,
@@ -138,7 +133,7 @@ def _study_section(chk, d, default_output: str, base_dir: Path, profile=None
                     hist = _BAD
                     break
     axes = _vary_axes(chk, d)
-    refine = chk.boolean(d, path, "refine_resonance", False)
+    refine = chk.fields(d, path, _m.Study, ["refine_resonance"])["refine_resonance"]
     lo, hi = ALPHA_RANGE
     clause = ALPHA_CLAUSE
     if profile is not None:  # the code profile's range (a national annex may widen it)
@@ -147,10 +142,10 @@ def _study_section(chk, d, default_output: str, base_dir: Path, profile=None
     alpha = chk.get_number(d, path, "classification_factor", _Num(
         f"a load classification factor alpha of LM71 in [{lo:g}, {hi:g}] ({clause})",
         ge=lo, le=hi, default=None))
-    maint = chk.choice(d, path, "track_maintenance", tuple(TRACK_MAINTENANCE), default=None,
-                       note=" (the dynamic factor of LM71: 'careful' maintenance Phi_2, "
-                            "'standard' Phi_3, EN 1991-2 6.4.5.2)")
-    effects = chk.boolean(d, path, "load_effects", True)
+    maint = chk.fields(d, path, _m.Study, ["track_maintenance"], notes={
+        "track_maintenance": " (the dynamic factor of LM71: 'careful' maintenance Phi_2, "
+                             "'standard' Phi_3, EN 1991-2 6.4.5.2)"})["track_maintenance"]
+    effects = chk.fields(d, path, _m.Study, ["load_effects"])["load_effects"]
     if not _ok(line, speeds, output, save, hist, out_full, axes, refine, alpha, maint,
                effects):
         return _BAD

@@ -23,58 +23,38 @@ from vsi_numba.config._check import (
     _show,
 )
 from vsi_numba.config.limits import MAX_CONFIG_BYTES, MAX_USER_DOFS, MAX_VEHICLES
+from vsi_numba.config.schema import models as _m
+from vsi_numba.config.schema._fields import keys_of, kinds_of
 from vsi_numba.model import library as _lib
 from vsi_numba.model import vehicle as _veh
 from vsi_numba.model.library import extra as _extra
 
 VEHICLE_KINDS = ("force", "sprung_mass", "car", "user")
 TRAIN_MODELS = _lib.MODELS
-_VEHICLE_FIELDS: dict[str, dict[str, _Num]] = {
-    "force": {"load": _Num("a force > 0 N (positive down)", gt=0)},
-    "sprung_mass": {
-        "mass": _Num("a mass > 0 kg", gt=0),
-        "stiffness": _Num("a stiffness > 0 N/m", gt=0),
-        "damping": _Num("a damping >= 0 N s/m", ge=0, default=0.0),
-        "wheel_mass": _Num("a mass >= 0 kg (0 = massless contact point)", ge=0, default=0.0),
-    },
-    "car": {
-        "body_mass": _Num("a mass > 0 kg", gt=0),
-        "body_pitch_inertia": _Num("a pitch inertia > 0 kg m^2", gt=0),
-        "bogie_mass": _Num("a mass > 0 kg", gt=0),
-        "bogie_pitch_inertia": _Num("a pitch inertia > 0 kg m^2", gt=0),
-        "wheelset_mass": _Num("a mass > 0 kg", gt=0),
-        "bogie_spacing": _Num("a distance between bogie centres > 0 m", gt=0),
-        "wheelbase": _Num("an axle distance within a bogie > 0 m", gt=0),
-        "primary_stiffness": _Num("a stiffness > 0 N/m (per wheelset)", gt=0),
-        "primary_damping": _Num("a damping >= 0 N s/m (per wheelset)", ge=0),
-        "secondary_stiffness": _Num("a stiffness > 0 N/m (per bogie)", gt=0),
-        "secondary_damping": _Num("a damping >= 0 N s/m (per bogie)", ge=0),
-        "body_cg_to_front_bogie": _Num(
-            "a distance >= 0 m behind the front bogie centre", ge=0, default=None),
-    },
-    "user": {},
-}
-_USER_KEYS = ("M", "C", "K", "wheel_dofs", "wheel_positions", "gravity", "body_dof")
+_NONLINEAR_TABLES = ("bump_stop", "damper_blowoff", "primary_bump_stop",
+                     "primary_damper_blowoff", "secondary_bump_stop",
+                     "secondary_damper_blowoff")
 _COMMON_VEHICLE_KEYS = ("kind", "offset", "name")
+#: The declaration of each vehicle kind (:mod:`vsi_numba.config.schema.models`) and its
+#: numeric keys.
+_VEHICLE_MODELS = kinds_of(_m.Vehicle)
+_VEHICLE_FIELDS: dict[str, tuple[str, ...]] = {
+    kind: tuple(k for k in m.model_fields
+                if k not in (*_COMMON_VEHICLE_KEYS, *_NONLINEAR_TABLES))
+    for kind, m in _VEHICLE_MODELS.items() if kind != "user"}
+_VEHICLE_FIELDS["user"] = ()
+_USER_KEYS = tuple(k for k in _m.UserVehicle.model_fields if k not in _COMMON_VEHICLE_KEYS)
 # nonlinear suspension elements: key -> (model class, fields, the damping key it needs)
-_BUMP_STOP_FIELDS = {
-    "gap": _Num("a clearance > 0 m (compression beyond the static position)", gt=0),
-    "stiffness": _Num("a stiffness > 0 N/m (added beyond the gap)", gt=0),
-}
-_BLOWOFF_FIELDS = {
-    "force": _Num("a blow-off force > 0 N", gt=0),
-    "post_damping": _Num("a damping >= 0 N s/m beyond the blow-off", ge=0, default=0.0),
-}
 _NONLINEAR_KEYS: dict[str, dict[str, tuple]] = {
     "sprung_mass": {
-        "bump_stop": (_veh.BumpStop, _BUMP_STOP_FIELDS, None),
-        "damper_blowoff": (_veh.DamperBlowoff, _BLOWOFF_FIELDS, "damping"),
+        "bump_stop": (_veh.BumpStop, _m.BumpStop, None),
+        "damper_blowoff": (_veh.DamperBlowoff, _m.DamperBlowoff, "damping"),
     },
     "car": {
-        "primary_bump_stop": (_veh.BumpStop, _BUMP_STOP_FIELDS, None),
-        "primary_damper_blowoff": (_veh.DamperBlowoff, _BLOWOFF_FIELDS, "primary_damping"),
-        "secondary_bump_stop": (_veh.BumpStop, _BUMP_STOP_FIELDS, None),
-        "secondary_damper_blowoff": (_veh.DamperBlowoff, _BLOWOFF_FIELDS,
+        "primary_bump_stop": (_veh.BumpStop, _m.BumpStop, None),
+        "primary_damper_blowoff": (_veh.DamperBlowoff, _m.DamperBlowoff, "primary_damping"),
+        "secondary_bump_stop": (_veh.BumpStop, _m.BumpStop, None),
+        "secondary_damper_blowoff": (_veh.DamperBlowoff, _m.DamperBlowoff,
                                      "secondary_damping"),
     },
 }
@@ -89,7 +69,8 @@ def _nonlinear(chk, v, path, kind, vals, res):
     """The vehicle's nonlinear suspension elements (``{key: BumpStop | DamperBlowoff}``),
     or ``_BAD``; their resolved tables go to ``res``."""
     out = {}
-    for key, (cls, fields, damping_key) in _NONLINEAR_KEYS.get(kind, {}).items():
+    for key, (cls, model, damping_key) in _NONLINEAR_KEYS.get(kind, {}).items():
+        fields = model.model_fields
         if key not in v:
             continue
         kp = f"{path}.{key}"
@@ -99,7 +80,7 @@ def _nonlinear(chk, v, path, kind, vals, res):
             out[key] = chk.error(kp, tbl, f"a table{what}")
             continue
         chk.table(tbl, kp, set(fields))
-        got = chk.numbers(tbl, kp, fields)
+        got = chk.fields(tbl, kp, model)
         if not _ok(*got.values()):
             out[key] = _BAD
             continue
@@ -216,8 +197,7 @@ def _vehicle(chk, v, path, index):
             elsewhere.setdefault(k, f"no such key for kind = '{kind}' (it belongs to kind = "
                                     f"'{other}')")
     chk.table(v, path, allowed, elsewhere=elsewhere)
-    offset = chk.get_number(v, path, "offset", _Num(
-        "an offset >= 0 m behind the train's first axle", ge=0, default=0.0))
+    offset = chk.fields(v, path, _VEHICLE_MODELS[kind], ["offset"])["offset"]
     name = chk.string(v, path, "name", "a vehicle name (string)", default=f"{kind}{index}")
     res = {"kind": kind, "offset": offset, "name": name}
     if kind == "user":
@@ -227,7 +207,7 @@ def _vehicle(chk, v, path, index):
                 res[k] = _as_list(v[k])
         res.setdefault("body_dof", -1)
         return veh, offset, res
-    vals = chk.numbers(v, path, _VEHICLE_FIELDS[kind])
+    vals = chk.fields(v, path, _VEHICLE_MODELS[kind], _VEHICLE_FIELDS[kind])
     res.update(_drop_none(vals))
     nonlinear = _nonlinear(chk, v, path, kind, vals, res)
     if not _ok(*vals.values(), *nonlinear.values(), name):
@@ -303,7 +283,7 @@ def _get_preset(chk, name, path, model):
 
 def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
     path = "train"
-    allowed = {"preset", "model", "vehicles", "file", "name", "hslm_b", "axles"}
+    allowed = keys_of(_m.Train)
     ignored = {"name": "it names the train of [[train.vehicles]]; presets keep their names"}
     if isinstance(d, Mapping) and "vehicles" in d:
         ignored = {"model": "it applies to library presets, not to [[train.vehicles]]"}
@@ -324,7 +304,7 @@ def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
                           default=title if title else "custom")
         res["name"] = name
         return _explicit_train(chk, d["vehicles"], name, res)
-    model = chk.choice(d, path, "model", TRAIN_MODELS, default=None)
+    model = chk.fields(d, path, _m.Train, ["model"])["model"]
     if model is not None and model is not _BAD:
         res["model"] = model
     extra = []
@@ -391,17 +371,14 @@ def _hslm_b(chk, v, model, res):
     if not isinstance(v, Mapping):
         return chk.error(path, v, "a table {N = <number of forces>, d = <spacing in m>} "
                                   "read from EN 1991-2 Fig. 6.13 [R]")
-    if chk.table(v, path, {"N", "d"}) is _BAD:
+    if chk.table(v, path, keys_of(_m.HslmB)) is _BAD:
         return _BAD
     missing = [k for k in ("N", "d") if k not in v]
     for k in missing:
         chk.error(f"{path}.{k}", _MISSING, _extra.HSLM_B_MISSING)
     if missing:
         return _BAD
-    vals = chk.numbers(v, path, {
-        "N": _Num("a whole number of point forces >= 1 (EN 1991-2 Fig. 6.13 [R])", ge=1,
-                  le=10_000, integer=True),
-        "d": _Num("a uniform spacing > 0 m (EN 1991-2 Fig. 6.13 [R])", gt=0, le=1_000)})
+    vals = chk.fields(v, path, _m.HslmB, ["N", "d"])
     if not _ok(*vals.values()):
         return _BAD
     if model == "interaction":
@@ -418,10 +395,10 @@ def _axle_train(chk, v, base_dir, res):
     if not isinstance(v, Mapping):
         return chk.error(path, v, "a table {file = \"axles.csv\", load_unit = \"kN\"} "
                                   "(CSV columns position in m behind the first axle, load)")
-    if chk.table(v, path, {"file", "load_unit", "name"}) is _BAD:
+    if chk.table(v, path, keys_of(_m.Axles)) is _BAD:
         return _BAD
     given, full = chk.file(v, path, "file", base_dir, "axle loads (CSV: position, load)")
-    unit = chk.choice(v, path, "load_unit", tuple(_extra.LOAD_UNITS), default="kN")
+    unit = chk.fields(v, path, _m.Axles, ["load_unit"])["load_unit"]
     name = chk.string(v, path, "name", "a train name (string)", default=None)
     if not _ok(given, full, unit, name):
         return _BAD

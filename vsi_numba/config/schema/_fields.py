@@ -1,0 +1,191 @@
+"""The building blocks of the declared schema: numbers with bounds, and :func:`key`, the
+one declaration of a configuration key (type, bounds, default, unit, description and the
+expectation its error message states).
+
+A key is declared once, as a field of a section model (:mod:`.models`)::
+
+    dt: Num(gt=0) = key(1e-3, unit="s", doc="time step", expected="a time step > 0 s")
+
+From that declaration come the JSON Schema shipped with the package, the key reference of
+the documentation, the ``vsi init`` template and the checks of the section readers
+(:meth:`vsi_numba.config._check._Checker.fields` validates a key with :func:`adapter` and
+reports it with its declared expectation).
+"""
+
+from __future__ import annotations
+
+import functools
+import types
+import typing
+from typing import Annotated, Any, Literal, Union
+
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
+from pydantic_core import PydanticUndefined
+
+#: Every section model: unknown keys are errors, numbers are TOML numbers (no strings, no
+#: booleans), integers stay integers, nan and inf are refused.
+STRICT = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False,
+                    populate_by_name=False, use_attribute_docstrings=False)
+
+
+class Section(BaseModel):
+    """Base of every section model (one TOML table)."""
+
+    model_config = STRICT
+
+
+def Num(*, gt=None, ge=None, lt=None, le=None):  # noqa: N802 (reads as a type)
+    """A finite real number (a TOML integer or float) within the given bounds."""
+    return Annotated[float, Field(gt=gt, ge=ge, lt=lt, le=le)]
+
+
+def Int(*, gt=None, ge=None, lt=None, le=None):  # noqa: N802
+    """A TOML integer within the given bounds."""
+    return Annotated[int, Field(gt=gt, ge=ge, lt=lt, le=le)]
+
+
+#: A non-empty string.
+Text = Annotated[str, Field(min_length=1)]
+
+#: Marks a key without a default (required, or required under a condition the
+#: description states).
+REQUIRED: Any = PydanticUndefined
+
+
+def key(default: Any = None, *, doc: str, unit: str = "", expected: str = "",
+        default_text: str = "", required: bool = False, example: Any = None):
+    """Declare a configuration key.
+
+    Parameters
+    ----------
+    default : object
+        The value taken when the key is absent; None when the default is a rule (then
+        ``default_text`` states it) or the key is optional.
+    doc : str
+        What the key is (the key reference, the JSON Schema description, the template's
+        comment).
+    unit : str
+        Its unit ("m", "N m^2", "km/h"; "" for none).
+    expected : str
+        The expectation of its error message ("a span length > 0 m").
+    default_text : str
+        The default in words when it is a rule ("every mode up to the cut-off").
+    required : bool
+        The key must be given (missing-key error).
+    example : object
+        A value for the ``vsi init`` template and the documentation (optional).
+    """
+    extra = {"unit": unit}
+    if expected:
+        extra["expected"] = expected
+    if default_text:
+        extra["default_text"] = default_text
+    if example is not None:
+        extra["example"] = example
+    if required:
+        return Field(description=doc, json_schema_extra=extra)
+    return Field(default, description=doc, json_schema_extra=extra)
+
+
+# -- reading the declarations back
+
+def extras(model: type[BaseModel], name: str) -> dict:
+    """The unit, expectation, default text and example of a field."""
+    e = model.model_fields[name].json_schema_extra
+    return dict(e) if isinstance(e, dict) else {}
+
+
+def keys_of(*models: type[BaseModel]) -> set[str]:
+    """The key names of one or more section models."""
+    return set().union(*(m.model_fields for m in models))
+
+
+def kinds_of(union) -> dict[str, type[BaseModel]]:
+    """``{kind: model}`` of a union of models told apart by their ``kind`` key."""
+    return {lit: m for m in section_models(union)
+            for lit in typing.get_args(m.model_fields["kind"].annotation)}
+
+
+def section_models(tp) -> list[type[BaseModel]]:
+    """The models of a table's annotation: one, or one per kind of a union."""
+    if isinstance(tp, type) and issubclass(tp, BaseModel):
+        return [tp]
+    if typing.get_origin(tp) is Annotated:
+        return section_models(typing.get_args(tp)[0])
+    if typing.get_origin(tp) in (Union, types.UnionType):
+        return [m for a in typing.get_args(tp) for m in section_models(a)]
+    return []
+
+
+def model_for(tp, data) -> type[BaseModel] | None:
+    """The model of a table's annotation that reads ``data`` (its kind's, for a union)."""
+    models = section_models(tp)
+    if len(models) <= 1:
+        return models[0] if models else None
+    for m in models:
+        kind = m.model_fields["kind"]
+        given = data.get("kind", kind.get_default()) if isinstance(data, dict) else None
+        if given in typing.get_args(kind.annotation):
+            return m
+    return None
+
+
+def required_paths(data, tp=None, path: str = "") -> set[str]:
+    """The key paths of ``data`` (a parsed configuration) that its tables declare
+    required (``bridge``, ``bridge.spans``, ``train.vehicles[0].mass``, ...).  Keys of
+    which one of several must be given (``train.preset`` / ``train.vehicles``,
+    ``study.speeds_kmh`` / ``line_speed_kmh``) are not among them."""
+    if tp is None:
+        from vsi_numba.config.schema.models import VsiConfig as tp
+    model = model_for(tp, data)
+    out: set[str] = set()
+    if model is None or not isinstance(data, dict):
+        return out
+    kind_default = any(m.model_fields["kind"].get_default() is not None
+                       for m in section_models(tp) if "kind" in m.model_fields)
+    for name, f in model.model_fields.items():
+        if name not in data:
+            continue
+        p = f"{path}.{name}" if path else name
+        if f.is_required() and not (name == "kind" and kind_default):
+            out.add(p)
+        sub = data[name]
+        if isinstance(sub, dict):
+            out |= required_paths(sub, f.annotation, p)
+        elif isinstance(sub, list) and typing.get_origin(f.annotation) is list:
+            (item,) = typing.get_args(f.annotation)
+            for i, v in enumerate(sub):
+                out |= required_paths(v, item, f"{p}[{i}]")
+    return out
+
+
+def all_keys() -> set[str]:
+    """Every key name of the configuration language (the fields of every table)."""
+    from vsi_numba.config.schema.models import SECTIONS
+
+    return {name for _, tp in SECTIONS for m in section_models(tp) for name in m.model_fields}
+
+
+@functools.cache
+def adapter(model: type[BaseModel], name: str) -> TypeAdapter:
+    """The validator of one declared key (its annotation and bounds, strict)."""
+    f = model.model_fields[name]
+    tp = Annotated[(f.annotation, *f.metadata)] if f.metadata else f.annotation
+    return TypeAdapter(tp, config=ConfigDict(strict=True, allow_inf_nan=False))
+
+
+def choices_of(model: type[BaseModel], name: str) -> tuple | None:
+    """The values of a key declared as a closed set (``Literal``), else None."""
+    tp = model.model_fields[name].annotation
+    return typing.get_args(tp) if typing.get_origin(tp) is Literal else None
+
+
+def expected_of(model: type[BaseModel], name: str) -> str:
+    """The expectation of a key's error message: its declared one, else from its type."""
+    e = extras(model, name).get("expected")
+    if e:
+        return e
+    tp = model.model_fields[name].annotation
+    if tp is bool:
+        return "true or false"
+    return model.model_fields[name].description or name

@@ -45,8 +45,13 @@ def _build():
         update_force_totals,
     )
     from vsi_numba.kernels.linalg import block_matvec, skyline_cholesky_solve
-    from vsi_numba.kernels.record import le_finish, le_list, le_static, record
-    from vsi_numba.kernels.schur import build_schur, contact_profile, solve_active_set
+    from vsi_numba.kernels.record import le_finish, le_list, le_static, record, step_arrays
+    from vsi_numba.kernels.schur import (
+        build_schur,
+        contact_arrays,
+        contact_profile,
+        solve_active_set,
+    )
     from vsi_numba.kernels.step import hht_step, vsi_step
     from vsi_numba.kernels.track import track_element, track_predict
 
@@ -141,7 +146,8 @@ def _build():
         for _k in range(n):
             for i in range(act0.shape[0]):
                 wk.active[i] = act0[i]
-            solve_active_set(veh, wk, scale, prm.max_iter, prm.tol_gap, prm.tol_force)
+            solve_active_set(contact_arrays(veh, wk), scale, prm.max_iter, prm.tol_gap,
+                             prm.tol_force)
 
     @numba.njit(**_OPTS)
     def d_profile(br, veh, pr, prm, st, bk, wk, red, out, n):
@@ -151,7 +157,7 @@ def _build():
                 wk.idx[m] = i
                 m += 1
         for _k in range(n):
-            contact_profile(veh, wk, m)
+            contact_profile(contact_arrays(veh, wk), m)
 
     @numba.njit(**_OPTS)
     def d_cholesky(br, veh, pr, prm, st, bk, wk, red, out, n):
@@ -162,7 +168,7 @@ def _build():
                 wk.idx[m] = i
                 wk.rhs[m] = -wk.gstar[i] / scale
                 m += 1
-        contact_profile(veh, wk, m)
+        contact_profile(contact_arrays(veh, wk), m)
         for _k in range(n):
             skyline_cholesky_solve(wk.S, wk.idx, m, wk.first, wk.L, wk.rhs, wk.sol)
 
@@ -203,7 +209,8 @@ def _build():
             if red.le_E.shape[1] > 0:
                 nl = le_list(red, veh.wheel_x0, st.X, veh.load_x0, veh.load_p, t,
                                 prm.speed)
-            record(veh, st, wk, red, 0, prm.n_steps, t, prm.speed, out, -1, 1, nl)
+            record(step_arrays(veh, st, wk), red, 0, prm.n_steps, t, prm.speed, out, -1, 1,
+                   nl)
 
     @numba.njit(**_OPTS)
     def d_load_effects(br, veh, pr, prm, st, bk, wk, red, out, n):
@@ -263,7 +270,8 @@ def _build():
             if red.le_E.shape[1] > 0:
                 nl = le_list(red, veh.wheel_x0, st.X, veh.load_x0, veh.load_p, t1,
                                 prm.speed)
-            record(veh, st, wk, red, 0, prm.n_steps + 1, t1, prm.speed, out, -1, 1, nl)
+            record(step_arrays(veh, st, wk), red, 0, prm.n_steps + 1, t1, prm.speed, out,
+                   -1, 1, nl)
         wk.trk[:, :] = trk0
 
     # order: the step first (leaves the step's S, gaps and contact set in wk for the

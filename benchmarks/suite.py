@@ -135,9 +135,11 @@ def run_suite(mode: str = "quick", write: bool = True, report: Path | None = Non
             if C.plot_scaling(c4, plot):
                 suite.plot = plot
         report.parent.mkdir(parents=True, exist_ok=True)
+        from benchmarks import compile_table
         from benchmarks.study import extract_section
 
-        kept = extract_section(report.read_text()) if report.exists() else ""
+        old = report.read_text() if report.exists() else ""
+        kept = extract_section(old) + compile_table.extract_section(old)
         report.write_text(markdown(suite) + ("\n" + kept if kept else ""))
         echo(f"[benchmarks] wrote {report}")
     return suite

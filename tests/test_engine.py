@@ -151,7 +151,7 @@ def test_solve_active_set__is_the_lcp_solution(seed):
     wk.S[:] = S
     wk.gstar[:] = gstar
     wk.active[:] = rng.integers(0, 2, n)
-    status, _ = solve_active_set(veh, wk, scale, 50, 1e-15, 1e-9)
+    status, _ = solve_active_set(driver.contact_view(veh, wk), scale, 50, 1e-15, 1e-9)
     assert status == ek.OK
     # the LCP with an SPD matrix has one solution: the two must agree to round-off
     np.testing.assert_allclose(wk.X, _brute_force_lcp(S, gstar, scale), rtol=1e-8, atol=1e-6)
@@ -181,7 +181,7 @@ def test_solve_active_set__envelope_follows_the_on_bridge_flags():
         wk.S[:] = S
         wk.gstar[:] = gstar
         wk.active[:] = 1
-        status, _ = solve_active_set(veh, wk, scale, 50, 1e-15, 1e-9)
+        status, _ = solve_active_set(driver.contact_view(veh, wk), scale, 50, 1e-15, 1e-9)
         assert status == ek.OK
         np.testing.assert_allclose(wk.X, _brute_force_lcp(S, gstar, scale), rtol=1e-8,
                                    atol=1e-6)

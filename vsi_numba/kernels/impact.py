@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from vsi_numba._jit import njit
 from vsi_numba.kernels.linalg import block_matvec, skyline_cholesky_solve
-from vsi_numba.kernels.schur import build_schur, contact_profile
+from vsi_numba.kernels.schur import build_schur, contact_arrays, contact_profile
 from vsi_numba.kernels.types import NOT_CONVERGED, OK, SINGULAR_IMPACT
 
 # Murty's least-index rule after this many block-pivoting sweeps of :func:`solve_lcp`
@@ -21,54 +21,54 @@ IMPULSE_ALLOWANCE = 1.0
 
 
 @njit(kernel_only=True)
-def solve_lcp(veh, wk, m, max_iter, tol_z, tol_w):
-    """The small LCP of the wheels ``wk.cand[0:m]`` (ascending) on the matrix ``wk.S``.
+def solve_lcp(cw, m, max_iter, tol_z, tol_w):
+    """The small LCP of the wheels ``cw.cand[0:m]`` (ascending) on the matrix ``cw.S``.
 
-    Finds z >= 0 with w = S z + q >= 0 and z_i w_i = 0 (q in ``wk.lq``, per wheel), by
+    Finds z >= 0 with w = S z + q >= 0 and z_i w_i = 0 (q in ``cw.lq``, per wheel), by
     principal pivoting: solve S_AA z_A = -q_A on the set A (skyline Cholesky, see
     :func:`skyline_cholesky_solve`), move a wheel with z_i < -tol_z out of A and one with
     w_i < -tol_w into it; block sweeps first, then Murty's least-index rule (finite for
-    a positive definite S).  ``wk.lin`` holds the initial set (1 = in A) and the final
-    one; ``wk.lz`` receives z (0 off A), ``wk.lw`` w (0 on A).
+    a positive definite S).  ``cw.lin`` holds the initial set (1 = in A) and the final
+    one; ``cw.lz`` receives z (0 off A), ``cw.lw`` w (0 on A).
     Returns (status, iterations): OK, SINGULAR_IMPACT or NOT_CONVERGED.
     """
     for it in range(1, max_iter + 1):
         na = 0
         for a in range(m):
-            i = wk.cand[a]
-            wk.lz[i] = 0.0
-            if wk.lin[i] == 1:
-                wk.idx[na] = i
-                wk.rhs[na] = -wk.lq[i]
+            i = cw.cand[a]
+            cw.lz[i] = 0.0
+            if cw.lin[i] == 1:
+                cw.idx[na] = i
+                cw.rhs[na] = -cw.lq[i]
                 na += 1
         if na > 0:
-            contact_profile(veh, wk, na)
-            if skyline_cholesky_solve(wk.S, wk.idx, na, wk.first, wk.L, wk.rhs,
-                                      wk.sol) != 0:
+            contact_profile(cw, na)
+            if skyline_cholesky_solve(cw.S, cw.idx, na, cw.first, cw.L, cw.rhs,
+                                      cw.sol) != 0:
                 return SINGULAR_IMPACT, it
             for a in range(na):
-                wk.lz[wk.idx[a]] = wk.sol[a]
+                cw.lz[cw.idx[a]] = cw.sol[a]
         n_bad = 0
         for a in range(m):
-            i = wk.cand[a]
-            if wk.lin[i] == 1:
-                wk.lw[i] = 0.0
-                bad = wk.lz[i] < -tol_z
+            i = cw.cand[a]
+            if cw.lin[i] == 1:
+                cw.lw[i] = 0.0
+                bad = cw.lz[i] < -tol_z
             else:
-                w = wk.lq[i]
+                w = cw.lq[i]
                 for b in range(na):
-                    w += wk.S[i, wk.idx[b]] * wk.sol[b]
-                wk.lw[i] = w
+                    w += cw.S[i, cw.idx[b]] * cw.sol[b]
+                cw.lw[i] = w
                 bad = w < -tol_w
             if bad:
                 n_bad += 1
                 if it <= LCP_BLOCK_SWEEPS or n_bad == 1:
-                    wk.lin[i] = 1 - wk.lin[i]  # block sweep: flip all; Murty: the first
+                    cw.lin[i] = 1 - cw.lin[i]  # block sweep: flip all; Murty: the first
         if n_bad == 0:
             for a in range(m):
-                i = wk.cand[a]
-                if wk.lz[i] < 0.0:
-                    wk.lz[i] = 0.0
+                i = cw.cand[a]
+                if cw.lz[i] < 0.0:
+                    cw.lz[i] = 0.0
             return OK, it
     return NOT_CONVERGED, max_iter
 
@@ -133,7 +133,7 @@ def project_velocities(br, veh, wk, st, speed, dt, alpha, max_iter, tol_force, t
                 if bk != 0.0:
                     s -= wk.S[i, k] * bk
             wk.lq[i] = s
-        status, _ = solve_lcp(veh, wk, m, max_iter, tol_z, tol_w)
+        status, _ = solve_lcp(contact_arrays(veh, wk), m, max_iter, tol_z, tol_w)
         if status != OK:
             return status
         for a in range(m):
@@ -210,7 +210,7 @@ def consistent_accelerations(br, veh, wk, st, speed, scale, dt, max_iter, tol_fo
             wk.lin[i] = 1
             m += 1
     if m > 0:
-        status, _ = solve_lcp(veh, wk, m, max_iter, tol_force, tol_w)
+        status, _ = solve_lcp(contact_arrays(veh, wk), m, max_iter, tol_force, tol_w)
         if status != OK:
             return status
         for a in range(m):

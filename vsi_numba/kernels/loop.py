@@ -10,7 +10,7 @@ import numpy as np
 from vsi_numba._jit import njit
 from vsi_numba.kernels.contact import contact_search, crosses_deck_end, next_deck_end
 from vsi_numba.kernels.integrator import copy_state, state_is_finite
-from vsi_numba.kernels.record import close_separation, le_list, record
+from vsi_numba.kernels.record import close_separation, le_list, record, step_arrays
 from vsi_numba.kernels.step import crossing_impact, vsi_step
 from vsi_numba.kernels.track import track_element
 from vsi_numba.kernels.types import NON_FINITE, NOT_CONVERGED, OK
@@ -187,7 +187,7 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
         nl = 0
         if red.le_E.shape[1] > 0:
             nl = le_list(red, veh.wheel_x0, st.X, veh.load_x0, veh.load_p, tn, prm.speed)
-        record(veh, st, wk, red, r, n + 1, tn, prm.speed, out, h, iters, nl)
+        record(step_arrays(veh, st, wk), red, r, n + 1, tn, prm.speed, out, h, iters, nl)
     for i in range(n_w):
         if red.run_len[i] > 0:
             close_separation(red, r, i)

@@ -7,61 +7,71 @@ keep them.  The bridge's part, :func:`record_modes`, serves both time loops
 from __future__ import annotations
 
 from vsi_numba._jit import njit
+from vsi_numba.kernels.types import StepArrays
+
+
+@njit(inline="always")
+def step_arrays(veh, st, wk):
+    """The :class:`~vsi_numba.kernels.types.StepArrays` of a model, state and workspace."""
+    return StepArrays(veh.wheel_x0, veh.body_dof, veh.body_pt_start, veh.body_pt_pitch,
+                      veh.body_pt_d, veh.body_end_start, veh.body_end_pitch, veh.body_end_d,
+                      st.q, st.qdd, st.udd, st.fq_tot, wk.xout, wk.active)
 
 
 @njit(kernel_only=True)
-def record(veh, st, wk, red, r, n, t, speed, out, h, iters, nl):
+def record(sa, red, r, n, t, speed, out, h, iters, nl):
     """Fold step ``n`` (time ``t``) of the interaction loop into the envelopes of run
     ``r`` and, when ``h >= 0``, store it in history slot ``h``: the bridge's part
-    (:func:`record_modes`), then the wheels and the car bodies.  ``iters``: the step's
+    (:func:`record_modes`), then the wheels and the car bodies.  ``sa``: the step's
+    :class:`~vsi_numba.kernels.types.StepArrays` (:func:`step_arrays`); ``iters``: its
     contact iterations; ``nl``: the loads on the deck (:func:`le_list`)."""
-    record_modes(red, st.q, st.qdd, st.fq_tot, r, n, t, nl, out, h, iters)
-    for i in range(veh.wheel_dof.shape[0]):
-        x = wk.xout[i]
+    record_modes(red, sa.q, sa.qdd, sa.fq_tot, r, n, t, nl, out, h, iters)
+    for i in range(sa.wheel_x0.shape[0]):
+        x = sa.xout[i]
         if n == 0 or x < red.xmin[r, i]:
             red.xmin[r, i] = x
-            red.xmin_x[r, i] = veh.wheel_x0[i] + speed * t
+            red.xmin_x[r, i] = sa.wheel_x0[i] + speed * t
         if n == 0 or x > red.xmax[r, i]:
             red.xmax[r, i] = x
-        if wk.active[i] == 0:
+        if sa.active[i] == 0:
             red.lost[r, i] += 1
             red.run_len[i] += 1
             if red.run_len[i] > red.longest[r, i]:
                 red.longest[r, i] = red.run_len[i]
         elif red.run_len[i] > 0:
             close_separation(red, r, i)
-    for b in range(veh.body_dof.shape[0]):
-        d = veh.body_dof[b]
-        a0 = st.udd[d] if d >= 0 else 0.0
-        k0 = veh.body_pt_start[b]
-        for k in range(k0, veh.body_pt_start[b + 1]):
-            th = veh.body_pt_pitch[k]
-            a = abs(a0 + veh.body_pt_d[k] * st.udd[th]) if th >= 0 else abs(a0)
+    for b in range(sa.body_dof.shape[0]):
+        d = sa.body_dof[b]
+        a0 = sa.udd[d] if d >= 0 else 0.0
+        k0 = sa.body_pt_start[b]
+        for k in range(k0, sa.body_pt_start[b + 1]):
+            th = sa.body_pt_pitch[k]
+            a = abs(a0 + sa.body_pt_d[k] * sa.udd[th]) if th >= 0 else abs(a0)
             if (n == 0 and k == k0) or a > red.body[r, b]:
                 red.body[r, b] = a
                 red.body_t[r, b] = t
-                red.body_x[r, b] = veh.body_pt_d[k]
-        k0 = veh.body_end_start[b]
-        for k in range(k0, veh.body_end_start[b + 1]):
-            th = veh.body_end_pitch[k]
-            a = abs(a0 + veh.body_end_d[k] * st.udd[th]) if th >= 0 else abs(a0)
+                red.body_x[r, b] = sa.body_pt_d[k]
+        k0 = sa.body_end_start[b]
+        for k in range(k0, sa.body_end_start[b + 1]):
+            th = sa.body_end_pitch[k]
+            a = abs(a0 + sa.body_end_d[k] * sa.udd[th]) if th >= 0 else abs(a0)
             if (n == 0 and k == k0) or a > red.body_end[r, b]:
                 red.body_end[r, b] = a
                 red.body_end_t[r, b] = t
-                red.body_end_x[r, b] = veh.body_end_d[k]
+                red.body_end_x[r, b] = sa.body_end_d[k]
     if iters > red.iters[r]:
         red.iters[r] = iters
     if h >= 0:
-        for i in range(veh.wheel_dof.shape[0]):
-            out.X[h, n, i] = wk.xout[i]
-            out.contact[h, n, i] = wk.active[i]
-        for b in range(veh.body_dof.shape[0]):
-            d = veh.body_dof[b]
-            out.body_acc[h, n, b] = st.udd[d] if d >= 0 else 0.0
+        for i in range(sa.wheel_x0.shape[0]):
+            out.X[h, n, i] = sa.xout[i]
+            out.contact[h, n, i] = sa.active[i]
+        for b in range(sa.body_dof.shape[0]):
+            d = sa.body_dof[b]
+            out.body_acc[h, n, b] = sa.udd[d] if d >= 0 else 0.0
             pa = 0.0
-            for k in range(veh.body_pt_start[b], veh.body_pt_start[b + 1]):
-                if veh.body_pt_pitch[k] >= 0:
-                    pa = st.udd[veh.body_pt_pitch[k]]
+            for k in range(sa.body_pt_start[b], sa.body_pt_start[b + 1]):
+                if sa.body_pt_pitch[k] >= 0:
+                    pa = sa.udd[sa.body_pt_pitch[k]]
             out.body_pitch[h, n, b] = pa
 
 

@@ -7,12 +7,20 @@ from __future__ import annotations
 
 from vsi_numba._jit import njit
 from vsi_numba.kernels.linalg import skyline_cholesky_solve
-from vsi_numba.kernels.types import NOT_CONVERGED, OK, SINGULAR_SCHUR
+from vsi_numba.kernels.types import NOT_CONVERGED, OK, SINGULAR_SCHUR, ContactArrays
 
 
 @njit(inline="always")
-def contact_profile(veh, wk, m):
-    """Envelope of the active Schur block: ``wk.first[a]`` is the first active position
+def contact_arrays(veh, wk):
+    """The :class:`~vsi_numba.kernels.types.ContactArrays` of a model and workspace."""
+    return ContactArrays(veh.wheel_veh, veh.compliance, wk.onb, wk.S, wk.L, wk.J, wk.idx,
+                         wk.rhs, wk.sol, wk.gstar, wk.X, wk.active, wk.first, wk.pf, wk.cand,
+                         wk.lq, wk.lz, wk.lw, wk.lin)
+
+
+@njit(inline="always")
+def contact_profile(cw, m):
+    """Envelope of the active Schur block: ``cw.first[a]`` is the first active position
     coupled to active position ``a`` (same vehicle, both wheels on the bridge, or close
     enough to share the deflection of an elastic rail).
 
@@ -22,31 +30,31 @@ def contact_profile(veh, wk, m):
 
     The envelope depends only on the active wheels and their on-bridge flags (the
     vehicles and the rail's coupling are fixed over a run): when those are the ones of
-    the previous call (``wk.pf``: m + 1, then the wheels, then their flags; 0 after
-    :func:`reset_work`), ``wk.first`` is kept - most steps change neither.
+    the previous call (``cw.pf``: m + 1, then the wheels, then their flags; 0 after
+    :func:`reset_work`), ``cw.first`` is kept - most steps change neither.
     """
-    n_w = veh.wheel_dof.shape[0]
-    same = wk.pf[0] == m + 1
+    n_w = cw.X.shape[0]
+    same = cw.pf[0] == m + 1
     a = 0
     while same and a < m:
-        i = wk.idx[a]
-        same = wk.pf[1 + a] == i and wk.pf[1 + n_w + a] == wk.onb[i]
+        i = cw.idx[a]
+        same = cw.pf[1 + a] == i and cw.pf[1 + n_w + a] == cw.onb[i]
         a += 1
     if same:
         return
-    wk.pf[0] = m + 1
+    cw.pf[0] = m + 1
     for a in range(m):
-        i = wk.idx[a]
-        wk.pf[1 + a] = i
-        wk.pf[1 + n_w + a] = wk.onb[i]
+        i = cw.idx[a]
+        cw.pf[1 + a] = i
+        cw.pf[1 + n_w + a] = cw.onb[i]
         f = a
         for b in range(a):
-            k = wk.idx[b]
-            if (veh.wheel_veh[k] == veh.wheel_veh[i] or (wk.onb[i] == 1 and wk.onb[k] == 1)
-                    or (veh.compliance.shape[0] > 0 and veh.compliance[i, k] != 0.0)):
+            k = cw.idx[b]
+            if (cw.wheel_veh[k] == cw.wheel_veh[i] or (cw.onb[i] == 1 and cw.onb[k] == 1)
+                    or (cw.compliance.shape[0] > 0 and cw.compliance[i, k] != 0.0)):
                 f = b
                 break
-        wk.first[a] = f
+        cw.first[a] = f
 
 
 @njit(inline="always")
@@ -77,113 +85,113 @@ def build_schur(veh, wk, khat_q, A):
 
 
 @njit
-def solve_active_set(veh, wk, scale, max_iter, tol_gap, tol_force):
+def solve_active_set(cw, scale, max_iter, tol_gap, tol_force):
     """Unilateral contact by the active-set method on S X = -gap* / scale.
 
-    On entry ``wk.active`` holds the initial guess and ``wk.gstar`` the gaps of the
+    On entry ``cw.active`` holds the initial guess and ``cw.gstar`` the gaps of the
     predictor (all X = 0).  A wheel in tension is released, a free wheel that
     penetrates is attached, until both sets are stable (Neves et al. 2014, Sec. 3).
-    Returns (status, iterations); ``wk.X`` holds the contact forces.
+    Returns (status, iterations); ``cw.X`` holds the contact forces.
     """
-    n_w = veh.wheel_dof.shape[0]
+    n_w = cw.X.shape[0]
     for it in range(1, max_iter + 1):
         m = 0
         for i in range(n_w):
-            wk.X[i] = 0.0
-            if wk.active[i] == 1:
-                wk.idx[m] = i
-                wk.rhs[m] = -wk.gstar[i] / scale
+            cw.X[i] = 0.0
+            if cw.active[i] == 1:
+                cw.idx[m] = i
+                cw.rhs[m] = -cw.gstar[i] / scale
                 m += 1
         if m > 0:
-            contact_profile(veh, wk, m)
-            if skyline_cholesky_solve(wk.S, wk.idx, m, wk.first, wk.L, wk.rhs, wk.sol) != 0:
+            contact_profile(cw, m)
+            if skyline_cholesky_solve(cw.S, cw.idx, m, cw.first, cw.L, cw.rhs, cw.sol) != 0:
                 return SINGULAR_SCHUR, it
             for a in range(m):
-                wk.X[wk.idx[a]] = wk.sol[a]
+                cw.X[cw.idx[a]] = cw.sol[a]
         changed = False
         for i in range(n_w):
-            if wk.active[i] == 1:
-                if wk.X[i] < -tol_force:
-                    wk.active[i] = 0
+            if cw.active[i] == 1:
+                if cw.X[i] < -tol_force:
+                    cw.active[i] = 0
                     changed = True
             else:
-                g = wk.gstar[i]
+                g = cw.gstar[i]
                 for a in range(m):
-                    g += scale * wk.S[i, wk.idx[a]] * wk.sol[a]
+                    g += scale * cw.S[i, cw.idx[a]] * cw.sol[a]
                 if g < -tol_gap:
-                    wk.active[i] = 1
+                    cw.active[i] = 1
                     changed = True
         if not changed:
             for i in range(n_w):
-                if wk.X[i] < 0.0:
-                    wk.X[i] = 0.0
+                if cw.X[i] < 0.0:
+                    cw.X[i] = 0.0
             return OK, it
     return NOT_CONVERGED, max_iter
 
 
 @njit(kernel_only=True)
-def solve_hertz(veh, wk, scale, g_hertz, max_iter, tol_force):
+def solve_hertz(cw, scale, g_hertz, max_iter, tol_force):
     """Hertzian contact: X_i = (delta_i / G)^(3/2) with the penetration
     delta_i = -gap_i = -(g*_i + scale (S X)_i), X_i = 0 where the wheel is separated.
 
     Newton on the active wheels with the tangent compliance d(delta)/dX on the diagonal
     of S; the active set follows the sign of each wheel's gap with its own force
-    removed.  ``wk.X`` holds the starting guess (the forces at t_n) and the result.
+    removed.  ``cw.X`` holds the starting guess (the forces at t_n) and the result.
     Returns (status, iterations).
     """
-    n_w = veh.wheel_dof.shape[0]
+    n_w = cw.X.shape[0]
     for it in range(1, max_iter + 1):
         m = 0
         changed = False
         for i in range(n_w):
-            gf = wk.gstar[i]
+            gf = cw.gstar[i]
             for k in range(n_w):
                 if k != i:
-                    gf += scale * wk.S[i, k] * wk.X[k]
+                    gf += scale * cw.S[i, k] * cw.X[k]
             if gf < 0.0:
-                if wk.X[i] <= 0.0:
+                if cw.X[i] <= 0.0:
                     # below both the rigid and the bare-Hertz single-wheel solutions
-                    x_rigid = -gf / (scale * wk.S[i, i])
+                    x_rigid = -gf / (scale * cw.S[i, i])
                     x_hertz = (-gf / g_hertz) ** 1.5
-                    wk.X[i] = 0.5 * min(x_rigid, x_hertz)
+                    cw.X[i] = 0.5 * min(x_rigid, x_hertz)
                     changed = True
-                wk.idx[m] = i
+                cw.idx[m] = i
                 m += 1
-                wk.active[i] = 1
+                cw.active[i] = 1
             else:
-                if wk.X[i] != 0.0:
+                if cw.X[i] != 0.0:
                     changed = True
-                wk.X[i] = 0.0
-                wk.active[i] = 0
+                cw.X[i] = 0.0
+                cw.active[i] = 0
         if m == 0:
             return OK, it
         xmax = 0.0
         for a in range(m):
-            i = wk.idx[a]
-            xi = wk.X[i]
+            i = cw.idx[a]
+            xi = cw.X[i]
             if xi > xmax:
                 xmax = xi
-            r = (wk.gstar[i] + g_hertz * xi ** (2.0 / 3.0)) / scale
+            r = (cw.gstar[i] + g_hertz * xi ** (2.0 / 3.0)) / scale
             for b in range(m):
-                k = wk.idx[b]
-                r += wk.S[i, k] * wk.X[k]
-                wk.J[i, k] = wk.S[i, k]
-            wk.J[i, i] += (2.0 / 3.0) * g_hertz * xi ** (-1.0 / 3.0) / scale
-            wk.rhs[a] = -r
-        contact_profile(veh, wk, m)
-        if skyline_cholesky_solve(wk.J, wk.idx, m, wk.first, wk.L, wk.rhs, wk.sol) != 0:
+                k = cw.idx[b]
+                r += cw.S[i, k] * cw.X[k]
+                cw.J[i, k] = cw.S[i, k]
+            cw.J[i, i] += (2.0 / 3.0) * g_hertz * xi ** (-1.0 / 3.0) / scale
+            cw.rhs[a] = -r
+        contact_profile(cw, m)
+        if skyline_cholesky_solve(cw.J, cw.idx, m, cw.first, cw.L, cw.rhs, cw.sol) != 0:
             return SINGULAR_SCHUR, it
         dmax = 0.0
         for a in range(m):
-            i = wk.idx[a]
-            d = wk.sol[a]
-            xn = wk.X[i] + d
+            i = cw.idx[a]
+            d = cw.sol[a]
+            xn = cw.X[i] + d
             if xn <= 0.0:
-                xn = 0.1 * wk.X[i]  # stay in the domain of X^(2/3)
-            dd = abs(xn - wk.X[i])
+                xn = 0.1 * cw.X[i]  # stay in the domain of X^(2/3)
+            dd = abs(xn - cw.X[i])
             if dd > dmax:
                 dmax = dd
-            wk.X[i] = xn
+            cw.X[i] = xn
         if not changed and dmax <= tol_force + 1e-12 * xmax:
             return OK, it
     return NOT_CONVERGED, max_iter

@@ -53,7 +53,7 @@ from vsi_numba.kernels.integrator import (
     update_force_totals,
 )
 from vsi_numba.kernels.linalg import block_matvec, block_matvec_nz
-from vsi_numba.kernels.schur import build_schur, solve_active_set, solve_hertz
+from vsi_numba.kernels.schur import build_schur, contact_arrays, solve_active_set, solve_hertz
 from vsi_numba.kernels.suspension import nl_residual, nl_update_branches, prepare_khat
 from vsi_numba.kernels.track import track_element, track_predict, track_update
 from vsi_numba.kernels.types import NOT_CONVERGED, OK, SINGULAR_SCHUR
@@ -130,13 +130,13 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
                 wk.S[i, k] += veh.compliance[i, k] * inv
     if track_element(veh):
         track_predict(veh, wk, st, alpha, a0, a1, a2, a3, cv, ca, scale)
+    cw = contact_arrays(veh, wk)
     if prm.contact_model == 1:
         for i in range(n_w):
             wk.X[i] = st.X[i]
-        status, iters = solve_hertz(veh, wk, scale, prm.hertz_g, prm.max_iter, prm.tol_force)
+        status, iters = solve_hertz(cw, scale, prm.hertz_g, prm.max_iter, prm.tol_force)
     else:
-        status, iters = solve_active_set(veh, wk, scale, prm.max_iter, prm.tol_gap,
-                                         prm.tol_force)
+        status, iters = solve_active_set(cw, scale, prm.max_iter, prm.tol_gap, prm.tol_force)
     if status != OK:
         return status, iters
 

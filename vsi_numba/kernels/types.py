@@ -191,6 +191,54 @@ class Work(NamedTuple):
     pf: np.ndarray = np.zeros(0, np.int64)
 
 
+class ContactArrays(NamedTuple):
+    """What the contact solvers (:mod:`~vsi_numba.kernels.schur`, the LCP of
+    :mod:`~vsi_numba.kernels.impact`) read and write: the fields of ``VehicleArrays`` and
+    ``Work`` of the same names, and nothing else of them (a call passes these arrays,
+    not the whole workspace)."""
+
+    wheel_veh: np.ndarray
+    compliance: np.ndarray
+    onb: np.ndarray
+    S: np.ndarray
+    L: np.ndarray
+    J: np.ndarray
+    idx: np.ndarray
+    rhs: np.ndarray
+    sol: np.ndarray
+    gstar: np.ndarray
+    X: np.ndarray
+    active: np.ndarray
+    first: np.ndarray
+    pf: np.ndarray
+    cand: np.ndarray
+    lq: np.ndarray
+    lz: np.ndarray
+    lw: np.ndarray
+    lin: np.ndarray
+
+
+class StepArrays(NamedTuple):
+    """What :func:`~vsi_numba.kernels.record.record` reads of the vehicles, the state and
+    the workspace (the fields of ``VehicleArrays``, ``State`` and ``Work`` of the same
+    names)."""
+
+    wheel_x0: np.ndarray
+    body_dof: np.ndarray
+    body_pt_start: np.ndarray
+    body_pt_pitch: np.ndarray
+    body_pt_d: np.ndarray
+    body_end_start: np.ndarray
+    body_end_pitch: np.ndarray
+    body_end_d: np.ndarray
+    q: np.ndarray
+    qdd: np.ndarray
+    udd: np.ndarray
+    fq_tot: np.ndarray
+    xout: np.ndarray
+    active: np.ndarray
+
+
 class State(NamedTuple):
     """Dynamic state (arrays updated in place)."""
 

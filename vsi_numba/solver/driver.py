@@ -14,7 +14,24 @@ from vsi_numba.kernels.loop import time_loop
 from vsi_numba.kernels.moving_force import run_batch_mf
 from vsi_numba.kernels.record import record
 from vsi_numba.kernels.suspension import nl_update_branches
-from vsi_numba.kernels.types import VehicleArrays
+from vsi_numba.kernels.types import ContactArrays, StepArrays, VehicleArrays
+
+
+def _view(cls, *bundles):
+    """``cls`` (a namedtuple of arrays) from the fields of the same names in ``bundles``."""
+    return cls(*(next(getattr(b, f) for b in bundles if f in b._fields) for f in cls._fields))
+
+
+def contact_view(veh, wk) -> ContactArrays:
+    """The contact solvers' arrays of a model and workspace (as the kernels'
+    ``contact_arrays``), for a call from Python."""
+    return _view(ContactArrays, veh, wk)
+
+
+def step_view(veh, st, wk) -> StepArrays:
+    """The arrays ``record`` reads of a model, state and workspace (as the kernels'
+    ``step_arrays``), for a call from Python."""
+    return _view(StepArrays, veh, st, wk)
 
 
 def with_patterns(veh: VehicleArrays) -> VehicleArrays:
@@ -102,8 +119,8 @@ def compile_leaves(br, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out
     p = prm._replace(speed=float(speeds[0]), n_steps=int(n_steps[0]))
     compile_for(impact_update, br, veh, p, st, wk, 0.0)
     compile_for(nl_update_branches, veh, wk, st, 0.0)
-    compile_for(record, veh, st, wk, red, np.int64(0), np.int64(0), 0.0, p.speed, out,
-                np.int64(0), np.int64(0), np.int64(0))
+    compile_for(record, step_view(veh, st, wk), red, np.int64(0), np.int64(0), 0.0, p.speed,
+                out, np.int64(0), np.int64(0), np.int64(0))
 
 
 

@@ -1,7 +1,7 @@
 """A plain numpy/scipy implementation of the direct method, used ONLY as a yardstick.
 
 This is the "straightforward" way to code the method of Neves et al. (Eng. Struct. 69,
-2014, Eq. 3), written independently of ``vsi_numba.kernels.engine`` (no numba, no Schur
+2014, Eq. 3), written independently of ``vsi_numba.kernels`` (no numba, no Schur
 complement, no pre-factorisation):
 
 * one global DOF vector ``z = [q (n_m modal coordinates), u (n_v vehicle DOFs)]``,

@@ -242,22 +242,22 @@ def kernel_args(packed, profile, speed, points, settings, bridge, **kw):
     them for one run at ``speed`` (workspace, envelopes with the load effects, history
     slots per ``keep_histories``), the state and workspace set for that run
     (``start_vsi_run``)."""
-    from vsi_numba.kernels import engine as ek
     from vsi_numba.solver import batch as sim_batch
+    from vsi_numba.solver import driver
 
     grabbed = {}
 
     def grab(*args):
         grabbed["args"] = args
 
-    real = sim_batch.ek.run_batch
-    sim_batch.ek.run_batch = grab
+    real = sim_batch.driver.run_batch
+    sim_batch.driver.run_batch = grab
     try:
         sim_batch.run_batch(packed, profile, [speed], points, settings, bridge, **kw)
     finally:
-        sim_batch.ek.run_batch = real
+        sim_batch.driver.run_batch = real
     args = grabbed["args"]
-    ek.start_vsi_run(args[6], 0, args[7], args[9])  # init row 0 -> st; reset wk
+    driver.start_vsi_run(args[6], 0, args[7], args[9])  # init row 0 -> st; reset wk
     return args
 
 
@@ -275,7 +275,7 @@ def engine_window(bridge, train, speed, profile, settings, n_steps=None) -> Kern
     if n_steps is not None:
         n = min(int(n_steps), packed.params.n_steps)
         packed = dataclasses.replace(packed, params=packed.params._replace(n_steps=n))
-    from vsi_numba.kernels import engine as ek
+    from vsi_numba import kernels as ek
 
     # the kernel arguments as run_batch builds them (workspace, envelopes with the
     # load effects, a history slot), then the time loop alone

@@ -1,6 +1,6 @@
 """Where the time of one engine step goes: the kernel's parts timed in numba loops.
 
-Each driver below calls one function (or one stretch) of ``vsi_numba.kernels.engine``
+Each driver below calls one function (or one stretch) of ``vsi_numba.kernels``
 ``n`` times inside a jitted loop, from a mid-passage state (the train on the deck), so
 the per-call time excludes Python.  The drivers are compiled WITHOUT the on-disk cache on
 purpose: numba does not track callees in another module, so a cached driver could run a
@@ -10,7 +10,7 @@ costs a minute or two on this machine, hence the micro-profile only runs in the
 
 The model is a study's (``study_spec`` of a config dict: the packed train, the profile of
 the first realisation and the deck operators with the load effects, as ``vsi sweep``
-runs it), advanced by :func:`~vsi_numba.kernels.engine.time_loop` to the middle of the
+runs it), advanced by :func:`~vsi_numba.kernels.loop.time_loop` to the middle of the
 passage.  The parts of a step (``step`` = copy_state + hht_step + state_is_finite +
 record, as in the time loop) are timed one by one; a part that reads ``wk.S`` or the
 predictor gaps sees the step's own (the ``hht_step`` driver leaves them there).
@@ -34,25 +34,44 @@ _DRIVERS: dict = {}
 def _build():
     if _DRIVERS:
         return _DRIVERS
-    from vsi_numba.kernels import engine as ek
+    from vsi_numba.kernels.contact import assemble_loads, contact_search
+    from vsi_numba.kernels.integrator import (
+        copy_state,
+        hht_coefficients,
+        hht_correct,
+        restore_state,
+        save_state,
+        state_is_finite,
+        update_force_totals,
+    )
+    from vsi_numba.kernels.linalg import block_matvec, skyline_cholesky_solve
+    from vsi_numba.kernels.record import le_finish, le_list, le_static, record, step_arrays
+    from vsi_numba.kernels.schur import (
+        build_schur,
+        contact_arrays,
+        contact_profile,
+        solve_active_set,
+    )
+    from vsi_numba.kernels.step import hht_step, vsi_step
+    from vsi_numba.kernels.track import track_element, track_predict
 
     @numba.njit(**_OPTS)
     def d_search(br, veh, pr, prm, st, bk, wk, red, out, n):
         t1 = (prm.n_steps + 1) * prm.dt
         for _k in range(n):
-            ek.contact_search(br, veh, pr, t1, prm.speed, wk)
+            contact_search(br, veh, pr, t1, prm.speed, wk)
 
     @numba.njit(**_OPTS)
     def d_loads(br, veh, pr, prm, st, bk, wk, red, out, n):
         t1 = (prm.n_steps + 1) * prm.dt
         for _k in range(n):
-            ek.assemble_loads(br, veh, t1, prm.speed, wk.fq, wk.phil, wk.hq, wk.rq)
+            assemble_loads(br, veh, t1, prm.speed, wk.fq, wk.phil, wk.hq, wk.rq)
 
     @numba.njit(**_OPTS)
     def d_predictor(br, veh, pr, prm, st, bk, wk, red, out, n):
         # the predictor of hht_step: residual, vehicle blocks, modal increments, gaps
         alpha = prm.alpha
-        a0, a1, a2, a3, cv, ca, gamma, scale = ek.hht_coefficients(alpha, prm.dt)
+        a0, a1, a2, a3, cv, ca, gamma, scale = hht_coefficients(alpha, prm.dt)
         khat_v = veh.Khat_inv[0]
         n_m = st.q.shape[0]
         n_v = st.u.shape[0]
@@ -68,10 +87,10 @@ def _build():
                 wk.rv[k] = scale * veh.gravity[k] - alpha * st.fv_tot[k]
                 wk.hv[k] = a2 * st.ud[k] + a3 * st.udd[k]
                 wk.vv[k] = cv * st.ud[k] + ca * st.udd[k]
-            ek.block_matvec(veh, veh.M, wk.hv, wk.rv, True, 1.0)
-            ek.block_matvec(veh, veh.C, wk.vv, wk.rv, True, -1.0)
-            ek.block_matvec(veh, veh.K, st.u, wk.rv, True, -1.0)
-            ek.block_matvec(veh, khat_v, wk.rv, wk.yv, False, 1.0)
+            block_matvec(veh, veh.M, wk.hv, wk.rv, True, 1.0)
+            block_matvec(veh, veh.C, wk.vv, wk.rv, True, -1.0)
+            block_matvec(veh, veh.K, st.u, wk.rv, True, -1.0)
+            block_matvec(veh, khat_v, wk.rv, wk.yv, False, 1.0)
             for i in range(veh.wheel_dof.shape[0]):
                 d = veh.wheel_dof[i]
                 g = wk.rr[i, 0] - (st.u[d] + wk.yv[d])
@@ -83,12 +102,12 @@ def _build():
     def d_block_matvec(br, veh, pr, prm, st, bk, wk, red, out, n):
         kh = veh.Khat_inv[0]
         for _k in range(n):
-            ek.block_matvec(veh, kh, wk.rv, wk.yv, False, 1.0)
+            block_matvec(veh, kh, wk.rv, wk.yv, False, 1.0)
 
     @numba.njit(**_OPTS)
     def d_schur(br, veh, pr, prm, st, bk, wk, red, out, n):
         for _k in range(n):
-            ek.build_schur(veh, wk, wk.khat, veh.Khat_inv[0])
+            build_schur(veh, wk, wk.khat, veh.Khat_inv[0])
 
     @numba.njit(**_OPTS)
     def d_compliance(br, veh, pr, prm, st, bk, wk, red, out, n):
@@ -106,13 +125,13 @@ def _build():
     def d_track_predict(br, veh, pr, prm, st, bk, wk, red, out, n):
         # on copies: the step's S, gaps and track state stay as they are
         alpha = prm.alpha
-        a0, a1, a2, a3, cv, ca, gamma, scale = ek.hht_coefficients(alpha, prm.dt)
+        a0, a1, a2, a3, cv, ca, gamma, scale = hht_coefficients(alpha, prm.dt)
         S = wk.S.copy()
         g = wk.gstar.copy()
         trk = wk.trk.copy()
         for _k in range(n):
-            if ek.track_element(veh):
-                ek.track_predict(veh, wk, st, alpha, a0, a1, a2, a3, cv, ca, scale)
+            if track_element(veh):
+                track_predict(veh, wk, st, alpha, a0, a1, a2, a3, cv, ca, scale)
         wk.S[:, :] = S
         wk.gstar[:] = g
         wk.trk[:, :] = trk
@@ -127,7 +146,8 @@ def _build():
         for _k in range(n):
             for i in range(act0.shape[0]):
                 wk.active[i] = act0[i]
-            ek.solve_active_set(veh, wk, scale, prm.max_iter, prm.tol_gap, prm.tol_force)
+            solve_active_set(contact_arrays(veh, wk), scale, prm.max_iter, prm.tol_gap,
+                             prm.tol_force)
 
     @numba.njit(**_OPTS)
     def d_profile(br, veh, pr, prm, st, bk, wk, red, out, n):
@@ -137,7 +157,7 @@ def _build():
                 wk.idx[m] = i
                 m += 1
         for _k in range(n):
-            ek.contact_profile(veh, wk, m)
+            contact_profile(contact_arrays(veh, wk), m)
 
     @numba.njit(**_OPTS)
     def d_cholesky(br, veh, pr, prm, st, bk, wk, red, out, n):
@@ -148,9 +168,9 @@ def _build():
                 wk.idx[m] = i
                 wk.rhs[m] = -wk.gstar[i] / scale
                 m += 1
-        ek.contact_profile(veh, wk, m)
+        contact_profile(contact_arrays(veh, wk), m)
         for _k in range(n):
-            ek.skyline_cholesky_solve(wk.S, wk.idx, m, wk.first, wk.L, wk.rhs, wk.sol)
+            skyline_cholesky_solve(wk.S, wk.idx, m, wk.first, wk.L, wk.rhs, wk.sol)
 
     @numba.njit(**_OPTS)
     def d_gaps(br, veh, pr, prm, st, bk, wk, red, out, n):
@@ -174,42 +194,51 @@ def _build():
     def d_corrector(br, veh, pr, prm, st, bk, wk, red, out, n):
         # corrector and Newmark updates (on a copy of the state)
         alpha = prm.alpha
-        a0, a1, a2, a3, cv, ca, gamma, scale = ek.hht_coefficients(alpha, prm.dt)
+        a0, a1, a2, a3, cv, ca, gamma, scale = hht_coefficients(alpha, prm.dt)
         khat_v = veh.Khat_inv[0]
         for _k in range(n):
-            ek.copy_state(bk, st)
-            ek.hht_correct(veh, st, wk, khat_v, a0, a2, a3, gamma, scale, prm.dt)
-            ek.update_force_totals(br, veh, wk, st)
+            copy_state(bk, st)
+            hht_correct(veh, st, wk, khat_v, a0, a2, a3, gamma, scale, prm.dt)
+            update_force_totals(br, veh, wk, st)
 
     @numba.njit(**_OPTS)
     def d_record(br, veh, pr, prm, st, bk, wk, red, out, n):
         t = prm.n_steps * prm.dt
         for _k in range(n):
-            ek.record(veh, st, wk, red, 0, prm.n_steps, t, prm.speed, out, -1, 1)
+            nl = 0
+            if red.le_E.shape[1] > 0:
+                nl = le_list(red, veh.wheel_x0, st.X, veh.load_x0, veh.load_p, t,
+                                prm.speed)
+            record(step_arrays(veh, st, wk), red, 0, prm.n_steps, t, prm.speed, out, -1, 1,
+                   nl)
 
     @numba.njit(**_OPTS)
-    def d_le_record(br, veh, pr, prm, st, bk, wk, red, out, n):
+    def d_load_effects(br, veh, pr, prm, st, bk, wk, red, out, n):
         t = prm.n_steps * prm.dt
         for _k in range(n):
             if red.le_E.shape[1] > 0:
-                ek.le_record(red, veh.wheel_x0, st.X, veh.load_x0, veh.load_p, st.q,
-                             st.fq_tot, 0, prm.n_steps, t, prm.speed)
+                nl = le_list(red, veh.wheel_x0, st.X, veh.load_x0, veh.load_p, t, prm.speed)
+                le_static(red.le_sup, red.le_L, red.le_Linv, red.le_c6, red.le_A, red.le_B,
+                          red.le_X, red.le_xi, red.le_sec0, red.le_val, red.le_Ms,
+                          red.le_acc, red.le_lx, red.le_lp, red.le_ls, nl)
+                le_finish(red.le_E, red.le_w2inv, red.le_val, st.q, st.fq_tot, red.le_max,
+                          red.le_max_t, red.le_min, red.le_min_t, 0, prm.n_steps, t)
 
     @numba.njit(**_OPTS)
     def d_copy(br, veh, pr, prm, st, bk, wk, red, out, n):
         for _k in range(n):
-            ek.copy_state(bk, st)
+            copy_state(bk, st)
 
     @numba.njit(**_OPTS)
     def d_save(br, veh, pr, prm, st, bk, wk, red, out, n):
         for _k in range(n):
-            ek.save_state(st, wk.nbk)
-            ek.restore_state(wk.nbk, st)
+            save_state(st, wk.nbk)
+            restore_state(wk.nbk, st)
 
     @numba.njit(**_OPTS)
     def back_to_mid(bk, st, wk, act0, trk0):
         # the mid-run state ``bk``, its contact set and track state, again
-        ek.copy_state(bk, st)
+        copy_state(bk, st)
         wk.trk[:, :] = trk0
         for i in range(act0.shape[0]):
             wk.active[i] = act0[i]
@@ -223,7 +252,7 @@ def _build():
         t1 = (prm.n_steps + 1) * prm.dt
         for _k in range(n):
             back_to_mid(bk, st, wk, act0, trk0)
-            ek.hht_step(br, veh, pr, prm, st, wk, t1, prm.dt, 0)
+            hht_step(br, veh, pr, prm, st, wk, t1, prm.dt, 0)
         wk.trk[:, :] = trk0
 
     @numba.njit(**_OPTS)
@@ -234,10 +263,15 @@ def _build():
         t1 = (prm.n_steps + 1) * prm.dt
         for _k in range(n):
             back_to_mid(bk, st, wk, act0, trk0)
-            ek.copy_state(st, bk)
-            ek.vsi_step(br, veh, pr, prm, st, wk, t1, prm.dt, 0)
-            ek.state_is_finite(st)
-            ek.record(veh, st, wk, red, 0, prm.n_steps + 1, t1, prm.speed, out, -1, 1)
+            copy_state(st, bk)
+            vsi_step(br, veh, pr, prm, st, wk, t1, prm.dt, 0)
+            state_is_finite(st)
+            nl = 0
+            if red.le_E.shape[1] > 0:
+                nl = le_list(red, veh.wheel_x0, st.X, veh.load_x0, veh.load_p, t1,
+                                prm.speed)
+            record(step_arrays(veh, st, wk), red, 0, prm.n_steps + 1, t1, prm.speed, out,
+                   -1, 1, nl)
         wk.trk[:, :] = trk0
 
     # order: the step first (leaves the step's S, gaps and contact set in wk for the
@@ -247,7 +281,7 @@ def _build():
                     corrector=d_corrector, contact_search=d_search, assemble_loads=d_loads,
                     predictor=d_predictor, block_matvec=d_block_matvec, build_schur=d_schur,
                     compliance_add=d_compliance,
-                    track_predict=d_track_predict, record=d_record, le_record=d_le_record,
+                    track_predict=d_track_predict, record=d_record, load_effects=d_load_effects,
                     copy_state=d_copy, save_restore=d_save)
     return _DRIVERS
 
@@ -267,7 +301,7 @@ def _setup(model):
     track, output point at mid-span of each span).  Returns
     (br, veh, pr, prm, st, bk, wk, red, out) with ``bk`` the mid-passage state and
     ``prm.n_steps`` its step index."""
-    from vsi_numba.kernels import engine as ek
+    from vsi_numba import kernels as ek
 
     if isinstance(model, dict):
         from vsi_numba.study.batches import packed_for
@@ -315,7 +349,7 @@ def microprofile(models, n_calls=20000):
         row = {}
         for name, fn in drivers.items():
             if args[1].wheel_dof.size == 0 and name not in (
-                    "assemble_loads", "copy_state", "record", "le_record"):
+                    "assemble_loads", "copy_state", "record", "load_effects"):
                 continue
             c = time.perf_counter()
             fn(*args, 1)  # compile (first model) and warm

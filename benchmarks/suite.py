@@ -135,9 +135,11 @@ def run_suite(mode: str = "quick", write: bool = True, report: Path | None = Non
             if C.plot_scaling(c4, plot):
                 suite.plot = plot
         report.parent.mkdir(parents=True, exist_ok=True)
+        from benchmarks import compile_table
         from benchmarks.study import extract_section
 
-        kept = extract_section(report.read_text()) if report.exists() else ""
+        old = report.read_text() if report.exists() else ""
+        kept = extract_section(old) + compile_table.extract_section(old)
         report.write_text(markdown(suite) + ("\n" + kept if kept else ""))
         echo(f"[benchmarks] wrote {report}")
     return suite
@@ -147,7 +149,7 @@ def run_suite(mode: str = "quick", write: bool = True, report: Path | None = Non
 
 
 #: The parts of ``hht_step`` in the micro-profile (``step``, ``hht_step``, ``record``,
-#: ``le_record``, ``copy_state`` and ``save_restore`` are reported on their own).
+#: ``load_effects``, ``copy_state`` and ``save_restore`` are reported on their own).
 _HHT_PARTS = ("contact_search", "assemble_loads", "predictor", "track_predict",
               "build_schur", "compliance_add", "solve_active_set", "skyline_cholesky",
               "corrector", "gaps", "block_matvec", "contact_profile")
@@ -181,7 +183,7 @@ def _findings(suite: SuiteResult) -> list[str]:
                 f"copy_state + hht_step + finite check + record) costs {ice['step']:.2f} us, "
                 f"`hht_step` {ice['hht_step']:.2f} us and `record` (the envelopes) "
                 f"{ice.get('record', float('nan')):.2f} us, of which the load effects "
-                f"(`le_record`) {ice.get('le_record', float('nan')):.2f} us.  Inside "
+                f"(`load_effects`) {ice.get('load_effects', float('nan')):.2f} us.  Inside "
                 "`hht_step`, timed alone (they overlap - the predictor and the corrector "
                 "call `block_matvec`, the active-set solve the Cholesky - so they do not add "
                 "up exactly): " + ", ".join(f"{k} {v:.2f} us" for k, v in inner) + ".  No "

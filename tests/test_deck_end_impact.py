@@ -1,7 +1,7 @@
 """Deck ends on the rigid track: where the running surface kinks towards the wheel (the
 deck end moving or rotated so that the rail turns up under it) the wheel meets a
 plastic impact and stays on the rail; where it turns away the wheel may fly.  The
-engine splits a step at the crossing time (the crossing pieces of ``engine.time_loop``),
+engine splits a step at the crossing time (the crossing pieces of ``kernels.loop.time_loop``),
 so neither the time step nor where the end falls on the time grid changes that.
 
 Reference: ``reference.quarter_car_flexible_event_driven`` (event-driven, plastic
@@ -24,13 +24,13 @@ import numpy as np
 import pytest
 import reference as ref
 
-from vsi_numba.kernels import engine as ek
+from vsi_numba import kernels as ek
 from vsi_numba.model import bridge as br
 from vsi_numba.model import vehicle as vh
 from vsi_numba.model.irregularity import no_irregularity
 from vsi_numba.solver import batch as sb
+from vsi_numba.solver import driver, warm
 from vsi_numba.solver import simulate as sm
-from vsi_numba.solver import warm
 from vsi_numba.solver.settings import SolverSettings
 
 BEAM = dict(L=25.0, EI=8.323e9, m=2303.0)
@@ -115,7 +115,7 @@ def test_deck_end__upward_kink_is_an_impact_not_a_lift_off(case, dt, shift):
 
 def _kernel_impulses(d_car, dt, shift):
     """The impact impulse (N s) of each step in which the wheel passes an end of the
-    deck: the study's kernel (``engine.time_loop``, with the arguments ``run_batch``
+    deck: the study's kernel (``kernels.loop.time_loop``, with the arguments ``run_batch``
     gives it) run from t = 0 up to and including that step, then ``wk.impulse``.  The
     time loop splits such a step at the crossing times."""
     settings = SolverSettings(dt=dt, approach=APPROACH + shift, free_vibration=0.01)
@@ -128,7 +128,7 @@ def _kernel_impulses(d_car, dt, shift):
     warm.ensure_compiled(warm.family_of(packed))  # from the cache: time_loop is not compiled here
     assert brg.track == 0 and prm.contact_model == 0 and prm.max_sub > 0  # rigid track
     # the steps n whose interval (n dt, (n + 1) dt] takes a wheel across an end (the
-    # comparisons of engine.crosses_deck_end, in the same floating-point operations)
+    # comparisons of kernels.contact.crosses_deck_end, in the same floating-point operations)
     n = np.arange(int(n_steps[0]))
     x0 = veh.wheel_x0[:, None] + V * (n * prm.dt)
     x1 = veh.wheel_x0[:, None] + V * ((n + 1) * prm.dt)
@@ -137,7 +137,7 @@ def _kernel_impulses(d_car, dt, shift):
                                | ((x0 <= length) & (length < x1))).any(axis=0))
     got = []
     for nc in crossing:
-        ek.start_vsi_run(init, 0, st, wk)
+        driver.start_vsi_run(init, 0, st, wk)
         p = prm._replace(speed=float(speeds[0]), n_steps=int(nc) + 1)
         status, reached = ek.time_loop(brg, veh, pr, p, st, bk, wk, red, 0, out, -1)
         assert status == ek.OK and reached == nc + 1

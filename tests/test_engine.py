@@ -11,14 +11,17 @@ import itertools
 import numpy as np
 import pytest
 
-from vsi_numba.kernels import engine as ek
+from vsi_numba import kernels as ek
+from vsi_numba.kernels.linalg import skyline_cholesky_solve
+from vsi_numba.kernels.schur import solve_active_set
+from vsi_numba.kernels.shapes import eval_modes, eval_profile
 from vsi_numba.model import bridge as br
 from vsi_numba.model import vehicle as vh
 from vsi_numba.model.irregularity import Profile, cosine_defect, no_irregularity
 from vsi_numba.solver import batch as sb
+from vsi_numba.solver import driver, warm
 from vsi_numba.solver import pack as sp
 from vsi_numba.solver import simulate as sm
-from vsi_numba.solver import warm
 from vsi_numba.solver.settings import SolverSettings
 
 ICE_CAR = dict(
@@ -37,7 +40,7 @@ def _pack(bridge, train, speed=30.0, profile=None, **kw):
 def _study_kernel_args(packed, v, points, settings, bridge):
     """The arguments ``run_batch`` gives the interaction kernels for one run at ``v``, the
     kernels compiled (or loaded from the cache, or waited for) as a study's batch would
-    have them, so that calling ``engine.time_loop`` from here compiles nothing."""
+    have them, so that calling ``kernels.time_loop`` from here compiles nothing."""
     captured = []
     sb.run_batch(packed, no_irregularity(), [v], points, settings, bridge,
                  _kernel=lambda *args: captured.append(args))
@@ -59,7 +62,7 @@ def test_eval_modes__matches_numpy_evaluation(kind):
     n = bridge.n_modes
     for xi in x:
         out, d1, d2 = np.zeros(n), np.zeros(n), np.zeros(n)
-        onb = ek.eval_modes(arr, xi, out, d1, d2)
+        onb = eval_modes(arr, xi, out, d1, d2)
         assert onb == int(0.0 <= xi <= bridge.length)
         # same cubic, two implementations (loops vs vectorised numpy): round-off only
         np.testing.assert_allclose(out, bridge.shapes([xi])[0], rtol=1e-10, atol=1e-12)
@@ -71,7 +74,7 @@ def test_eval_modes__sine_is_the_analytic_mode():
     L, EI, m = 20.0, 5e9, 1e4
     arr = sp._pack_bridge(br.simply_supported(L, EI, m, n_modes=3))
     out, d1, d2 = np.zeros(3), np.zeros(3), np.zeros(3)
-    ek.eval_modes(arr, 7.3, out, d1, d2)
+    eval_modes(arr, 7.3, out, d1, d2)
     j = np.arange(1, 4)
     expected = np.sqrt(2 / (m * L)) * np.sin(j * np.pi * 7.3 / L)
     np.testing.assert_allclose(out, expected, rtol=1e-13)  # closed form, round-off only
@@ -83,7 +86,7 @@ def test_eval_profile__matches_spline_evaluation():
     arr = ek.ProfileArrays(prof.x0, prof.dx, prof.coef)
     out = np.zeros(3)
     for xi in np.linspace(-0.5, 10.5, 101):
-        ek.eval_profile(arr, xi, out)
+        eval_profile(arr, xi, out)
         expected = [prof(xi), prof(xi, 1), prof(xi, 2)]
         np.testing.assert_allclose(out, np.ravel(expected), atol=1e-14)  # same cubic
 
@@ -110,10 +113,10 @@ def test_cholesky_solve__dense_envelope_matches_numpy():
     first = np.zeros(7, np.int64)  # the full envelope: a dense factorisation
     b = rng.normal(size=7)
     x = np.zeros(7)
-    assert ek.skyline_cholesky_solve(A, idx, 3, first, np.zeros((7, 7)), b, x) == 0
+    assert skyline_cholesky_solve(A, idx, 3, first, np.zeros((7, 7)), b, x) == 0
     sub = A[np.ix_(idx[:3], idx[:3])]
     np.testing.assert_allclose(x[:3], np.linalg.solve(sub, b[:3]), rtol=1e-12)
-    assert ek.skyline_cholesky_solve(-A, idx, 3, first, np.zeros((7, 7)), b, x) == 1  # not SPD
+    assert skyline_cholesky_solve(-A, idx, 3, first, np.zeros((7, 7)), b, x) == 1  # not SPD
 
 
 def _brute_force_lcp(S, gstar, scale):
@@ -148,7 +151,7 @@ def test_solve_active_set__is_the_lcp_solution(seed):
     wk.S[:] = S
     wk.gstar[:] = gstar
     wk.active[:] = rng.integers(0, 2, n)
-    status, _ = ek.solve_active_set(veh, wk, scale, 50, 1e-15, 1e-9)
+    status, _ = solve_active_set(driver.contact_view(veh, wk), scale, 50, 1e-15, 1e-9)
     assert status == ek.OK
     # the LCP with an SPD matrix has one solution: the two must agree to round-off
     np.testing.assert_allclose(wk.X, _brute_force_lcp(S, gstar, scale), rtol=1e-8, atol=1e-6)
@@ -178,7 +181,7 @@ def test_solve_active_set__envelope_follows_the_on_bridge_flags():
         wk.S[:] = S
         wk.gstar[:] = gstar
         wk.active[:] = 1
-        status, _ = ek.solve_active_set(veh, wk, scale, 50, 1e-15, 1e-9)
+        status, _ = solve_active_set(driver.contact_view(veh, wk), scale, 50, 1e-15, 1e-9)
         assert status == ek.OK
         np.testing.assert_allclose(wk.X, _brute_force_lcp(S, gstar, scale), rtol=1e-8,
                                    atol=1e-6)
@@ -204,7 +207,7 @@ def test_build_schur__equals_dense_b_khat_inv_bt():
     xa = veh.wheel_x0 + v * ((n - 1) * prm.dt)
     x = veh.wheel_x0 + v * t
     assert not (((xa < 0) & (x >= 0)) | ((xa <= beam.length) & (x > beam.length))).any()
-    ek.start_vsi_run(init, 0, st, wk)
+    driver.start_vsi_run(init, 0, st, wk)
     p_n = prm._replace(speed=v, n_steps=n)
     assert ek.time_loop(brg, veh, pr, p_n, st, bk, wk, red, 0, out, -1) == (ek.OK, n)
     # dense oracle, with the HHT constants of the step computed here
@@ -231,7 +234,7 @@ def test_build_schur__equals_dense_b_khat_inv_bt():
     assert np.any(wk.first[:m] > 0)  # the envelope really is narrower than dense
     rhs = np.linspace(1.0, 2.0, n_w)
     x = np.zeros(n_w)
-    assert ek.skyline_cholesky_solve(wk.S, wk.idx, m, wk.first, wk.L, rhs, x) == 0
+    assert skyline_cholesky_solve(wk.S, wk.idx, m, wk.first, wk.L, rhs, x) == 0
     # same factorisation restricted to structural non-zeros: round-off only
     np.testing.assert_allclose(x[:m], np.linalg.solve(wk.S[np.ix_(active, active)], rhs[:m]),
                                rtol=1e-9)
@@ -393,7 +396,7 @@ def test_start_vsi_run__state_from_its_row_and_the_workspace_as_allocated():
     st0 = sm.initial_state(p, no_irregularity())
     init = ek.State(*(rng.normal(size=(3, *a.shape)) for a in st0))
     st = ek.State(*(np.full_like(a, np.nan) for a in st0))
-    ek.start_vsi_run(init, 1, st, wk)
+    driver.start_vsi_run(init, 1, st, wk)
     for name, a, b in zip(ek.State._fields, st, init, strict=True):
         np.testing.assert_array_equal(a, b[1], err_msg=name)
     for name, a, b in zip(ek.Work._fields, wk, fresh, strict=True):
@@ -403,7 +406,7 @@ def test_start_vsi_run__state_from_its_row_and_the_workspace_as_allocated():
 
 
 def test_with_patterns__every_nonzero_and_only_those():
-    """The patterns the step's sums run over (``engine.with_patterns``, set by ``pack``):
+    """The patterns the step's sums run over (``solver.driver.with_patterns``, set by ``pack``):
     each row of each block of M, C and K lists exactly its nonzero columns, ascending;
     each block lists its wheel DOFs; each compliance row its nonzeros and its diagonal."""
     import dataclasses
@@ -460,7 +463,7 @@ def test_contact_search__rows_of_wheels_off_the_deck_are_zero_along_a_passage(el
     lo, hi = (brg.t_nodes[0], brg.t_nodes[-1]) if elastic else (0.0, beam.length)
     seen = set()
     for n in np.linspace(1, int(n_steps[0]), 25).astype(int):
-        ek.start_vsi_run(init, 0, st, wk)
+        driver.start_vsi_run(init, 0, st, wk)
         p = prm._replace(speed=float(speeds[0]), n_steps=int(n))
         assert ek.time_loop(brg, veh, pr, p, st, bk, wk, red, 0, out, -1) == (ek.OK, n)
         x = veh.wheel_x0 + v * n * prm.dt

@@ -11,11 +11,13 @@ import numpy as np
 import pytest
 import reference as ref
 
-from vsi_numba.kernels import engine as ek
+from vsi_numba import kernels as ek
+from vsi_numba.kernels.step import hht_step
 from vsi_numba.model import bridge as br
 from vsi_numba.model import vehicle as vh
 from vsi_numba.model.irregularity import no_irregularity
 from vsi_numba.solver import batch as sb
+from vsi_numba.solver import driver
 from vsi_numba.solver import simulate as sm
 from vsi_numba.solver.settings import SolverSettings
 
@@ -103,7 +105,7 @@ def _step_all(packed, max_sub=4):
     prm = packed.params
     st = sm.initial_state(packed, no_irregularity())
     wk = sb._workspace(packed.bridge.omega.size, packed.n_dof, packed.vehicles.wheel_dof.size)
-    ek.reset_work(wk)
+    driver.reset_work(wk)
     # the on-bridge flags at t = 0 and the steps that take a wheel across an end of the
     # deck, with the comparisons of contact_search and crosses_deck_end (numpy: only
     # hht_step runs from here, compiled for the types a study gives it)
@@ -118,7 +120,7 @@ def _step_all(packed, max_sub=4):
         for k in range(sub):
             wk.was_active[:] = wk.active
             h = prm.dt / sub
-            status, _ = ek.hht_step(packed.bridge, packed.vehicles, packed.profile, prm, st,
+            status, _ = hht_step(packed.bridge, packed.vehicles, packed.profile, prm, st,
                                     wk, n * prm.dt + (k + 1) * h, h, max_sub if cross else 0)
             assert status == ek.OK
             yield n, wk

@@ -15,9 +15,9 @@ import threading
 
 import pytest
 
-from vsi_numba.kernels import engine as ek
 from vsi_numba.model import bridge as br
 from vsi_numba.model.library.builders import get_train
+from vsi_numba.solver import driver as ek
 from vsi_numba.solver import warm
 from vsi_numba.solver.settings import SolverSettings
 from vsi_numba.solver.simulate import pack, simulate
@@ -142,7 +142,7 @@ with compile_lock("moving_force"):
 
 _WAITER = """
 import sys, time
-import vsi_numba.kernels.engine  # imported before "trying": the lock is the next step
+import vsi_numba.kernels  # imported before "trying": the lock is the next step
 from vsi_numba.solver.warm import compile_lock
 print("trying", flush=True)
 with compile_lock("moving_force", timeout=float(sys.argv[1])):

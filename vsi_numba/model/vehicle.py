@@ -117,7 +117,7 @@ class DamperBlowoff:
             self.post_damping, "blow-off post_damping", allow_zero=True))
 
 
-#: Kernel codes of the nonlinear elements (vsi_numba.kernels.engine.NL_*).
+#: Kernel codes of the nonlinear elements (vsi_numba.kernels.types.NL_*).
 NL_KINDS = {"bump_stop": 0, "damper_blowoff": 1}
 
 

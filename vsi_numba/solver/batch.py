@@ -8,11 +8,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vsi_numba import kernels as ek
 from vsi_numba.en1990 import frequency_cutoff
-from vsi_numba.kernels import engine as ek
 from vsi_numba.model.bridge import ModalBridge
 from vsi_numba.model.irregularity import Profile
-from vsi_numba.solver import warm
+from vsi_numba.solver import driver, warm
 from vsi_numba.solver.pack import (
     LoadEffectTables,
     ModelError,
@@ -366,7 +366,7 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
         ``(phi_d, phi_a, cutoff)`` has no whole-deck grid (its envelopes are NaN).
     _kernel : callable, optional
         Called with the kernel's arguments instead of running the batch (returns None):
-        :func:`vsi_numba.kernels.engine.compile_leaves` compiles for exactly these types.
+        :func:`vsi_numba.solver.driver.compile_leaves` compiles for exactly these types.
     """
     speeds = np.ascontiguousarray(np.atleast_1d(np.asarray(speeds, float)))
     if np.any(~(speeds > 0)):
@@ -419,7 +419,7 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     warm.wait_for(family)  # a helper compiling these kernels: wait
     warm.ensure_compiled(family)  # compiled once per machine (another process: wait)
     t0 = _time.perf_counter()
-    ek.run_batch(packed.bridge, veh, packed.profile, packed.params, speeds, n_steps, init,
+    driver.run_batch(packed.bridge, veh, packed.profile, packed.params, speeds, n_steps, init,
                  st, bk, wk, red, out, slots, status, reached)
     elapsed = _time.perf_counter() - t0
     _flag_non_finite(status, reached, n_steps, slots, red, out)
@@ -429,7 +429,7 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
 
 
 def _effect_fields(eff: LoadEffectTables | None, packed: Packed, n_r: int) -> dict:
-    """The load-effect fields of :class:`~vsi_numba.kernels.engine.Reduce` (none: off)."""
+    """The load-effect fields of :class:`~vsi_numba.kernels.types.Reduce` (none: off)."""
     if eff is None:
         return {}
     f64 = np.float64

@@ -9,11 +9,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vsi_numba.kernels import engine as ek
+from vsi_numba import kernels as ek
 from vsi_numba.model.bridge import ModalBridge
 from vsi_numba.model.distribution import expand
 from vsi_numba.model.irregularity import Profile, no_irregularity
 from vsi_numba.model.vehicle import NL_KINDS, Train
+from vsi_numba.solver import driver
 from vsi_numba.solver.settings import CONTACT_MODELS, SolverSettings
 
 
@@ -238,7 +239,7 @@ def pack(
         if c_t > 0.0 or m_t > 0.0:  # damped or massive: the element under each wheel
             veh = veh._replace(track_kt=float(k_t), track_ct=float(c_t), track_mt=float(m_t),
                                track_z0=np.zeros(len(wdof)))  # set by initial_states
-    veh = ek.with_patterns(veh)
+    veh = driver.with_patterns(veh)
     # the moving forces the kernels run: each axle spread by the track (outputs per axle)
     dist, distributed = bridge.load_distribution, None
     if dist is not None and dist.kind != "none" and lpos.size:

@@ -74,7 +74,7 @@ LOCK_TIMEOUT = 600.0
 
 
 def _kernel(family: str):
-    from vsi_numba.kernels import engine as ek
+    from vsi_numba import kernels as ek
 
     return ek.run_batch_mf if family == "moving_force" else ek.time_loop
 
@@ -185,7 +185,7 @@ def _lookups_wait_for(leaves):
     if leaves is None:
         yield
         return
-    from vsi_numba.kernels.engine import LEAVES
+    from vsi_numba.solver.driver import LEAVES
 
     def waiting(load):
         def look_up(*args, **kwargs):
@@ -341,7 +341,7 @@ def warm_up_family(family: str, leaves: bool = False) -> float:
     profile = no_irregularity()
     packed = pack(beam, Train("warm-up", (unit,), (0.0,)), 50.0, profile, settings)
     if leaves:
-        from vsi_numba.kernels.engine import compile_leaves
+        from vsi_numba.solver.driver import compile_leaves
 
         run_batch(packed, profile, [50.0], [5.0], settings, beam, _kernel=compile_leaves)
     else:

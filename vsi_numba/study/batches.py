@@ -163,7 +163,7 @@ def _spec_of(spec, batch):
 
 def packed_for(spec, i_train: int, i_irregularity: int):
     """Packed model of one train on one realisation, and that realisation's profile."""
-    from vsi_numba.kernels import engine as ek
+    from vsi_numba import kernels as ek
     from vsi_numba.study.spec import study_model
 
     model = study_model(spec)

@@ -398,3 +398,52 @@ def resolve(profile) -> CodeProfile:
     if isinstance(profile, CodeProfile):
         return profile
     return profile_from(profile)
+
+
+# --------------------------------------------------------------- EN 1991-2 Annex D
+#: Clause of the fatigue train types and traffic mixes.
+ANNEX_D_CLAUSE = "EN 1991-2 Annex D, D.3, Table D.1 (types), Tables D.2-D.4 (mixes)"
+#: Fatigue train types of EN 1991-2 Annex D [R]: type -> (description, total load
+#: Sum Q (kN), maximum speed (km/h), length first to last axle... (m)).  The totals,
+#: speeds and lengths are recalled (their ratio reproduces the q = Sum Q / L column of
+#: Table D.1); the axle layouts of Fig. D.1 were not re-read: the builder
+#: (:mod:`vsi_numba.model.library.annex_d`) reconstructs each train from the vehicles
+#: listed in :data:`ANNEX_D_LAYOUT` scaled to these totals.
+ANNEX_D_TYPES = {
+    1: ("locomotive-hauled passenger train", 6630.0, 200.0, 262.10),
+    2: ("locomotive-hauled passenger train", 5300.0, 160.0, 281.10),
+    3: ("high-speed passenger train", 9400.0, 250.0, 385.52),
+    4: ("high-speed passenger train", 5100.0, 250.0, 237.60),
+    5: ("locomotive-hauled freight train", 21600.0, 80.0, 270.30),
+    6: ("locomotive-hauled freight train", 14310.0, 100.0, 333.10),
+    7: ("locomotive-hauled freight train", 10350.0, 120.0, 196.50),
+    8: ("locomotive-hauled freight train", 10350.0, 100.0, 212.50),
+    9: ("suburban multiple unit", 2960.0, 120.0, 134.80),
+    10: ("underground", 3600.0, 120.0, 129.60),
+    11: ("locomotive-hauled freight train, 25 t axles", 11350.0, 120.0, 198.50),
+    12: ("locomotive-hauled freight train, 25 t axles", 11350.0, 100.0, 212.50),
+}
+#: Reconstructed layouts: type -> (locomotives: (count, axles, axle load kN,
+#: length over buffers m), cars: (count, axles), wheelbase of a bogie m).  The cars'
+#: axle load and length follow from the totals of :data:`ANNEX_D_TYPES`.
+ANNEX_D_LAYOUT = {
+    1: ((1, 4, 225.0, 19.0), (11, 4), 2.5),
+    2: ((1, 4, 225.0, 19.0), (10, 4), 2.5),
+    3: ((2, 4, 200.0, 20.0), (14, 4), 2.5),
+    4: ((2, 4, 170.0, 20.0), (8, 4), 2.5),
+    5: ((2, 6, 225.0, 20.0), (21, 4), 1.8),
+    6: ((1, 6, 225.0, 20.0), (15, 4), 1.8),
+    7: ((1, 4, 225.0, 19.0), (11, 4), 1.8),
+    8: ((1, 4, 225.0, 19.0), (11, 4), 1.8),
+    9: ((0, 0, 0.0, 0.0), (6, 4), 2.5),
+    10: ((0, 0, 0.0, 0.0), (8, 4), 2.2),
+    11: ((1, 4, 250.0, 19.0), (11, 4), 1.8),
+    12: ((1, 4, 250.0, 19.0), (11, 4), 1.8),
+}
+#: Traffic mixes of EN 1991-2 Annex D [R]: name -> {train type: trains per day}
+#: (about 25 million tonnes per year and track each).
+ANNEX_D_MIXES = {
+    "standard": {1: 12, 2: 12, 3: 5, 4: 5, 5: 7, 6: 12, 7: 8, 8: 6},
+    "heavy": {5: 6, 6: 13, 11: 16, 12: 16},
+    "light": {1: 10, 2: 5, 5: 2, 9: 190},
+}

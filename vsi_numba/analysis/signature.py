@@ -68,9 +68,12 @@ def train_axles(train) -> tuple[np.ndarray, np.ndarray]:
 
 
 def train_by_name(name: str):
-    """A train of the library (moving forces) by name; ``HSLM-A1`` .. ``HSLM-A10`` too."""
-    from vsi_numba.model.library import get_train
+    """A train of the library (moving forces) by name: ``HSLM-A1`` .. ``HSLM-A10``, the
+    real trains, and the EN 1991-2 Annex D types ``AnnexD-1`` .. ``AnnexD-12``."""
+    from vsi_numba.model.library import annex_d, get_train
 
+    if annex_d.type_of(name) is not None:
+        return annex_d.annex_d_train(name)
     return get_train(name, "moving_force")
 
 

@@ -26,6 +26,7 @@ import os
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import xarray as xr
 
 from vsi_numba.analysis import checks as chk
@@ -44,6 +45,8 @@ from vsi_numba.analysis.report.document import (
     write_markdown,
 )
 from vsi_numba.analysis.report.echo import input_echo, title_block
+from vsi_numba.analysis.report.fatigue import fatigue_section, has_fatigue
+from vsi_numba.analysis.report.fatigue import summary_rows as fatigue_rows
 from vsi_numba.analysis.report.figures import _figures
 from vsi_numba.analysis.report.load_effects import (
     consistent_deflection,
@@ -198,6 +201,8 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
         results.get("dynamic_amplification"))
     table = mark_unreliable(summary_with_load_effects(chk.summary_table(results), le_checks),
                             records)
+    if has_fatigue(full):  # Miner's damage per section (a [fatigue] study)
+        table = pd.concat([table, pd.DataFrame(fatigue_rows(full))], ignore_index=True)
     # 10 significant digits: the same results give the same file (the last bits of a
     # float may differ between machines and thread schedules)
     table.to_csv(outdir / "summary.csv", index=False, float_format="%.10g")
@@ -252,6 +257,8 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
     add(_cases(env))
     add(_statistics(results, env))
     body.append(load_effects.section)
+    if has_fatigue(full):
+        body.append(fatigue_section(full))
     body.append(convergence_section(env, results, runner))
     checkpoint()
     for extra_section in sections or []:

@@ -533,7 +533,7 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
                            profile)
     report = _report_section(chk, data.get("report", _MISSING))
     fatigue = _fatigue_section(chk, data.get("fatigue", _MISSING), profile, bridge,
-                               study.axes if _ok(study) else ())
+                               study.axes if _ok(study) else (), base)
 
     if _ok(bridge, solver, irr) and irr.file_profile is not None:
         _check_file_coverage(chk, irr, -solver["approach"], bridge.length)

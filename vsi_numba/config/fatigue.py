@@ -16,7 +16,8 @@ gamma_Mf = 1.35                   # optional (code profile fatigue_gamma_Mf)
 name = "bottom flange, midspan"   # optional
 
 [[fatigue.traffic]]               # the operator's trains (added to the mix)
-train = "ICE3"                    # a library train or AnnexD-1 .. AnnexD-12
+train = "ICE3"                    # a library train, AnnexD-1 .. AnnexD-12, or an axle-load
+                                  # CSV file (position m, load kN; relative to the config)
 speed_kmh = 250.0
 per_day = 20
 model = "moving_force"            # optional: moving_force (default) | interaction
@@ -47,7 +48,8 @@ _SPEED = _Num("a speed > 0 km/h (at most 600)", gt=0, le=600)
 _PER_DAY = _Num("a number of trains per day > 0", gt=0, le=10000)
 
 
-def _fatigue_section(chk, d, profile, bridge=_BAD, study_axes=()) -> dict | None:
+def _fatigue_section(chk, d, profile, bridge=_BAD, study_axes=(), base=None
+                     ) -> dict | None:
     """Validate ``[fatigue]``; return it with every default filled (None without it).
 
     ``bridge`` (the validated ``[bridge]``) bounds the sections' x; ``study_axes`` (the
@@ -70,7 +72,7 @@ def _fatigue_section(chk, d, profile, bridge=_BAD, study_axes=()) -> dict | None
     if mix is not None:
         out["mix"] = mix
     out["sections"] = _sections(chk, d.get("sections", _MISSING), profile, bridge)
-    out["traffic"] = _traffic(chk, d.get("traffic", _MISSING), mix is not None)
+    out["traffic"] = _traffic(chk, d.get("traffic", _MISSING), mix is not None, base)
     if study_axes:
         chk.error("fatigue", "{...}", "no [fatigue] with study.vary (the fatigue runs use "
                   "the configuration's own bridge): run the fatigue study without vary")
@@ -134,7 +136,7 @@ def _sections(chk, v, profile, bridge):
     return _BAD if any(o is _BAD for o in out) else out
 
 
-def _traffic(chk, v, has_mix: bool):
+def _traffic(chk, v, has_mix: bool, base=None):
     path = "fatigue.traffic"
     if v is _MISSING:
         if has_mix:
@@ -159,7 +161,23 @@ def _traffic(chk, v, has_mix: bool):
         if not _ok(name, model, *r.values()):
             out.append(_BAD)
             continue
-        if annex_d.type_of(name) is not None:
+        if name.strip().lower().endswith(".csv"):  # the operator's axle-load list
+            from pathlib import Path
+
+            from vsi_numba.model.library.extra import AxleFileError, axle_list_train
+
+            path = (Path(base or ".") / name.strip()).expanduser()
+            try:
+                axle_list_train(path)
+            except AxleFileError as exc:
+                chk.error(f"{p}.train", name, f"a readable axle-load CSV file ({exc})")
+                out.append(_BAD)
+                continue
+            if model == "interaction":
+                chk.error(f"{p}.model", model, "'moving_force' for an axle-load list")
+                out.append(_BAD)
+                continue
+        elif annex_d.type_of(name) is not None:
             if model == "interaction":
                 chk.error(f"{p}.model", model, "'moving_force' for an Annex D train (its "
                           "types are axle loads, without vehicle dynamics)")

@@ -41,9 +41,12 @@ class FatigueError(RuntimeError):
     """The fatigue runs cannot be made (the message says why)."""
 
 
-def _train(row):
+def _train(row, base_dir):
     from vsi_numba.model.library import annex_d, get_train
+    from vsi_numba.model.library.extra import axle_list_train
 
+    if row["train"].strip().lower().endswith(".csv"):
+        return axle_list_train(base_dir / row["train"].strip(), name=row["train"].strip())
     if annex_d.type_of(row["train"]) is not None:
         return annex_d.annex_d_train(row["train"])
     return get_train(row["train"], row["model"])
@@ -74,7 +77,7 @@ def fatigue_runs(cfg, progress=None) -> dict:
     gff = np.array([s["gamma_Ff"] for s in secs], float)
     years = float(section["design_life_years"])
     settings = cfg.solver_settings()
-    trains = [_train(r) for r in traffic]
+    trains = [_train(r, cfg.base_dir) for r in traffic]
     base = cfg.build_bridge()
     if base.static is None:
         raise FatigueError("the bridge gives no bending moments (an imported modes table "

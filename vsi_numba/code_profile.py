@@ -245,6 +245,10 @@ TABLE: tuple[Entry, ...] = (
           "upper bound lambda_max of lambda = lambda_1 lambda_2 lambda_3 lambda_4"),
     Entry("fatigue_lambda_volume", 25e6, "t", _LAMBDA + "(5)",
           "lambda_2 = (traffic per track / this volume per year)^(1/5)"),
+    Entry("compatibility_speed_factor", 1.1, "1",
+          "TSI INF 4.2.8.1.3 / IG02042 practice; EN 1991-2 6.4.6.2",
+          "a real train on an existing bridge is checked up to this times the line speed "
+          "(new designs: 1.2 x the line speed, EN 1991-2 6.4.6.2(1))", applies="input"),
     Entry("fatigue_free_vibration_decay", 0.01, "1", "EN 1991-2 6.4.6.6(2)",
           "free vibration after each train is simulated until its amplitude has decayed "
           "to this fraction of the amplitude at the exit of the last axle"),

@@ -98,11 +98,14 @@ def check(
 def init(
     path: Path = typer.Argument(Path("study.toml"), metavar="PATH",
                                 help="file to write (never overwritten)"),
+    template: str = typer.Option("default", "--template",
+                                 help="default (an EN 1991-2 dynamic check) or "
+                                      "compatibility (a train on an existing bridge)"),
 ):
     """Write a commented starter configuration that validates and runs as is."""
     from vsi_numba.cli.init import init_command
 
-    raise typer.Exit(init_command(path))
+    raise typer.Exit(init_command(path, template))
 
 
 @app.command()

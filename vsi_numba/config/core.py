@@ -33,6 +33,7 @@ from vsi_numba.config.code_profile import (
     _hslm_applicability,
     profile_of_section,
 )
+from vsi_numba.config.compatibility import _compatibility_section
 from vsi_numba.config.fatigue import _fatigue_section
 from vsi_numba.config.irregularity import (
     _check_file_coverage,
@@ -505,7 +506,7 @@ def _distribution_checks(chk, track, solver, train) -> None:
 def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     chk = _Checker()
     top = {"title", "bridge", "train", "irregularity", "solver", "contact", "track", "study",
-           "report", "code_profile", "fatigue"}
+           "report", "code_profile", "fatigue", "compatibility"}
     chk.table(data, "", top)
     default_title = path.stem if path is not None else "untitled"
     title = chk.string(data, "", "title", "a title (string)", default=None, nonempty=False)
@@ -534,6 +535,8 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     report = _report_section(chk, data.get("report", _MISSING))
     fatigue = _fatigue_section(chk, data.get("fatigue", _MISSING), profile, bridge,
                                study.axes if _ok(study) else (), base)
+    compat = _compatibility_section(chk, data.get("compatibility", _MISSING), profile, study,
+                                    train)
 
     if _ok(bridge, solver, irr) and irr.file_profile is not None:
         _check_file_coverage(chk, irr, -solver["approach"], bridge.length)
@@ -590,6 +593,7 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
         **({"report": report} if report else {}),
         **({"code_profile": code_profile} if code_profile else {}),
         **({"fatigue": fatigue} if fatigue else {}),
+        **({"compatibility": compat} if compat else {}),
     }
     cfg = Config(
         title=resolved["title"], path=path, base_dir=base, resolved=resolved, bridge=bridge,

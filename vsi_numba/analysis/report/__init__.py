@@ -45,6 +45,7 @@ from vsi_numba.analysis.report.document import (
     write_markdown,
 )
 from vsi_numba.analysis.report.echo import input_echo, title_block
+from vsi_numba.analysis.report.compatibility import compatibility_section
 from vsi_numba.analysis.report.fatigue import fatigue_section, has_fatigue
 from vsi_numba.analysis.report.fatigue import summary_rows as fatigue_rows
 from vsi_numba.analysis.report.figures import _figures
@@ -245,6 +246,9 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
         if sec is not None:
             body.append(sec)
 
+    compat = compatibility_section(env, table)  # [compatibility]: the answer comes first
+    if compat is not None:
+        body.append(compat)
     summary = _summary(results, table, np.asarray(env["point"].values, float))
     at = len(summary) - 1 if summary and not summary[-1] else len(summary)
     add(summary[:at] + _zone_lines(zone_table) + summary[at:] + _deck_end_note(env)

@@ -36,6 +36,7 @@ from vsi_numba.analysis.recompute import CaseRunner
 from vsi_numba.analysis.report import profile as code_profile
 from vsi_numba.analysis.report import tables as tbl
 from vsi_numba.analysis.report.atomic import atomic_directory, checkpoint
+from vsi_numba.analysis.report.compatibility import compatibility_section
 from vsi_numba.analysis.report.convergence import convergence_section
 from vsi_numba.analysis.report.document import (
     Figure,
@@ -45,7 +46,6 @@ from vsi_numba.analysis.report.document import (
     write_markdown,
 )
 from vsi_numba.analysis.report.echo import input_echo, title_block
-from vsi_numba.analysis.report.compatibility import compatibility_section
 from vsi_numba.analysis.report.fatigue import fatigue_section, has_fatigue
 from vsi_numba.analysis.report.fatigue import summary_rows as fatigue_rows
 from vsi_numba.analysis.report.figures import _figures

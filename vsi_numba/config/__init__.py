@@ -103,6 +103,18 @@ clause values of the checks (deck acceleration, comfort, wheel unloading and end
 limits, Table 6.6 damping, L_Phi, Phi_2 / Phi_3, phi'', LM71, the alpha range, the HSLM
 applicability and HSLM-B's N and d), stored with the results so that `vsi report` uses the
 study's profile.
+``[fatigue]`` (:mod:`~vsi_numba.config.fatigue`): ``design_life_years`` (100), ``mix``
+(none; "standard", "heavy" or "light": an EN 1991-2 Annex D traffic mix [R] at the Table
+D.1 speeds), ``[[fatigue.sections]]`` with ``x`` (m), ``section_modulus`` (m^3, stress =
+M / W), ``detail_category`` (MPa, EN 1993-1-9), ``gamma_Ff`` and ``gamma_Mf`` (the code
+profile's, 1.0 and 1.35) and ``name``; ``[[fatigue.traffic]]`` with ``train`` (a library
+train, AnnexD-1 .. AnnexD-12 or an axle-load CSV file), ``speed_kmh``, ``per_day`` and
+``model`` ("moving_force"): one run per train after the sweep, rainflow, Miner's damage
+over the design life (results variable fatigue_damage).
+``[compatibility]`` (:mod:`~vsi_numba.config.compatibility`): ``train`` (one of the
+study's trains), ``line_speed_kmh`` and ``speed_factor`` (the code profile's 1.1): the
+report answers whether the train is compatible with the bridge at speeds up to
+``speed_factor`` x ``line_speed_kmh``, which the study's speeds must reach.
 The stored configuration of a results file (attribute config_json, :meth:`Config.resolved`) is
 written in these keys, defaults filled in and rules kept as rules, so that it reloads to
 the same configuration.
@@ -113,7 +125,8 @@ Modules
 :mod:`~vsi_numba.config.bridge`, :mod:`~vsi_numba.config.train`,
 :mod:`~vsi_numba.config.irregularity`, :mod:`~vsi_numba.config.solver` (``[solver]``,
 ``[contact]``, ``[track]``), :mod:`~vsi_numba.config.study` and
-:mod:`~vsi_numba.config.variants` (one reader per section),
+:mod:`~vsi_numba.config.variants`, :mod:`~vsi_numba.config.fatigue`,
+:mod:`~vsi_numba.config.compatibility` (one reader per section),
 :mod:`~vsi_numba.config.physics` (warnings and plausibility checks of the whole model),
 :mod:`~vsi_numba.config.limits` (their caps and thresholds) and
 :mod:`~vsi_numba.config.core` (:class:`Config`, :func:`load_config`).

@@ -104,6 +104,10 @@ def test_fatigue__crawling_force_gives_one_cycle_of_m_max_over_w(tmp_path):
     assert "## Fatigue" in text and "midspan (x = 10 m" in text
     assert "Fatigue damage (Miner), midspan" in (rep / "summary.csv").read_text()
     ds.close()
+    # a report replaces an earlier one, its fatigue figure included
+    assert (rep / "fatigue_spectra.png").exists()
+    r = _cli("report", tmp_path / "results" / "out.nc", "-o", rep)
+    assert r.exit_code == 0, r.output
 
 
 def _ss_modal_moment(positions, loads, v, x_out, t_end, n_modes, x0):

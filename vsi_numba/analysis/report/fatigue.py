@@ -154,7 +154,7 @@ def _figure(ds, rows):
                 label=f"{r['section']}: Δσ_C/γ_Mf = {sn.strength:.3g} MPa S-N curve")
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlim(1, 1e10)
+    ax.set_xlim(1e4, 1e10)
     ax.set_xlabel("cycles")
     ax.set_ylabel("stress range (MPa)")
     ax.grid(alpha=0.3, which="both")

@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vsi_numba.analysis import fatigue as fat
 from vsi_numba.code_profile import ANNEX_D_MIXES, ANNEX_D_TYPES
+from vsi_numba.model import fatigue as fat
 from vsi_numba.model.library import annex_d
 
 #: ASTM E1049-85 (2017), Fig. 6: the rainflow example, peaks and valleys A..I.

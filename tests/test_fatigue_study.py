@@ -103,6 +103,26 @@ def test_fatigue__crawling_force_gives_one_cycle_of_m_max_over_w(tmp_path):
     text = (rep / "report.md").read_text()
     assert "## Fatigue" in text and "midspan (x = 10 m" in text
     assert "Fatigue damage (Miner), midspan" in (rep / "summary.csv").read_text()
+    # the lambda-method beside it (EN 1993-2 9.5.3): the largest LM71 moment at mid-span
+    # (4 x 250 kN at 1.6 m, 80 kN/m outside the 6.4 m zone) over the group's positions,
+    # Phi_2 of L = 20 m, lambda_1 = 0.65, lambda_2 from 10 trains of 200 kN a day,
+    # lambda_3 = lambda_4 = 1
+    def infl(x):  # mid-span moment of a unit force at x
+        return np.where((x < 0) | (x > L), 0.0, np.where(x <= L / 2, x / 2, (L - x) / 2))
+
+    def area(x):  # integral of infl from 0 to x
+        x = np.clip(x, 0.0, L)
+        return np.where(x <= L / 2, x**2 / 4, 25 + (20 * x - x**2 / 2 - 150) / 2)
+
+    centre = np.arange(-3.2, L + 3.2, 1e-3)
+    m71 = np.max(250e3 * sum(infl(centre + o) for o in (-2.4, -0.8, 0.8, 2.4))
+                 + 80e3 * (area(centre - 3.2) + area(L) - area(centre + 3.2)))
+    lam = 0.65 * (10 * 365 * 200e3 / 9.81 / 1e3 / 25e6) ** 0.2
+    phi2 = 1.44 / (np.sqrt(L) - 0.2) + 0.82
+    row = next(ln for ln in text.splitlines() if ln.startswith("| midspan |"))
+    cell = float(row.split("|")[9])
+    # 4 significant digits in the table
+    assert cell == pytest.approx(lam * phi2 * m71 / W / 1e6, rel=1e-3)
     ds.close()
     # a report replaces an earlier one, its fatigue figure included
     assert (rep / "fatigue_spectra.png").exists()

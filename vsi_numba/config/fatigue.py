@@ -1,5 +1,5 @@
 """``[fatigue]``: the fatigue check of steel details under the dynamic stress histories
-(:mod:`vsi_numba.analysis.fatigue`, :mod:`vsi_numba.study.fatigue`).
+(:mod:`vsi_numba.model.fatigue`, :mod:`vsi_numba.study.fatigue`).
 
 ```toml
 [fatigue]
@@ -76,6 +76,13 @@ def _fatigue_section(chk, d, profile, bridge=_BAD, study_axes=(), base=None
     if study_axes:
         chk.error("fatigue", "{...}", "no [fatigue] with study.vary (the fatigue runs use "
                   "the configuration's own bridge): run the fatigue study without vary")
+        return _BAD
+    static = getattr(getattr(bridge, "model", None), "static", None) if _ok(bridge) else None
+    if _ok(bridge) and bridge.kind != "rigid" and (static is None
+                                                   or "moment" not in static.effects):
+        chk.error("fatigue", "{...}", "a deck that gives bending moments (a beam deck, or "
+                  "matrices with rotation DOFs); this bridge.kind = "
+                  f"'{bridge.kind}' gives none")
         return _BAD
     if _ok(bridge) and bridge.kind == "rigid":
         chk.error("fatigue", "{...}", "a deck with bending moments (bridge.kind "

@@ -260,13 +260,6 @@ FATIGUE = {
     "fatigue_equivalent_stress_range": (
         ("fatigue_section",), "MPa",
         "damage-equivalent stress range at 2e6 cycles, unfactored (from the Miner sum)", {}),
-    "fatigue_lambda_stress_range": (
-        ("fatigue_section",), "MPa",
-        "lambda-method stress range lambda Phi_2 Delta sigma_71 (EN 1993-2 9.5.3), "
-        "unfactored", {}),
-    "fatigue_lm71_stress_range": (
-        ("fatigue_section",), "MPa", "stress range of LM71 (alpha = 1, static)", {}),
-    "fatigue_lambda": (("fatigue_section",), "1", "damage equivalence factor lambda", {}),
     "fatigue_section_modulus": (("fatigue_section",), "m3", "section modulus W (stress = "
                                 "M / W)", {}),
     "fatigue_detail_category": (("fatigue_section",), "MPa", "detail category Delta "

@@ -10,7 +10,8 @@ reduced at once to a histogram of ranges and to Miner's damage per passage; the
 history itself is dropped, so the memory does not grow with the traffic or the design
 life.  The results file gets the histograms (dims ``fatigue_traffic``,
 ``fatigue_section``, ``stress_range``), the damage per train and the total damage
-over the design life (``fatigue_damage``), and the lambda-method values.
+over the design life (``fatigue_damage``), and the traffic's tonnage (the report computes
+the lambda-method value from it, :mod:`vsi_numba.analysis.report.fatigue`).
 
 When the free vibration has decayed
     Every mode decays as exp(-zeta_j omega_j t).  The run continues for
@@ -29,7 +30,7 @@ import time as _time
 
 import numpy as np
 
-from vsi_numba.analysis import fatigue as fat
+from vsi_numba.model import fatigue as fat
 
 #: Longest free vibration of a fatigue run (s).
 MAX_FREE_VIBRATION = 120.0
@@ -128,8 +129,6 @@ def fatigue_runs(cfg, progress=None) -> dict:
     damage = damage_per_train.sum(axis=0)
     equivalent = np.array([curves[j].equivalent_range(damage[j]) / gff[j]
                            for j in range(n_s)])
-    lam = _lambda_method(cfg, base, xs, w, float(np.sum(per_day * tonnes) * 365.0), years,
-                         profile)
     return {
         "x": xs, "names": [s.get("name") or f"x = {x:g} m" for s, x in zip(secs, xs,
                                                                            strict=True)],
@@ -141,33 +140,10 @@ def fatigue_runs(cfg, progress=None) -> dict:
         "per_day": per_day, "tonnes": tonnes, "free_vibration": free,
         "histogram": hist, "damage_per_passage": per_pass, "damage_per_train":
         damage_per_train, "damage": damage, "max_range": max_range, "cycles": cycles,
-        "equivalent": equivalent, "lambda": lam, "design_life_years": years,
+        "equivalent": equivalent, "design_life_years": years,
+        "tonnes_per_year": float(np.sum(per_day * tonnes) * 365.0),
         "mix": section.get("mix", ""), "seconds": _time.perf_counter() - t0,
     }
-
-
-def _lambda_method(cfg, bridge, xs, w, tonnes_per_year, years, profile) -> dict:
-    """Delta sigma_71 (LM71 moment range / W), Phi_2 and lambda at each section."""
-    from vsi_numba.analysis.checks.load_effects import lm71_envelope
-    from vsi_numba.en1991 import continuous_determinant_length, dynamic_factor, lm71
-    from vsi_numba.model.influence import influence
-
-    static = bridge.static
-    spans = np.asarray(static.spans, float)
-    lphi = float(spans[0]) if spans.size == 1 else continuous_determinant_length(spans,
-                                                                                 profile)
-    phi2 = dynamic_factor(lphi, "careful", profile)
-    bp = np.concatenate([static.supports, xs])
-    env = lm71_envelope(lambda x: influence(static, "moment", xs, x), bp,
-                        (0.0, static.length), n_at=xs.size, model=lm71(profile))
-    ds71 = (env.max - env.min) / w / 1e6
-    rows = [fat.lambda_method(float(d), phi2, tonnes_per_year, years, profile) for d in ds71]
-    return {"delta_sigma_71": ds71, "phi_2": phi2, "determinant_length": lphi,
-            "lambda": np.array([r.factor for r in rows]),
-            "lambda_1": rows[0].lambda_1, "lambda_2": rows[0].lambda_2,
-            "lambda_3": rows[0].lambda_3, "lambda_4": rows[0].lambda_4,
-            "equivalent": np.array([r.equivalent_range for r in rows]),
-            "tonnes_per_year": tonnes_per_year}
 
 
 def write(path, res: dict) -> None:
@@ -176,7 +152,6 @@ def write(path, res: dict) -> None:
 
     from vsi_numba.io.schema import FATIGUE
 
-    lam = res["lambda"]
     data = {
         "fatigue_damage": res["damage"],
         "fatigue_damage_per_train": res["damage_per_train"],
@@ -184,9 +159,6 @@ def write(path, res: dict) -> None:
         "fatigue_cycles": res["histogram"],
         "fatigue_max_stress_range": res["max_range"],
         "fatigue_equivalent_stress_range": res["equivalent"],
-        "fatigue_lambda_stress_range": lam["equivalent"],
-        "fatigue_lm71_stress_range": lam["delta_sigma_71"],
-        "fatigue_lambda": lam["lambda"],
         "fatigue_section_modulus": res["section_modulus"],
         "fatigue_detail_category": res["detail_category"],
         "fatigue_gamma_Ff": res["gamma_Ff"],
@@ -224,12 +196,6 @@ def write(path, res: dict) -> None:
         nc.setncatts({
             "fatigue_design_life_years": float(res["design_life_years"]),
             "fatigue_mix": str(res["mix"] or ""),
-            "fatigue_phi_2": float(lam["phi_2"]),
-            "fatigue_determinant_length": float(lam["determinant_length"]),
-            "fatigue_lambda_factors": (f"lambda_1 = {lam['lambda_1']:.4g}, lambda_2 = "
-                                       f"{lam['lambda_2']:.4g}, lambda_3 = "
-                                       f"{lam['lambda_3']:.4g}, lambda_4 = "
-                                       f"{lam['lambda_4']:.4g}"),
-            "fatigue_tonnes_per_year": float(lam["tonnes_per_year"]),
+            "fatigue_tonnes_per_year": float(res["tonnes_per_year"]),
             "fatigue_seconds": float(res["seconds"]),
         })

@@ -22,13 +22,55 @@ def has_fatigue(ds) -> bool:
     return "fatigue_damage" in ds.variables
 
 
-def _rows(ds) -> pd.DataFrame:
+def lambda_method(ds) -> dict:
+    """The lambda-method of EN 1993-2 9.5.3 [R] at the fatigue sections: Delta sigma_71
+    (the LM71 moment range, alpha = 1, static, divided by W), Phi_2 for the deck's L_Phi,
+    lambda from the profile's lambda_1 and lambda_4, lambda_2 from the traffic's tonnage
+    and lambda_3 from the design life.  NaN where the deck gives no static moments."""
+    from vsi_numba.analysis.checks.common import profile_of
+    from vsi_numba.analysis.checks.determinant import determinant_length
+    from vsi_numba.analysis.checks.load_effects import lm71_envelope, static_deck_of
+    from vsi_numba.en1991 import dynamic_factor, lm71
+    from vsi_numba.model.fatigue import lambda_method as factors
+    from vsi_numba.model.influence import LoadEffectError, influence
+
+    xs = np.asarray(ds["fatigue_section"].values, float)
+    w = np.asarray(ds["fatigue_section_modulus"].values, float)
+    profile = profile_of(ds, None)
+    years = float(ds.attrs.get("fatigue_design_life_years", 100.0))
+    tonnes = float(ds.attrs.get("fatigue_tonnes_per_year", np.nan))
+    nan = np.full(xs.size, np.nan)
+    out = {"delta_sigma_71": nan, "equivalent": nan, "lambda": nan, "phi_2": np.nan,
+           "length": np.nan, "text": ""}
+    static = static_deck_of(ds)
+    lphi = determinant_length(ds, None, profile)
+    if isinstance(static, str) or not np.isfinite(lphi.value):
+        return out
+    try:
+        env = lm71_envelope(lambda x: influence(static, "moment", xs, x),
+                            np.concatenate([static.supports, xs]), (0.0, static.length),
+                            n_at=xs.size, model=lm71(profile))
+    except LoadEffectError:
+        return out
+    phi2 = dynamic_factor(lphi.value, "careful", profile)
+    ds71 = (env.max - env.min) / w / 1e6
+    rows = [factors(float(d), phi2, tonnes, years, profile) for d in ds71]
+    r = rows[0]
+    return {"delta_sigma_71": ds71, "equivalent": np.array([x.equivalent_range for x in rows]),
+            "lambda": np.array([x.factor for x in rows]), "phi_2": phi2,
+            "length": lphi.value,
+            "text": (f"λ₁ = {r.lambda_1:.3g}, λ₂ = {r.lambda_2:.3g}, λ₃ = {r.lambda_3:.3g}, "
+                     f"λ₄ = {r.lambda_4:.3g}, λ = {r.factor:.3g} ≤ {r.lambda_max:g}")}
+
+
+def _rows(ds, lm=None) -> pd.DataFrame:
+    lm = lambda_method(ds) if lm is None else lm
     d = np.asarray(ds["fatigue_damage"].values, float)
     cat = np.asarray(ds["fatigue_detail_category"].values, float)
     gff = np.asarray(ds["fatigue_gamma_Ff"].values, float)
     gmf = np.asarray(ds["fatigue_gamma_Mf"].values, float)
     e2 = np.asarray(ds["fatigue_equivalent_stress_range"].values, float)
-    lam = np.asarray(ds["fatigue_lambda_stress_range"].values, float)
+    lam = np.asarray(lm["equivalent"], float)
     strength = cat / gmf
     lam_util = gff * lam / strength
     names = [str(n) for n in ds["fatigue_section_name"].values]
@@ -66,7 +108,8 @@ def fatigue_section(ds) -> Section | None:
     if not has_fatigue(ds):
         return None
     a = ds.attrs
-    rows = _rows(ds)
+    lm = lambda_method(ds)
+    rows = _rows(ds, lm)
     years = float(a.get("fatigue_design_life_years", np.nan))
     mix = str(a.get("fatigue_mix", "") or "")
     trains = [str(t) for t in ds["fatigue_traffic"].values]
@@ -98,9 +141,9 @@ def fatigue_section(ds) -> Section | None:
         "is the damage D (pass when D ≤ 1). The damage-equivalent range Δσ_E2 is the range "
         "whose 2·10⁶ cycles do the same damage (γ_Ff·Δσ_E2 = (Δσ_C/γ_Mf)·D^(1/3)); the "
         "λ-method value λ·Φ₂·Δσ₇₁ of EN 1993-2 9.5.3 [R] is shown beside it "
-        f"({md(str(a.get('fatigue_lambda_factors', '')))}, λ ≤ 1.4, Φ₂ = "
-        f"{float(a.get('fatigue_phi_2', np.nan)):.3f} for L_Φ = "
-        f"{float(a.get('fatigue_determinant_length', np.nan)):g} m, traffic "
+        f"({lm['text'] or 'not available: the deck gives no static moments'}; Φ₂ = "
+        f"{lm['phi_2']:.3f} for L_Φ = {lm['length']:g} m; Δσ₇₁ the LM71 moment range, "
+        "α = 1, over W; traffic "
         f"{float(a.get('fatigue_tonnes_per_year', np.nan)) / 1e6:.3g}·10⁶ t per year).")
     frame = pd.DataFrame({
         "Section": rows["section"], "x [m]": rows["x"], "W [m³]": rows["W"],
@@ -135,7 +178,7 @@ def _figure(ds, rows):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from vsi_numba.analysis.fatigue import SNCurve
+    from vsi_numba.model.fatigue import SNCurve
 
     cyc = np.asarray(ds["fatigue_cycles"].values, float)  # (traffic, section, bin)
     per_day = np.asarray(ds["fatigue_trains_per_day"].values, float)

@@ -1925,3 +1925,64 @@ def vehicle_on_modal_rail(
             record(n // out_every, t, y, G, contact_stiffness * np.where(act, pen, 0.0))
     return ModalRailResult(t=ts, force=force, deck_acceleration=acc, static_force=P0,
                            n_rail_modes=n_r)
+
+
+# =============================================================================
+# Fatigue: rainflow counting (ASTM E1049-85, 5.4.4) and the EN 1993-1-9 S-N curve
+# =============================================================================
+
+
+def rainflow_astm(x) -> list[tuple[float, float]]:
+    """Rainflow (range, count) pairs of a history, ASTM E1049-85 5.4.4 (three-point rule;
+    a range holding the starting point counts half), written from the standard's text."""
+    x = np.asarray(x, float)
+    d = np.diff(x)
+    d = d[d != 0]
+    if d.size == 0:
+        return []
+    # turning points: the first value, every sign change of the slope, the last value
+    pts = [x[0]]
+    prev = 0.0
+    for i in range(1, x.size):
+        step = x[i] - x[i - 1]
+        if step == 0:
+            continue
+        if prev != 0 and np.sign(step) != np.sign(prev):
+            pts.append(x[i - 1])
+        prev = step
+    pts.append(x[-1])
+    stack: list[float] = []
+    out: list[tuple[float, float]] = []
+    for p in pts:
+        stack.append(p)
+        while len(stack) >= 3:
+            X = abs(stack[-1] - stack[-2])
+            Y = abs(stack[-2] - stack[-3])
+            if X < Y:
+                break
+            if len(stack) == 3:
+                out.append((Y, 0.5))
+                stack.pop(0)
+            else:
+                out.append((Y, 1.0))
+                last = stack.pop()
+                stack.pop()
+                stack.pop()
+                stack.append(last)
+    out += [(abs(b - a), 0.5) for a, b in zip(stack[:-1], stack[1:], strict=True)]
+    return out
+
+
+def sn_damage(ranges, counts, category, gamma_Mf=1.0):
+    """Miner's sum on the EN 1993-1-9 curve: slope 3 to 5e6 cycles, 5 to 1e8, cut off
+    below (ranges already multiplied by gamma_Ff)."""
+    c = category / gamma_Mf
+    sd = c * (2.0 / 5.0) ** (1.0 / 3.0)
+    sl = sd * (5.0 / 100.0) ** 0.2
+    total = 0.0
+    for s, n in zip(ranges, counts, strict=True):
+        if s >= sd:
+            total += n / (2e6 * (c / s) ** 3)
+        elif s >= sl:
+            total += n / (5e6 * (sd / s) ** 5)
+    return total

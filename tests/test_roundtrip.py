@@ -257,6 +257,15 @@ FEATURES = {
                       "wheel_unloading_limit": {"value": 0.5, "clause": "client rule R-12"}}}),
     "axle_list": feature(train={"axles": {"file": "axles.csv", "load_unit": "kN",
                                           "name": "axle list"}}),
+    "fatigue": feature(fatigue={
+        "design_life_years": 80.0, "mix": "light",
+        "sections": [{"x": 10.0, "section_modulus": 0.1, "detail_category": 71.0,
+                      "gamma_Ff": 1.1, "gamma_Mf": 1.15, "name": "mid-span"}],
+        "traffic": [{"train": "HSLM-A3", "speed_kmh": 200.0, "per_day": 4.0,
+                     "model": "moving_force"},
+                    {"train": "axles.csv", "speed_kmh": 100.0, "per_day": 2.0}]}),
+    "compatibility": feature(study__speeds_kmh=[100.0, 200.0, 220.0], compatibility={
+        "train": "feature", "line_speed_kmh": 200.0, "speed_factor": 1.1}),
     "catalogue_pattern": feature(
         train=HSLM, bridge__damping_ratio="EN1991-2", bridge__deck_type="prestressed_concrete",
         bridge__additional_damping=True, study__refine_resonance=True,

@@ -96,6 +96,9 @@ _ANNEX_C = "EN 1991-2 Annex C"
 _LM71 = "EN 1991-2 6.3.2, Fig. 6.1"
 _HSLM = "EN 1991-2 6.4.6.1.1, Annex E (Table E.4)"
 _FIG613 = "EN 1991-2 6.4.6.1.1, Fig. 6.13"
+_SIGNATURE = "ERRI D214 RP9 (DER, LIR); EN 1991-2 Annex E, E.2"
+_SN = "EN 1993-1-9 7.1, Fig. 7.1"
+_LAMBDA = "EN 1993-2 9.5.3"
 
 #: The table: (key, value, unit, clause, description, recalled, applies[, integer/note]).
 TABLE: tuple[Entry, ...] = (
@@ -202,6 +205,53 @@ TABLE: tuple[Entry, ...] = (
     Entry("hslm_b_d_max", 3.5, "m", _FIG613, "HSLM-B: largest spacing d", applies="input"),
     Entry("hslm_b_load", 170e3, "N", _FIG613, "HSLM-B: each point force", applies="fixed",
           note="part of the HSLM-B model: give another train (train.axles) instead"),
+    # ------------------------------------------------ train signatures (DER / LIR)
+    Entry("signature_wavelength_min", 4.0, "m", _SIGNATURE,
+          "shortest wavelength lambda = v / f0 of the comparison of a train's signature "
+          "with the HSLM-A envelope"),
+    Entry("signature_wavelength_max", 20.0, "m", _SIGNATURE,
+          "longest wavelength of the comparison with the HSLM-A envelope"),
+    Entry("signature_damping", 0.01, "1", _SIGNATURE,
+          "damping ratio of the signatures when none is given (vsi trains --signature)"),
+    Entry("signature_ratio_limit", 1.0, "1", _SIGNATURE,
+          "a train is covered by HSLM-A when its DER signature stays below this times "
+          "the HSLM-A envelope at every wavelength of the range"),
+    # ------------------------------------------------------------- fatigue (steel)
+    Entry("fatigue_slope_m1", 3.0, "1", _SN,
+          "slope m of the S-N curve up to the constant-amplitude fatigue limit"),
+    Entry("fatigue_slope_m2", 5.0, "1", _SN,
+          "slope m between the constant-amplitude fatigue limit and the cut-off limit"),
+    Entry("fatigue_reference_cycles", 2e6, "1", _SN,
+          "N_C: cycles of the detail category Delta sigma_C"),
+    Entry("fatigue_constant_amplitude_cycles", 5e6, "1", _SN,
+          "N_D: cycles of the constant-amplitude fatigue limit Delta sigma_D"),
+    Entry("fatigue_cutoff_cycles", 1e8, "1", _SN,
+          "N_L: cycles of the cut-off limit Delta sigma_L (smaller ranges do no damage)"),
+    Entry("fatigue_gamma_Ff", 1.0, "1", "EN 1993-2 9.3(1)",
+          "partial factor of the fatigue loads gamma_Ff (default of "
+          "fatigue.sections.gamma_Ff)", applies="input"),
+    Entry("fatigue_gamma_Mf", 1.35, "1", "EN 1993-1-9 3(7), Table 3.1",
+          "partial factor of the fatigue strength gamma_Mf (safe life, high consequence; "
+          "default of fatigue.sections.gamma_Mf)", applies="input"),
+    Entry("fatigue_lambda_1", 0.65, "1", _LAMBDA + ", Table 9.3",
+          "lambda_1 (span and traffic mix): about 0.65 for a 20 m simply supported span "
+          "under the standard mix; read Table 9.3 for the span and override"),
+    Entry("fatigue_lambda_3", 1.0, "1", _LAMBDA + "(6)",
+          "lambda_3 = (design life / 100 years)^(1/5) is computed from "
+          "fatigue.design_life_years; this factor multiplies it (1: as the formula)"),
+    Entry("fatigue_lambda_4", 1.0, "1", _LAMBDA + "(7)",
+          "lambda_4: more than one track loaded (1.0 for a single track)"),
+    Entry("fatigue_lambda_max", 1.4, "1", _LAMBDA + "(2)",
+          "upper bound lambda_max of lambda = lambda_1 lambda_2 lambda_3 lambda_4"),
+    Entry("fatigue_lambda_volume", 25e6, "t", _LAMBDA + "(5)",
+          "lambda_2 = (traffic per track / this volume per year)^(1/5)"),
+    Entry("compatibility_speed_factor", 1.1, "1",
+          "TSI INF 4.2.8.1.3 / IG02042 practice; EN 1991-2 6.4.6.2",
+          "a real train on an existing bridge is checked up to this times the line speed "
+          "(new designs: 1.2 x the line speed, EN 1991-2 6.4.6.2(1))", applies="input"),
+    Entry("fatigue_free_vibration_decay", 0.01, "1", "EN 1991-2 6.4.6.6(2)",
+          "free vibration after each train is simulated until its amplitude has decayed "
+          "to this fraction of the amplitude at the exit of the last axle"),
 )
 
 #: Keys of :data:`TABLE`, in table order.
@@ -215,6 +265,9 @@ ORDERED = (
     ("hslm_b_d_min", "hslm_b_d_max"),
     ("twist_limit_above_200", "twist_limit_up_to_200"),
     ("twist_limit_up_to_200", "twist_limit_up_to_120"),
+    ("signature_wavelength_min", "signature_wavelength_max"),
+    ("fatigue_reference_cycles", "fatigue_constant_amplitude_cycles"),
+    ("fatigue_constant_amplitude_cycles", "fatigue_cutoff_cycles"),
 )
 
 
@@ -349,3 +402,52 @@ def resolve(profile) -> CodeProfile:
     if isinstance(profile, CodeProfile):
         return profile
     return profile_from(profile)
+
+
+# --------------------------------------------------------------- EN 1991-2 Annex D
+#: Clause of the fatigue train types and traffic mixes.
+ANNEX_D_CLAUSE = "EN 1991-2 Annex D, D.3, Table D.1 (types), Tables D.2-D.4 (mixes)"
+#: Fatigue train types of EN 1991-2 Annex D [R]: type -> (description, total load
+#: Sum Q (kN), maximum speed (km/h), length first to last axle... (m)).  The totals,
+#: speeds and lengths are recalled (their ratio reproduces the q = Sum Q / L column of
+#: Table D.1); the axle layouts of Fig. D.1 were not re-read: the builder
+#: (:mod:`vsi_numba.model.library.annex_d`) reconstructs each train from the vehicles
+#: listed in :data:`ANNEX_D_LAYOUT` scaled to these totals.
+ANNEX_D_TYPES = {
+    1: ("locomotive-hauled passenger train", 6630.0, 200.0, 262.10),
+    2: ("locomotive-hauled passenger train", 5300.0, 160.0, 281.10),
+    3: ("high-speed passenger train", 9400.0, 250.0, 385.52),
+    4: ("high-speed passenger train", 5100.0, 250.0, 237.60),
+    5: ("locomotive-hauled freight train", 21600.0, 80.0, 270.30),
+    6: ("locomotive-hauled freight train", 14310.0, 100.0, 333.10),
+    7: ("locomotive-hauled freight train", 10350.0, 120.0, 196.50),
+    8: ("locomotive-hauled freight train", 10350.0, 100.0, 212.50),
+    9: ("suburban multiple unit", 2960.0, 120.0, 134.80),
+    10: ("underground", 3600.0, 120.0, 129.60),
+    11: ("locomotive-hauled freight train, 25 t axles", 11350.0, 120.0, 198.50),
+    12: ("locomotive-hauled freight train, 25 t axles", 11350.0, 100.0, 212.50),
+}
+#: Reconstructed layouts: type -> (locomotives: (count, axles, axle load kN,
+#: length over buffers m), cars: (count, axles), wheelbase of a bogie m).  The cars'
+#: axle load and length follow from the totals of :data:`ANNEX_D_TYPES`.
+ANNEX_D_LAYOUT = {
+    1: ((1, 4, 225.0, 19.0), (11, 4), 2.5),
+    2: ((1, 4, 225.0, 19.0), (10, 4), 2.5),
+    3: ((2, 4, 200.0, 20.0), (14, 4), 2.5),
+    4: ((2, 4, 170.0, 20.0), (8, 4), 2.5),
+    5: ((2, 6, 225.0, 20.0), (21, 4), 1.8),
+    6: ((1, 6, 225.0, 20.0), (15, 4), 1.8),
+    7: ((1, 4, 225.0, 19.0), (11, 4), 1.8),
+    8: ((1, 4, 225.0, 19.0), (11, 4), 1.8),
+    9: ((0, 0, 0.0, 0.0), (6, 4), 2.5),
+    10: ((0, 0, 0.0, 0.0), (8, 4), 2.2),
+    11: ((1, 4, 250.0, 19.0), (11, 4), 1.8),
+    12: ((1, 4, 250.0, 19.0), (11, 4), 1.8),
+}
+#: Traffic mixes of EN 1991-2 Annex D [R]: name -> {train type: trains per day}
+#: (about 25 million tonnes per year and track each).
+ANNEX_D_MIXES = {
+    "standard": {1: 12, 2: 12, 3: 5, 4: 5, 5: 7, 6: 12, 7: 8, 8: 6},
+    "heavy": {5: 6, 6: 13, 11: 16, 12: 16},
+    "light": {1: 10, 2: 5, 5: 2, 9: 190},
+}

@@ -98,11 +98,14 @@ def check(
 def init(
     path: Path = typer.Argument(Path("study.toml"), metavar="PATH",
                                 help="file to write (never overwritten)"),
+    template: str = typer.Option("default", "--template",
+                                 help="default (an EN 1991-2 dynamic check) or "
+                                      "compatibility (a train on an existing bridge)"),
 ):
     """Write a commented starter configuration that validates and runs as is."""
     from vsi_numba.cli.init import init_command
 
-    raise typer.Exit(init_command(path))
+    raise typer.Exit(init_command(path, template))
 
 
 @app.command()
@@ -118,8 +121,22 @@ def schema(
 
 
 @app.command()
-def trains(name: str | None = typer.Argument(None, help="train name: print its axle table")):
-    """List the train library, or print one train's axles."""
+def trains(
+    name: str | None = typer.Argument(None, help="train name (or an axle-load CSV file): "
+                                                  "print its axle table"),
+    signature: bool = typer.Option(False, "--signature",
+                                   help="print the train's DER/LIR dynamic signature and "
+                                        "compare it with the HSLM-A envelope"),
+    damping: float | None = typer.Option(None, "--damping",
+                                         help="damping ratio of the signature in % "
+                                              "(default: the code profile's, 1 %)"),
+    plot: Path | None = typer.Option(None, "--plot", help="draw the signature into this PNG"),
+):
+    """List the train library, or print one train's axles (or its dynamic signature)."""
+    if signature or plot is not None:
+        from vsi_numba.cli.trains import signature_command
+
+        raise typer.Exit(signature_command(name, damping, plot))
     from vsi_numba.cli.trains import trains_command
 
     raise typer.Exit(trains_command(name))

@@ -291,6 +291,10 @@ def check_command(config: Path, workers: int | None = None) -> int:
 
         pr.line(f"input: {describe_config(cfg.resolved())}")
     pr.line(cfg.code_profile.summary())  # the clause values the checks will use
+    if "fatigue" in cfg.resolved():  # one more run per train of the fatigue traffic
+        from vsi_numba.config.fatigue import describe
+
+        pr.line(describe(cfg.resolved()["fatigue"]) + " (one run per train after the sweep)")
     pr.line(f"study: {n(est.n_runs, 'run')} = {n_v}{n(est.n_speeds, 'speed')} x "
             f"{n(est.n_trains, 'train')} x {n(est.n_realisations, 'track realisation')}, in "
             f"{n(est.n_batches, 'batch', 'batches')}; {n(est.n_steps, 'time step')}; "

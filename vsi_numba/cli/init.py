@@ -41,8 +41,52 @@ def _template() -> str:
 #: :data:`STARTER` and the declared keys.
 TEMPLATE = _template()
 
+#: ``vsi init --template compatibility``: is this train compatible with this existing
+#: bridge?  The bridge of studies/hslm_psc_25m (25 m PSC span, f1 = 5.0 Hz), the ICE3,
+#: a line speed of 300 km/h checked up to 1.1 x (330 km/h).
+COMPATIBILITY = '''\
+# vsi_numba configuration (TOML): compatibility of a train with an existing bridge.
+# Units: SI (m, s, kg, N) except keys ending in _kmh.
+# Check it without running:  vsi check {name}
+# Run it and write the answer: vsi sweep {name} --report {stem}_report
+# The report opens with the verdict (compatible or not), the governing check and its
+# margin, and the train's dynamic signature against the HSLM-A envelope.
+title = "Compatibility of the ICE3 with the 25 m PSC span at 300 km/h + 10 %"
 
-def init_command(path: Path) -> int:
+[bridge]                       # the existing bridge, as built
+kind = "simply_supported"
+spans = [25.0]                 # m
+EI = 7.16e10                   # N m^2 -> f1 = 5.0 Hz with 18 t/m
+mass_per_length = 18000.0      # kg/m (deck, ballast, track)
+damping_ratio = 0.01           # EN 1991-2 Table 6.6, prestressed concrete, L >= 20 m
+n_modes = 3                    # all modes up to the EN 1990 A2 cut-off (45 Hz)
+output_points = [3.125, 6.25, 9.375, 12.5, 15.625, 18.75, 21.875]   # every L/8
+track_type = "ballasted"       # ballasted (3.5 m/s2) | direct_fastening (5 m/s2)
+
+[train]                        # the train under check (`vsi trains` lists the library;
+preset = "ICE3"                # `vsi trains ICE3 --signature` shows its signature)
+
+[solver]
+dt = 1e-3                      # s
+approach = 5.0                 # m
+
+[study]
+# from well below the line speed up to speed_factor x line speed (330 km/h here)
+speeds_kmh = {{ start = 140.0, stop = 330.0, step = 5.0 }}
+output = "results/{stem}.nc"   # relative to this file's directory
+history_speeds_kmh = [330.0]
+
+[compatibility]
+train = "ICE3"                 # one of the study's trains
+line_speed_kmh = 300.0         # maximum line speed at the bridge
+# speed_factor = 1.1           # default: the code profile's compatibility_speed_factor
+'''
+
+#: Templates of ``vsi init --template``.
+TEMPLATES = {"default": TEMPLATE, "compatibility": COMPATIBILITY}
+
+
+def init_command(path: Path, template: str = "default") -> int:
     """``vsi init [PATH]``: write :data:`TEMPLATE` to ``PATH`` (default ``study.toml``).
 
     Returns
@@ -53,6 +97,9 @@ def init_command(path: Path) -> int:
     """
     pr = Printer()
     path = Path(path)
+    if template not in TEMPLATES:
+        pr.error(f"--template {template!r}: expected one of {', '.join(TEMPLATES)}")
+        return EXIT_USAGE
     if path.suffix.lower() != ".toml":
         pr.error(f"{path}: expected a file name ending in .toml")
         return EXIT_USAGE
@@ -66,7 +113,7 @@ def init_command(path: Path) -> int:
         pr.error(f"{path} exists: refusing to overwrite it; give another file name "
                  "(vsi init NEW.toml) or remove it first")
         return EXIT_USAGE
-    text = TEMPLATE.format(name=str(path), stem=path.stem)
+    text = TEMPLATES[template].format(name=str(path), stem=path.stem)
     try:
         with path.open("x", encoding="utf-8") as f:  # "x": never replaces a file
             f.write(text)

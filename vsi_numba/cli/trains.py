@@ -95,3 +95,82 @@ def trains_command(name: str | None = None) -> int:
         table.add_row(str(r.axle), f"{r.position_m:.4f}", f"{r.static_load_kN:.2f}", r.vehicle)
     out.print(table)
     return 0
+
+
+def signature_command(name: str | None, damping_pct: float | None = None, plot=None) -> int:
+    """``vsi trains NAME --signature``: the train's DER and LIR signatures and their
+    comparison with the HSLM-A envelope (EN 1991-2 Annex E [R]); return the exit code.
+
+    Parameters
+    ----------
+    name : str
+        A library train, or an axle-load CSV file (columns position in m, load in kN).
+    damping_pct : float, optional
+        Damping ratio in % (default: the code profile's ``signature_damping``).
+    plot : path, optional
+        PNG of the signature against the envelope.
+    """
+    from pathlib import Path
+
+    import numpy as np
+
+    from vsi_numba.analysis import signature as sg
+    from vsi_numba.code_profile import default_profile
+    from vsi_numba.model import library as lib
+    from vsi_numba.model.library import extra
+
+    pr = Printer()
+    if not name:
+        pr.line("error: --signature needs a train name or an axle-load CSV file", stderr=True)
+        return EXIT_USAGE
+    profile = default_profile()
+    zeta = profile["signature_damping"] if damping_pct is None else damping_pct / 100.0
+    if not (np.isfinite(zeta) and 0.0 <= zeta < 0.2):
+        pr.line(f"error: --damping {damping_pct!r}: expected a damping ratio in % from 0 "
+                "to 20", stderr=True)
+        return EXIT_USAGE
+    try:
+        if name.lower().endswith(".csv"):
+            train = extra.axle_list_train(Path(name))
+        elif name.strip().casefold() == extra.HSLM_B_NAME.casefold():
+            pr.line(f"error: {extra.HSLM_B_MISSING}; its signature needs N and d",
+                    stderr=True)
+            return EXIT_USAGE
+        else:
+            train = sg.train_by_name(name)
+    except (lib.UnknownTrainError, extra.AxleFileError) as exc:
+        pr.line(f"error: {exc}", stderr=True)
+        return EXIT_USAGE
+    cov = sg.compare_with_hslm(train, zeta, profile=profile)
+    s = cov.train
+    out = pr.out
+    out.print(f"{s.name}: dynamic signature, damping {100 * zeta:g} % "
+              f"({sg.SIGNATURE_CLAUSE} [R])", highlight=False, markup=False)
+    # the peaks of the DER signature: local maxima above half of the largest
+    d = s.der
+    peaks = [i for i in range(1, d.size - 1) if d[i] >= d[i - 1] and d[i] > d[i + 1]
+             and d[i] > 0.5 * d.max()]
+    peaks = sorted(peaks, key=lambda i: -d[i])[:8]
+    from rich.table import Table
+
+    table = Table(title="largest peaks of the DER signature", box=None, padding=(0, 1, 0, 0),
+                  header_style="bold underline", title_justify="left")
+    for col in ("lambda\nm", "DER G\nkN", "LIR G_r\nkN", "HSLM-A\nenvelope kN", "ratio",
+                "governing\nHSLM"):
+        table.add_column(col, justify="right", no_wrap=True)
+    for i in sorted(peaks, key=lambda i: s.wavelength[i]):
+        table.add_row(f"{s.wavelength[i]:.2f}", f"{d[i] / 1e3:.0f}", f"{s.lir[i] / 1e3:.0f}",
+                      f"{cov.envelope[i] / 1e3:.0f}", f"{d[i] / cov.envelope[i]:.2f}",
+                      str(cov.governing[i]))
+    out.print(table)
+    verdict = "covered" if cov.covered else "NOT covered"
+    out.print(f"{verdict} by HSLM-A over lambda = {s.wavelength[0]:g} to "
+              f"{s.wavelength[-1]:g} m: largest ratio {cov.ratio:.3f} at lambda = "
+              f"{cov.wavelength_at_ratio:.2f} m (limit {profile['signature_ratio_limit']:g}; "
+              "EN 1991-2 Annex E [R]: a train covered by the HSLM-A envelope is covered by "
+              "a design with HSLM-A; otherwise run the dynamic analysis with the train)",
+              highlight=False, markup=False)
+    if plot is not None:
+        sg.plot_signature(cov, plot)
+        out.print(f"wrote {plot}", highlight=False, markup=False)
+    return 0

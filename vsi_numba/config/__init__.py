@@ -33,7 +33,8 @@ Modules
 :mod:`~vsi_numba.config.bridge`, :mod:`~vsi_numba.config.train`,
 :mod:`~vsi_numba.config.irregularity`, :mod:`~vsi_numba.config.solver` (``[solver]``,
 ``[contact]``, ``[track]``), :mod:`~vsi_numba.config.study` and
-:mod:`~vsi_numba.config.variants` (one reader per section),
+:mod:`~vsi_numba.config.variants`, :mod:`~vsi_numba.config.fatigue`,
+:mod:`~vsi_numba.config.compatibility` (one reader per section),
 :mod:`~vsi_numba.config.physics` (warnings and plausibility checks of the whole model),
 :mod:`~vsi_numba.config.limits` (their caps and thresholds) and
 :mod:`~vsi_numba.config.core` (:class:`Config`, :func:`load_config`);

@@ -33,6 +33,8 @@ from vsi_numba.config.code_profile import (
     _hslm_applicability,
     profile_of_section,
 )
+from vsi_numba.config.compatibility import _compatibility_section
+from vsi_numba.config.fatigue import _fatigue_section
 from vsi_numba.config.irregularity import (
     _check_file_coverage,
     _defect_profile,
@@ -531,6 +533,10 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     study = _study_section(chk, data.get("study", _MISSING), f"results/{stem}.nc", base,
                            profile)
     report = _report_section(chk, data.get("report", _MISSING))
+    fatigue = _fatigue_section(chk, data.get("fatigue", _MISSING), profile, bridge,
+                               study.axes if _ok(study) else (), base)
+    compat = _compatibility_section(chk, data.get("compatibility", _MISSING), profile, study,
+                                    train)
 
     if _ok(bridge, solver, irr) and irr.file_profile is not None:
         _check_file_coverage(chk, irr, -solver["approach"], bridge.length)
@@ -586,6 +592,8 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
         "study": stored_study,
         **({"report": report} if report else {}),
         **({"code_profile": code_profile} if code_profile else {}),
+        **({"fatigue": fatigue} if fatigue else {}),
+        **({"compatibility": compat} if compat else {}),
     }
     cfg = Config(
         title=resolved["title"], path=path, base_dir=base, resolved=resolved, bridge=bridge,

@@ -238,6 +238,45 @@ STUDY_VARIABLES = {
     ),
 }
 
+#: Fatigue results of a study with ``[fatigue]`` (:mod:`vsi_numba.study.fatigue`).
+FATIGUE = {
+    "fatigue_damage": (
+        ("fatigue_section",), "1", "Miner's damage sum over the design life (all trains of "
+        "the fatigue traffic), design S-N curve and factored stress ranges",
+        {"cell_methods": "fatigue_traffic: sum"}),
+    "fatigue_damage_per_train": (
+        ("fatigue_traffic", "fatigue_section"), "1",
+        "Miner's damage sum of one train of the fatigue traffic over the design life", {}),
+    "fatigue_damage_per_passage": (
+        ("fatigue_traffic", "fatigue_section"), "1",
+        "Miner's damage of one passage of the train (free vibration included)", {}),
+    "fatigue_cycles": (
+        ("fatigue_traffic", "fatigue_section", "stress_range"), "1",
+        "rainflow cycles per passage in each stress-range bin (unfactored ranges; half "
+        "cycles count 0.5)", {}),
+    "fatigue_max_stress_range": (
+        ("fatigue_traffic", "fatigue_section"), "MPa",
+        "largest rainflow stress range of one passage (unfactored)", {}),
+    "fatigue_equivalent_stress_range": (
+        ("fatigue_section",), "MPa",
+        "damage-equivalent stress range at 2e6 cycles, unfactored (from the Miner sum)", {}),
+    "fatigue_section_modulus": (("fatigue_section",), "m3", "section modulus W (stress = "
+                                "M / W)", {}),
+    "fatigue_detail_category": (("fatigue_section",), "MPa", "detail category Delta "
+                                "sigma_C (EN 1993-1-9)", {}),
+    "fatigue_gamma_Ff": (("fatigue_section",), "1", "partial factor of the fatigue loads",
+                         {}),
+    "fatigue_gamma_Mf": (("fatigue_section",), "1", "partial factor of the fatigue "
+                         "strength", {}),
+    "fatigue_speed_kmh": (("fatigue_traffic",), "km h-1", "speed of the train in the "
+                          "fatigue traffic", {}),
+    "fatigue_trains_per_day": (("fatigue_traffic",), "d-1", "trains per day", {}),
+    "fatigue_train_mass": (("fatigue_traffic",), "t", "total static axle load of the "
+                           "train / g", {}),
+    "fatigue_free_vibration": (("fatigue_traffic",), "s", "free vibration simulated after "
+                               "the last axle left (until decayed)", {}),
+}
+
 COORDS = {
     "time": ("s", "time since the first axle left its start position", {"axis": "T"}),
     "point": ("m", "output point: distance from the left end of the bridge", {}),
@@ -260,7 +299,7 @@ COORDS = {
 
 def attrs_for(name: str) -> dict:
     """CF attributes (units, long_name, ...) for a declared variable or coordinate."""
-    for table in (HISTORIES, ENVELOPES, DIAGNOSTICS, STUDY_VARIABLES):
+    for table in (HISTORIES, ENVELOPES, DIAGNOSTICS, STUDY_VARIABLES, FATIGUE):
         if name in table:
             _, units, long_name, extra = table[name]
             return {"units": units, "long_name": long_name, **extra}

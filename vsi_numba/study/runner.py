@@ -572,6 +572,10 @@ def _write_results(output: Path, store: CaseStore, study: _Study,
                     "are kept), please report it with the configuration")
             attrs["not_computed"] = not_computed_attr(omit)
             f.close(attrs)
+            if "fatigue" in study.config.resolved():  # the traffic's runs, counted
+                from vsi_numba.study import fatigue
+
+                fatigue.write(tmp, fatigue.fatigue_runs(study.config))
         except BaseException:
             f.abort()
             raise

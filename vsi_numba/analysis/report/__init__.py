@@ -26,6 +26,7 @@ import os
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import xarray as xr
 
 from vsi_numba.analysis import checks as chk
@@ -35,6 +36,7 @@ from vsi_numba.analysis.recompute import CaseRunner
 from vsi_numba.analysis.report import profile as code_profile
 from vsi_numba.analysis.report import tables as tbl
 from vsi_numba.analysis.report.atomic import atomic_directory, checkpoint
+from vsi_numba.analysis.report.compatibility import compatibility_section
 from vsi_numba.analysis.report.convergence import convergence_section
 from vsi_numba.analysis.report.document import (
     Figure,
@@ -44,6 +46,8 @@ from vsi_numba.analysis.report.document import (
     write_markdown,
 )
 from vsi_numba.analysis.report.echo import input_echo, title_block
+from vsi_numba.analysis.report.fatigue import fatigue_section, has_fatigue
+from vsi_numba.analysis.report.fatigue import summary_rows as fatigue_rows
 from vsi_numba.analysis.report.figures import _figures
 from vsi_numba.analysis.report.load_effects import (
     consistent_deflection,
@@ -198,6 +202,8 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
         results.get("dynamic_amplification"))
     table = mark_unreliable(summary_with_load_effects(chk.summary_table(results), le_checks),
                             records)
+    if has_fatigue(full):  # Miner's damage per section (a [fatigue] study)
+        table = pd.concat([table, pd.DataFrame(fatigue_rows(full))], ignore_index=True)
     # 10 significant digits: the same results give the same file (the last bits of a
     # float may differ between machines and thread schedules)
     table.to_csv(outdir / "summary.csv", index=False, float_format="%.10g")
@@ -240,6 +246,9 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
         if sec is not None:
             body.append(sec)
 
+    compat = compatibility_section(env, table)  # [compatibility]: the answer comes first
+    if compat is not None:
+        body.append(compat)
     summary = _summary(results, table, np.asarray(env["point"].values, float))
     at = len(summary) - 1 if summary and not summary[-1] else len(summary)
     add(summary[:at] + _zone_lines(zone_table) + summary[at:] + _deck_end_note(env)
@@ -252,6 +261,8 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
     add(_cases(env))
     add(_statistics(results, env))
     body.append(load_effects.section)
+    if has_fatigue(full):
+        body.append(fatigue_section(full))
     body.append(convergence_section(env, results, runner))
     checkpoint()
     for extra_section in sections or []:

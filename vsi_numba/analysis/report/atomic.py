@@ -41,7 +41,8 @@ REPORT_ENTRIES = frozenset({
     "report.md", "report.html", "summary.csv", "tables.xlsx", "tables", "variants.csv",
     "variants.json", "design_chart.png", "governing_variant", "load_effects.png",
     "deck_acceleration.png", "dynamic_amplification.png", "wheel_unloading.png",
-    "comfort.png", "time_history.png", "wheel_unloading_history.png"})
+    "comfort.png", "time_history.png", "wheel_unloading_history.png",
+    "fatigue_spectra.png", "signature.png"})
 
 
 class ReportDirectoryError(OSError):

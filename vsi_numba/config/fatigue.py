@@ -1,0 +1,232 @@
+"""``[fatigue]``: the fatigue check of steel details under the dynamic stress histories
+(:mod:`vsi_numba.model.fatigue`, :mod:`vsi_numba.study.fatigue`).
+
+```toml
+[fatigue]
+design_life_years = 100
+mix = "standard"                  # optional: an EN 1991-2 Annex D mix [R] (standard,
+                                  # heavy, light) at each train type's speed of Table D.1
+
+[[fatigue.sections]]
+x = 10.0                          # m from the left end of the deck
+section_modulus = 0.045           # m^3: stress per unit bending moment = 1 / this
+detail_category = 71              # MPa, EN 1993-1-9 detail category Delta sigma_C
+gamma_Ff = 1.0                    # optional (code profile fatigue_gamma_Ff)
+gamma_Mf = 1.35                   # optional (code profile fatigue_gamma_Mf)
+name = "bottom flange, midspan"   # optional
+
+[[fatigue.traffic]]               # the operator's trains (added to the mix)
+train = "ICE3"                    # a library train, AnnexD-1 .. AnnexD-12, or an axle-load
+                                  # CSV file (position m, load kN; relative to the config)
+speed_kmh = 250.0
+per_day = 20
+model = "moving_force"            # optional: moving_force (default) | interaction
+```
+
+Everything about the section lives here; :mod:`vsi_numba.config.core` calls
+:func:`_fatigue_section` and stores what it returns.
+"""
+
+from __future__ import annotations
+
+from vsi_numba.config._check import _BAD, _MISSING, _Num, _ok
+
+#: Detail categories of EN 1993-1-9 Tables 8.1-8.10 [R] (MPa).
+DETAIL_CATEGORIES = (36, 40, 45, 50, 56, 63, 71, 80, 90, 100, 112, 125, 140, 160)
+#: Keys of ``[fatigue]``, ``[[fatigue.sections]]``, ``[[fatigue.traffic]]``.
+KEYS = {"design_life_years", "mix", "sections", "traffic"}
+SECTION_KEYS = {"x", "section_modulus", "detail_category", "gamma_Ff", "gamma_Mf", "name"}
+TRAFFIC_KEYS = {"train", "speed_kmh", "per_day", "model"}
+MODELS = ("moving_force", "interaction")
+
+_LIFE = _Num("a design life > 0 years (at most 1000)", gt=0, le=1000)
+_X = _Num("a position >= 0 m along the deck", ge=0)
+_W = _Num("a section modulus > 0 m^3 (stress = M / W)", gt=0)
+_CAT = _Num("a detail category > 0 MPa (EN 1993-1-9: 36 to 160)", gt=0, le=1000)
+_GAMMA = _Num("a partial factor >= 1", ge=1.0, le=10.0)
+_SPEED = _Num("a speed > 0 km/h (at most 600)", gt=0, le=600)
+_PER_DAY = _Num("a number of trains per day > 0", gt=0, le=10000)
+
+
+def _fatigue_section(chk, d, profile, bridge=_BAD, study_axes=(), base=None
+                     ) -> dict | None:
+    """Validate ``[fatigue]``; return it with every default filled (None without it).
+
+    ``bridge`` (the validated ``[bridge]``) bounds the sections' x; ``study_axes`` (the
+    variants of ``study.vary``) are refused: the fatigue runs use the configuration's
+    own bridge.
+    """
+    if d is _MISSING:
+        return None
+    if chk.table(d, "fatigue", KEYS,
+                 what=" [fatigue] with design_life_years, [[fatigue.sections]] and "
+                      "[[fatigue.traffic]] or mix") is _BAD:
+        return _BAD
+    from vsi_numba.code_profile import ANNEX_D_MIXES
+
+    life = chk.get_number(d, "fatigue", "design_life_years", _Num(_LIFE.expected, gt=0,
+                                                                   le=1000, default=100.0))
+    mix = chk.choice(d, "fatigue", "mix", tuple(ANNEX_D_MIXES), default=None,
+                     note=" (EN 1991-2 Annex D traffic mix)")
+    out = {"design_life_years": life}
+    if mix is not None:
+        out["mix"] = mix
+    out["sections"] = _sections(chk, d.get("sections", _MISSING), profile, bridge)
+    out["traffic"] = _traffic(chk, d.get("traffic", _MISSING), mix is not None, base)
+    if study_axes:
+        chk.error("fatigue", "{...}", "no [fatigue] with study.vary (the fatigue runs use "
+                  "the configuration's own bridge): run the fatigue study without vary")
+        return _BAD
+    static = getattr(getattr(bridge, "model", None), "static", None) if _ok(bridge) else None
+    if _ok(bridge) and bridge.kind != "rigid" and (static is None
+                                                   or "moment" not in static.effects):
+        chk.error("fatigue", "{...}", "a deck that gives bending moments (a beam deck, or "
+                  "matrices with rotation DOFs); this bridge.kind = "
+                  f"'{bridge.kind}' gives none")
+        return _BAD
+    if _ok(bridge) and bridge.kind == "rigid":
+        chk.error("fatigue", "{...}", "a deck with bending moments (bridge.kind "
+                  "simply_supported, continuous or a model with load effects), not a "
+                  "rigid track")
+        return _BAD
+    if _ok(life) and (life < 10 or life > 200):
+        chk.warn(f"fatigue.design_life_years = {life:g}: looks implausible for a railway "
+                 "bridge (EN 1993-2 designs for 100 years)", kind="plausibility",
+                 keys=["fatigue.design_life_years"])
+    if not _ok(*out.values()):
+        return _BAD
+    return out
+
+
+def _sections(chk, v, profile, bridge):
+    path = "fatigue.sections"
+    if v is _MISSING:
+        return chk.error(path, _MISSING, "one or more [[fatigue.sections]] with x, "
+                                         "section_modulus and detail_category")
+    if not isinstance(v, list) or not v:
+        return chk.error(path, v, "a list of tables [[fatigue.sections]] with x, "
+                                  "section_modulus and detail_category")
+    out = []
+    for i, s in enumerate(v):
+        p = f"{path}[{i}]"
+        if chk.table(s, p, SECTION_KEYS, what=" with x, section_modulus, detail_category"
+                     ) is _BAD:
+            out.append(_BAD)
+            continue
+        r = chk.numbers(s, p, {
+            "x": _X, "section_modulus": _W, "detail_category": _CAT,
+            "gamma_Ff": _Num(_GAMMA.expected, ge=1.0, le=10.0,
+                             default=profile["fatigue_gamma_Ff"]),
+            "gamma_Mf": _Num(_GAMMA.expected, ge=1.0, le=10.0,
+                             default=profile["fatigue_gamma_Mf"]),
+        })
+        name = chk.string(s, p, "name", "a name (string)", default=None)
+        if name is not None and _ok(name):
+            r["name"] = name.strip()
+        if not _ok(*r.values()):
+            out.append(_BAD)
+            continue
+        if _ok(bridge) and r["x"] > bridge.length + 1e-9:
+            chk.error(f"{p}.x", r["x"], f"a position on the deck, 0 to {bridge.length:g} m")
+            out.append(_BAD)
+            continue
+        if int(r["detail_category"]) != r["detail_category"] or \
+                int(r["detail_category"]) not in DETAIL_CATEGORIES:
+            chk.warn(f"{p}.detail_category = {r['detail_category']:g} MPa is not a detail "
+                     "category of EN 1993-1-9 (" + ", ".join(map(str, DETAIL_CATEGORIES))
+                     + "): used as given", kind="plausibility", keys=[f"{p}.detail_category"])
+        if not 1e-4 <= r["section_modulus"] <= 10.0:
+            chk.warn(f"{p}.section_modulus = {r['section_modulus']:g} m^3 looks implausible "
+                     "for a railway deck (expected about 0.001 to 5 m^3; the unit is m^3, "
+                     "not cm^3 or mm^3)", kind="plausibility", keys=[f"{p}.section_modulus"])
+        out.append(r)
+    return _BAD if any(o is _BAD for o in out) else out
+
+
+def _traffic(chk, v, has_mix: bool, base=None):
+    path = "fatigue.traffic"
+    if v is _MISSING:
+        if has_mix:
+            return []
+        return chk.error(path, _MISSING, "[[fatigue.traffic]] with train, speed_kmh and "
+                                         "per_day, or fatigue.mix")
+    if not isinstance(v, list) or (not v and not has_mix):
+        return chk.error(path, v, "a list of tables [[fatigue.traffic]] with train, "
+                                  "speed_kmh and per_day")
+    from vsi_numba.model.library import UnknownTrainError, annex_d, get_train
+
+    out = []
+    for i, t in enumerate(v):
+        p = f"{path}[{i}]"
+        if chk.table(t, p, TRAFFIC_KEYS, what=" with train, speed_kmh, per_day") is _BAD:
+            out.append(_BAD)
+            continue
+        name = chk.string(t, p, "train", "a train name (`vsi trains` lists them; "
+                                         "AnnexD-1 .. AnnexD-12)")
+        r = chk.numbers(t, p, {"speed_kmh": _SPEED, "per_day": _PER_DAY})
+        model = chk.choice(t, p, "model", MODELS, default="moving_force")
+        if not _ok(name, model, *r.values()):
+            out.append(_BAD)
+            continue
+        if name.strip().lower().endswith(".csv"):  # the operator's axle-load list
+            from pathlib import Path
+
+            from vsi_numba.model.library.extra import AxleFileError, axle_list_train
+
+            path = (Path(base or ".") / name.strip()).expanduser()
+            try:
+                axle_list_train(path)
+            except AxleFileError as exc:
+                chk.error(f"{p}.train", name, f"a readable axle-load CSV file ({exc})")
+                out.append(_BAD)
+                continue
+            if model == "interaction":
+                chk.error(f"{p}.model", model, "'moving_force' for an axle-load list")
+                out.append(_BAD)
+                continue
+        elif annex_d.type_of(name) is not None:
+            if model == "interaction":
+                chk.error(f"{p}.model", model, "'moving_force' for an Annex D train (its "
+                          "types are axle loads, without vehicle dynamics)")
+                out.append(_BAD)
+                continue
+            name = f"{annex_d.PREFIX}{annex_d.type_of(name)}"
+        else:
+            try:
+                name = get_train(name, model).name
+            except UnknownTrainError as exc:
+                chk.error(f"{p}.train", name, f"a train of the library or AnnexD-1 .. "
+                          f"AnnexD-12 ({' '.join(str(exc).split())[:160]})")
+                out.append(_BAD)
+                continue
+            except ValueError as exc:
+                chk.error(f"{p}.model", model, f"a model the train has ({exc})")
+                out.append(_BAD)
+                continue
+        out.append({"train": name, "speed_kmh": r["speed_kmh"], "per_day": r["per_day"],
+                    "model": model})
+    return _BAD if any(o is _BAD for o in out) else out
+
+
+def traffic_of(section: dict) -> list[dict]:
+    """The traffic of a resolved ``[fatigue]``: the Annex D mix (if any) then the
+    listed trains, each {train, speed_kmh, per_day, model}."""
+    from vsi_numba.model.library import annex_d
+
+    rows = []
+    if section.get("mix"):
+        rows += [{"train": n, "speed_kmh": v, "per_day": k, "model": "moving_force"}
+                 for n, v, k in annex_d.mix(section["mix"])]
+    return rows + [dict(t) for t in section.get("traffic", [])]
+
+
+def describe(section: dict) -> str:
+    """One line for ``vsi check``: sections and traffic."""
+    t = traffic_of(section)
+    return (f"fatigue: {len(section['sections'])} section(s), {len(t)} train(s) in the "
+            f"traffic ({sum(r['per_day'] for r in t):g} per day), design life "
+            f"{section['design_life_years']:g} years" + (
+                f", EN 1991-2 Annex D {section['mix']} mix" if section.get("mix") else ""))
+
+
+__all__ = ["DETAIL_CATEGORIES", "describe", "traffic_of"]

@@ -192,14 +192,3 @@ def test_the_timed_test_command_uses_the_readme_pytest_options():
     command = re.findall(r"```bash\n(.*?)```", readme, flags=re.S)[1].strip()
     assert command.endswith("-m pytest " + readme_pytest_options())
     assert readme_pytest_options().startswith("-q")
-
-
-def test_conftest__ordering_names_existing_test_modules():
-    """The modules the tests' conftest runs late (while the kernels compile) exist: a
-    renamed module would silently lose its place."""
-    import conftest
-
-    here = Path(__file__).resolve().parent
-    names = conftest.MOVING_FORCE_MODULES | conftest.INTERACTION_MODULES
-    assert not conftest.MOVING_FORCE_MODULES & conftest.INTERACTION_MODULES
-    assert {n for n in names if not (here / f"{n}.py").is_file()} == set()

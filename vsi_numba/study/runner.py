@@ -57,7 +57,13 @@ from vsi_numba.study.backends import (
     ThreadBackend,
     available_cores,
 )
-from vsi_numba.study.batches import Batch, run_batch_task
+from vsi_numba.study.batches import (
+    Batch,
+    _packed_trains,
+    plan_fingerprint,
+    run_batch_task,
+    study_plan,
+)
 from vsi_numba.study.grid import Case, StudyGrid
 from vsi_numba.study.offers import no_values, not_computed_attr, not_offered
 from vsi_numba.study.outlock import OutputLock
@@ -67,13 +73,10 @@ from vsi_numba.study.spec import (
     StudySpec,
     _build_model,
     _load,
-    _packed_trains,
     _remember,
     model_fingerprint,
-    plan_fingerprint,
     study_grid,
     study_model,
-    study_plan,
     study_spec,
     variant_coords,
 )

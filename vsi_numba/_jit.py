@@ -8,9 +8,9 @@ runs, and IEEE semantics are needed for the NaN checks in the time loop.
 ``_nrt=False``: the kernels run without numba's runtime (no reference counting of the
 arrays in the model, workspace and output tuples on every call and slice). They allocate
 nothing - every array comes from the caller, and copies are plain loops - so nothing is
-lost; the interaction step takes about a third less CPU time and the first compilation
-about a fifth less. A kernel that must allocate opts back in with ``njit(_nrt=True)``
-(numba refuses an allocation in the others at compile time).
+lost, and the step and the compilation are cheaper without it. A kernel that must
+allocate opts back in with ``njit(_nrt=True)`` (numba refuses an allocation in the others
+at compile time).
 
 The cache follows the source of the whole package that defines a kernel: numba keys a
 cached kernel on the hash of its own file only, so an edit to a callee in another file of
@@ -41,9 +41,8 @@ def njit(func=None, *, kernel_only: bool = False, **overrides):
 
     ``kernel_only``: a kernel that only other kernels call, compiled without the CPython
     wrapper (the code that unboxes the arguments of a call from Python: for the
-    namedtuples of arrays the engine passes around it is large, and compiling it took
-    ~0.4 s per kernel, ~10 s of the interaction kernels' ~49 s of CPU from an empty
-    cache).  Calling such a kernel from Python raises a TypeError (:class:`KernelOnly`);
+    namedtuples of arrays the engine passes around it is large and slow to compile).
+    Calling such a kernel from Python raises a TypeError (:class:`KernelOnly`);
     without this guard numba's entry point would be a null pointer.
     """
     if func is None:

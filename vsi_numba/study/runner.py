@@ -263,13 +263,6 @@ def _records(cfg, base: bool = True) -> list[dict]:
     return [dict(r) for r in records]
 
 
-def warnings_json(cfg, base: bool = True) -> str:
-    """The configuration's warnings as a JSON list of {"message", "kind", "keys"} (kind
-    "resolution": the checks computed from the results are not reliable; with
-    ``base=False`` and ``study.vary``: every variant's, with their ``variants``)."""
-    return json.dumps(_records(cfg, base), ensure_ascii=False)
-
-
 @dataclass(frozen=True)
 class _Study:
     """What :func:`execute_study` derives from a configuration before it runs: one spec
@@ -679,11 +672,10 @@ def _import_results_readers(order) -> None:
     when it sees an array; ~0.6 s) while the batches run, when they are long enough: the
     batches run in worker threads (kernels that release the GIL) or processes, so the
     import takes a share of the cores instead of a serial wait after the last batch
-    (the sweep's governing results, a report): about 0.5 s of the 570 ICE3 runs' 9-10 s.
-    In this thread, once, after the first batch is stored: no second thread that
-    imports while an interrupted sweep shuts down.  Not for a
-    study that keeps time histories: the imports' ~65 MB would then add to the peak of
-    the batches' history buffers (1,140 runs with every history: 562 -> 620 MB)."""
+    (the sweep's governing results, a report).  In this thread, once, after the first
+    batch is stored: no second thread that imports while an interrupted sweep shuts
+    down.  Not for a study that keeps time histories: the imports' ~65 MB would then add
+    to the peak of the batches' history buffers."""
     if sum(b.cost for b in order) < PREFETCH_COST or any(any(b.histories) for b in order):
         return
     with contextlib.suppress(ImportError):  # dask is installed with the package
@@ -699,9 +691,8 @@ def _run_pending(be, spec, pending, store, progress, n_runs, n_done, quiet=True)
     helper = _start_compile_helper(be, spec, order)
     # The batches are the parallelism: BLAS on one thread in this process while they run.
     # With its default (a thread per core), OpenBLAS's threads busy-wait after every small
-    # call (the static starts' solves) on the cores the batch threads need: 570 ICE3
-    # interaction runs on 2 cores took 14.6 s instead of 11.1 s (26.4 s of CPU instead of
-    # 19.5 s).  Worker processes get the same from their environment (WORKER_ENV).
+    # call (the static starts' solves) on the cores the batch threads need.  Worker
+    # processes get the same from their environment (WORKER_ENV).
     with (_stop_helper(helper), threadpool_limits(limits=1, user_api="blas"),
           _Progress(progress, n_runs, n_done, "runs") as bar):
         with be:

@@ -95,8 +95,7 @@ def _remember(spec: StudySpec, model: StudyModel) -> None:
 def _first_realisation(cfg):
     """``cfg`` with only its first PSD seed (a shallow copy; ``cfg`` itself unchanged):
     ``vsi run`` computes the first realisation only, and a profile depends on its seed
-    and the track range alone, so the others need not be generated (10,000 seeds took
-    minutes and gigabytes before the two runs of a ``vsi run``)."""
+    and the track range alone, so the others need not be generated."""
     import copy
 
     irr = cfg._resolved.get("irregularity", {})

@@ -116,8 +116,10 @@ class PackageSourceLocator(caching._CacheLocator):
     else the user-wide cache), stamped with :func:`package_hash` of the package instead
     of the hash of the defining file alone."""
 
-    _DEFAULT = (caching.UserProvidedCacheLocator, caching.InTreeCacheLocator,
-                caching.UserWideCacheLocator)
+    # numba's own locators, in its order (numba < 0.68 names them with a leading "_")
+    _DEFAULT = tuple(getattr(caching, name, None) or getattr(caching, "_" + name)
+                     for name in ("UserProvidedCacheLocator", "InTreeCacheLocator",
+                                  "UserWideCacheLocator"))
 
     def __init__(self, inner, py_file: str):
         self._inner = inner

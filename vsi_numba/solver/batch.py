@@ -346,7 +346,7 @@ class BatchResult:
 
 def run_batch(packed: Packed, profile: Profile, speeds, points, settings: SolverSettings,
               bridge: ModalBridge, keep_histories=None, deck=None,
-              _ensure: bool = True) -> BatchResult:
+              _ensure: bool = True, _kernel=None) -> BatchResult:
     """Run one packed model at several speeds (m/s) in one kernel call.
 
     Parameters
@@ -367,6 +367,9 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     _ensure : bool
         First have the family's kernels compiled once per machine
         (:func:`~vsi_numba.solver.kernel_cache.ensure_compiled`); False inside that.
+    _kernel : callable, optional
+        Called with the kernel's arguments instead of running the batch (returns None):
+        the tests read the arguments a study gives the kernels.
     """
     speeds = np.ascontiguousarray(np.atleast_1d(np.asarray(speeds, float)))
     if np.any(~(speeds > 0)):
@@ -411,6 +414,10 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     wk = _workspace(n_m, n_v, n_w, veh)
     status = np.zeros(n_r, np.int64)
     reached = np.zeros(n_r, np.int64)
+    if _kernel is not None:
+        _kernel(packed.bridge, veh, packed.profile, packed.params, speeds, n_steps, init,
+                st, bk, wk, red, out, slots, status, reached)
+        return None
     if _ensure:  # compiled once per machine (another process compiling: wait)
         compile_family(kernel_cache.family_of(packed))
     t0 = _time.perf_counter()

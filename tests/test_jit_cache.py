@@ -43,12 +43,15 @@ FLAVOURS = {
 
 
 def _write(tmp_path: Path, pkg: str, flavour: str, value: float) -> None:
+    """The package, or (when it exists) its callee alone: the caller's file stays as it
+    was, bytes and modification time."""
     jit_import, decorator = FLAVOURS[flavour]
     d = tmp_path / pkg
-    d.mkdir(exist_ok=True)
-    (d / "__init__.py").write_text("")
-    (d / "caller.py").write_text(CALLER.format(jit_import=jit_import, pkg=pkg,
-                                               decorator=decorator))
+    if not d.exists():
+        d.mkdir()
+        (d / "__init__.py").write_text("")
+        (d / "caller.py").write_text(CALLER.format(jit_import=jit_import, pkg=pkg,
+                                                   decorator=decorator))
     (d / "callee.py").write_text(CALLEE.format(jit_import=jit_import, decorator=decorator,
                                                value=repr(value)))
 

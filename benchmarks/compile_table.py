@@ -2,7 +2,7 @@
 
 Each version of the code is measured in a fresh process with its own empty
 ``NUMBA_CACHE_DIR``: the process compiles both kernel families the way a study does
-(``vsi_numba.solver.warm.warm_up_family``, no second process for the leaves) while a
+(``vsi_numba.solver.batch._tiny_batch``, one process) while a
 ``numba:compile`` listener (``numba.core.event``) records the process's CPU time when the
 compilation of each function starts and ends (CPU, not wall: the machine is shared).
 A callee compiles inside its caller's compilation, so each
@@ -60,10 +60,7 @@ def measure() -> dict:
     empty)."""
     from numba.core import event
 
-    from vsi_numba.solver import warm
-
-    if hasattr(warm, "_start_leaves"):  # everything compiles in this process
-        warm._start_leaves = lambda family: None
+    from vsi_numba.solver.batch import _tiny_batch
     result = {}
     for family in FAMILIES:
         rec = _recorder()
@@ -71,7 +68,7 @@ def measure() -> dict:
         try:
             t0 = time.perf_counter()
             c0 = time.process_time()
-            warm.warm_up_family(family)
+            _tiny_batch(family)
             wall = time.perf_counter() - t0
             cpu = time.process_time() - c0
         finally:

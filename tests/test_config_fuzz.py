@@ -27,7 +27,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from vsi_numba.config import Config, ConfigError, load_config
-from vsi_numba.config.schema._fields import all_keys, required_paths
+from vsi_numba.config.schema.keys import all_keys, required_paths
 
 SEED = 20261121
 N_DICT_CASES = 210  # mutated mappings (each also as a TOML file and through the CLI)

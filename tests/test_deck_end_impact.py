@@ -29,7 +29,7 @@ from vsi_numba.model import bridge as br
 from vsi_numba.model import vehicle as vh
 from vsi_numba.model.irregularity import no_irregularity
 from vsi_numba.solver import batch as sb
-from vsi_numba.solver import driver, warm
+from vsi_numba.solver import driver, kernel_cache
 from vsi_numba.solver import simulate as sm
 from vsi_numba.solver.settings import SolverSettings
 
@@ -125,7 +125,7 @@ def _kernel_impulses(d_car, dt, shift):
     sb.run_batch(packed, no_irregularity(), [V], [BEAM["L"] / 2], settings, beam,
                  _kernel=lambda *args: captured.append(args))
     (brg, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, _, _, _), = captured
-    warm.ensure_compiled(warm.family_of(packed))  # from the cache: time_loop is not compiled here
+    sb.compile_family(kernel_cache.family_of(packed))  # loaded: time_loop not compiled here
     assert brg.track == 0 and prm.contact_model == 0 and prm.max_sub > 0  # rigid track
     # the steps n whose interval (n dt, (n + 1) dt] takes a wheel across an end (the
     # comparisons of kernels.contact.crosses_deck_end, in the same floating-point operations)

@@ -19,7 +19,7 @@ from vsi_numba.model import bridge as br
 from vsi_numba.model import vehicle as vh
 from vsi_numba.model.irregularity import Profile, cosine_defect, no_irregularity
 from vsi_numba.solver import batch as sb
-from vsi_numba.solver import driver, warm
+from vsi_numba.solver import driver, kernel_cache
 from vsi_numba.solver import pack as sp
 from vsi_numba.solver import simulate as sm
 from vsi_numba.solver.settings import SolverSettings
@@ -44,7 +44,7 @@ def _study_kernel_args(packed, v, points, settings, bridge):
     captured = []
     sb.run_batch(packed, no_irregularity(), [v], points, settings, bridge,
                  _kernel=lambda *args: captured.append(args))
-    warm.ensure_compiled(warm.family_of(packed))
+    sb.compile_family(kernel_cache.family_of(packed))
     return captured[0]
 
 

@@ -322,7 +322,7 @@ def documented_keys() -> set[str]:
     less those of ``[report]`` and ``[code_profile] overrides`` (text and clause values
     that change no run) and the nonlinear suspension tables (their own tests round-trip
     them); the key list of the former docstring reference had none of these."""
-    from vsi_numba.config.schema._fields import all_keys
+    from vsi_numba.config.schema.keys import all_keys
     from vsi_numba.config.schema.models import Overrides, Report, SourcedValue
 
     free = {"report", *Overrides.model_fields, *Report.model_fields,

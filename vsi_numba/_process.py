@@ -1,5 +1,5 @@
 """Process helpers shared by the layers that start processes (the study backends, the
-compile helpers of :mod:`vsi_numba.solver.warm`); standard library only."""
+compile processes of :mod:`vsi_numba.cli.compile_kernels`); standard library only."""
 
 from __future__ import annotations
 

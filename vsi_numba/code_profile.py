@@ -309,11 +309,6 @@ class CodeProfile:
         """Keys set by the configuration."""
         return tuple(e.key for e in self.entries if e.overridden)
 
-    @property
-    def is_default(self) -> bool:
-        """True for the recommended values without overrides."""
-        return self.name == DEFAULT_NAME and not self.overridden
-
     def summary(self) -> str:
         """One line: the name and the overrides (``key = value``)."""
         if not self.overridden:

@@ -96,9 +96,3 @@ def comfort_level(bv: float, profile: CodeProfile | None = None) -> str:
 
 #: Clause of the deck-end rotation limits of ballasted track.
 END_ROTATION_CLAUSE = "EN 1990 A2.4.4.2.3, " + _DEFAULT.clause("end_rotation_limit_abutment")
-#: Ballasted track: the rotation of a deck end relative to the adjacent abutment (rad),
-#: under LM71 x Phi x alpha (recommended value) ...
-END_ROTATION_LIMIT_ABUTMENT = _DEFAULT["end_rotation_limit_abutment"]
-#: ... and the sum theta_1 + theta_2 of the rotations of two consecutive decks at the joint
-#: between them (rad).
-END_ROTATION_LIMIT_DECKS = _DEFAULT["end_rotation_limit_decks"]

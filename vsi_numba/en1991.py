@@ -26,9 +26,6 @@ DECK_TYPE_KEYS = {
 #: L >= 20 m, slope per metre below 20 m), recommended values.
 DECK_TYPES = {t: (_DEFAULT[k], _DEFAULT[k + "_slope"]) for t, k in DECK_TYPE_KEYS.items()}
 
-#: Spans below which the additional damping of moving-force analyses applies (m).
-ADDITIONAL_DAMPING_SPAN = _DEFAULT["additional_damping_max_span"]
-
 
 def damping_lower_bound(deck_type: str, span: float, profile: CodeProfile | None = None
                         ) -> float:
@@ -161,18 +158,9 @@ def irregularity_allowance(speed, length: float, n0: float,
 
 #: Clause of the static load model LM71.
 LM71_CLAUSE = _DEFAULT.clause("lm71_axle_load")
-#: LM71 point forces Q_vk (N): four axles ...
-LM71_AXLE_LOAD = _DEFAULT["lm71_axle_load"]
-#: ... at this spacing (m) ...
-LM71_AXLE_SPACING = _DEFAULT["lm71_axle_spacing"]
-#: ... in a zone of this length (m), centred on the axle group (half a spacing beyond the
-#: outer axles) ...
-LM71_AXLE_ZONE = 4 * LM71_AXLE_SPACING
-#: ... and the distributed load q_vk (N/m) on both sides of the zone, unlimited in length,
-#: applied only where it is unfavourable.
+#: LM71's distributed load q_vk (N/m) on both sides of the zone of its four point forces
+#: (:class:`LM71`), unlimited in length, applied only where it is unfavourable.
 LM71_UDL = _DEFAULT["lm71_udl"]
-#: Axle offsets (m) from the centre of the LM71 axle group.
-LM71_AXLE_OFFSETS = (-2.4, -0.8, 0.8, 2.4)
 
 
 class LM71(NamedTuple):
@@ -206,7 +194,6 @@ def lm71(profile: CodeProfile | None = None) -> LM71:
 #: accepted; the National Annex chooses).
 ALPHA_CLAUSE = _DEFAULT.clause("classification_factor_min")
 ALPHA_RANGE = (_DEFAULT["classification_factor_min"], _DEFAULT["classification_factor_max"])
-ALPHA_VALUES = (0.75, 0.83, 0.91, 1.00, 1.10, 1.21, 1.33, 1.46)
 
 #: Clause of the dynamic factors Phi_2, Phi_3.
 PHI_CLAUSE = _DEFAULT.clause("phi3_a")
@@ -272,7 +259,3 @@ HSLM_B_LOAD = _DEFAULT["hslm_b_load"]
 HSLM_B_CLAUSE = "EN 1991-2 6.4.6.1.1, Annex E, Fig. 6.13"
 #: HSLM-B applies to simply supported spans shorter than this (m), recommended value.
 HSLM_B_MAX_SPAN = _DEFAULT["hslm_b_max_span"]
-#: Clause of the HSLM-A / HSLM-B applicability.
-HSLM_APPLICABILITY_CLAUSE = _DEFAULT.clause("hslm_b_max_span")
-#: Clause of the range of HSLM-B's N and d.
-HSLM_B_RANGE_CLAUSE = _DEFAULT.clause("hslm_b_N_min")

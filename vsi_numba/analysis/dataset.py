@@ -308,11 +308,6 @@ def envelopes(ds: xr.Dataset) -> xr.Dataset:
     return ds.drop_vars(timed).load()
 
 
-def has_histories(ds: xr.Dataset) -> bool:
-    """True when ``ds`` has a ``time`` dim and some variable on it."""
-    return "time" in ds.dims and any("time" in v.dims for v in ds.data_vars.values())
-
-
 def status_meanings(ds: xr.Dataset) -> dict[int, str]:
     """Map status code -> meaning from the ``flag_values``/``flag_meanings`` attrs."""
     attrs = ds["status"].attrs if "status" in ds else {}
@@ -395,7 +390,3 @@ def _scalar(value):
     """A numpy scalar (or a Python object from an object array) as a Python scalar."""
     return value.item() if hasattr(value, "item") else value
 
-
-def nanargmin_case(da: xr.DataArray) -> dict | None:
-    """Coordinates of the smallest finite value of ``da`` (any dims), or None if all NaN."""
-    return nanargmax_case(-da)

@@ -330,25 +330,6 @@ def plot_comfort(ds: xr.Dataset, cf: xr.Dataset) -> Figure:
     return fig
 
 
-def plot_time_history(
-    ds: xr.Dataset, train, speed: float, irregularity: int, point: float,
-    wheel: int | None = None, limit: float | None = None,
-) -> Figure:
-    """Time histories of one stored case.
-
-    Deck displacement and acceleration at ``point`` (and the contact force of ``wheel``)
-    against time; see :func:`plot_case_history`.
-    """
-    ds = prepare(ds)
-    case = ds.sel(train=train, speed=speed, irregularity=irregularity)
-    q0 = None
-    if wheel is not None and "static_wheel_load" in ds:
-        q0 = float(ds["static_wheel_load"].sel(train=train, wheel=wheel))
-    return plot_case_history(case, case_title(train, float(case["speed_kmh"]), irregularity,
-                                              point), point=point, wheel=wheel, limit=limit,
-                             q0=q0)
-
-
 def case_title(train, speed_kmh: float, irregularity: int, point: float | None = None) -> str:
     """Two-line title naming a case: train, speed, deck point, track."""
     irr = "deterministic track" if int(irregularity) == -1 else f"irregularity seed {irregularity}"

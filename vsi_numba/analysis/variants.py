@@ -81,11 +81,6 @@ def _limits_text(ds: xr.Dataset) -> str:
                      for t in types)
 
 
-def has_variants(ds: xr.Dataset) -> bool:
-    """True for the results of a study of variants."""
-    return "variant" in ds.dims
-
-
 def varied_coords(ds: xr.Dataset) -> list[str]:
     """Names of the coordinates that label the variants (one per varied key)."""
     return [n for n, c in ds.coords.items() if c.dims == ("variant",) and n != "variant"]

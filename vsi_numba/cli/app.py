@@ -94,6 +94,19 @@ def check(
     raise typer.Exit(check_command(config, workers))
 
 
+@app.command(name="compile")
+def compile_(
+    family: str | None = typer.Option(
+        None, "--family", help="moving_force or interaction (default: both)"),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="print nothing"),
+):
+    """Compile the numba kernels into the cache (or load them from it), once per machine:
+    what a first run would otherwise do before its first batch."""
+    from vsi_numba.cli.compile_kernels import compile_command
+
+    raise typer.Exit(compile_command(family, quiet))
+
+
 @app.command()
 def init(
     path: Path = typer.Argument(Path("study.toml"), metavar="PATH",

@@ -129,13 +129,11 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
     from vsi_numba.io.schema import HISTORIES
     from vsi_numba.io.space import NC_VARIABLE_OVERHEAD, history_row_bytes
     from vsi_numba.study.backends import available_cores
-    from vsi_numba.study.batches import history_bytes
+    from vsi_numba.study.batches import _packed_trains, history_bytes, study_plan
     from vsi_numba.study.spec import (
         _build_model,
-        _packed_trains,
         _remember,
         study_grid,
-        study_plan,
         study_spec,
     )
 

@@ -153,26 +153,6 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
     return _replace_atomically(Path(path), lambda tmp: tmp.write_bytes(data))
 
 
-def write_netcdf(ds: xr.Dataset, path: str | os.PathLike) -> Path:
-    """Write ``ds`` to ``path`` with the CF encodings, atomically.
-
-    The old encodings of a dataset read from disk are dropped first
-    (docs/manual/developer.md, "Results files").  Errors of the netCDF library (e.g. a
-    full disk, reported as ``RuntimeError`` by HDF5) are re-raised as ``OSError`` naming the file;
-    the target is left untouched.
-    """
-    path = Path(path)
-    ds = ds.drop_encoding()
-
-    def write(tmp):
-        try:
-            ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", encoding=encoding_for(ds))
-        except RuntimeError as exc:  # HDF5/netCDF-C errors (disk full, quota, ...)
-            raise OSError(f"cannot write {path}: {exc}") from exc
-
-    return _replace_atomically(path, write)
-
-
 def open_results(path: str | os.PathLike) -> xr.Dataset:
     """Open the results of ``vsi run`` or ``vsi sweep`` (lazily, like ``xarray.open_dataset``).
 

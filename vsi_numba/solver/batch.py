@@ -12,7 +12,7 @@ from vsi_numba import kernels as ek
 from vsi_numba.en1990 import frequency_cutoff
 from vsi_numba.model.bridge import ModalBridge
 from vsi_numba.model.irregularity import Profile
-from vsi_numba.solver import driver, warm
+from vsi_numba.solver import driver, kernel_cache
 from vsi_numba.solver.pack import (
     LoadEffectTables,
     ModelError,
@@ -346,7 +346,7 @@ class BatchResult:
 
 def run_batch(packed: Packed, profile: Profile, speeds, points, settings: SolverSettings,
               bridge: ModalBridge, keep_histories=None, deck=None,
-              _kernel=None) -> BatchResult:
+              _ensure: bool = True, _kernel=None) -> BatchResult:
     """Run one packed model at several speeds (m/s) in one kernel call.
 
     Parameters
@@ -364,9 +364,12 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     deck : tuple, optional
         ``deck_operators(bridge, points, settings)`` when already computed; a 3-tuple
         ``(phi_d, phi_a, cutoff)`` has no whole-deck grid (its envelopes are NaN).
+    _ensure : bool
+        First have the family's kernels compiled once per machine
+        (:func:`~vsi_numba.solver.kernel_cache.ensure_compiled`); False inside that.
     _kernel : callable, optional
         Called with the kernel's arguments instead of running the batch (returns None):
-        :func:`vsi_numba.solver.driver.compile_leaves` compiles for exactly these types.
+        the tests read the arguments a study gives the kernels.
     """
     speeds = np.ascontiguousarray(np.atleast_1d(np.asarray(speeds, float)))
     if np.any(~(speeds > 0)):
@@ -415,9 +418,8 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
         _kernel(packed.bridge, veh, packed.profile, packed.params, speeds, n_steps, init,
                 st, bk, wk, red, out, slots, status, reached)
         return None
-    family = warm.family_of(packed)
-    warm.wait_for(family)  # a helper compiling these kernels: wait
-    warm.ensure_compiled(family)  # compiled once per machine (another process: wait)
+    if _ensure:  # compiled once per machine (another process compiling: wait)
+        compile_family(kernel_cache.family_of(packed))
     t0 = _time.perf_counter()
     driver.run_batch(packed.bridge, veh, packed.profile, packed.params, speeds, n_steps, init,
                  st, bk, wk, red, out, slots, status, reached)
@@ -495,3 +497,31 @@ def _run_packed(packed, profile, phi):
     return run_batch(packed, profile, [packed.params.speed], np.zeros(0),
                      SolverSettings(dt=packed.params.dt), None, keep_histories=[True],
                      deck=(phi, phi, float("nan")))
+
+
+def compile_family(family: str) -> tuple[str, float]:
+    """Have ``family``'s kernels compiled (or loaded from the cache) in this process, once
+    per machine (:func:`~vsi_numba.solver.kernel_cache.ensure_compiled`): a tiny batch of
+    the family, whose kernel arguments have the types of every study's.  Returns
+    (``"ready"``, ``"loaded"`` or ``"compiled"``, seconds)."""
+    t0 = _time.perf_counter()
+    how = kernel_cache.ensure_compiled(family, lambda: _tiny_batch(family))
+    return how, _time.perf_counter() - t0
+
+
+def _tiny_batch(family: str) -> None:
+    from vsi_numba.model import bridge as br
+    from vsi_numba.model import vehicle as vh
+    from vsi_numba.model.irregularity import no_irregularity
+    from vsi_numba.model.vehicle import Train
+    from vsi_numba.solver.pack import pack
+
+    beam = br.simply_supported(10.0, 1e9, 1e4, n_modes=2)
+    if family == "moving_force":
+        unit = vh.point_loads([0.0, 3.0], [1e5, 1e5], name="tiny")
+    else:
+        unit = vh.sprung_mass(1e3, 1e6, 1e3, 100.0)
+    settings = SolverSettings(dt=5e-3, approach=0.0, free_vibration=0.0)
+    profile = no_irregularity()
+    packed = pack(beam, Train("tiny", (unit,), (0.0,)), 50.0, profile, settings)
+    run_batch(packed, profile, [50.0], [5.0], settings, beam, _ensure=False)

@@ -7,13 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from vsi_numba._jit import compile_for
 from vsi_numba.kernels import Work
-from vsi_numba.kernels.impact import impact_update
 from vsi_numba.kernels.loop import time_loop
 from vsi_numba.kernels.moving_force import run_batch_mf
-from vsi_numba.kernels.record import record
-from vsi_numba.kernels.suspension import nl_update_branches
 from vsi_numba.kernels.types import ContactArrays, StepArrays, VehicleArrays
 
 
@@ -105,24 +101,3 @@ def run_batch(br, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, slo
         p = prm._replace(speed=float(speeds[r]), n_steps=int(n_steps[r]))
         status[r], reached[r] = time_loop(br, veh, pr, p, st, bk, wk, red, r, out,
                                           int(slots[r]))
-
-
-def compile_leaves(br, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, slots,
-                   status, reached):
-    """Compile the largest leaves of the interaction kernels (:data:`LEAVES`) for the
-    types :func:`run_batch` passes down with these arguments, without running anything.
-    A second process does this while the first compiles :func:`time_loop`, which then
-    loads them from numba's cache when it reaches them (the step's kernels pass
-    ``br, veh, prm, st, wk`` on unchanged, ``dt`` and ``tol_force`` are floats;
-    :func:`time_loop` records step ``n + 1`` (int64) at time ``(n + 1) dt`` with its
-    int64 run, history slot, iteration count and number of loads)."""
-    p = prm._replace(speed=float(speeds[0]), n_steps=int(n_steps[0]))
-    compile_for(impact_update, br, veh, p, st, wk, 0.0)
-    compile_for(nl_update_branches, veh, wk, st, 0.0)
-    compile_for(record, step_view(veh, st, wk), red, np.int64(0), np.int64(0), 0.0, p.speed,
-                out, np.int64(0), np.int64(0), np.int64(0))
-
-
-
-#: The kernels :func:`compile_leaves` compiles.
-LEAVES = (impact_update, nl_update_branches, record)

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import hashlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -221,3 +222,23 @@ def run_batch_task(spec, batch: Batch) -> dict:
                     out[name] = np.full((len(runs), n_t, val.shape[1]), np.nan, np.float32)
                 out[name][h, : val.shape[0]] = val
     return out
+
+
+# ------------------------------------------------------------------ the plan
+
+
+def _packed_trains(spec, model) -> list:
+    """The packed model of every train of a study (:func:`_packed_train`)."""
+    return [_packed_train(spec, i) for i in range(len(model.trains))]
+
+
+def study_plan(spec, model, grid, variant: int | None = None, start: int = 0) -> list[Batch]:
+    """The batch plan of a study (deterministic, see :func:`plan_batches`)."""
+    return plan_batches(grid, _packed_trains(spec, model), model.output_points.size,
+                        variant=variant, start=start)
+
+
+def plan_fingerprint(plan: list[Batch]) -> str:
+    """SHA-256 of the batch keys and their runs (a store is only resumed by its plan)."""
+    text = ";".join(f"{b.key}:{b.histories}" for b in plan)
+    return hashlib.sha256(text.encode()).hexdigest()

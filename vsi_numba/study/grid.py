@@ -73,11 +73,6 @@ class StudyGrid:
         """(n_speed, n_train, n_irregularity)."""
         return (self.speeds_kmh.size, len(self.trains), len(self.irregularities))
 
-    @property
-    def has_histories(self) -> bool:
-        """True when some case keeps time histories."""
-        return bool(self.history_speeds.any())
-
 
 def history_mask(speeds_kmh, save: bool, history_speeds_kmh) -> np.ndarray:
     """Which speeds keep time histories: none, all, or those listed (to 1e-9 km/h)."""

@@ -34,6 +34,7 @@ import dataclasses
 import hashlib
 import json
 import os
+import subprocess
 import time as _time
 import traceback
 from dataclasses import dataclass
@@ -56,7 +57,13 @@ from vsi_numba.study.backends import (
     ThreadBackend,
     available_cores,
 )
-from vsi_numba.study.batches import Batch, run_batch_task
+from vsi_numba.study.batches import (
+    Batch,
+    _packed_trains,
+    plan_fingerprint,
+    run_batch_task,
+    study_plan,
+)
 from vsi_numba.study.grid import Case, StudyGrid
 from vsi_numba.study.offers import no_values, not_computed_attr, not_offered
 from vsi_numba.study.outlock import OutputLock
@@ -66,13 +73,10 @@ from vsi_numba.study.spec import (
     StudySpec,
     _build_model,
     _load,
-    _packed_trains,
     _remember,
     model_fingerprint,
-    plan_fingerprint,
     study_grid,
     study_model,
-    study_plan,
     study_spec,
     variant_coords,
 )
@@ -257,13 +261,6 @@ def _records(cfg, base: bool = True) -> list[dict]:
         records = [{"message": str(w), "kind": "input", "keys": []}
                    for w in getattr(cfg, "warnings", []) or []]
     return [dict(r) for r in records]
-
-
-def warnings_json(cfg, base: bool = True) -> str:
-    """The configuration's warnings as a JSON list of {"message", "kind", "keys"} (kind
-    "resolution": the checks computed from the results are not reliable; with
-    ``base=False`` and ``study.vary``: every variant's, with their ``variants``)."""
-    return json.dumps(_records(cfg, base), ensure_ascii=False)
 
 
 @dataclass(frozen=True)
@@ -630,44 +627,48 @@ def _workers_note(be, workers, scheduler) -> str:
     return f", {workers or be.n_workers} workers"
 
 
-def _start_compile_helper(be, spec, order) -> str | None:
+def _start_compile_helper(be, spec, order):
     """On a first run of a study needing both kernel families with neither in the numba
-    cache, a helper process compiles the family the batch ``order`` needs last
-    (:mod:`vsi_numba.solver.warm`); returns that family, or None.  Only for the backends
-    that run the batches in this process (serial, threads, ``--workers``' LocalCluster):
-    their first batch of that family waits for the helper."""
-    from vsi_numba.solver import warm
-    from vsi_numba.study.backends import _term_with_parent
+    cache, a process of its own compiles the family the batch ``order`` needs last
+    (:func:`~vsi_numba.solver.kernel_cache.helper_command`) while this one compiles the
+    other: on 2 cores the two compilations run at once.  The first batch of the helper's
+    family then waits for the family's compile lock, which the helper holds, and loads the
+    kernels from the cache.  Returns the helper's process, or None.  Only for the backends
+    that run the batches in this process (serial, threads, ``--workers``' LocalCluster)."""
+    from vsi_numba._process import available_cores, term_with_parent
+    from vsi_numba.solver import kernel_cache as kc
     from vsi_numba.study.batches import _packed_train, _spec_of
 
     in_process = be.name in ("serial", "threads") or (
         be.name == "dask" and getattr(be, "scheduler", None) is None)
-    if (not in_process or os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0")
-            or any(warm.is_cached(f) for f in warm.FAMILIES)):
+    if (not in_process or available_cores() < 2
+            or any(kc.is_cached(f) for f in kc.FAMILIES)):
         return None
     seen: dict = {}  # train -> family (variants do not change the trains)
     for b in order:
         if b.i_train not in seen:
-            seen[b.i_train] = warm.family_of(_packed_train(_spec_of(spec, b), b.i_train))
-    family = warm.helper_family(seen.values(), cached=lambda f: False)
-    if family is not None:
-        try:
-            warm.start_helper(family, preexec_fn=_term_with_parent())
-        except OSError:  # no process to spare: this process compiles both, as before
-            return None
-    return family
+            seen[b.i_train] = kc.family_of(_packed_train(_spec_of(spec, b), b.i_train))
+    families = list(dict.fromkeys(seen.values()))
+    if len(families) < 2:
+        return None
+    try:
+        return subprocess.Popen(kc.helper_command(families[-1]), env=dict(os.environ),
+                                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL, preexec_fn=term_with_parent())
+    except OSError:  # no process to spare: this process compiles both
+        return None
 
 
 @contextlib.contextmanager
-def _stop_helpers(family):
-    """End the compile helper (if ``family`` names one) when the study stops."""
+def _stop_helper(proc):
+    """End the compile helper (if any) when the study stops before it is done."""
     try:
         yield
     finally:
-        if family is not None:
-            from vsi_numba.solver import warm
-
-            warm.stop_helpers()
+        if proc is not None:
+            if proc.poll() is None:
+                proc.terminate()
+            proc.wait()
 
 
 def _import_results_readers(order) -> None:
@@ -675,11 +676,10 @@ def _import_results_readers(order) -> None:
     when it sees an array; ~0.6 s) while the batches run, when they are long enough: the
     batches run in worker threads (kernels that release the GIL) or processes, so the
     import takes a share of the cores instead of a serial wait after the last batch
-    (the sweep's governing results, a report): about 0.5 s of the 570 ICE3 runs' 9-10 s.
-    In this thread, once, after the first batch is stored: no second thread that
-    imports while an interrupted sweep shuts down.  Not for a
-    study that keeps time histories: the imports' ~65 MB would then add to the peak of
-    the batches' history buffers (1,140 runs with every history: 562 -> 620 MB)."""
+    (the sweep's governing results, a report).  In this thread, once, after the first
+    batch is stored: no second thread that imports while an interrupted sweep shuts
+    down.  Not for a study that keeps time histories: the imports' ~65 MB would then add
+    to the peak of the batches' history buffers."""
     if sum(b.cost for b in order) < PREFETCH_COST or any(any(b.histories) for b in order):
         return
     with contextlib.suppress(ImportError):  # dask is installed with the package
@@ -695,10 +695,9 @@ def _run_pending(be, spec, pending, store, progress, n_runs, n_done, quiet=True)
     helper = _start_compile_helper(be, spec, order)
     # The batches are the parallelism: BLAS on one thread in this process while they run.
     # With its default (a thread per core), OpenBLAS's threads busy-wait after every small
-    # call (the static starts' solves) on the cores the batch threads need: 570 ICE3
-    # interaction runs on 2 cores took 14.6 s instead of 11.1 s (26.4 s of CPU instead of
-    # 19.5 s).  Worker processes get the same from their environment (WORKER_ENV).
-    with (_stop_helpers(helper), threadpool_limits(limits=1, user_api="blas"),
+    # call (the static starts' solves) on the cores the batch threads need.  Worker
+    # processes get the same from their environment (WORKER_ENV).
+    with (_stop_helper(helper), threadpool_limits(limits=1, user_api="blas"),
           _Progress(progress, n_runs, n_done, "runs") as bar):
         with be:
             if be.name == "dask" and getattr(be, "scheduler", None) is not None:

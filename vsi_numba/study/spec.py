@@ -16,7 +16,6 @@ from typing import NamedTuple
 
 import numpy as np
 
-from vsi_numba.study.batches import Batch, plan_batches
 from vsi_numba.study.grid import StudyGrid, history_mask, make_grid, profile_range
 
 
@@ -96,8 +95,7 @@ def _remember(spec: StudySpec, model: StudyModel) -> None:
 def _first_realisation(cfg):
     """``cfg`` with only its first PSD seed (a shallow copy; ``cfg`` itself unchanged):
     ``vsi run`` computes the first realisation only, and a profile depends on its seed
-    and the track range alone, so the others need not be generated (10,000 seeds took
-    minutes and gigabytes before the two runs of a ``vsi run``)."""
+    and the track range alone, so the others need not be generated."""
     import copy
 
     irr = cfg._resolved.get("irregularity", {})
@@ -137,7 +135,6 @@ def model_fingerprint(model: StudyModel) -> str:
     bridge, trains, profiles, solver settings and output points, so a store is refused
     when any of them changed even if the configuration text did not.
     """
-    import hashlib
 
     h = hashlib.sha256()
 
@@ -184,19 +181,6 @@ def study_grid(model: StudyModel) -> StudyGrid:
                      hist)
 
 
-def _packed_trains(spec: StudySpec, model: StudyModel) -> list:
-    from vsi_numba.study.batches import _packed_train
-
-    return [_packed_train(spec, i) for i in range(len(model.trains))]
-
-
-def study_plan(spec: StudySpec, model: StudyModel, grid: StudyGrid,
-               variant: int | None = None, start: int = 0) -> list[Batch]:
-    """The batch plan of a study (deterministic, see :mod:`.batches`)."""
-    return plan_batches(grid, _packed_trains(spec, model), model.output_points.size,
-                        variant=variant, start=start)
-
-
 def coordinate_name(key_path: str) -> str:
     """netCDF name of the variant coordinate of a varied key path
     (``bridge.track.pad_stiffness`` -> ``bridge_track_pad_stiffness``)."""
@@ -236,9 +220,3 @@ def variant_coords(labels: list[dict]) -> dict:
             coords[coordinate_name(key)] = (np.array([json.dumps(v) for v in values],
                                                      dtype=object), attrs)
     return coords
-
-
-def plan_fingerprint(plan: list[Batch]) -> str:
-    """SHA-256 of the batch keys and their runs (a store is only resumed by its plan)."""
-    text = ";".join(f"{b.key}:{b.histories}" for b in plan)
-    return hashlib.sha256(text.encode()).hexdigest()

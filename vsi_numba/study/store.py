@@ -467,7 +467,7 @@ def study_need(study, pending):
         n_file_variables,
     )
     from vsi_numba.solver.batch import deck_grid
-    from vsi_numba.study.spec import _packed_trains
+    from vsi_numba.study.batches import _packed_trains
 
     grid = study.grid
     # load effects: the whole-deck grid and the supports (upper bound: always counted)

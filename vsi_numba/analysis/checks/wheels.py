@@ -222,7 +222,3 @@ def applicable_trains(ds: xr.Dataset, fixed: xr.DataArray | None = None) -> xr.D
         present = xr.ones_like(fixed, dtype=bool)
     return (present & ~fixed).any("wheel")
 
-
-def _prescribed_contact_forces(ds: xr.Dataset) -> bool:
-    """True when no train of ``ds`` has a varying contact force (all moving forces)."""
-    return not bool(applicable_trains(ds).any())

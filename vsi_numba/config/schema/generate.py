@@ -117,7 +117,7 @@ def field_type_text(f) -> str:
 
 
 def _toml(v) -> str:
-    from vsi_numba.config._check import _show
+    from vsi_numba.config._show import _show
 
     return _show(v, limit=60)
 

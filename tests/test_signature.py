@@ -96,6 +96,55 @@ def test_signature__hslm_train_is_covered_by_its_own_envelope():
     assert cov.covered and cov.ratio == pytest.approx(1.0)
 
 
+def test_signature__ice3_rises_above_hslm_a_between_two_hslm_peaks():
+    # The ICE3 (8 coaches of D = 24.775 m, two bogies at each coupling) against HSLM-A at
+    # 1 % damping: its third-order coach peak lambda = D / 3 = 8.26 m falls between the
+    # third-order peaks of HSLM-A7 (D = 24 m: 8.0 m) and HSLM-A8 (D = 25 m: 8.33 m),
+    # where the envelope dips.
+    x, f = sg.train_axles(sg.train_by_name("ICE3"))
+    coach = x[4] - x[0]  # the axle pattern repeats every coach
+    np.testing.assert_allclose(np.diff(x)[4:], np.diff(x)[:-4], atol=1e-9)
+    cov = sg.compare_with_hslm("ICE3", 0.01)
+    lam = cov.wavelength_at_ratio
+    assert not cov.covered and cov.ratio > 1.2
+    # the exceedance sits on the flank of the train's own D / 3 peak (within 1.5 %: the
+    # peak's half width with 8 coaches is about 1 / (3 x 8) of lambda)
+    assert abs(lam / (coach / 3) - 1) < 0.015
+    assert 24.0 / 3 < lam < 25.0 / 3
+    # the envelope there is well below the HSLM-A7 and HSLM-A8 values at their own peaks
+    # (direct sums written here, damping referred to the latest axle of the partial train)
+    def der_direct(name, lv):
+        xh, fh = sg.train_axles(sg.train_by_name(name))
+        return max(abs(np.sum(fh[:i + 1] * np.exp(-2 * np.pi * 0.01 * (xh[i] - xh[:i + 1])
+                                                   / lv) * np.exp(2j * np.pi * xh[:i + 1]
+                                                                  / lv)))
+                   for i in range(xh.size))
+    peaks = [der_direct("HSLM-A7", 24.0 / 3), der_direct("HSLM-A8", 25.0 / 3)]
+    env_here = max(der_direct(n, lam) for n in sg.HSLM_A)
+    assert env_here < 0.8 * min(peaks)
+    # the train's value at lam is reached by the envelope a few per cent of speed away
+    assert 0 < cov.shift < 0.05
+    g = cov.train.der[np.argmax(cov.train.der / cov.envelope)]
+    # (shift is the largest over every wavelength above the envelope: at this one, the
+    # envelope reaches g no farther away; scanned in steps of 0.05 % of lambda)
+    s = np.arange(0.0, cov.shift + 1e-3, 5e-4)
+    near = lam * np.concatenate([1 - s, 1 + s])
+    env_near = np.max([sg.der_signature(*sg.train_axles(sg.train_by_name(n)), near, 0.01)
+                       for n in sg.HSLM_A], axis=0)
+    assert env_near.max() >= g
+
+
+def test_signature__shift_to_the_envelope():
+    # a bump of the train at lambda = 10 over a flat envelope of 1 that rises to 3 from
+    # lambda = 10.5: the train (2 at lambda = 10) is reached 5 % of lambda away
+    lam = np.linspace(9.0, 11.0, 2001)
+    env = np.where(lam >= 10.5, 3.0, 1.0)
+    der = np.where(np.abs(lam - 10.0) < 1e-9, 2.0, 0.5)
+    assert sg._shift(lam, der, env) == pytest.approx(0.05, abs=1e-9)
+    assert sg._shift(lam, der, np.full_like(lam, 1.5)) == np.inf
+    assert sg._shift(lam, der, np.full_like(lam, 2.0)) == 0.0
+
+
 def test_signature__influence_factor_of_the_der_method():
     # A(r) = |cos(pi r) / (4 r^2 - 1)|, pi/4 at r = 1/2 (its limit), 0 at r = 1.5, 2.5
     a = sg.influence_factor(10.0, [20.0, 10.0 / 1.5, 4.0, 1e9])

@@ -30,6 +30,17 @@ of the interoperable trains: a real train whose signature stays under the HSLM-A
 envelope over the wavelengths of interest is covered by a design made with HSLM-A
 (:func:`compare_with_hslm`).  The clause references and the wavelength range are entries
 of the code profile (``signature_*``, :mod:`vsi_numba.code_profile`).
+
+The comparison is pointwise in lambda, the strict reading.  The HSLM-A peaks sit at
+lambda = D / i with the coach lengths D = 18, 19, ..., 27 m of A1..A10; between two of
+them (8.0 and 8.33 m at i = 3, A7 and A8) the envelope dips, and a real train whose
+coach length falls between (the ICE3: 24.775 m, its i = 3 peak at 8.26 m) can rise
+above it there (ratio 1.57 at 1 % damping, lambda = 8.19 m).  A design with HSLM-A
+sweeps the speeds: the HSLM-A peak a few per cent of speed away gives nearly the same
+A(L / lambda) G.  :attr:`Coverage.shift` states how far the envelope is from covering
+the train (the wavelength, i.e. speed, change to an envelope value that reaches the
+train's): above the envelope means "not shown covered by the signature route"; the
+dynamic analysis with the train decides.
 """
 
 from __future__ import annotations
@@ -175,6 +186,10 @@ class Coverage:
     ratio: float  # max over the wavelengths of train / envelope
     wavelength_at_ratio: float  # m
     covered: bool  # ratio <= the profile's signature_ratio_limit
+    #: the largest, over the wavelengths where the train is above the envelope, relative
+    #: wavelength (= speed) change to the nearest wavelength whose envelope reaches the
+    #: train's signature there (0 when covered; inf when none on the grid)
+    shift: float = 0.0
 
     @property
     def margin(self) -> float:
@@ -197,10 +212,23 @@ def compare_with_hslm(train, damping: float, wavelengths=None, profile=None) -> 
     p = resolve(profile)
     sig = signature(train, damping, wavelengths, p)
     env, gov = hslm_envelope(sig.wavelength, damping)
+    limit = p["signature_ratio_limit"]
     r = sig.der / env
     i = int(np.argmax(r))
     return Coverage(sig, env, gov, float(r[i]), float(sig.wavelength[i]),
-                    bool(r[i] <= p["signature_ratio_limit"]))
+                    bool(r[i] <= limit), _shift(sig.wavelength, sig.der, env * limit))
+
+
+def _shift(lam, der, env) -> float:
+    """The largest over the wavelengths where ``der > env`` of the relative distance
+    |lambda_j / lambda_i - 1| to the nearest j with ``env[j] >= der[i]``."""
+    worst = 0.0
+    for i in np.flatnonzero(der > env):
+        ok = np.flatnonzero(env >= der[i])
+        if ok.size == 0:
+            return float("inf")
+        worst = max(worst, float(np.min(np.abs(lam[ok] / lam[i] - 1.0))))
+    return worst
 
 
 def plot_signature(cov_or_sig, path, title: str | None = None) -> None:

@@ -31,8 +31,9 @@ _HEADER = """\
 """
 
 
-def _template() -> str:
-    text = template(STARTER, _HEADER)
+def _template(values=None, header=None) -> str:
+    text = template(STARTER if values is None else values,
+                    _HEADER if header is None else header)
     text = text.replace("{", "{{").replace("}", "}}")
     return text.replace("@NAME@", "{name}").replace("@STEM@", "{stem}")
 
@@ -44,43 +45,35 @@ TEMPLATE = _template()
 #: ``vsi init --template compatibility``: is this train compatible with this existing
 #: bridge?  The bridge of studies/hslm_psc_25m (25 m PSC span, f1 = 5.0 Hz), the ICE3,
 #: a line speed of 300 km/h checked up to 1.1 x (330 km/h).
-COMPATIBILITY = '''\
+COMPATIBILITY_VALUES = {
+    "": {"title": Raw('"Compatibility of the ICE3 with the 25 m PSC span at 300 km/h + 10 %"')},
+    "bridge": {"kind": "simply_supported", "spans": [25.0], "EI": Raw("7.16e10"),
+               "mass_per_length": 18000.0, "damping_ratio": 0.01, "n_modes": 3,
+               "output_points": [3.125, 6.25, 9.375, 12.5, 15.625, 18.75, 21.875],
+               "track_type": "ballasted"},
+    "train": {"preset": "ICE3"},
+    "solver": {"dt": Raw("1e-3"), "approach": 5.0},
+    "study": {"speeds_kmh": Raw("{ start = 140.0, stop = 330.0, step = 5.0 }"),
+              "output": Raw('"results/@STEM@.nc"'), "history_speeds_kmh": [330.0]},
+    "compatibility": {"train": "ICE3", "line_speed_kmh": 300.0},
+}
+_COMPATIBILITY_HEADER = """\
 # vsi_numba configuration (TOML): compatibility of a train with an existing bridge.
 # Units: SI (m, s, kg, N) except keys ending in _kmh.
-# Check it without running:  vsi check {name}
-# Run it and write the answer: vsi sweep {name} --report {stem}_report
+# Check it without running:  vsi check @NAME@
+# Run it and write the answer: vsi sweep @NAME@ --report @STEM@_report
 # The report opens with the verdict (compatible or not), the governing check and its
 # margin, and the train's dynamic signature against the HSLM-A envelope.
-title = "Compatibility of the ICE3 with the 25 m PSC span at 300 km/h + 10 %"
+# The bridge, as built: a 25 m prestressed concrete span, EI and 18 t/m give f1 = 5.0 Hz,
+# damping 1 % (EN 1991-2 Table 6.6, L >= 20 m), outputs every L/8. The train under check:
+# `vsi trains` lists the library, `vsi trains ICE3 --signature` shows its signature.
+# The speeds go from well below the line speed up to speed_factor x line speed (330 km/h).
+# Every key: docs/reference/config_keys.md; editor completion: `vsi schema` (JSON Schema).
+"""
 
-[bridge]                       # the existing bridge, as built
-kind = "simply_supported"
-spans = [25.0]                 # m
-EI = 7.16e10                   # N m^2 -> f1 = 5.0 Hz with 18 t/m
-mass_per_length = 18000.0      # kg/m (deck, ballast, track)
-damping_ratio = 0.01           # EN 1991-2 Table 6.6, prestressed concrete, L >= 20 m
-n_modes = 3                    # all modes up to the EN 1990 A2 cut-off (45 Hz)
-output_points = [3.125, 6.25, 9.375, 12.5, 15.625, 18.75, 21.875]   # every L/8
-track_type = "ballasted"       # ballasted (3.5 m/s2) | direct_fastening (5 m/s2)
-
-[train]                        # the train under check (`vsi trains` lists the library;
-preset = "ICE3"                # `vsi trains ICE3 --signature` shows its signature)
-
-[solver]
-dt = 1e-3                      # s
-approach = 5.0                 # m
-
-[study]
-# from well below the line speed up to speed_factor x line speed (330 km/h here)
-speeds_kmh = {{ start = 140.0, stop = 330.0, step = 5.0 }}
-output = "results/{stem}.nc"   # relative to this file's directory
-history_speeds_kmh = [330.0]
-
-[compatibility]
-train = "ICE3"                 # one of the study's trains
-line_speed_kmh = 300.0         # maximum line speed at the bridge
-# speed_factor = 1.1           # default: the code profile's compatibility_speed_factor
-'''
+#: ``vsi init --template compatibility`` (``str.format`` with ``name`` and ``stem``),
+#: generated from :data:`COMPATIBILITY_VALUES` and the declared keys.
+COMPATIBILITY = _template(COMPATIBILITY_VALUES, _COMPATIBILITY_HEADER)
 
 #: Templates of ``vsi init --template``.
 TEMPLATES = {"default": TEMPLATE, "compatibility": COMPATIBILITY}

@@ -170,6 +170,14 @@ def signature_command(name: str | None, damping_pct: float | None = None, plot=N
               "EN 1991-2 Annex E [R]: a train covered by the HSLM-A envelope is covered by "
               "a design with HSLM-A; otherwise run the dynamic analysis with the train)",
               highlight=False, markup=False)
+    if not cov.covered:
+        out.print("the comparison is pointwise in lambda: the HSLM-A peaks sit at lambda = "
+                  "D / i (coach lengths D = 18 .. 27 m) and the envelope dips between them; "
+                  "where the train is above it, the envelope reaches the train's value "
+                  + (f"within {100 * cov.shift:.1f} % of the wavelength (of the speed)"
+                     if np.isfinite(cov.shift) else "nowhere on the grid")
+                  + ": not shown covered by the signature route, not a verdict on the "
+                  "bridge", highlight=False, markup=False)
     if plot is not None:
         sg.plot_signature(cov, plot)
         out.print(f"wrote {plot}", highlight=False, markup=False)

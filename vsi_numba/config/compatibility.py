@@ -18,9 +18,12 @@ configuration with this section.  Everything about the section lives here;
 
 from __future__ import annotations
 
-from vsi_numba.config._check import _BAD, _MISSING, _Num, _ok
+from vsi_numba.config._check import _BAD, _MISSING, _ok
+from vsi_numba.config.schema import models as _m
+from vsi_numba.config.schema._fields import expected_of, keys_of
 
-KEYS = {"train", "line_speed_kmh", "speed_factor"}
+#: The keys of ``[compatibility]``, as declared (:class:`~.schema.models.Compatibility`).
+KEYS = keys_of(_m.Compatibility)
 
 
 def _compatibility_section(chk, d, profile, study=_BAD, train=_BAD) -> dict | None:
@@ -30,13 +33,13 @@ def _compatibility_section(chk, d, profile, study=_BAD, train=_BAD) -> dict | No
     if chk.table(d, "compatibility", KEYS,
                  what=" [compatibility] with train and line_speed_kmh") is _BAD:
         return _BAD
-    name = chk.string(d, "compatibility", "train", "the name of the train under check "
-                                                   "(one of train.preset)")
-    line = chk.get_number(d, "compatibility", "line_speed_kmh",
-                          _Num("a line speed > 0 km/h (at most 600)", gt=0, le=600))
-    factor = chk.get_number(d, "compatibility", "speed_factor", _Num(
-        "a factor >= 1 on the line speed (at most 2)", ge=1.0, le=2.0,
-        default=profile["compatibility_speed_factor"]))
+    r = chk.fields(d, "compatibility", _m.Compatibility)
+    name, line, factor = r["train"], r["line_speed_kmh"], r["speed_factor"]
+    if isinstance(name, str) and not name.strip():
+        name = chk.error("compatibility.train", name, expected_of(_m.Compatibility, "train"))
+    if factor is None:  # the default is the code profile's
+        factor = profile["compatibility_speed_factor"]
+    line, factor = (float(v) if _ok(v) else v for v in (line, factor))
     if not _ok(name, line, factor):
         return _BAD
     if _ok(train):

@@ -29,23 +29,20 @@ Everything about the section lives here; :mod:`vsi_numba.config.core` calls
 
 from __future__ import annotations
 
-from vsi_numba.config._check import _BAD, _MISSING, _Num, _ok
+from vsi_numba.config._check import _BAD, _MISSING, _ok
+from vsi_numba.config.schema import models as _m
+from vsi_numba.config.schema._fields import expected_of, keys_of
 
 #: Detail categories of EN 1993-1-9 Tables 8.1-8.10 [R] (MPa).
 DETAIL_CATEGORIES = (36, 40, 45, 50, 56, 63, 71, 80, 90, 100, 112, 125, 140, 160)
-#: Keys of ``[fatigue]``, ``[[fatigue.sections]]``, ``[[fatigue.traffic]]``.
-KEYS = {"design_life_years", "mix", "sections", "traffic"}
-SECTION_KEYS = {"x", "section_modulus", "detail_category", "gamma_Ff", "gamma_Mf", "name"}
-TRAFFIC_KEYS = {"train", "speed_kmh", "per_day", "model"}
-MODELS = ("moving_force", "interaction")
-
-_LIFE = _Num("a design life > 0 years (at most 1000)", gt=0, le=1000)
-_X = _Num("a position >= 0 m along the deck", ge=0)
-_W = _Num("a section modulus > 0 m^3 (stress = M / W)", gt=0)
-_CAT = _Num("a detail category > 0 MPa (EN 1993-1-9: 36 to 160)", gt=0, le=1000)
-_GAMMA = _Num("a partial factor >= 1", ge=1.0, le=10.0)
-_SPEED = _Num("a speed > 0 km/h (at most 600)", gt=0, le=600)
-_PER_DAY = _Num("a number of trains per day > 0", gt=0, le=10000)
+#: Keys of ``[fatigue]``, ``[[fatigue.sections]]``, ``[[fatigue.traffic]]``, as declared
+#: (:class:`~vsi_numba.config.schema.models.Fatigue` and its tables).
+KEYS = keys_of(_m.Fatigue)
+SECTION_KEYS = keys_of(_m.FatigueSection)
+TRAFFIC_KEYS = keys_of(_m.FatigueTraffic)
+MODELS = _m.FATIGUE_MODELS
+#: The scalar keys of ``[[fatigue.sections]]`` (read by their declaration).
+_SECTION_NUMBERS = ("x", "section_modulus", "detail_category", "gamma_Ff", "gamma_Mf")
 
 
 def _fatigue_section(chk, d, profile, bridge=_BAD, study_axes=(), base=None
@@ -62,12 +59,11 @@ def _fatigue_section(chk, d, profile, bridge=_BAD, study_axes=(), base=None
                  what=" [fatigue] with design_life_years, [[fatigue.sections]] and "
                       "[[fatigue.traffic]] or mix") is _BAD:
         return _BAD
-    from vsi_numba.code_profile import ANNEX_D_MIXES
-
-    life = chk.get_number(d, "fatigue", "design_life_years", _Num(_LIFE.expected, gt=0,
-                                                                   le=1000, default=100.0))
-    mix = chk.choice(d, "fatigue", "mix", tuple(ANNEX_D_MIXES), default=None,
-                     note=" (EN 1991-2 Annex D traffic mix)")
+    top = chk.fields(d, "fatigue", _m.Fatigue, ["design_life_years", "mix"],
+                     notes={"mix": " (EN 1991-2 Annex D traffic mix)"})
+    life, mix = top["design_life_years"], top["mix"]
+    if _ok(life):
+        life = float(life)
     out = {"design_life_years": life}
     if mix is not None:
         out["mix"] = mix
@@ -113,15 +109,18 @@ def _sections(chk, v, profile, bridge):
                      ) is _BAD:
             out.append(_BAD)
             continue
-        r = chk.numbers(s, p, {
-            "x": _X, "section_modulus": _W, "detail_category": _CAT,
-            "gamma_Ff": _Num(_GAMMA.expected, ge=1.0, le=10.0,
-                             default=profile["fatigue_gamma_Ff"]),
-            "gamma_Mf": _Num(_GAMMA.expected, ge=1.0, le=10.0,
-                             default=profile["fatigue_gamma_Mf"]),
-        })
-        name = chk.string(s, p, "name", "a name (string)", default=None)
-        if name is not None and _ok(name):
+        r = chk.fields(s, p, _m.FatigueSection, _SECTION_NUMBERS)
+        for g in ("gamma_Ff", "gamma_Mf"):  # their defaults are the code profile's
+            if r[g] is None:
+                r[g] = profile[f"fatigue_{g}"]
+        r = {k: (float(v) if _ok(v) else v) for k, v in r.items()}
+        name = chk.fields(s, p, _m.FatigueSection, ["name"])["name"]
+        if isinstance(name, str) and not name.strip():
+            name = chk.error(f"{p}.name", name, expected_of(_m.FatigueSection, "name"))
+        if name is _BAD:
+            out.append(_BAD)
+            continue
+        if name is not None:
             r["name"] = name.strip()
         if not _ok(*r.values()):
             out.append(_BAD)
@@ -161,10 +160,11 @@ def _traffic(chk, v, has_mix: bool, base=None):
         if chk.table(t, p, TRAFFIC_KEYS, what=" with train, speed_kmh, per_day") is _BAD:
             out.append(_BAD)
             continue
-        name = chk.string(t, p, "train", "a train name (`vsi trains` lists them; "
-                                         "AnnexD-1 .. AnnexD-12)")
-        r = chk.numbers(t, p, {"speed_kmh": _SPEED, "per_day": _PER_DAY})
-        model = chk.choice(t, p, "model", MODELS, default="moving_force")
+        r = chk.fields(t, p, _m.FatigueTraffic)
+        name, model = r.pop("train"), r.pop("model")
+        r = {k: (float(v) if _ok(v) else v) for k, v in r.items()}
+        if isinstance(name, str) and not name.strip():
+            name = chk.error(f"{p}.train", name, expected_of(_m.FatigueTraffic, "train"))
         if not _ok(name, model, *r.values()):
             out.append(_BAD)
             continue

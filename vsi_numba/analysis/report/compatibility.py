@@ -116,8 +116,13 @@ def compatibility_section(ds, table: pd.DataFrame) -> Section | None:
             f"**{word}** the HSLM-A envelope (largest ratio {cov.ratio:.2f} at λ = "
             f"{cov.wavelength_at_ratio:.2f} m, i.e. {cov.wavelength_at_ratio * f0 * 3.6:.0f} "
             "km/h). A train within the envelope is covered by an HSLM-A design of the "
-            "bridge; above it, the dynamic analysis with the train (the verdict above) "
-            "decides.")
+            "bridge. The comparison is pointwise in λ: the HSLM-A peaks sit at λ = D / i "
+            "(coach lengths D = 18 to 27 m) and the envelope dips between them"
+            + (f"; here it reaches the train's signature within {100 * cov.shift:.1f} % of "
+               "the wavelength (of the speed)" if not cov.covered and np.isfinite(cov.shift)
+               else "")
+            + ". Above the envelope means not shown covered by the signature route; the "
+            "dynamic analysis with the train (the verdict above) decides.")
         frame = pd.DataFrame({"λ [m]": [cov.wavelength_at_ratio],
                               "speed [km/h]": [cov.wavelength_at_ratio * f0 * 3.6],
                               "train DER [kN]": [cov.train.der.max() / 1e3],

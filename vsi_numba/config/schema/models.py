@@ -17,7 +17,7 @@ from typing import Annotated, Any, Literal, Union
 from pydantic import Discriminator, Field, Tag
 
 from vsi_numba import en1990, en1991
-from vsi_numba.code_profile import DEFAULT_NAME, TABLE
+from vsi_numba.code_profile import ANNEX_D_MIXES, DEFAULT_NAME, TABLE
 from vsi_numba.config.limits import MAX_ELEMENTS, MAX_MODES, MAX_OUTPUT_POINTS, MAX_SPEEDS
 from vsi_numba.config.schema._fields import Int, Num, Section, Text, key
 from vsi_numba.model import distribution as _dist
@@ -672,6 +672,98 @@ class CodeProfile(Section):
                                          "entry's SI unit, or {value, clause}")
 
 
+
+# ---------------------------------------------------------- [fatigue] [compatibility]
+
+#: The models of a train in ``[[fatigue.traffic]]``.
+FATIGUE_MODELS = ("moving_force", "interaction")
+_GAMMA_EXPECTED = "a partial factor >= 1"
+
+
+class FatigueSection(Section):
+    """``[[fatigue.sections]]``: a steel detail of the deck, its stress the bending moment
+    at ``x`` over the section modulus."""
+
+    x: Num(ge=0) = key(required=True, unit="m", doc="position of the section from the left "
+                       "end of the deck", expected="a position >= 0 m along the deck",
+                       example=10.0)
+    section_modulus: PosNum = key(required=True, unit="m^3",
+                                  doc="section modulus W at the detail: stress = M / W",
+                                  expected="a section modulus > 0 m^3 (stress = M / W)",
+                                  example=0.045)
+    detail_category: Num(gt=0, le=1000) = key(
+        required=True, unit="MPa", doc="EN 1993-1-9 detail category Delta sigma_C (Tables "
+                                       "8.1-8.10 [R]: 36 to 160)",
+        expected="a detail category > 0 MPa (EN 1993-1-9: 36 to 160)", example=71)
+    gamma_Ff: Num(ge=1.0, le=10.0) = key(
+        None, default_text="code profile fatigue_gamma_Ff",
+        doc="partial factor on the fatigue stress ranges (EN 1993-2 9.3 [R])",
+        expected=_GAMMA_EXPECTED)
+    gamma_Mf: Num(ge=1.0, le=10.0) = key(
+        None, default_text="code profile fatigue_gamma_Mf",
+        doc="partial factor on the fatigue strength (EN 1993-1-9 Table 3.1 [R])",
+        expected=_GAMMA_EXPECTED)
+    name: Text = key(None, default_text="its position", doc="name of the section in the "
+                     "report", expected="a name (string)")
+
+
+class FatigueTraffic(Section):
+    """``[[fatigue.traffic]]``: one train of the operator's traffic (added to the mix)."""
+
+    train: Text = key(required=True, doc="a library train, AnnexD-1 .. AnnexD-12, or an "
+                                         "axle-load CSV file (position m, load kN; relative "
+                                         "to the config)",
+                      expected="a train name (`vsi trains` lists them; AnnexD-1 .. "
+                               "AnnexD-12)", example="ICE3")
+    speed_kmh: Num(gt=0, le=600) = key(required=True, unit="km/h", doc="its speed",
+                                       expected="a speed > 0 km/h (at most 600)",
+                                       example=250.0)
+    per_day: Num(gt=0, le=10000) = key(required=True, unit="1/day",
+                                       doc="passages per day",
+                                       expected="a number of trains per day > 0",
+                                       example=20)
+    model: one_of(FATIGUE_MODELS) = key("moving_force", doc="the train's model: moving "
+                                        "forces or the vehicles' dynamics (library trains "
+                                        "that have it)")
+
+
+class Fatigue(Section):
+    """``[fatigue]``: the fatigue check of steel details of the deck under the dynamic
+    stress histories of a traffic (EN 1991-2 6.4.6.6 [R], EN 1993-1-9)."""
+
+    design_life_years: Num(gt=0, le=1000) = key(
+        100.0, unit="years", doc="design life: passages = per_day x 365 x years",
+        expected="a design life > 0 years (at most 1000)")
+    mix: one_of(ANNEX_D_MIXES) = key(
+        None, doc="an EN 1991-2 Annex D traffic mix [R], each train type at its Table D.1 "
+                  "speed (added to [[fatigue.traffic]])")
+    sections: list[FatigueSection] = key(
+        required=True, doc="the details checked ([[fatigue.sections]], one or more)",
+        expected="one or more [[fatigue.sections]] with x, section_modulus and "
+                 "detail_category")
+    traffic: list[FatigueTraffic] = key(
+        None, default_text="required without mix",
+        doc="the operator's trains ([[fatigue.traffic]])",
+        expected="[[fatigue.traffic]] with train, speed_kmh and per_day, or fatigue.mix")
+
+
+class Compatibility(Section):
+    """``[compatibility]``: is the train compatible with this existing bridge?  The
+    study's speeds must reach speed_factor x line_speed_kmh."""
+
+    train: Text = key(required=True, doc="the train under check (one of the study's "
+                                         "trains)",
+                      expected="the name of the train under check (one of train.preset)",
+                      example="ICE3")
+    line_speed_kmh: Num(gt=0, le=600) = key(
+        required=True, unit="km/h", doc="maximum line speed at the bridge",
+        expected="a line speed > 0 km/h (at most 600)", example=300.0)
+    speed_factor: Num(ge=1.0, le=2.0) = key(
+        None, default_text="code profile compatibility_speed_factor",
+        doc="checked up to this factor x the line speed ([R] practice for existing lines)",
+        expected="a factor >= 1 on the line speed (at most 2)")
+
+
 # ------------------------------------------------------------------------------- a file
 
 class VsiConfig(Section):
@@ -691,6 +783,9 @@ class VsiConfig(Section):
     study: Study = key(required=True, doc="the speeds and the output ([study])")
     report: Report = key(None, doc="the title block of the report ([report])")
     code_profile: CodeProfile = key(None, doc="the clause values ([code_profile])")
+    fatigue: Fatigue = key(None, doc="the fatigue check of steel details ([fatigue])")
+    compatibility: Compatibility = key(None, doc="the compatibility of a train with the "
+                                                 "bridge ([compatibility])")
 
 
 #: The tables of a file in the order of the key reference: (path, model or union).
@@ -700,4 +795,6 @@ SECTIONS: tuple[tuple[str, Any], ...] = (
     ("irregularity", Irregularity), ("irregularity.defects", Defect), ("solver", Solver),
     ("contact", Contact), ("track", Track), ("study", Study), ("report", Report),
     ("code_profile", CodeProfile), ("code_profile.overrides", Overrides),
+    ("fatigue", Fatigue), ("fatigue.sections", FatigueSection),
+    ("fatigue.traffic", FatigueTraffic), ("compatibility", Compatibility),
 )

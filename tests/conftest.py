@@ -65,7 +65,7 @@ INTERACTION_MODULES = frozenset({
     "test_report",
     "test_resume", "test_study", "test_track", "test_track_accuracy", "test_track_damping",
     "test_validation", "test_verify",
-    "test_variants", "test_variants_edges", "test_warm"})
+    "test_variants", "test_variants_edges", "test_warm", "test_space_config"})
 
 
 def _wait_rank(item) -> int:

@@ -1,0 +1,224 @@
+"""Decks in space through the user's path: ``[bridge] tracks``, ``[bridge] torsion`` and
+``[train] track`` in a config file -> ``vsi sweep`` -> netCDF, against references
+computed here (closed-form bending and torsion modes, the test's own integration of the
+coupled equations with scipy), plus the config's errors and warnings."""
+
+from __future__ import annotations
+
+import textwrap
+
+import numpy as np
+import pytest
+import xarray as xr
+from typer.testing import CliRunner
+
+from vsi_numba.cli import app
+from vsi_numba.config import ConfigError, load_config
+
+# a 20 m deck carrying two tracks at +-2.2 m, torsionally soft so that the eccentric
+# track's line deflects clearly more than the axis
+L, EI, MASS, ZB = 20.0, 2.0e10, 15000.0, 0.01
+GJ, IP, ZT = 5e9, 8e4, 0.01
+ECC = 2.2
+N_B, N_T = 3, 6
+G = 9.81  # m s-2 (the published train data's value)
+
+
+def _text(tracks="", torsion="", train_track="", vehicle="", extra=""):
+    return textwrap.dedent(f"""
+        title = "deck in space"
+        [bridge]
+        kind = "simply_supported"
+        spans = [{L}]
+        EI = {EI}
+        mass_per_length = {MASS}
+        damping_ratio = {ZB}
+        n_modes = {N_B}
+        output_points = [10.0]
+        {tracks}
+        {torsion}
+        [train]
+        {train_track}
+        {vehicle or '''[[train.vehicles]]
+        kind = "force"
+        offset = 0.0
+        load = 100e3'''}
+        [track]
+        model = "rigid"
+        [solver]
+        dt = 5e-4
+        hht_alpha = 0.0
+        approach = 0.0
+        free_vibration = 0.2
+        [study]
+        speeds_kmh = [150.0]
+        output = "out.nc"
+        save_time_histories = true
+        {extra}
+        """)
+
+
+TRACKS = f"tracks = [{{ eccentricity = {ECC} }}, {{ eccentricity = {-ECC} }}]"
+TORSION = f"torsion = {{ GJ = {GJ}, polar_mass = {IP}, damping_ratio = {ZT}, n_modes = {N_T} }}"
+SPRUNG = """[[train.vehicles]]
+kind = "sprung_mass"
+offset = 0.0
+mass = 20000.0
+stiffness = 4e6
+damping = 0.0
+wheel_mass = 0.0"""
+M_S, K_S = 20000.0, 4e6
+
+
+def _sweep(tmp_path, text):
+    path = tmp_path / "deck.toml"
+    path.write_text(text)
+    res = CliRunner().invoke(app, ["sweep", str(path), "-q"])
+    assert res.exit_code == 0, res.output
+    with xr.open_dataset(tmp_path / "out.nc") as ds:
+        return ds.isel(speed=0, train=0, irregularity=0).load()
+
+
+def _reference(y, t, v, torsion=True):
+    """The sprung mass (massless wheel, rigid contact) on the closed-form modes of the
+    deck seen at y (bending sin modes + y x torsion sin modes), integrated with solve_ivp
+    (DOP853, tight tolerances): car-body acceleration (down), contact force, and the
+    axis deflection at mid-span."""
+    from scipy.integrate import solve_ivp
+
+    kb = np.pi * np.arange(1, N_B + 1) / L
+    kt = np.pi * np.arange(1, N_T + 1) / L if torsion else np.zeros(0)
+    w = np.concatenate([kb**2 * np.sqrt(EI / MASS), kt * np.sqrt(GJ / IP)])
+    z = np.concatenate([np.full(N_B, ZB), np.full(kt.size, ZT)])
+    amp = np.concatenate([np.full(N_B, np.sqrt(2 / (MASS * L))),
+                          y * np.full(kt.size, np.sqrt(2 / (IP * L)))])
+    kk = np.concatenate([kb, kt])
+    n = w.size
+
+    def shape(x):
+        return amp * np.sin(kk * x) if 0.0 <= x <= L else np.zeros(n)
+
+    def parts(tt, s):
+        q, zc = s[:n], s[2 * n]
+        ws = shape(v * tt)
+        f = M_S * G + K_S * (zc - ws @ q)  # spring on the wheel: the contact force
+        return ws, f
+
+    def rhs(tt, s):
+        q, qd, zc, zd = s[:n], s[n:2 * n], s[2 * n], s[2 * n + 1]
+        ws, f = parts(tt, s)
+        return np.concatenate([qd, ws * f - 2 * z * w * qd - w**2 * q,
+                               [zd, -K_S * (zc - ws @ q) / M_S]])
+
+    sol = solve_ivp(rhs, (0, t[-1]), np.zeros(2 * n + 2), method="DOP853", t_eval=t,
+                    rtol=1e-10, atol=1e-13, max_step=1e-3)
+    acc = np.array([rhs(tt, s)[-1] for tt, s in zip(t, sol.y.T, strict=True)])
+    force = np.array([parts(tt, s)[1] for tt, s in zip(t, sol.y.T, strict=True)])
+    mid = np.sqrt(2 / (MASS * L)) * np.sin(kb * L / 2) @ sol.y[:N_B]
+    return acc, force, mid
+
+
+def test_sprung_mass_on_an_eccentric_track_against_own_integration(tmp_path):
+    """train.track = 1 (y = +2.2 m) and = 2 (y = -2.2 m) on a deck with torsion: the
+    car-body acceleration, the contact force and the axis deflection of the file against
+    the test's own integration of the coupled equations; the track matters (the axis
+    model is far off)."""
+    v = 150.0 / 3.6
+    for k, y in ((1, ECC), (2, -ECC)):
+        ds = _sweep(tmp_path, _text(TRACKS, TORSION, f"track = {k}", SPRUNG))
+        t = ds["time"].values
+        ok = np.isfinite(ds["carbody_acceleration"].values[:, 0])
+        t = t[ok]
+        acc = ds["carbody_acceleration"].values[ok, 0]
+        force = ds["contact_force"].values[ok, 0]
+        mid = ds["deck_displacement"].values[ok, 0]
+        acc_r, force_r, mid_r = _reference(y, t, v)
+        e_acc = np.abs(acc - acc_r).max() / np.abs(acc_r).max()
+        e_f = np.abs(force - force_r).max() / np.abs(force_r - M_S * G).max()
+        e_mid = np.abs(mid - mid_r).max() / np.abs(mid_r).max()
+        # HHT alpha = 0 (trapezoidal rule) at dt = 5e-4 s; measured 0.014 % / 0.014 % /
+        # 0.008 % (acceleration / dynamic part of the force / deflection), both tracks
+        # (the torsion is symmetric in y); tolerances about 3x
+        assert e_acc < 4e-4, e_acc
+        assert e_f < 4e-4, e_f
+        assert e_mid < 2.5e-4, e_mid
+        # the same car on the axis model (no torsion) is off by far more than that
+        acc_0 = _reference(y, t, v, torsion=False)[0]
+        assert np.abs(acc_0 - acc_r).max() / np.abs(acc_r).max() > 0.1
+
+
+def test_no_tracks_and_one_track_on_the_axis_are_todays_config(tmp_path):
+    """tracks = [{ eccentricity = 0 }] without torsion runs today's planar model: the same
+    numbers bit for bit."""
+    a = _sweep(tmp_path, _text())
+    b = _sweep(tmp_path, _text("tracks = [{ eccentricity = 0.0 }]", "", "track = 1"))
+    for name in ("max_deck_displacement", "max_deck_acceleration", "deck_displacement",
+                 "max_bending_moment"):
+        np.testing.assert_array_equal(a[name].values, b[name].values)
+    cfg = load_config(_toml(tmp_path, _text()))
+    assert "tracks" not in cfg.resolved()["bridge"] and "track" not in cfg.resolved()["train"]
+    assert cfg.deck_in_space is None and cfg.train_track == 1
+
+
+def _toml(tmp_path, text):
+    p = tmp_path / "c.toml"
+    p.write_text(text)
+    return p
+
+
+@pytest.mark.parametrize(("tracks", "torsion", "train", "message"), [
+    (TRACKS, TORSION, "track = 3",
+     "train.track = 3: expected a track of bridge.tracks, 1 .. 2 (the bridge has 2 tracks)"),
+    ("", "", "track = 2", "train.track = 2: expected a track of bridge.tracks, 1 .. 1"),
+    (TRACKS, TORSION, "track = 0", "train.track = 0: expected a track number >= 1"),
+    ("tracks = [{ eccentricty = 2.0 }]", "", "",
+     "bridge.tracks[0].eccentricty = 2.0: unknown key; did you mean 'eccentricity'?"),
+    ("tracks = []", "", "", "bridge.tracks = []: expected a list of 1 to 20 tracks"),
+    ("tracks = [{ eccentricity = 2.0, gauge = -1.0 }]", TORSION, "",
+     "bridge.tracks[0].gauge = -1.0: expected a gauge > 0 m"),
+    (TRACKS, "torsion = { GJ = 5e9 }", "",
+     "bridge.torsion.polar_mass: missing required key; expected a polar mass moment"),
+    (TRACKS, "torsion = { GJ = 0.0, polar_mass = 8e4 }", "",
+     "bridge.torsion.GJ = 0.0: expected a torsional stiffness GJ > 0 N m^2"),
+    (TRACKS, "torsion = { GJ = 5e9, polar_mass = 8e4, damping_ratio = 2.0 }", "",
+     "bridge.torsion.damping_ratio = 2.0: expected a damping ratio 0 <= zeta < 1"),
+])
+def test_bad_tracks_and_torsion_name_the_key(tmp_path, tracks, torsion, train, message):
+    with pytest.raises(ConfigError) as err:
+        load_config(_toml(tmp_path, _text(tracks, torsion, train)))
+    assert message in str(err.value), str(err.value)
+
+
+@pytest.mark.parametrize(("tracks", "torsion", "warning"), [
+    (TRACKS, "", "the deck will not twist"),
+    ("tracks = [{ eccentricity = 2250.0 }]", TORSION, "a value in mm?"),
+    ("", TORSION, "no train excites the torsional modes"),
+])
+def test_implausible_tracks_and_torsion_warn(tmp_path, tracks, torsion, warning):
+    cfg = load_config(_toml(tmp_path, _text(tracks, torsion)))
+    assert any(warning in w for w in cfg.warnings), cfg.warnings
+
+
+def test_continuous_deck_with_torsion_from_the_config(tmp_path):
+    """A two-span continuous deck with torsion: the torsional frequencies of the config's
+    model against the closed form of a fork-supported span (each span twists on its own,
+    torsion restrained at every support: f = j / (2 l) sqrt(GJ / I_p)), within the linear
+    elements' (k h)^2 / 12 error."""
+    text = _text(TRACKS, TORSION).replace('kind = "simply_supported"', 'kind = "continuous"'
+                                          ).replace(f"spans = [{L}]", "spans = [10.0, 10.0]")
+    cfg = load_config(_toml(tmp_path, text))
+    deck = cfg.deck_in_space
+    f_t = np.sort(deck.frequencies[deck.torsional_share > 0.5])
+    exact = np.repeat(np.arange(1, 4) * np.sqrt(GJ / IP) / 20.0, 2)  # each span: l = 10 m
+    h = 10.0 / 40  # elements_per_span = 40
+    k = np.pi * np.repeat(np.arange(1, 4), 2) / 10.0
+    rel = f_t[:6] / exact - 1
+    assert np.all(rel >= -1e-9) and np.all(rel <= (k * h) ** 2 / 12 * 1.01), rel
+    # the kernels run the loaded track's line, phi + y theta of the same modes (theta's
+    # smoothed Hermite table between the nodes, within 1 % of the FE field's slope jumps)
+    b = cfg.build_bridge()
+    x = np.linspace(0.5, 19.5, 7)
+    line = deck.phi(x) + ECC * deck.theta_track(x)
+    np.testing.assert_allclose(b.shapes(x), line, rtol=1e-12, atol=1e-15)
+    assert np.abs(line - deck.track_shapes(0, x)).max() < 1e-2 * np.abs(line).max()
+    assert cfg.train_track == 1 and len(deck.tracks) == 2

@@ -24,7 +24,8 @@ N_B, N_T = 3, 6
 G = 9.81  # m s-2 (the published train data's value)
 
 
-def _text(tracks="", torsion="", train_track="", vehicle="", extra=""):
+def _text(tracks="", torsion="", train_track="", vehicle="", extra="", speed=150.0,
+          free=0.2):
     return textwrap.dedent(f"""
         title = "deck in space"
         [bridge]
@@ -49,9 +50,9 @@ def _text(tracks="", torsion="", train_track="", vehicle="", extra=""):
         dt = 5e-4
         hht_alpha = 0.0
         approach = 0.0
-        free_vibration = 0.2
+        free_vibration = {free}
         [study]
-        speeds_kmh = [150.0]
+        speeds_kmh = [{speed}]
         output = "out.nc"
         save_time_histories = true
         {extra}
@@ -222,3 +223,109 @@ def test_continuous_deck_with_torsion_from_the_config(tmp_path):
     np.testing.assert_allclose(b.shapes(x), line, rtol=1e-12, atol=1e-15)
     assert np.abs(line - deck.track_shapes(0, x)).max() < 1e-2 * np.abs(line).max()
     assert cfg.train_track == 1 and len(deck.tracks) == 2
+
+
+def _modal_forces(y, t, v, offsets, P):
+    """Moving forces P at ``offsets`` behind the first on the closed-form modes seen at
+    y (N_B bending + N_T torsion sine modes), integrated with solve_ivp (DOP853, tight
+    tolerances): modal coordinates and accelerations, (len(t), N_B + N_T) each."""
+    from scipy.integrate import solve_ivp
+
+    k = np.pi * np.arange(1, max(N_B, N_T) + 1) / L
+    kk = np.concatenate([k[:N_B], k[:N_T]])
+    w = np.concatenate([k[:N_B] ** 2 * np.sqrt(EI / MASS), k[:N_T] * np.sqrt(GJ / IP)])
+    z = np.concatenate([np.full(N_B, ZB), np.full(N_T, ZT)])
+    amp = np.concatenate([np.full(N_B, np.sqrt(2 / (MASS * L))),
+                          y * np.full(N_T, np.sqrt(2 / (IP * L)))])
+
+    def rhs(tt, s):
+        x = v * tt - offsets
+        x = x[(x >= 0) & (x <= L)]
+        f = P * (amp * np.sin(np.outer(x, kk))).sum(axis=0)
+        return np.concatenate([s[w.size:], f - 2 * z * w * s[w.size:] - w**2 * s[:w.size]])
+
+    sol = solve_ivp(rhs, (0, t[-1]), np.zeros(2 * w.size), method="DOP853", t_eval=t,
+                    rtol=1e-10, atol=1e-14, max_step=1e-3)
+    qdd = np.array([rhs(tt, s)[w.size:] for tt, s in zip(t, sol.y.T, strict=True)])
+    return sol.y[:w.size].T, qdd, kk
+
+
+def _theta(x, q_t):
+    """Torsional rotation at x (zero off the deck) from the torsional coordinates."""
+    x = np.atleast_1d(x)
+    k = np.pi * np.arange(1, N_T + 1) / L
+    th = np.sqrt(2 / (IP * L)) * np.sin(np.outer(x, k))
+    th[(x < 0) | (x > L)] = 0.0
+    return q_t @ th.T
+
+
+def test_twist_and_track_envelopes_at_torsional_resonance(tmp_path):
+    """Ten 170 kN forces 15 m apart at the first torsional resonance (v = f_t1 d) on
+    track 1 (y = +2.2 m): the file's deck twist over 3 m (at the output points and on
+    the whole-deck grid, both tracks), the displacement and acceleration along both
+    track lines against the test's own modal integration."""
+    d, P, n_f = 15.0, 170e3, 10
+    f_t1 = np.sqrt(GJ / IP) / (2 * L)
+    v = f_t1 * d
+    forces = "\n".join(f'[[train.vehicles]]\nkind = "force"\noffset = {d * i}\nload = {P}'
+                        for i in range(n_f))
+    ds = _sweep(tmp_path, _text(TRACKS, TORSION, "track = 1", forces, speed=v * 3.6,
+                                free=0.3).replace("output_points = [10.0]",
+                                                  "output_points = [5.0, 10.0]"))
+    t = ds["time"].values
+    t = t[np.isfinite(ds["deck_displacement"].values[:, 0])]
+    q, qdd, kk = _modal_forces(ECC, t, v, d * np.arange(n_f), P)
+    q_t = q[:, N_B:]
+    pts = np.array([5.0, 10.0])
+    twist = np.abs(1.435 * (_theta(pts, q_t) - _theta(pts + 3.0, q_t))).max(axis=0)
+    gx = ds["twist_x"].values
+    twist_g = np.abs(1.435 * (_theta(gx, q_t) - _theta(gx + 3.0, q_t))).max(axis=0)
+    bend = np.sqrt(2 / (MASS * L)) * np.sin(np.outer(pts, kk[:N_B]))
+    tor = np.sqrt(2 / (IP * L)) * np.sin(np.outer(pts, kk[N_B:]))
+    # EN 1990 A2.4.4.2.1: the acceleration takes the modes up to max(30 Hz, 1.5 f1, f3)
+    # of the deck's spectrum (bending and torsion together: 30 Hz here)
+    f = np.concatenate([kk[:N_B] ** 2 * np.sqrt(EI / MASS), kk[N_B:] * np.sqrt(GJ / IP)]
+                       ) / (2 * np.pi)
+    fs = np.sort(f)
+    band = f <= max(30.0, 1.5 * fs[0], fs[2])
+    assert band.sum() == 6  # bending 4.5 and 18.1 Hz, torsion 6.25 .. 25 Hz
+    for i, y in enumerate((ECC, -ECC)):
+        shape = np.hstack([bend, y * tor])
+        disp = np.abs(q @ shape.T).max(axis=0)
+        acc = np.abs(qdd[:, band] @ shape[:, band].T).max(axis=0)
+        got = ds.sel(track=i + 1)
+        # HHT alpha = 0 at dt = 5e-4 s against a converged integration (the response
+        # builds up over ten cycles: the trapezoidal rule's phase error is what
+        # remains); measured 0.095 % (twist at the points), 0.35 % of the peak (twist on
+        # the grid: windows over the deck ends), 0.10 % / 0.14 % (track displacement /
+        # acceleration); tolerances about 3x
+        np.testing.assert_allclose(got["max_deck_twist"].values, twist, rtol=3e-3)
+        np.testing.assert_allclose(got["max_deck_twist_whole_deck"].values, twist_g,
+                                   rtol=0, atol=1e-2 * twist_g.max())
+        np.testing.assert_allclose(got["max_track_displacement"].values, disp, rtol=3e-3)
+        np.testing.assert_allclose(got["max_track_acceleration"].values, acc, rtol=4e-3)
+    # at resonance the deck twists by about a millimetre over 3 m; the loaded track's
+    # line moves more than the axis and than the other track
+    assert 5e-4 < twist_g.max() < 5e-3
+    d1, d2 = (ds["max_track_displacement"].sel(track=k).values for k in (1, 2))
+    assert np.all(d1 > ds["max_deck_displacement"].values) and np.all(d1 > d2)
+    np.testing.assert_array_equal(ds["track_eccentricity"].values, [ECC, -ECC])
+
+
+def test_planar_files_name_the_space_outputs_not_computed(tmp_path):
+    """Without tracks or torsion the per-track outputs are not in the file and
+    ``not_computed`` says why; with an eccentric track but no torsion the track lines
+    are written and the twist is named as not computed."""
+    import json
+
+    a = _sweep(tmp_path, _text())
+    why = json.loads(a.attrs["not_computed"])
+    assert "max_deck_twist" not in a and "track" not in a.dims
+    assert "no bridge.tracks or bridge.torsion" in why["max_track_displacement"]
+    b = _sweep(tmp_path, _text(TRACKS))
+    why = json.loads(b.attrs["not_computed"])
+    assert "max_deck_twist" not in b and "does not twist" in why["max_deck_twist_whole_deck"]
+    # no torsion: every track line deflects as the axis (bending only)
+    for k in (1, 2):
+        np.testing.assert_array_equal(b["max_track_displacement"].sel(track=k).values,
+                                      b["max_deck_displacement"].values)

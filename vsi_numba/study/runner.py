@@ -527,7 +527,8 @@ def _write_results(output: Path, store: CaseStore, study: _Study,
                       [m.settings.dt for m in models] if labels is not None else
                       model.settings.dt, infos, variants,
                       deck_x=[deck_grid(m.bridge, m.output_points) for m in models],
-                      supports=[m.bridge.supports for m in models], omit=omit)
+                      supports=[m.bridge.supports for m in models], omit=omit,
+                      space=[m.deck[6] if len(m.deck) > 6 else None for m in models])
         hold = _hold_after() == "write"
         try:
             for b in plan:

@@ -329,3 +329,56 @@ def test_planar_files_name_the_space_outputs_not_computed(tmp_path):
     for k in (1, 2):
         np.testing.assert_array_equal(b["max_track_displacement"].sel(track=k).values,
                                       b["max_deck_displacement"].values)
+
+
+def test_report_twist_check_against_brute_force_lm71(tmp_path):
+    """``vsi sweep --report`` on a deck with torsion: the report carries the twist
+    section; the static twist of EN 1990 A2.4.4.2.2 from the file (LM71 x Phi x alpha,
+    most unfavourable) against the test's own brute-force placement over the closed-form
+    St-Venant rotation of a fork-supported span; the deck acceleration check takes the
+    loaded track."""
+    from vsi_numba.analysis.checks import deck_acceleration_check
+    from vsi_numba.analysis.checks.twist import twist_checks
+
+    text = _text(TRACKS, TORSION, "track = 2")
+    path = tmp_path / "deck.toml"
+    path.write_text(text)
+    res = CliRunner().invoke(app, ["sweep", str(path), "-q", "--report", str(tmp_path / "r")])
+    assert res.exit_code == 0, res.output
+    report = (tmp_path / "r" / "report.md").read_text()
+    assert "## Deck twist and tracks" in report and "LM71 × Φ × α" in report
+    with xr.open_dataset(tmp_path / "out.nc") as ds:
+        ds.load()
+    out = twist_checks(ds)
+    assert out.loaded_track == 2 and out.limit == pytest.approx(3.0e-3)  # 150 km/h
+    # own reference: LM71 (4 x 250 kN at 1.6 m, 80 kN/m beyond 0.8 m of the outer axles),
+    # Phi_3 of L_Phi = 20 m, alpha = 1; torque per newton = y; twist = s (theta(x) -
+    # theta(x + 3)); theta at X of a unit torque at a: X (L - a) / (GJ L) for X <= a
+    phi3 = 2.16 / (np.sqrt(L) - 0.2) + 0.73
+
+    def theta(xw, a):
+        xw, a = np.meshgrid(xw, a, indexing="ij")
+        g = np.where(xw <= a, xw * (L - a), a * (L - xw)) / (GJ * L)
+        return np.where((xw >= 0) & (xw <= L) & (a >= 0) & (a <= L), g, 0.0)
+
+    starts = np.linspace(-3.0, L, 461)
+    a = np.linspace(0.0, L, 4001)
+    da = a[1] - a[0]
+    line = 1.435 * ECC * (theta(starts, a) - theta(starts + 3.0, a))  # (start, a)
+    best = 0.0
+    for c in np.arange(-4.0, L + 4.0, 0.05):
+        axles = c + 1.6 * np.array([-1.5, -0.5, 0.5, 1.5])
+        free = (a < c - 3.2) | (a > c + 3.2)
+        w = np.where(free, 80e3 * da, 0.0)
+        w[[0, -1]] *= 0.5  # trapezoidal rule
+        tw = line @ w + 250e3 * (1.435 * ECC * (theta(starts, axles)
+                                                - theta(starts + 3.0, axles))).sum(axis=1)
+        best = max(best, np.abs(tw).max())
+    ref = phi3 * best
+    static = max(c.value for c in out.static)
+    # both place the group at 0.05 m steps (the reference on its own window grid, with
+    # a 5 mm quadrature of the distributed load): measured 1.0e-5; tolerance 1e-4
+    assert static == pytest.approx(ref, rel=1e-4), (static, ref)
+    acc = deck_acceleration_check(ds, n_boot=0)
+    loaded = float(ds["max_track_acceleration"].sel(track=2).max())
+    assert acc.attrs["loaded_track"] == 2 and float(acc["value"].max()) >= loaded

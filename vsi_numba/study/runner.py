@@ -243,6 +243,8 @@ def _global_attrs(model: StudyModel, config_json: str, sha: str, grid: StudyGrid
     if warnings:
         attrs["config_warnings"] = "\n".join(str(w) for w in warnings)
     attrs["warnings_json"] = json.dumps(records, ensure_ascii=False)
+    if getattr(cfg, "deck_in_space", None) is not None:
+        attrs["loaded_track"] = int(cfg.train_track)  # 1-based, as train.track
     return attrs
 
 

@@ -71,6 +71,7 @@ from vsi_numba.analysis.report.text import (
     mark_unreliable,
     stored_warnings,
 )
+from vsi_numba.analysis.report.twist import twist_section
 
 __all__ = [
     "FIGURE_NAMES",
@@ -252,6 +253,9 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
     add(_cases(env))
     add(_statistics(results, env))
     body.append(load_effects.section)
+    twist = twist_section(env)
+    if twist is not None:
+        body.append(twist)
     body.append(convergence_section(env, results, runner))
     checkpoint()
     for extra_section in sections or []:

@@ -35,7 +35,7 @@ def twist_section(env) -> Section | None:
     lines = ["## Deck twist and tracks", "",
              f"Deck twist over 3 m ({TWIST_CLAUSE}): limit {_mm(res.limit)} for the line "
              f"speed {fmt_number(res.line_speed_kmh, 'km/h')} (from the code profile "
-             "above). The train runs on track {res.loaded_track}; the rails of a "
+             f"above). The train runs on track {res.loaded_track}; the rails of a "
              "track are 1.435 m apart unless the configuration says otherwise, and the "
              "deck model is vertical only (no roll of the vehicles, no lateral dynamics).",
              ""]

@@ -174,6 +174,15 @@ FEATURES = {
                            bridge__n_modes=None, bridge__max_frequency=200.0,
                            bridge__track=TRACK_LAYER, solver__dt=2e-4,
                            solver__allow_coarse_dt=True),
+    "tracks_torsion": feature(
+        bridge__tracks=[{"eccentricity": 2.25}, {"eccentricity": -2.25, "gauge": 1.5}],
+        bridge__torsion={"GJ": 2e10, "polar_mass": 4e4, "damping_ratio": 0.01,
+                         "n_modes": 2}, train__track=2),
+    "continuous_torsion_en_damping": feature(
+        bridge__kind="continuous", bridge__spans=[20.0, 25.0], bridge__elements_per_span=10,
+        bridge__damping_ratio="EN1991-2", bridge__deck_type="prestressed_concrete",
+        bridge__tracks=[{"eccentricity": 2.25}, {"eccentricity": -2.25}],
+        bridge__torsion={"GJ": [2e10, 3e10], "polar_mass": 4e4}),
     "rigid": {**feature(), "bridge": {"kind": "rigid", "spans": [20.0],
                                       "output_points": [10.0]}},
     "modes_file_nc": {**feature(), "bridge": {

@@ -129,11 +129,12 @@ TABLE: tuple[Entry, ...] = (
           "ballasted track: sum of the rotations of two consecutive decks at a joint "
           "(printed with the rotation check; single decks use the abutment limit)"),
     Entry("twist_limit_up_to_120", 4.5e-3, "m", _TWIST,
-          "deck twist over 3 m, V <= 120 km/h (no check computes the twist yet)"),
+          "deck twist over 3 m, V <= 120 km/h (LM71 and the dynamic runs)"),
     Entry("twist_limit_up_to_200", 3.0e-3, "m", _TWIST,
-          "deck twist over 3 m, 120 < V <= 200 km/h (no check computes the twist yet)"),
+          "deck twist over 3 m, 120 < V <= 200 km/h (LM71 and the dynamic "
+          "runs)"),
     Entry("twist_limit_above_200", 1.5e-3, "m", _TWIST,
-          "deck twist over 3 m, V > 200 km/h (no check computes the twist yet)"),
+          "deck twist over 3 m, V > 200 km/h (LM71 and the dynamic runs)"),
     # ------------------------------------------------------------------ wheel unloading
     Entry("wheel_unloading_limit", 0.6, "1", "EN 14363 / UIC practice",
           "admissible wheel unloading dQ/Q0"),

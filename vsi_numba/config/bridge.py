@@ -53,6 +53,9 @@ class _BridgeSpec:
     model: _bridge.ModalBridge
     all_frequencies: np.ndarray | None  # the spectrum up to the EN 1990 cut-off
     output_points: np.ndarray
+    #: the deck in space (tracks, torsion; :mod:`vsi_numba.model.deck3d`) of a beam deck
+    #: with ``tracks`` or ``torsion`` given, else None (today's planar deck)
+    space: Any = None
 
 
 _POS = _Num("a value > 0", gt=0)
@@ -162,6 +165,13 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
     if kind == "continuous" and "track" in d:
         track = _track_section(chk, d["track"], spans)
         res["track"] = track
+    tracks = torsion = None
+    if flexible:
+        tracks, torsion = _space_keys(chk, d, n_spans, res)
+        if torsion is not None and "track" in d:
+            torsion = chk.error("bridge.torsion", d["torsion"], "no torsion with the FE "
+                                "track layer [bridge.track] (the layer is planar): leave "
+                                "out one of them")
     imported = None
     if kind in _IMPORTED:
         imported = _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes,
@@ -199,7 +209,7 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
 
     resolved = _drop_none(res)
     if not _ok(spans, points) or (flexible and not _ok(ei, mass, damping, n_modes, fmax, eps,
-                                                       track)):
+                                                       track, tracks, torsion)):
         return _BAD
     allf = None
     if kind in _IMPORTED:
@@ -225,8 +235,111 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
             return chk.error("bridge.damping_ratio", damping, "a single ratio or at least one "
                              f"per retained mode ({model.n_modes} modes)")
         model = dataclasses.replace(model, damping=zeta)
+    space = None
+    if flexible and (tracks is not None or torsion is not None):
+        space = _space_deck(chk, kind, spans, ei, mass, model, tracks, torsion, eps)
+        if space is _BAD:
+            return _BAD
+        model = space.bending
     return _BridgeSpec(kind=kind, resolved=resolved, length=length, model=model,
-                       all_frequencies=allf, output_points=np.asarray(points, float))
+                       all_frequencies=allf, output_points=np.asarray(points, float),
+                       space=space)
+
+
+#: |eccentricity| (m) above which a track is warned as implausible: the outer tracks of
+#: a four-track deck stand about 7 m off its axis.
+MAX_ECCENTRICITY = 8.0
+
+
+def _space_keys(chk, d, n_spans, res):
+    """``bridge.tracks`` and ``bridge.torsion`` (declared:
+    :class:`~.schema.models.TrackLine`, :class:`~.schema.models.Torsion`): their resolved
+    values (None when not given; only given keys enter ``res``, so a file without them
+    keeps its resolved configuration and hash) or ``_BAD``."""
+    tracks = torsion = None
+    if "tracks" in d:
+        items = d["tracks"]
+        if not isinstance(items, list) or not items or len(items) > 20:
+            tracks = chk.error("bridge.tracks", items, "a list of 1 to 20 tracks, each "
+                               "{ eccentricity = y } (m)")
+        else:
+            tracks = []
+            for i, it in enumerate(items):
+                p = f"bridge.tracks[{i}]"
+                if chk.table(it, p, keys_of(_m.TrackLine),
+                             what=" { eccentricity = y } (m)") is _BAD:
+                    tracks = _BAD
+                    continue
+                v = chk.fields(it, p, _m.TrackLine)
+                tracks = tracks if _ok(tracks, *v.values()) else _BAD
+                if tracks is not _BAD:
+                    tracks.append(v)
+        if _ok(tracks):
+            res["tracks"] = tracks
+    if "torsion" in d:
+        t = d["torsion"]
+        p = "bridge.torsion"
+        if chk.table(t, p, keys_of(_m.Torsion),
+                     what=" { GJ, polar_mass, damping_ratio }") is _BAD:
+            torsion = _BAD
+        else:
+            v = chk.fields(t, p, _m.Torsion, ["damping_ratio", "n_modes"])
+            for key, what in (("GJ", "a torsional stiffness GJ > 0 N m^2"),
+                              ("polar_mass", "a polar mass moment per length > 0 kg m^2/m")):
+                v[key] = _per_span(chk, t, p, key, what, n_spans)
+            torsion = _drop_none(v) if _ok(*v.values()) else _BAD
+        if _ok(torsion):
+            res["torsion"] = torsion
+    if not _ok(tracks, torsion):
+        return tracks, torsion
+    for i, tr in enumerate(tracks or []):
+        y = tr["eccentricity"]
+        if abs(y) > MAX_ECCENTRICITY:
+            chk.warn(f"bridge.tracks[{i}].eccentricity = {y:g} m: farther than "
+                     f"{MAX_ECCENTRICITY:g} m from the deck's axis (the outer tracks of a "
+                     "four-track deck stand about 7 m off it); a value in mm?",
+                     "plausibility", [f"bridge.tracks[{i}].eccentricity"])
+    eccentric = [i for i, tr in enumerate(tracks or []) if tr["eccentricity"] != 0.0]
+    if eccentric and torsion is None:
+        i = eccentric[0]
+        chk.warn(f"bridge.tracks[{i}].eccentricity = {tracks[i]['eccentricity']:g} m without "
+                 "bridge.torsion: the deck will not twist (its modes have no torsion), a "
+                 "train on an eccentric track loads the bending modes only; give "
+                 "bridge.torsion = { GJ = ..., polar_mass = ... } for the torsion",
+                 "input", ["bridge.tracks", "bridge.torsion"])
+    if torsion is not None and not eccentric:
+        chk.warn("bridge.torsion with every track on the deck's axis: no train excites "
+                 "the torsional modes (give bridge.tracks = [{ eccentricity = y }, ...])",
+                 "input", ["bridge.tracks", "bridge.torsion"])
+    return tracks, torsion
+
+
+def _space_deck(chk, kind, spans, ei, mass, planar, tracks, torsion, eps):
+    """The deck in space (:class:`~vsi_numba.model.deck3d.BeamDeck3D`) of the planar
+    ``planar`` (its bending modes and damping kept as they are) with ``tracks`` and
+    ``torsion``, or ``_BAD``."""
+    from vsi_numba.model import deck3d
+
+    tr = deck3d.tracks_from(tracks)
+    if torsion is None:
+        return deck3d.BeamDeck3D(planar, deck3d._zero_table(planar.length, planar.n_modes),
+                                 deck3d._zero_table(planar.length, planar.n_modes), tr,
+                                 np.asarray(planar.supports, float),
+                                 torsional_share=np.zeros(planar.n_modes))
+    tor = deck3d.Torsion(torsion["GJ"], torsion["polar_mass"], torsion["damping_ratio"])
+    n_t = torsion.get("n_modes")
+    zeta = np.asarray(planar.damping, float)
+    try:
+        with np.errstate(all="ignore"):
+            if kind == "simply_supported":
+                ei1 = ei[0] if isinstance(ei, list) else ei
+                m1 = mass[0] if isinstance(mass, list) else mass
+                return deck3d.simply_supported(spans[0], ei1, m1, tor, tr, planar.n_modes,
+                                               None, zeta, n_torsion_modes=n_t)
+            return deck3d.continuous(spans, ei, mass, tor, tr, planar.n_modes, None, zeta,
+                                     eps, n_torsion_modes=n_t)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        return chk.error("bridge.torsion", torsion, f"a buildable deck with torsion ({exc})")
 
 
 #: The keys of ``[bridge.track]`` (declared: :class:`~.schema.models.BridgeTrack`).

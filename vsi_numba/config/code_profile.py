@@ -163,6 +163,8 @@ def _damping_rules(chk, bridge, profile: CodeProfile):
     them with the recommended values); ``bridge`` itself otherwise."""
     import dataclasses
 
+    import numpy as np
+
     from vsi_numba import en1991
     from vsi_numba.config.bridge import _span_for_damping
     from vsi_numba.model import bridge as _bridge
@@ -191,8 +193,12 @@ def _damping_rules(chk, bridge, profile: CodeProfile):
                                f"({profile.clause(key, key + '_slope')}), "
                                f"{deck.replace('_', ' ')}, L = {span:g} m: zeta = "
                                f"{100 * zeta:.4g} %")
-        model = dataclasses.replace(model, damping=_bridge.per_mode(zeta, model.n_modes,
-                                                                    "damping_ratio"))
+        z = _bridge.per_mode(zeta, model.n_modes, "damping_ratio")
+        space = getattr(bridge, "space", None)
+        if space is not None and space.has_torsion:  # Table 6.6 is for the bending modes
+            share = np.asarray(space.torsional_share, float)
+            z = (1.0 - share) * z + share * float(res["torsion"]["damping_ratio"])
+        model = dataclasses.replace(model, damping=z)
     if "additional_damping_rule" in res and "additional_damping_max_span" in changed:
         dz = en1991.additional_damping(span, profile)
         new["additional_damping"] = dz
@@ -202,4 +208,7 @@ def _damping_rules(chk, bridge, profile: CodeProfile):
             f" m: code profile '{profile.name}')")
     if new == res:
         return bridge
-    return dataclasses.replace(bridge, resolved=new, model=model)
+    space = getattr(bridge, "space", None)
+    if space is not None and model is not bridge.model:
+        space = dataclasses.replace(space, bending=model)
+    return dataclasses.replace(bridge, resolved=new, model=model, space=space)

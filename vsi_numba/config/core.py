@@ -135,12 +135,26 @@ class Config:
         """
         if self._built is None:
             model = self._bridge.model
+            space = self._bridge.space
+            if space is not None:  # the loaded track's line (the axis without torsion)
+                model = space.track_bridge(self.train_track - 1)
             if self.rail_track is not None:
                 model = dataclasses.replace(model, track=self.rail_track)
             if self.load_distribution is not None:
                 model = dataclasses.replace(model, load_distribution=self.load_distribution)
             self._built = model
         return self._built
+
+    @property
+    def deck_in_space(self):
+        """The deck with its tracks and torsion (:class:`~vsi_numba.model.deck3d.BeamDeck3D`)
+        when ``bridge.tracks`` or ``bridge.torsion`` is given, else None."""
+        return self._bridge.space
+
+    @property
+    def train_track(self) -> int:
+        """The track the train runs on (``train.track``, 1-based; default 1)."""
+        return int(self._resolved["train"].get("track", 1))
 
     @property
     def load_distribution(self) -> _dist.LoadDistribution | None:
@@ -526,6 +540,12 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
         if "train" in data else _BAD
     )
     _distribution_checks(chk, track, solver, train)
+    if _ok(bridge, train) and "track" in train.resolved and _ok(train.resolved["track"]):
+        n_tracks = len(bridge.resolved.get("tracks", [{}]))
+        if train.resolved["track"] > n_tracks:
+            chk.error("train.track", train.resolved["track"],
+                      f"a track of bridge.tracks, 1 .. {n_tracks} (the bridge has "
+                      f"{n_tracks} track{'s' if n_tracks != 1 else ''})")
     irr = _irregularity_section(chk, data.get("irregularity", _MISSING), base)
     stem = path.stem if path is not None else "run"
     code_profile = _code_profile_section(chk, data.get("code_profile", _MISSING))

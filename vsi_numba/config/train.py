@@ -299,6 +299,8 @@ def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
         return chk.error(f"train.{other}", d[other],
                          "either [[train.vehicles]] or train.preset/train.file, not both")
     res: dict[str, Any] = {}
+    if "track" in d:  # only when given: files without it keep their resolved form
+        res["track"] = chk.fields(d, path, _m.Train, ["track"])["track"]
     if "vehicles" in d:
         name = chk.string(d, path, "name", "a train name (string)",
                           default=title if title else "custom")

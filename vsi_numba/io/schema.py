@@ -188,6 +188,40 @@ ENVELOPES = {
     **_load_effect_envelopes(),
 }
 
+_Y = ("y, the transverse coordinate of the deck, is positive to the left looking in +x; "
+      "the rails of track k are at y_k +- gauge/2")
+_TWIST = {"sign_convention": "t(x) = [w(x, y_L) - w(x, y_R)] - [w(x + 3, y_L) - "
+          "w(x + 3, y_R)] over the 3 m base from x (EN 1990 A2.4.4.2.2), w positive down, "
+          "y_L / y_R the left / right rail; the envelope is of |t|; " + _Y}
+
+#: Per-track envelopes of a deck in space (``bridge.tracks``, ``bridge.torsion``; see
+#: :mod:`vsi_numba.model.deck3d`): along each track line, and the deck twist.
+SPACE_ENVELOPES = {
+    "max_track_displacement": (
+        ("track", "point"), "m", "maximum absolute vertical deck displacement along the "
+        "track centre line", {**DOWN, "comment": _Y}),
+    "time_of_max_track_displacement": (
+        ("track", "point"), "s", "time of the maximum absolute deck displacement along the "
+        "track centre line", {}),
+    "max_track_acceleration": (
+        ("track", "point"), "m s-2", "maximum absolute vertical deck acceleration along the "
+        "track centre line (modes up to the EN 1990 A2 cut-off)", {**DOWN, "comment": _Y}),
+    "time_of_max_track_acceleration": (
+        ("track", "point"), "s", "time of the maximum absolute deck acceleration along the "
+        "track centre line", {}),
+    "max_deck_twist": (
+        ("track", "point"), "m", "maximum absolute deck twist over 3 m along the track, "
+        "window from the output point", _TWIST),
+    "time_of_max_deck_twist": (
+        ("track", "point"), "s", "time of the maximum absolute deck twist over 3 m", {}),
+    "max_deck_twist_whole_deck": (
+        ("track", "twist_x"), "m", "maximum absolute deck twist over 3 m along the track on "
+        "the whole-deck grid of window starts", _TWIST),
+    "time_of_max_deck_twist_whole_deck": (
+        ("track", "twist_x"), "s", "time of the maximum absolute deck twist over 3 m on the "
+        "whole-deck grid", {}),
+}
+
 #: Per-case diagnostics.
 DIAGNOSTICS = {
     "status": (
@@ -294,12 +328,17 @@ COORDS = {
     "deck_x": ("m", "whole-deck section of the load-effect envelopes: distance from the "
                "left end of the bridge", {}),
     "support": ("m", "support: distance from the left end of the bridge", {}),
+    "track": ("1", "track on the deck (1-based, as in bridge.tracks)", {}),
+    "track_eccentricity": ("m", "transverse position y of the track centre line", {
+        "comment": _Y}),
+    "twist_x": ("m", "start of the 3 m twist window: distance from the left end of the "
+                "bridge (negative: the window straddles the left deck end)", {}),
 }
 
 
 def attrs_for(name: str) -> dict:
     """CF attributes (units, long_name, ...) for a declared variable or coordinate."""
-    for table in (HISTORIES, ENVELOPES, DIAGNOSTICS, STUDY_VARIABLES, FATIGUE):
+    for table in (HISTORIES, ENVELOPES, SPACE_ENVELOPES, DIAGNOSTICS, STUDY_VARIABLES, FATIGUE):
         if name in table:
             _, units, long_name, extra = table[name]
             return {"units": units, "long_name": long_name, **extra}

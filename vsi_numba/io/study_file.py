@@ -26,7 +26,13 @@ from __future__ import annotations
 import numpy as np
 
 from vsi_numba.io.netcdf import CASE_DIMS, MAX_TIME_CHUNK
-from vsi_numba.io.schema import DIAGNOSTICS, ENVELOPES, HISTORIES, attrs_for
+from vsi_numba.io.schema import (
+    DIAGNOSTICS,
+    ENVELOPES,
+    HISTORIES,
+    SPACE_ENVELOPES,
+    attrs_for,
+)
 
 #: Non-dimension coordinates and their dims.
 _COORDS = {
@@ -81,7 +87,7 @@ class StudyFile:
 
     def __init__(self, path, speeds_kmh, trains, irregularities, points, frequencies,
                  n_wheel, n_vehicle, n_time, dt, trains_info, variants=None, deck_x=None,
-                 supports=None, omit=None):
+                 supports=None, omit=None, space=None):
         import netCDF4
 
         #: variables not written (the study's model does not compute them) -> reason
@@ -117,6 +123,16 @@ class StudyFile:
                                                                   for a in supports]
         sizes["deck_x"] = max(a.size for a in deck_x)
         sizes["support"] = max(a.size for a in supports)
+        # a deck in space (per variant: solver.batch.SpaceLayout, or None): the track and
+        # twist-window dims, only then (planar studies keep their variables as they are)
+        self.space = None if space is None or all(x is None for x in space) else [
+            x for x in space]
+        if self.space is not None:
+            first = next(x for x in self.space if x is not None)
+            twist_xs = [np.asarray(x.twist_x if x is not None else [], float)
+                        for x in self.space]
+            sizes["track"] = max(x.n_tracks for x in self.space if x is not None)
+            sizes["twist_x"] = max(a.size for a in twist_xs)
         if variants is not None:
             sizes = {"variant": n_v, **sizes}
         if n_time is not None:
@@ -173,7 +189,16 @@ class StudyFile:
                   {"units": "1", "long_name": "output point index (x: point_position)"})
             self._float("point_position", (*lead, "point"), attrs_for("point"))[...] = \
                 per_variant(points, (n_p,))
-        for dim, per in (("deck_x", deck_x), ("support", supports)):
+        per_dim = [("deck_x", deck_x), ("support", supports)]
+        if self.space is not None:
+            per_dim.append(("twist_x", twist_xs))
+            coord("track", ("track",), np.arange(1, sizes["track"] + 1, dtype=np.int64),
+                  "i8", attrs_for("track"))
+            ecc = np.full(sizes["track"], np.nan)
+            ecc[:first.n_tracks] = first.eccentricity
+            self._float("track_eccentricity", ("track",), attrs_for("track_eccentricity"))[
+                ...] = ecc
+        for dim, per in per_dim:
             if all(np.array_equal(per[0], a) for a in per):
                 coord(dim, (dim,), per[0], "f8", attrs_for(dim))
             else:  # they move with the spans: an index, and their x per variant
@@ -223,6 +248,11 @@ class StudyFile:
         self._staged = None  # write_batch's gathered slices
         for name, (dims, *_rest) in ENVELOPES.items():
             if name in self.omit:
+                continue
+            self.vars[name] = self._float(name, (*case, *dims), attrs_for(name))
+            self.found[name] = False
+        for name, (dims, *_rest) in SPACE_ENVELOPES.items():
+            if self.space is None or name in self.omit:
                 continue
             self.vars[name] = self._float(name, (*case, *dims), attrs_for(name))
             self.found[name] = False
@@ -303,6 +333,14 @@ class StudyFile:
                 dims[0], data[name].shape[1]), data[name].shape[1])
             if width:  # 0: not computed (load effects off or not available)
                 parts[name] = (width, data[name][:, :width])
+        if self.space is not None:
+            for name, (dims, *_rest) in SPACE_ENVELOPES.items():
+                if name in self.omit or name not in data:
+                    continue
+                a = np.asarray(data[name], float)
+                block = np.full((a.shape[0], *(self.sizes[d] for d in dims)), np.nan)
+                block[:, :a.shape[1], :a.shape[2]] = a
+                parts[name] = (None, block)
         for name in DIAGNOSTICS:
             parts[name] = (None, data[name].astype(np.int32))
         parts["message"] = (None, np.array([str(m) for m in data["message"]], dtype=object))

@@ -137,6 +137,61 @@ def deck_operators(bridge: ModalBridge, points, settings: SolverSettings,
     return phi_d, phi_a, float(cutoff), grid_x, phi_g, effects
 
 
+@dataclass(frozen=True)
+class SpaceLayout:
+    """Where the per-track rows sit under the planar output operators (stacked by
+    :func:`space_operators`): after the ``n_points`` deck rows come the track-line rows
+    (n_tracks x n_points), the twist at the output points (n_tracks x n_points) and the
+    twist on the whole-deck grid ``twist_x`` (n_tracks x n_twist)."""
+
+    n_points: int
+    eccentricity: np.ndarray  # (n_tracks,) m
+    twist_x: np.ndarray  # (n_twist,) window starts, m
+    has_twist: bool  # the deck twists (it has torsion or imported rails)
+
+    @property
+    def n_tracks(self) -> int:
+        return int(self.eccentricity.size)
+
+    def split(self, a: np.ndarray) -> dict[str, np.ndarray]:
+        """Columns of ``a`` (n_runs, n_rows): ``deck`` (n_runs, n_p), ``track`` and
+        ``twist`` (n_runs, n_tracks, n_p), ``twist_whole`` (n_runs, n_tracks, n_twist)."""
+        n_p, n_k, n_g = self.n_points, self.n_tracks, self.twist_x.size
+        r = a.shape[0]
+        o1, o2 = n_p + n_k * n_p, n_p + 2 * n_k * n_p
+        return {"deck": a[:, :n_p], "track": a[:, n_p:o1].reshape(r, n_k, n_p),
+                "twist": a[:, o1:o2].reshape(r, n_k, n_p),
+                "twist_whole": a[:, o2:o2 + n_k * n_g].reshape(r, n_k, n_g)}
+
+
+def space_operators(space, points, deck: tuple) -> tuple:
+    """``deck`` (:func:`deck_operators`' tuple) with the rows of the deck in space
+    (:func:`vsi_numba.model.deck3d.output_rows`) stacked under ``phi_d`` / ``phi_a``:
+    the kernels' envelopes of every row are then the per-track displacement,
+    acceleration (band-limited like the deck's) and twist, no kernel change.  Returns
+    the tuple with a :class:`SpaceLayout` appended (element 6)."""
+    from vsi_numba.model import deck3d
+
+    points = np.atleast_1d(np.asarray(points, float))
+    phi_d, phi_a, cutoff = deck[:3]
+    grid = deck3d.twist_grid(space.supports)
+    starts = np.concatenate([points, grid])
+    rows = deck3d.output_rows(space, points, starts)
+    n_m = phi_d.shape[1]
+    keep = np.asarray(space.frequencies) <= cutoff + 1e-9  # as deck_operators' phi_a
+    disp = rows.disp.reshape(-1, n_m)
+    twist_p = rows.twist[:, :points.size].reshape(-1, n_m)
+    twist_g = rows.twist[:, points.size:].reshape(-1, n_m)
+    extra = np.nan_to_num(np.concatenate([disp, twist_p, twist_g]))
+    extra_a = np.concatenate([np.where(keep[None, :], disp, 0.0),
+                              np.zeros((twist_p.shape[0] + twist_g.shape[0], n_m))])
+    layout = SpaceLayout(points.size, np.array([t.eccentricity for t in space.tracks],
+                                               float), grid,
+                         bool(getattr(space, "has_torsion", True) and rows.has_twist.all()))
+    return (np.ascontiguousarray(np.vstack([phi_d, extra])),
+            np.ascontiguousarray(np.vstack([phi_a, extra_a])), *deck[2:6], layout)
+
+
 @dataclass
 class BatchResult:
     """Envelopes (one row per run) and raw histories (per history slot) of a batch."""
@@ -156,6 +211,7 @@ class BatchResult:
     grid_x: np.ndarray | None = None  # (n_g,) whole-deck grid, m
     effects: LoadEffectTables | None = None  # load effects (None: not computed)
     static_deck: object | None = None  # bridge.static (the effects' static deck)
+    space: SpaceLayout | None = None  # per-track rows under phi_d / phi_a (or None)
 
     @property
     def static_loads(self) -> np.ndarray:
@@ -189,9 +245,10 @@ class BatchResult:
         xmin = with_loads(red.xmin, loads)
         with np.errstate(invalid="ignore", divide="ignore"):
             unloading = (q0[None, :] - xmin) / q0[None, :]
+        n_p = red.disp.shape[1] if self.space is None else self.space.n_points
         data = {
-            "max_deck_displacement": red.disp.copy(),
-            "max_deck_acceleration": red.acc.copy(),
+            "max_deck_displacement": red.disp[:, :n_p].copy(),
+            "max_deck_acceleration": red.acc[:, :n_p].copy(),
             "min_contact_force": xmin,
             "max_contact_force": with_loads(red.xmax, loads),
             "max_wheel_unloading": unloading,
@@ -200,8 +257,8 @@ class BatchResult:
             "longest_contact_loss": with_loads(red.longest * dt, 0.0),
             "contact_loss_events": with_loads(red.events.astype(float), 0.0),
             "single_step_contact_losses": with_loads(red.single.astype(float), 0.0),
-            "time_of_max_deck_displacement": red.disp_t.copy(),
-            "time_of_max_deck_acceleration": red.acc_t.copy(),
+            "time_of_max_deck_displacement": red.disp_t[:, :n_p].copy(),
+            "time_of_max_deck_acceleration": red.acc_t[:, :n_p].copy(),
             # a moving force is at its start position at its (first) minimum, t = 0
             "position_of_min_contact_force": with_loads(red.xmin_x, pk.vehicles.load_x0),
             "time_of_max_carbody_acceleration": red.body_t.copy(),
@@ -221,11 +278,31 @@ class BatchResult:
                          "position_of_max_deck_acceleration_whole_deck"):
                 data[name] = np.full(n_r, np.nan)
         data.update(self._effect_envelopes())
+        data.update(self._space_envelopes())
         failed = self.status != ek.OK
         if failed.any():
             for a in data.values():
                 a[failed] = np.nan
         return data
+
+    def _space_envelopes(self) -> dict[str, np.ndarray]:
+        """Per-track envelopes (:data:`vsi_numba.io.schema.SPACE_ENVELOPES`) from the rows
+        :func:`space_operators` stacked under the deck's; none without them."""
+        if self.space is None:
+            return {}
+        red, sp = self.red, self.space
+        d, dt = sp.split(red.disp), sp.split(red.disp_t)
+        a, at = sp.split(red.acc), sp.split(red.acc_t)
+        out = {"max_track_displacement": d["track"].copy(),
+               "time_of_max_track_displacement": dt["track"].copy(),
+               "max_track_acceleration": a["track"].copy(),
+               "time_of_max_track_acceleration": at["track"].copy()}
+        if sp.has_twist:
+            out.update({"max_deck_twist": d["twist"].copy(),
+                        "time_of_max_deck_twist": dt["twist"].copy(),
+                        "max_deck_twist_whole_deck": d["twist_whole"].copy(),
+                        "time_of_max_deck_twist_whole_deck": dt["twist_whole"].copy()})
+        return out
 
     def _effect_channels(self) -> dict[str, np.ndarray]:
         """Kernel channel of each load-effect envelope's columns (see
@@ -328,9 +405,10 @@ class BatchResult:
         pk = self.packed
         n = int(self.n_steps[r]) + 1
         q, qdd = self.out.q[h, :n], self.out.qdd[h, :n]
-        disp = q @ self.phi_d.T
-        keep = np.any(self.phi_a != 0.0, axis=0)
-        acc = qdd[:, keep] @ self.phi_a[:, keep].T
+        n_p = self.phi_d.shape[0] if self.space is None else self.space.n_points
+        disp = q @ self.phi_d[:n_p].T
+        keep = np.any(self.phi_a[:n_p] != 0.0, axis=0)
+        acc = qdd[:, keep] @ self.phi_a[:n_p, keep].T
         n_l = pk.load_positions.size
         X = np.concatenate([self.out.X[h, :n], np.broadcast_to(pk.vehicles.load_p, (n, n_l))],
                            axis=1)
@@ -427,7 +505,8 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     _flag_non_finite(status, reached, n_steps, slots, red, out)
     return BatchResult(packed, speeds, n_steps, status, reached, slots, red, out, phi_d,
                        phi_a, cutoff, elapsed, np.asarray(grid_x, float), eff,
-                       bridge.static if eff is not None else None)
+                       bridge.static if eff is not None else None,
+                       deck[6] if len(deck) > 6 else None)
 
 
 def _effect_fields(eff: LoadEffectTables | None, packed: Packed, n_r: int) -> dict:

@@ -16,7 +16,13 @@ import json
 
 import numpy as np
 
-from vsi_numba.io.schema import ENVELOPES, HISTORIES, LOAD_EFFECT_HISTORIES, LOAD_EFFECTS
+from vsi_numba.io.schema import (
+    ENVELOPES,
+    HISTORIES,
+    LOAD_EFFECT_HISTORIES,
+    LOAD_EFFECTS,
+    SPACE_ENVELOPES,
+)
 
 #: The whole-deck acceleration envelope and its time and position.
 WHOLE_DECK_ACCELERATION = ("max_deck_acceleration_whole_deck",
@@ -85,6 +91,15 @@ def not_offered(models, packed) -> dict[str, str]:
                f"no mode of the deck up to the EN 1990 A2 acceleration cut-off "
                f"({models[0].deck[2]:.4g} Hz)")
         out.update(dict.fromkeys(WHOLE_DECK_ACCELERATION, why))
+    layouts = [m.deck[6] if len(m.deck) > 6 else None for m in models]
+    if all(x is None for x in layouts):
+        out.update(dict.fromkeys(SPACE_ENVELOPES, "the deck is a line: no bridge.tracks or "
+                                                  "bridge.torsion (simply_supported and "
+                                                  "continuous decks)"))
+    elif not any(x is not None and x.has_twist for x in layouts):
+        out.update(dict.fromkeys(
+            [k for k in SPACE_ENVELOPES if "twist" in k],
+            "the deck does not twist: no bridge.torsion (its modes have no torsion)"))
     trains = [p for per in packed for p in per]
     if not any(np.asarray(p.vehicles.body_dof).size for p in trains):
         out.update(dict.fromkeys(CARBODY, "no train has a car body (moving forces only)"))
@@ -95,7 +110,7 @@ def not_offered(models, packed) -> dict[str, str]:
         out.update(dict.fromkeys(CONTACT_HISTORIES, "moving forces only: each contact force "
                                                     "is the prescribed axle load "
                                                     "(static_wheel_load)"))
-    known = set(ENVELOPES) | set(HISTORIES)
+    known = set(ENVELOPES) | set(HISTORIES) | set(SPACE_ENVELOPES)
     return {k: v for k, v in out.items() if k in known}
 
 

@@ -247,6 +247,8 @@ def _global_attrs(model: StudyModel, config_json: str, sha: str, grid: StudyGrid
     if warnings:
         attrs["config_warnings"] = "\n".join(str(w) for w in warnings)
     attrs["warnings_json"] = json.dumps(records, ensure_ascii=False)
+    if getattr(cfg, "deck_in_space", None) is not None:
+        attrs["loaded_track"] = int(cfg.train_track)  # 1-based, as train.track
     return attrs
 
 
@@ -524,7 +526,8 @@ def _write_results(output: Path, store: CaseStore, study: _Study,
                       [m.settings.dt for m in models] if labels is not None else
                       model.settings.dt, infos, variants,
                       deck_x=[deck_grid(m.bridge, m.output_points) for m in models],
-                      supports=[m.bridge.supports for m in models], omit=omit)
+                      supports=[m.bridge.supports for m in models], omit=omit,
+                      space=[m.deck[6] if len(m.deck) > 6 else None for m in models])
         hold = _hold_after() == "write"
         try:
             for b in plan:

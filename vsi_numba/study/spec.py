@@ -121,10 +121,14 @@ def _build_model(cfg, first_realisation: bool = False) -> StudyModel:
     profiles = dict((_first_realisation(cfg) if first_realisation else cfg).irregularities(
         *x_range))
     points = default_points(bridge, cfg.output_points)
+    deck = deck_operators(bridge, points, settings, load_effects=cfg.load_effects)
+    space = getattr(cfg, "deck_in_space", None)
+    if space is not None:  # per-track rows under the deck's (solver.batch.SpaceLayout)
+        from vsi_numba.solver.batch import space_operators
+
+        deck = space_operators(space, points, deck)
     return StudyModel(cfg, bridge, trains, settings, points, profiles, x_range,
-                      np.asarray(cfg.speeds_kmh, float),
-                      deck_operators(bridge, points, settings,
-                                     load_effects=cfg.load_effects))
+                      np.asarray(cfg.speeds_kmh, float), deck)
 
 
 def model_fingerprint(model: StudyModel) -> str:

@@ -47,7 +47,9 @@ def deck_acceleration_check(
         ``position_of_max_deck_acceleration_whole_deck`` (m): the maximum over a grid
         along every span plus the output points, so the check does not depend on where
         the output points are.  Files without it are checked at the output points only
-        (attribute ``whole_deck`` = 0).  The solver band-limits both to the modes up to
+        (attribute ``whole_deck`` = 0).  A deck in space (attribute ``loaded_track``)
+        adds ``max_track_acceleration`` of the loaded track at the output points.  The
+        solver band-limits both to the modes up to
         the cut-off ``max(30 Hz, 1.5 f1, f3)`` (:func:`frequency_cutoff`), as the clause
         requires.
     limit : float, optional
@@ -101,6 +103,14 @@ def deck_acceleration_check(
     at_points = nanmax(acc, "point")
     whole = ("max_deck_acceleration_whole_deck" in ds
              and bool(ds["max_deck_acceleration_whole_deck"].notnull().any()))
+    loaded = ds.attrs.get("loaded_track")
+    if loaded is not None and "max_track_acceleration" in ds:
+        # a deck in space: the loaded track's line counts too (EN 1990 A2.4.4.2.1 takes
+        # the acceleration along the track); its points are the output points
+        along = nanmax(ds["max_track_acceleration"].sel(track=int(loaded)), "point")
+        at_points = np.fmax(at_points, along)
+        acc = np.fmax(acc, ds["max_track_acceleration"].sel(track=int(loaded)).drop_vars(
+            "track"))
     peak = at_points
     if whole:
         peak = np.fmax(at_points, ds["max_deck_acceleration_whole_deck"])
@@ -129,6 +139,7 @@ def deck_acceleration_check(
         "highest_frequency": float(f[-1]) if f.size else np.nan,
         "basis": out.attrs["basis"],
         "whole_deck": int(whole),
+        **({"loaded_track": int(loaded)} if loaded is not None else {}),
     }
     out = _summarise(out, "Peak deck acceleration", clause, "m s-2", limit, extra=extra)
     if out.attrs["governing_train"]:

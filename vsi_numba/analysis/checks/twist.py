@@ -113,3 +113,107 @@ def static_twist_check(deck, speed_kmh: float, alpha: float, phi: float, profile
                                   float(starts[i]), load_at, limit, float(speed_kmh),
                                   float(alpha), float(phi)))
     return out
+
+
+class TwistResults(NamedTuple):
+    """The twist checks of a results file (:func:`twist_checks`).
+
+    ``static``: :class:`TwistCheck` per (loaded track, twisted track); ``dynamic``: per
+    track, the largest |twist| over 3 m of the study's runs (m) with its train, speed
+    and window start (whole-deck grid and output points), or an empty list when the
+    file has no twist; ``acceleration``: per track, the peak deck acceleration along the
+    track (m s-2, at the output points) with its train and speed; ``limit`` (m) of
+    ``line_speed_kmh``; ``acceleration_limit`` (m s-2); ``loaded_track`` (1-based);
+    ``lphi`` (m), ``maintenance``.
+    """
+
+    static: list
+    dynamic: list
+    acceleration: list
+    limit: float
+    line_speed_kmh: float
+    acceleration_limit: float
+    loaded_track: int
+    lphi: float
+    maintenance: str
+
+
+def _deck_of(ds):
+    """The deck in space rebuilt from the stored configuration, or why not (str)."""
+    from vsi_numba.analysis.checks.determinant import results_config
+    from vsi_numba.config import ConfigError, load_config
+
+    cfg = results_config(ds)
+    bridge = cfg.get("bridge", {}) if isinstance(cfg, dict) else {}
+    if not isinstance(bridge, dict) or "torsion" not in bridge:
+        return "the deck has no torsion (bridge.torsion): it does not twist"
+    try:
+        deck = load_config(cfg).deck_in_space
+    except (ConfigError, OSError, ValueError) as exc:
+        return f"the stored configuration cannot be rebuilt ({' '.join(str(exc).split())})"
+    return deck if deck is not None else "the stored configuration has no deck in space"
+
+
+def _worst(da, dims):
+    """(value, {dim: label}) of the largest finite entry of ``da``."""
+    a = np.asarray(da.values, float)
+    if not np.isfinite(a).any():
+        return float("nan"), {}
+    i = np.unravel_index(int(np.nanargmax(a)), a.shape)
+    return float(a[i]), {d: da[d].values[k] for d, k in zip(da.dims, i, strict=True)
+                         if d in dims}
+
+
+def twist_checks(ds, profile=None, length: float | None = None):
+    """EN 1990 A2.4.4.2.2 from a results file of a deck in space: the static check
+    under LM71 x Phi x alpha (:func:`static_twist_check`, each track loaded in turn)
+    and the largest twist of the dynamic runs, both against the limit of the line speed
+    (``study.line_speed_kmh``, else the highest speed of the study), and the peak deck
+    acceleration along each track (limit of the track type).
+
+    Returns
+    -------
+    TwistResults or str
+        The checks, or why they cannot be made.
+    """
+    from vsi_numba.analysis.checks.common import profile_of
+    from vsi_numba.analysis.checks.determinant import determinant_length, results_config
+    from vsi_numba.analysis.checks.load_effects import study_factors
+    from vsi_numba.analysis.dataset import prepare, track_type
+    from vsi_numba.en1990 import deck_acceleration_limits
+    from vsi_numba.en1991 import dynamic_factor
+
+    ds = prepare(ds)
+    if "max_track_displacement" not in ds:
+        return "the results hold no per-track outputs (no bridge.tracks / bridge.torsion)"
+    profile = profile_of(ds, profile)
+    study = results_config(ds).get("study", {})
+    speeds = np.asarray(ds["speed_kmh"].values if "speed_kmh" in ds.coords
+                        else ds["speed"].values * 3.6, float)
+    line = float(study.get("line_speed_kmh") or np.nanmax(speeds))
+    limit = twist_limit(line, profile)
+    alpha, maintenance = study_factors(ds)
+    lphi = determinant_length(ds, length, profile)
+    acc_limits = deck_acceleration_limits(profile)
+    acc_limit = float(acc_limits.get(track_type(ds), min(acc_limits.values())))
+    tracks = [int(t) for t in ds["track"].values]
+    dynamic, accel = [], []
+    for k in tracks:
+        if "max_deck_twist_whole_deck" in ds:
+            v1, w1 = _worst(ds["max_deck_twist_whole_deck"].sel(track=k),
+                            ("speed", "train", "twist_x"))
+            v2, w2 = _worst(ds["max_deck_twist"].sel(track=k), ("speed", "train", "point"))
+            v, w = (v1, w1) if not v2 > v1 else (v2, w2)
+            at = w.get("twist_x", w.get("point", np.nan))
+            dynamic.append((k, v, str(w.get("train", "")),
+                            float(w.get("speed", np.nan)) * 3.6, float(at)))
+        a, wa = _worst(ds["max_track_acceleration"].sel(track=k), ("speed", "train", "point"))
+        accel.append((k, a, str(wa.get("train", "")), float(wa.get("speed", np.nan)) * 3.6,
+                      float(wa.get("point", np.nan))))
+    static: list = []
+    deck = _deck_of(ds)
+    if not isinstance(deck, str) and np.isfinite(lphi.value):
+        phi = dynamic_factor(lphi.value, maintenance, profile)
+        static = static_twist_check(deck, line, alpha, phi, profile)
+    return TwistResults(static, dynamic, accel, limit, line, acc_limit,
+                        int(ds.attrs.get("loaded_track", 1)), float(lphi.value), maintenance)

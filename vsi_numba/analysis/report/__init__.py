@@ -75,6 +75,7 @@ from vsi_numba.analysis.report.text import (
     mark_unreliable,
     stored_warnings,
 )
+from vsi_numba.analysis.report.twist import twist_section
 
 __all__ = [
     "FIGURE_NAMES",
@@ -261,6 +262,9 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
     add(_cases(env))
     add(_statistics(results, env))
     body.append(load_effects.section)
+    twist = twist_section(env)
+    if twist is not None:
+        body.append(twist)
     if has_fatigue(full):
         body.append(fatigue_section(full))
     body.append(convergence_section(env, results, runner))

@@ -104,7 +104,45 @@ class _Modal(_Deck):
                                 expected="a frequency > 0 Hz")
 
 
+class TrackLine(Section):
+    """``[bridge] tracks = [{ eccentricity = y }, ...]``: one track on the deck, its centre
+    line at y from the deck's reference axis, its two rails at y +- gauge / 2."""
+
+    eccentricity: float = key(
+        0.0, unit="m", doc="y of the track centre line from the deck's reference axis "
+                           "(positive to the left looking in +x)",
+        expected="a transverse distance y of the track centre line (m)")
+    gauge: PosNum = key(1.435, unit="m", doc="distance between the rail centres (the "
+                                             "wheel-rail contact points are taken there)",
+                        expected="a gauge > 0 m (1.435 standard gauge)")
+
+
+class Torsion(Section):
+    """``[bridge] torsion = { GJ, polar_mass, damping_ratio }``: St-Venant torsion of the
+    deck (fork supports: torsion restrained at every support)."""
+
+    GJ: PerSpan = key(required=True, unit="N m^2", doc="torsional stiffness, a number or "
+                      "one per span", expected="a torsional stiffness GJ > 0 N m^2")
+    polar_mass: PerSpan = key(required=True, unit="kg m^2/m",
+                              doc="polar mass moment of inertia per length about the "
+                                  "reference axis, a number or one per span",
+                              expected="a polar mass moment per length > 0 kg m^2/m")
+    damping_ratio: Num(ge=0, lt=1) = key(0.0, doc="damping ratio of the torsional modes",
+                                         expected="a damping ratio 0 <= zeta < 1")
+    n_modes: Int(ge=1, le=MAX_MODES) = key(
+        None, default_text="every torsional mode up to the highest bending mode kept",
+        doc="torsional modes kept", expected=f"an integer number of torsional modes "
+                                             f"1 <= n_modes <= {MAX_MODES}")
+
+
 class _Beam(_Modal):
+    tracks: list[TrackLine] = key(
+        None, default_text="one track on the axis, [{ eccentricity = 0 }]",
+        doc="the tracks on the deck, each { eccentricity, gauge }; train.track picks the "
+            "loaded one", example=[{"eccentricity": 2.25}, {"eccentricity": -2.25}])
+    torsion: Torsion = key(None, default_text="none (the deck does not twist)",
+                           doc="{ GJ, polar_mass, damping_ratio }: torsional modes of the "
+                               "deck")
     spans: PerSpan = key(required=True, unit="m", doc="span lengths",
                          expected="a span length > 0 m")
     EI: PerSpan = key(required=True, unit="N m^2", doc="bending stiffness, a number or one "
@@ -349,6 +387,9 @@ class Train(Section):
     hslm_b: HslmB = key(None, doc="{N, d} of HSLM-B (required with preset \"HSLM-B\")")
     axles: Axles = key(None, doc="{file, load_unit, name}: a moving-force train from an "
                                  "axle-load CSV")
+    track: Int(ge=1) = key(1, doc="the track the train runs on (1-based, in the order of "
+                                  "bridge.tracks)",
+                           expected="a track number >= 1 (1-based, as in bridge.tracks)")
 
 
 # ------------------------------------------------------------------------ [irregularity]

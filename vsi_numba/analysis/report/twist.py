@@ -1,0 +1,78 @@
+"""The report's section on a deck in space: the deck twist check of EN 1990 A2.4.4.2.2
+(static under LM71 x Phi x alpha, and the dynamic runs) and the peak deck acceleration
+along each track (:func:`vsi_numba.analysis.checks.twist.twist_checks`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vsi_numba.analysis.checks.twist import TWIST_CLAUSE, twist_checks
+from vsi_numba.analysis.report.document import Section, markdown_table
+from vsi_numba.analysis.report.echo import fmt_number
+from vsi_numba.analysis.report.safe import md
+
+
+def _mm(v) -> str:
+    return fmt_number(1e3 * float(v), "mm", 3) if np.isfinite(v) else "–"
+
+
+def _verdict(value, limit) -> str:
+    if not np.isfinite(value):
+        return "–"
+    return "pass" if value <= limit else "**FAIL**"
+
+
+def twist_section(env) -> Section | None:
+    """The "Deck twist and tracks" section, or None for a planar deck (no per-track
+    outputs in the file)."""
+    if "max_track_displacement" not in env:
+        return None
+    res = twist_checks(env)
+    if isinstance(res, str):
+        return Section.from_markdown(["## Deck twist and tracks", "", f"Not checked: {res}."])
+    ecc = (np.asarray(env["track_eccentricity"].values, float)
+           if "track_eccentricity" in env else np.full(len(res.acceleration), np.nan))
+    lines = ["## Deck twist and tracks", "",
+             f"Deck twist over 3 m ({TWIST_CLAUSE}): limit {_mm(res.limit)} for the line "
+             f"speed {fmt_number(res.line_speed_kmh, 'km/h')} (from the code profile "
+             f"above). The train runs on track {res.loaded_track}; the rails of a "
+             "track are 1.435 m apart unless the configuration says otherwise, and the "
+             "deck model is vertical only (no roll of the vehicles, no lateral dynamics).",
+             ""]
+    if res.static:
+        a, p = res.static[0].alpha, res.static[0].phi
+        lines += [f"**Static: LM71 × Φ × α** on each track in turn (α = {fmt_number(a)}, "
+                  f"Φ = {fmt_number(p)} with L_Φ = {fmt_number(res.lphi, 'm')}, "
+                  f"{md(res.maintenance)} maintenance), placed most unfavourably:", ""]
+        rows = [[str(c.loaded), str(c.track), _mm(c.value), fmt_number(c.at, "m"),
+                 fmt_number(c.load_at, "m"), fmt_number(c.utilisation, "", 3),
+                 _verdict(c.value, c.limit)] for c in res.static]
+        lines += markdown_table(["loaded track", "twisted track", "twist", "window from",
+                                 "LM71 axle group at", "utilisation", "verdict"], rows)
+        lines.append("")
+    else:
+        lines += ["Static twist under LM71: not computed (the deck has no torsion, or no "
+                  "determinant length).", ""]
+    if res.dynamic:
+        lines += ["**Dynamic: the study's trains**, largest |twist| over the speeds "
+                  "(whole-deck grid of window starts and the output points):", ""]
+        rows = [[str(k), _mm(v), md(t), fmt_number(s, "km/h"), fmt_number(x, "m"),
+                 fmt_number(v / res.limit, "", 3), _verdict(v, res.limit)]
+                for k, v, t, s, x in res.dynamic]
+        lines += markdown_table(["track", "twist", "train", "speed", "window from",
+                                 "utilisation", "verdict"], rows)
+        lines.append("")
+    lines += [f"**Peak deck acceleration along each track** (at the output points, modes "
+              f"up to the EN 1990 A2 cut-off; limit {fmt_number(res.acceleration_limit)} "
+              "m/s²; the deck-acceleration check above takes the loaded track):", ""]
+    rows = [[str(k), fmt_number(ecc[i] if i < ecc.size else np.nan, "m"),
+             fmt_number(a, "m/s²"), md(t), fmt_number(s, "km/h"), fmt_number(x, "m"),
+             _verdict(a, res.acceleration_limit)]
+            for i, (k, a, t, s, x) in enumerate(res.acceleration)]
+    lines += markdown_table(["track", "y", "peak acceleration", "train", "speed", "at x",
+                             "verdict"], rows)
+    lines += ["", "Load effects (bending moment, shear, reactions) are those of the loaded "
+              "track's train: the beam's bending does not depend on where across the deck "
+              "the load stands. Several tracks loaded at once (trains meeting) are not "
+              "computed yet."]
+    return Section.from_markdown(lines)

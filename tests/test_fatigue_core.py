@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import reference as ref
 
 from vsi_numba.code_profile import ANNEX_D_MIXES, ANNEX_D_TYPES
 from vsi_numba.model import fatigue as fat
@@ -30,39 +31,11 @@ def test_rainflow__astm_e1049_example_counted_by_hand():
     assert c.sum() == 4.0
 
 
-def _own_rainflow(x):
-    """ASTM E1049 5.4.4 (three-point rule), written here from the standard's text."""
-    x = np.asarray(x, float)
-    d = np.diff(x)
-    keep = np.r_[True, d[1:] * d[:-1] < 0, True] & np.r_[True, d != 0]
-    pts = list(x[keep])
-    stack: list[float] = []
-    out: list[tuple[float, float]] = []
-    for p in pts:
-        stack.append(p)
-        while len(stack) >= 3:
-            X = abs(stack[-1] - stack[-2])
-            Y = abs(stack[-2] - stack[-3])
-            if X < Y:
-                break
-            if len(stack) == 3:  # Y holds the starting point: half cycle
-                out.append((Y, 0.5))
-                stack.pop(0)
-            else:
-                out.append((Y, 1.0))
-                last = stack.pop()
-                stack.pop()
-                stack.pop()
-                stack.append(last)
-    out += [(abs(b - a), 0.5) for a, b in zip(stack[:-1], stack[1:], strict=True)]
-    return out
-
-
 def test_rainflow__random_history_against_a_counting_written_here():
     rng = np.random.default_rng(3)
     x = np.cumsum(rng.normal(size=3000)) + 5 * np.sin(np.arange(3000) / 7.0)
     r, c = fat.rainflow_cycles(x)
-    mine = _own_rainflow(x)
+    mine = ref.rainflow_astm(x)  # ASTM E1049 5.4.4, written in tests/reference.py
     # the same cycles (ranges sorted; both are exact rainflow counts of the same data)
     np.testing.assert_allclose(np.sort(r), np.sort([m[0] for m in mine]), rtol=1e-12)
     assert c.sum() == pytest.approx(sum(m[1] for m in mine))

@@ -157,6 +157,30 @@ class Config:
         return int(self._resolved["train"].get("track", 1))
 
     @property
+    def other_trains(self) -> list[dict]:
+        """The trains on other tracks in the same run (``train.other_trains``): resolved
+        ``{track (1-based), direction ('same' | 'opposite'), offset (m)}``; empty: one
+        train per run."""
+        return [dict(o) for o in self._resolved["train"].get("other_trains", [])]
+
+    def bridge_on_track(self, train, track: int, direction: str = "same"):
+        """:meth:`bridge_for` ``train`` on ``track`` (1-based) of the deck in space; for
+        ``direction = 'opposite'`` the deck seen from its far end
+        (:func:`vsi_numba.model.bridge.reversed_bridge`): a train running in -x is a
+        train running in +x on the reversed deck, and its modal coordinates are the
+        deck's own."""
+        bridge = self.bridge_for(train)
+        space = self._bridge.space
+        if space is not None and track != self.train_track:
+            base = space.track_bridge(track - 1)
+            bridge = dataclasses.replace(bridge, values=base.values, slopes=base.slopes,
+                                         nodes=base.nodes, kind=base.kind,
+                                         description=base.description)
+        if direction == "opposite":
+            bridge = _bridge.reversed_bridge(bridge)
+        return bridge
+
+    @property
     def load_distribution(self) -> _dist.LoadDistribution | None:
         """The distribution of the moving forces by the track (``track.load_distribution``,
         :mod:`vsi_numba.model.distribution`), or None: point forces on the deck line."""
@@ -498,6 +522,39 @@ def _check_run_count(cfg: Config, source: str) -> None:
                           source=source)
 
 
+def _other_train_checks(chk, bridge, train) -> None:
+    """``train.other_trains`` against the bridge's tracks and the trains: each on a track
+    of ``bridge.tracks`` other than ``train.track`` and the others, moving forces only
+    (their runs are superposed: exact for a linear deck under prescribed forces), on a
+    deck without the FE track layer."""
+    others = train.resolved["other_trains"]
+    n_tracks = len(bridge.resolved.get("tracks", [{}]))
+    own = int(train.resolved.get("track", 1))
+    seen = {own}
+    for i, o in enumerate(others):
+        k = int(o["track"])
+        p = f"train.other_trains[{i}].track"
+        if k > n_tracks:
+            chk.error(p, k, f"a track of bridge.tracks, 1 .. {n_tracks} (the bridge has "
+                            f"{n_tracks} track{'s' if n_tracks != 1 else ''}: give "
+                            "bridge.tracks = [{ eccentricity = .. }, ...])")
+        elif k in seen:
+            chk.error(p, k, f"a track not loaded yet (train.track = {own}"
+                            + "".join(f", other_trains[{j}].track = {int(q['track'])}"
+                                      for j, q in enumerate(others[:i])) + ")")
+        seen.add(k)
+    if "track" in bridge.resolved:
+        chk.error("train.other_trains", others, "no other trains with the FE track layer "
+                  "[bridge.track] (its track is the deck's line: one track)")
+    dyn = [tr.name for tr in train.trains if any(v.n_dof > 0 for v in tr.vehicles)]
+    if dyn:
+        chk.error("train.other_trains", others,
+                  "moving-force trains (train.model = \"moving_force\"): the trains on "
+                  "the other tracks are added by superposing their runs, which is exact "
+                  "for prescribed forces on the linear deck only, not for vehicles that "
+                  f"interact with it ({', '.join(dyn[:3])}{' ...' if len(dyn) > 3 else ''})")
+
+
 def _distribution_checks(chk, track, solver, train) -> None:
     """Warn when ``track.load_distribution`` has no moving force to act on (interaction
     trains only), or when its forces reach beyond the approach: the first axle's forward
@@ -546,6 +603,8 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
             chk.error("train.track", train.resolved["track"],
                       f"a track of bridge.tracks, 1 .. {n_tracks} (the bridge has "
                       f"{n_tracks} track{'s' if n_tracks != 1 else ''})")
+    if _ok(bridge, train) and _ok(train.resolved.get("other_trains")):
+        _other_train_checks(chk, bridge, train)
     irr = _irregularity_section(chk, data.get("irregularity", _MISSING), base)
     stem = path.stem if path is not None else "run"
     code_profile = _code_profile_section(chk, data.get("code_profile", _MISSING))

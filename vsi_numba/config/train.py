@@ -281,6 +281,29 @@ def _get_preset(chk, name, path, model):
     return train
 
 
+def _other_trains(chk, items):
+    """``train.other_trains`` (declared: :class:`~.schema.models.OtherTrain`): the list of
+    resolved ``{track, direction, offset}`` or ``_BAD``."""
+    path = "train.other_trains"
+    if not isinstance(items, list) or not items or len(items) > 19:
+        return chk.error(path, items, "a list of 1 to 19 trains on other tracks, each "
+                                      "{ track = k, direction = \"same\" | \"opposite\", "
+                                      "offset = m }")
+    out = []
+    for i, it in enumerate(items):
+        p = f"{path}[{i}]"
+        if chk.table(it, p, keys_of(_m.OtherTrain),
+                     what=" { track = k, direction, offset }") is _BAD:
+            out = _BAD
+            continue
+        v = chk.fields(it, p, _m.OtherTrain)
+        if out is not _BAD and _ok(*v.values()):
+            out.append(v)
+        else:
+            out = _BAD
+    return out
+
+
 def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
     path = "train"
     allowed = keys_of(_m.Train)
@@ -301,6 +324,10 @@ def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
     res: dict[str, Any] = {}
     if "track" in d:  # only when given: files without it keep their resolved form
         res["track"] = chk.fields(d, path, _m.Train, ["track"])["track"]
+    if "other_trains" in d:
+        others = _other_trains(chk, d["other_trains"])
+        if _ok(others):
+            res["other_trains"] = others
     if "vehicles" in d:
         name = chk.string(d, path, "name", "a train name (string)",
                           default=title if title else "custom")

@@ -222,6 +222,38 @@ SPACE_ENVELOPES = {
         "whole-deck grid", {}),
 }
 
+#: Suffix of the envelopes with every train of a run loaded (``train.other_trains``).
+ALL_TRACKS_SUFFIX = "_all_tracks"
+
+#: The variables that have an every-train-loaded twin (:data:`ALL_TRACKS`).
+ALL_TRACKS_BASES = (
+    "max_deck_displacement", "time_of_max_deck_displacement", "max_deck_acceleration",
+    "time_of_max_deck_acceleration", "max_deck_acceleration_whole_deck",
+    "time_of_max_deck_acceleration_whole_deck", "position_of_max_deck_acceleration_whole_deck",
+    *(f"{pre}{ext}_{name}" for name in ("bending_moment", "shear_force", "support_reaction",
+                                        "end_rotation")
+      for ext in ("max", "min") for pre in ("", "time_of_")),
+    *SPACE_ENVELOPES,
+)
+
+
+def _all_tracks() -> dict:
+    out = {}
+    for base in ALL_TRACKS_BASES:
+        dims, units, long_name, attrs = {**ENVELOPES, **SPACE_ENVELOPES}[base]
+        out[base + ALL_TRACKS_SUFFIX] = (
+            dims, units, f"{long_name}, every train of the run loaded",
+            {**attrs, "loading": "the run's train on train.track and the same train on "
+                                 "each track of train.other_trains, superposed"})
+    return out
+
+
+#: Envelopes with every train of a run on its track (``train.other_trains``: trains
+#: meeting or side by side), by superposition of the trains' runs
+#: (:mod:`vsi_numba.solver.superpose`); the variables without the suffix are the run's
+#: train alone (one track loaded).
+ALL_TRACKS = _all_tracks()
+
 #: Per-case diagnostics.
 DIAGNOSTICS = {
     "status": (
@@ -338,7 +370,8 @@ COORDS = {
 
 def attrs_for(name: str) -> dict:
     """CF attributes (units, long_name, ...) for a declared variable or coordinate."""
-    for table in (HISTORIES, ENVELOPES, SPACE_ENVELOPES, DIAGNOSTICS, STUDY_VARIABLES, FATIGUE):
+    for table in (HISTORIES, ENVELOPES, SPACE_ENVELOPES, ALL_TRACKS, DIAGNOSTICS,
+                  STUDY_VARIABLES, FATIGUE):
         if name in table:
             _, units, long_name, extra = table[name]
             return {"units": units, "long_name": long_name, **extra}

@@ -28,6 +28,7 @@ import numpy as np
 from vsi_numba.io.netcdf import CASE_DIMS, MAX_TIME_CHUNK
 from vsi_numba.io.schema import (
     DIAGNOSTICS,
+    ALL_TRACKS,
     ENVELOPES,
     HISTORIES,
     SPACE_ENVELOPES,
@@ -256,6 +257,11 @@ class StudyFile:
                 continue
             self.vars[name] = self._float(name, (*case, *dims), attrs_for(name))
             self.found[name] = False
+        for name, (dims, *_rest) in ALL_TRACKS.items():
+            if name in self.omit:
+                continue
+            self.vars[name] = self._float(name, (*case, *dims), attrs_for(name))
+            self.found[name] = False
         for name in DIAGNOSTICS:
             var = nc.createVariable(name, "i4", case)
             _put_attrs(var, {**attrs_for(name), "coordinates": self._coords_attr(case)})
@@ -341,6 +347,13 @@ class StudyFile:
                 block = np.full((a.shape[0], *(self.sizes[d] for d in dims)), np.nan)
                 block[:, :a.shape[1], :a.shape[2]] = a
                 parts[name] = (None, block)
+        for name, (dims, *_rest) in ALL_TRACKS.items():
+            if name in self.omit or name not in data:
+                continue
+            a = np.asarray(data[name], float)
+            block = np.full((a.shape[0], *(self.sizes[d] for d in dims)), np.nan)
+            block[(slice(None), *(slice(0, k) for k in a.shape[1:]))] = a
+            parts[name] = (None, block)
         for name in DIAGNOSTICS:
             parts[name] = (None, data[name].astype(np.int32))
         parts["message"] = (None, np.array([str(m) for m in data["message"]], dtype=object))

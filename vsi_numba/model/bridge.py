@@ -126,6 +126,38 @@ class ModalBridge:
         return (self.deck if self.deck is not None else self).shapes(x, derivative)
 
 
+def reversed_bridge(bridge: ModalBridge) -> ModalBridge:
+    """The bridge seen from its far end, x' = length - x: the same modes (frequencies,
+    damping, modal coordinates), each shape read backwards.  A train running in -x on
+    ``bridge`` is a train running in +x on the reversed one (trains meeting,
+    ``train.other_trains``).
+
+    Sine modes change sign where sin(n pi (L - x) / L) = (-1)^(n+1) sin(n pi x / L);
+    tables are mirrored (values reversed, slopes reversed and negated).  The static deck
+    is left out (None): the load effects of a reversed run take the loads back to x.
+    """
+    length = float(bridge.length)
+    if bridge.kind == SINE:
+        sign = (-1.0) ** np.arange(bridge.n_modes)
+        values = np.ascontiguousarray(bridge.values * sign[None, :])
+        nodes, slopes = bridge.nodes, bridge.slopes
+    elif bridge.kind == HERMITE:
+        nodes = np.ascontiguousarray(length - bridge.nodes[::-1])
+        values = np.ascontiguousarray(bridge.values[::-1])
+        slopes = np.ascontiguousarray(-bridge.slopes[::-1])
+    else:
+        nodes, values, slopes = bridge.nodes, bridge.values, bridge.slopes
+    deck = bridge.deck
+    return ModalBridge(
+        kind=bridge.kind, length=length, frequencies=bridge.frequencies,
+        damping=bridge.damping, nodes=nodes, values=values, slopes=slopes,
+        supports=np.ascontiguousarray(length - np.asarray(bridge.supports)[::-1]),
+        description=f"{bridge.description}; seen from its far end (x' = L - x)",
+        effective_mass_fraction=bridge.effective_mass_fraction,
+        deck=None if deck is None else reversed_bridge(deck), track=bridge.track,
+        static=None, load_distribution=bridge.load_distribution)
+
+
 def per_mode(value, n, name):
     """One value per retained mode: a scalar for every mode, or the first ``n`` of a list
     (ValueError when it has fewer than ``n``)."""

@@ -332,15 +332,15 @@ class BatchResult:
             data[f"time_of_min_{name}"] = red.le_min_t[:, cols]
         return data
 
-    def effect_histories(self, r: int) -> dict[str, np.ndarray]:
+    def effect_histories(self, r: int, mirror: float | None = None,
+                         static=None) -> dict[str, np.ndarray]:
         """Load-effect histories of run ``r`` (which must have a slot), by the same
         mode-acceleration formula as the kernel but from the stored modal coordinates,
-        modal forces and contact forces, with the static part from
-        :func:`vsi_numba.model.influence.influence`: ``bending_moment``,
-        ``shear_force`` (time, point), ``support_reaction``, ``rotation``
-        (time, support).  Empty when the load effects were not computed."""
-        from vsi_numba.model.influence import influence
-
+        modal forces and contact forces (:func:`effect_series`): ``bending_moment``,
+        ``shear_force`` (time, point), ``support_reaction``, ``rotation`` (time,
+        support).  Empty when the load effects were not computed.  ``mirror``: the run
+        went over the deck seen from its far end (a train in -x), its loads stand at
+        ``mirror - x``; ``static``: the static deck (default the run's)."""
         e = self.effects
         h = int(self.slots[r])
         if e is None or h < 0:
@@ -353,26 +353,11 @@ class BatchResult:
         force = np.concatenate([self.out.X[h, :n],
                                 np.broadcast_to(veh.load_p, (n, veh.load_p.size))], axis=1)
         x = x0[None, :] + self.speeds[r] * t[:, None]  # (n, n_load)
+        if mirror is not None:
+            x = mirror - x
         c = self.out.q[h, :n] - self.out.fq[h, :n] * e.w2inv  # q - F / w^2
-        static = self.static_deck
-        points = e.sections[e.point_index]
-        k = np.arange(e.n_supports)
-        chan = self._effect_channels()
-        # only the (step, load) pairs with a force on the deck: a load is on a short deck
-        # for a few per cent of a long train's steps
-        step, load = np.nonzero((x >= e.supports[0]) & (x <= e.supports[-1])
-                                & (force != 0.0))
-        xs, fs = x[step, load], force[step, load]
-        out = {}
-        for name, effect, at, cols in (
-                ("bending_moment", "moment", points, chan["bending_moment"]),
-                ("shear_force", "shear", points, chan["shear_force"]),
-                ("support_reaction", "reaction", k, chan["support_reaction"]),
-                ("rotation", "rotation", k, chan["end_rotation"])):
-            g = influence(static, effect, at, xs) * fs  # (len(at), pairs)
-            total = np.stack([np.bincount(step, weights=row, minlength=n) for row in g],
-                             axis=1) if len(at) else np.zeros((n, 0))
-            out[name] = total + c @ e.E[:, cols]
+        out = effect_series(e, self.static_deck if static is None else static, x, force, c,
+                            self._effect_channels())
         if self.status[r] != ek.OK:
             for a in out.values():
                 a[...] = np.nan
@@ -420,6 +405,36 @@ class BatchResult:
         return {"deck_displacement": disp, "deck_acceleration": acc, "contact_force": X,
                 "in_contact": contact, "carbody_acceleration": body,
                 **self.effect_histories(r)}
+
+
+def effect_series(e: LoadEffectTables, static, x: np.ndarray, force: np.ndarray,
+                  c: np.ndarray, chan: dict) -> dict[str, np.ndarray]:
+    """Load-effect histories by the mode-acceleration formula: the static effect of the
+    forces ``force`` at ``x`` (both (n, n_load); from
+    :func:`vsi_numba.model.influence.influence` of the ``static`` deck) plus ``c @ E``,
+    ``c`` = q - F / w^2 (n, n_m); ``chan``: :meth:`BatchResult._effect_channels`.
+    Returns ``bending_moment``, ``shear_force`` (n, point), ``support_reaction``,
+    ``rotation`` (n, support)."""
+    from vsi_numba.model.influence import influence
+
+    n = x.shape[0]
+    points = e.sections[e.point_index]
+    k = np.arange(e.n_supports)
+    # only the (step, load) pairs with a force on the deck: a load is on a short deck
+    # for a few per cent of a long train's steps
+    step, load = np.nonzero((x >= e.supports[0]) & (x <= e.supports[-1]) & (force != 0.0))
+    xs, fs = x[step, load], force[step, load]
+    out = {}
+    for name, effect, at, cols in (
+            ("bending_moment", "moment", points, chan["bending_moment"]),
+            ("shear_force", "shear", points, chan["shear_force"]),
+            ("support_reaction", "reaction", k, chan["support_reaction"]),
+            ("rotation", "rotation", k, chan["end_rotation"])):
+        g = influence(static, effect, at, xs) * fs  # (len(at), pairs)
+        total = np.stack([np.bincount(step, weights=row, minlength=n) for row in g],
+                         axis=1) if len(at) else np.zeros((n, 0))
+        out[name] = total + c @ e.E[:, cols]
+    return out
 
 
 def run_batch(packed: Packed, profile: Profile, speeds, points, settings: SolverSettings,

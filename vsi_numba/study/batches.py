@@ -96,7 +96,7 @@ def history_bytes(packed, n_steps: int) -> int:
 def plan_batches(grid, packed_trains, n_points: int,
                  batch_seconds: float = BATCH_SECONDS,
                  history_limit: int = BATCH_HISTORY_BYTES, variant: int | None = None,
-                 start: int = 0) -> list[Batch]:
+                 start: int = 0, trains_per_run: int = 1) -> list[Batch]:
     """Cut the study grid into batches (deterministic; see the module notes).
 
     Parameters
@@ -106,12 +106,16 @@ def plan_batches(grid, packed_trains, n_points: int,
         One packed model per train of the grid (any speed).
     n_points : int
         Deck output points (the reductions cost grows with them).
+    trains_per_run : int
+        Trains in each run (``train.other_trains``): more than one runs every train and
+        keeps every run's histories (:mod:`vsi_numba.solver.superpose`), which both
+        count.
     """
     speeds = np.asarray(grid.speeds_kmh, float) / 3.6
     n_i = len(grid.irregularities)
     batches: list[Batch] = []
     for i_t, packed in enumerate(packed_trains):
-        per_step = step_cost(packed, n_points)
+        per_step = step_cost(packed, n_points) * trains_per_run
         steps = [packed.n_steps(v) for v in speeds]
         blocks: list[list[int]] = []
         block: list[int] = []
@@ -119,7 +123,8 @@ def plan_batches(grid, packed_trains, n_points: int,
         hist = 0
         for i_s, n in enumerate(steps):
             c = per_step * n
-            h = history_bytes(packed, n) if grid.history_speeds[i_s] else 0
+            h = (history_bytes(packed, n) * trains_per_run
+                 if grid.history_speeds[i_s] or trains_per_run > 1 else 0)
             if block and (cost + c > batch_seconds or hist + h > history_limit):
                 blocks.append(block)
                 block, cost, hist = [], 0.0, 0
@@ -144,7 +149,9 @@ def plan_batches(grid, packed_trains, n_points: int,
 @functools.lru_cache(maxsize=256)
 def _packed_train(spec, i_train: int):
     """The packed model of train ``i_train`` (once per process), smooth track; the
-    bridge carries the EN 1991-2 additional damping when the train is moving forces."""
+    bridge carries the EN 1991-2 additional damping when the train is moving forces.
+    With trains on other tracks its runs last until the last of them has left the deck
+    (the largest ``train.other_trains`` offset longer)."""
     from vsi_numba.model.irregularity import no_irregularity
     from vsi_numba.solver.simulate import pack
     from vsi_numba.study.spec import study_model
@@ -152,7 +159,34 @@ def _packed_train(spec, i_train: int):
     model = study_model(spec)
     train = model.trains[i_train]
     bridge = model.config.bridge_for(train)
-    return pack(bridge, train, 1.0, no_irregularity(), model.settings)
+    packed = pack(bridge, train, 1.0, no_irregularity(), model.settings)
+    others = getattr(model.config, "other_trains", [])
+    if others:
+        longer = max(float(o["offset"]) for o in others)
+        packed = dataclasses.replace(packed, run_length=packed.run_length + longer)
+    return packed
+
+
+@functools.lru_cache(maxsize=256)
+def _other_trains(spec, i_train: int) -> tuple:
+    """The trains on the other tracks of train ``i_train``'s runs
+    (``train.other_trains``; :class:`~vsi_numba.solver.superpose.OtherTrain`), packed
+    once per process."""
+    from vsi_numba.model.irregularity import no_irregularity
+    from vsi_numba.solver.simulate import pack
+    from vsi_numba.solver.superpose import OtherTrain, shifted
+    from vsi_numba.study.spec import study_model
+
+    model = study_model(spec)
+    cfg = model.config
+    train = model.trains[i_train]
+    out = []
+    for o in getattr(cfg, "other_trains", []):
+        bridge = cfg.bridge_on_track(train, int(o["track"]), o["direction"])
+        p = pack(bridge, train, 1.0, no_irregularity(), model.settings)
+        out.append(OtherTrain(shifted(p, float(o["offset"])), o["direction"] == "opposite",
+                              float(bridge.length)))
+    return tuple(out)
 
 
 def _spec_of(spec, batch):
@@ -194,8 +228,16 @@ def run_batch_task(spec, batch: Batch) -> dict:
     model = study_model(spec)
     packed, profile = packed_for(spec, batch.i_train, batch.i_irregularity)
     speeds = np.asarray(model.speeds_kmh, float)[list(batch.speeds)] / 3.6
-    res = run_batch(packed, profile, speeds, model.output_points, model.settings,
-                    model.bridge, keep_histories=batch.histories, deck=model.deck)
+    others = _other_trains(spec, batch.i_train)
+    extra = {}
+    if others:
+        from vsi_numba.solver.superpose import run_with_others
+
+        res, extra = run_with_others(packed, profile, speeds, model.output_points,
+                                     model.settings, model.bridge, list(others), model.deck)
+    else:
+        res = run_batch(packed, profile, speeds, model.output_points, model.settings,
+                        model.bridge, keep_histories=batch.histories, deck=model.deck)
     out: dict = {
         "status": res.status.astype(np.int32),
         "max_iterations": res.red.iters.astype(np.int32),
@@ -203,6 +245,7 @@ def run_batch_task(spec, batch: Batch) -> dict:
         "kernel_seconds": np.float64(res.elapsed),
     }
     out.update({name: np.ascontiguousarray(v) for name, v in res.envelopes().items()})
+    out.update(extra)
     runs = [r for r in range(speeds.size) if batch.histories[r]]
     if runs:
         # histories of the dynamic wheels only: a moving force's "contact force" is its
@@ -235,7 +278,8 @@ def _packed_trains(spec, model) -> list:
 def study_plan(spec, model, grid, variant: int | None = None, start: int = 0) -> list[Batch]:
     """The batch plan of a study (deterministic, see :func:`plan_batches`)."""
     return plan_batches(grid, _packed_trains(spec, model), model.output_points.size,
-                        variant=variant, start=start)
+                        variant=variant, start=start,
+                        trains_per_run=1 + len(getattr(model.config, "other_trains", [])))
 
 
 def plan_fingerprint(plan: list[Batch]) -> str:

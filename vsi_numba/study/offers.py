@@ -17,6 +17,8 @@ import json
 import numpy as np
 
 from vsi_numba.io.schema import (
+    ALL_TRACKS,
+    ALL_TRACKS_SUFFIX,
     ENVELOPES,
     HISTORIES,
     LOAD_EFFECT_HISTORIES,
@@ -110,7 +112,13 @@ def not_offered(models, packed) -> dict[str, str]:
         out.update(dict.fromkeys(CONTACT_HISTORIES, "moving forces only: each contact force "
                                                     "is the prescribed axle load "
                                                     "(static_wheel_load)"))
-    known = set(ENVELOPES) | set(HISTORIES) | set(SPACE_ENVELOPES)
+    if not any(getattr(m.config, "other_trains", []) for m in models):
+        out.update(dict.fromkeys(ALL_TRACKS, "one train per run: no train.other_trains "
+                                             "(trains on other tracks in the same run)"))
+    else:  # what the run's train alone cannot give, every train together cannot either
+        n = len(ALL_TRACKS_SUFFIX)
+        out.update({k: out[k[:-n]] for k in ALL_TRACKS if k[:-n] in out})
+    known = set(ENVELOPES) | set(HISTORIES) | set(SPACE_ENVELOPES) | set(ALL_TRACKS)
     return {k: v for k, v in out.items() if k in known}
 
 

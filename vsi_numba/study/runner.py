@@ -249,6 +249,11 @@ def _global_attrs(model: StudyModel, config_json: str, sha: str, grid: StudyGrid
     attrs["warnings_json"] = json.dumps(records, ensure_ascii=False)
     if getattr(cfg, "deck_in_space", None) is not None:
         attrs["loaded_track"] = int(cfg.train_track)  # 1-based, as train.track
+    others = getattr(cfg, "other_trains", [])
+    if others:  # the ..._all_tracks variables: every train of a run loaded
+        attrs["other_trains"] = json.dumps(others)
+        attrs["loaded_tracks_all"] = " ".join(
+            str(k) for k in sorted([int(cfg.train_track), *(int(o["track"]) for o in others)]))
     return attrs
 
 

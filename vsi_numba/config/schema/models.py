@@ -367,6 +367,27 @@ class Axles(Section):
                      expected="a train name (string)")
 
 
+#: Directions of travel of a train on another track (``train.other_trains``).
+DIRECTIONS = ("same", "opposite")
+
+
+class OtherTrain(Section):
+    """``[train] other_trains = [{ track = 2, direction = "opposite", offset = 0 }]``: the
+    run's train once more, on another track of ``bridge.tracks``, in the same run (trains
+    meeting on the deck, or side by side); moving forces only."""
+
+    track: Int(ge=1) = key(required=True, doc="the track of this train (1-based, as in "
+                                              "bridge.tracks; not train.track)",
+                           expected="a track number >= 1 (1-based, as in bridge.tracks)")
+    direction: one_of(DIRECTIONS) = key(
+        "same", doc="direction of travel: 'same' as the run's train (+x) or 'opposite' "
+                    "(-x: it enters at the far end of the deck; trains meeting)")
+    offset: Num(ge=0) = key(0.0, unit="m", doc="how far behind the run's train it starts: "
+                                                "it enters its end of the deck offset / v "
+                                                "after the run's train enters its own",
+                            expected="a distance >= 0 m")
+
+
 class Train(Section):
     """``[train]``: exactly one of ``preset``, ``file`` or ``[[train.vehicles]]`` (``axles``
     may come alone or next to presets / a file)."""
@@ -390,6 +411,12 @@ class Train(Section):
     track: Int(ge=1) = key(1, doc="the track the train runs on (1-based, in the order of "
                                   "bridge.tracks)",
                            expected="a track number >= 1 (1-based, as in bridge.tracks)")
+    other_trains: list[OtherTrain] = key(
+        None, default_text="none: one train per run",
+        doc="the same train on other tracks in the same run, each { track, direction, "
+            "offset }: the results add the envelopes with every train loaded "
+            "(`..._all_tracks`); moving forces only",
+        example=[{"track": 2, "direction": "opposite", "offset": 0.0}])
 
 
 # ------------------------------------------------------------------------ [irregularity]

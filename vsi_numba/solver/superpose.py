@@ -1,0 +1,167 @@
+"""Several trains in one run: the run's train on its track and the same train on other
+tracks (``train.other_trains``), same or opposite direction, each with a start offset.
+
+The kernels run one train per run.  The deck is linear and moving forces are prescribed,
+so the response to several trains is the sum of the responses to each: every train is
+run on its own track line (a train in -x on the deck seen from its far end,
+:func:`vsi_numba.model.bridge.reversed_bridge`, whose modal coordinates are the deck's
+own), over one common time grid, with its modal histories kept; their sum is the deck's
+response to all of them, exact to round-off.  The envelopes with every train loaded
+(:data:`vsi_numba.io.schema.ALL_TRACKS`) are reduced from the summed histories as the
+kernels reduce a run's: first time (and point) of the largest |value|.  Interaction
+trains are refused by the configuration: their wheels and the deck interact, and runs of
+separate trains do not add up.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from vsi_numba import kernels as ek
+from vsi_numba.io.schema import ALL_TRACKS_SUFFIX
+from vsi_numba.solver.batch import BatchResult, effect_series, run_batch
+from vsi_numba.solver.pack import Packed
+
+
+@dataclass(frozen=True)
+class OtherTrain:
+    """A train on another track: its packed model (the bridge it runs on is its track's
+    line, reversed for ``reversed``) and where its loads stand on the deck."""
+
+    packed: Packed
+    reversed: bool  # runs in -x: its loads stand at length - x
+    length: float  # m, the deck's length (the mirror of a reversed run)
+
+
+def shifted(packed: Packed, offset: float) -> Packed:
+    """``packed`` starting ``offset`` m further back (it enters the deck offset / v
+    later), its run ``offset`` m longer."""
+    if offset == 0.0:
+        return packed
+
+    def back(v):
+        return None if v is None else v._replace(
+            load_x0=np.ascontiguousarray(v.load_x0 - offset),
+            wheel_x0=np.ascontiguousarray(v.wheel_x0 - offset))
+
+    return dataclasses.replace(packed, vehicles=back(packed.vehicles),
+                               distributed=back(packed.distributed),
+                               run_length=packed.run_length + offset)
+
+
+def common_length(packed: Packed, others: list[OtherTrain]) -> list[Packed]:
+    """Every model with the run length of the longest (one time grid for all)."""
+    models = [packed, *(o.packed for o in others)]
+    longest = max(p.run_length for p in models)
+    return [dataclasses.replace(p, run_length=longest) for p in models]
+
+
+def run_with_others(packed: Packed, profile, speeds, points, settings, bridge,
+                    others: list[OtherTrain], deck: tuple) -> tuple[BatchResult, dict[str, np.ndarray]]:
+    """Run the run's train and every other train over one time grid; return the run's
+    :class:`BatchResult` (its own envelopes: one track loaded; it keeps the histories of
+    every run: write those asked for only) and the envelopes with every train loaded (:func:`all_tracks_envelopes`).
+    """
+    models = common_length(packed, others)
+    every = np.ones(np.size(speeds), bool)
+    main = run_batch(models[0], profile, speeds, points, settings, bridge,
+                     keep_histories=every, deck=deck)
+    runs = [run_batch(p, profile, speeds, points, settings, bridge, keep_histories=every,
+                      deck=deck) for p in models[1:]]
+    env = all_tracks_envelopes(main, [(r, o) for r, o in zip(runs, others, strict=True)],
+                               deck)
+    return main, env
+
+
+def _first_max(a: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Largest |a| over axis 0 and the time of its first occurrence."""
+    b = np.abs(a)
+    i = np.argmax(b, axis=0)
+    return np.take_along_axis(b, i[None], axis=0)[0], t[i]
+
+
+def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, OtherTrain]],
+                         deck: tuple) -> dict[str, np.ndarray]:
+    """Envelopes of the summed response of ``main`` and ``others`` (every run of each
+    kept its histories), named with :data:`~vsi_numba.io.schema.ALL_TRACKS_SUFFIX`: the
+    deck at the output points, the whole-deck acceleration, the per-track rows (deck in
+    space) and the load effects at the points and supports.  NaN rows where a run of
+    any train failed."""
+    phi_d, phi_a = main.phi_d, main.phi_a
+    n_ka = deck[4].shape[0] if len(deck) > 4 and np.size(deck[3]) else 0
+    phi_g = np.asarray(deck[4]) if n_ka else np.zeros((0, 0))
+    grid = np.asarray(deck[3], float) if n_ka else np.zeros(0)
+    space = main.space
+    n_p = phi_d.shape[0] if space is None else space.n_points
+    keep_a = np.any(phi_a != 0.0, axis=0)
+    n_r = main.speeds.size
+    dt = main.packed.params.dt
+    rows_d, rows_dt, rows_a, rows_at = [], [], [], []
+    gacc, gacc_t, gacc_x = np.full(n_r, np.nan), np.full(n_r, np.nan), np.full(n_r, np.nan)
+    effects: dict[str, list] = {}
+    for r in range(n_r):
+        n = int(main.n_steps[r]) + 1
+        t = np.arange(n) * dt
+        h = int(main.slots[r])
+        q = main.out.q[h, :n].copy()
+        qdd = main.out.qdd[h, :n].copy()
+        for res, _o in others:
+            g = int(res.slots[r])
+            q += res.out.q[g, :n]
+            qdd += res.out.qdd[g, :n]
+        d, dtime = _first_max(q @ phi_d.T, t)
+        a, atime = _first_max(qdd[:, keep_a] @ phi_a[:, keep_a].T, t)
+        rows_d.append(d)
+        rows_dt.append(dtime)
+        rows_a.append(a)
+        rows_at.append(atime)
+        if n_ka:
+            ga = np.abs(qdd[:, :n_ka] @ phi_g)  # (n, n_g)
+            k = int(np.argmax(ga))
+            gacc[r], gacc_t[r], gacc_x[r] = ga.flat[k], t[k // grid.size], grid[k % grid.size]
+        if main.effects is not None:
+            series = main.effect_histories(r)
+            for res, o in others:
+                more = res.effect_histories(r, mirror=o.length if o.reversed else None,
+                                            static=main.static_deck)
+                series = {k: v + more[k] for k, v in series.items()}
+            for name, v in series.items():
+                effects.setdefault(name, []).append(
+                    (v.max(axis=0), t[np.argmax(v, axis=0)], v.min(axis=0),
+                     t[np.argmin(v, axis=0)]))
+    stack = np.array
+    out = {"max_deck_displacement": stack(rows_d)[:, :n_p],
+           "time_of_max_deck_displacement": stack(rows_dt)[:, :n_p],
+           "max_deck_acceleration": stack(rows_a)[:, :n_p],
+           "time_of_max_deck_acceleration": stack(rows_at)[:, :n_p],
+           "max_deck_acceleration_whole_deck": gacc,
+           "time_of_max_deck_acceleration_whole_deck": gacc_t,
+           "position_of_max_deck_acceleration_whole_deck": gacc_x}
+    if space is not None:
+        d = space.split(stack(rows_d))
+        dtime = space.split(stack(rows_dt))
+        a, atime = space.split(stack(rows_a)), space.split(stack(rows_at))
+        out.update({"max_track_displacement": d["track"],
+                    "time_of_max_track_displacement": dtime["track"],
+                    "max_track_acceleration": a["track"],
+                    "time_of_max_track_acceleration": atime["track"]})
+        if space.has_twist:
+            out.update({"max_deck_twist": d["twist"], "time_of_max_deck_twist": dtime["twist"],
+                        "max_deck_twist_whole_deck": d["twist_whole"],
+                        "time_of_max_deck_twist_whole_deck": dtime["twist_whole"]})
+    names = {"bending_moment": "bending_moment", "shear_force": "shear_force",
+             "support_reaction": "support_reaction", "rotation": "end_rotation"}
+    for name, rows in effects.items():
+        stem = names[name]
+        hi, hi_t, lo, lo_t = (stack([row[i] for row in rows]) for i in range(4))
+        out.update({f"max_{stem}": hi, f"time_of_max_{stem}": hi_t,
+                    f"min_{stem}": lo, f"time_of_min_{stem}": lo_t})
+    failed = main.status != ek.OK
+    for res, _o in others:
+        failed |= res.status != ek.OK
+    for v in out.values():
+        v[failed] = np.nan
+    return {k + ALL_TRACKS_SUFFIX: v for k, v in out.items()}

@@ -603,7 +603,7 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
             chk.error("train.track", train.resolved["track"],
                       f"a track of bridge.tracks, 1 .. {n_tracks} (the bridge has "
                       f"{n_tracks} track{'s' if n_tracks != 1 else ''})")
-    if _ok(bridge, train) and _ok(train.resolved.get("other_trains")):
+    if _ok(bridge, train) and "other_trains" in train.resolved:
         _other_train_checks(chk, bridge, train)
     irr = _irregularity_section(chk, data.get("irregularity", _MISSING), base)
     stem = path.stem if path is not None else "run"

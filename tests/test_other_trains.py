@@ -10,9 +10,8 @@ import json
 import numpy as np
 import pytest
 import xarray as xr
-from test_space_config import ECC, EI, GJ, IP, MASS, N_B, N_T, TORSION, TRACKS, ZB, ZT, L
+from test_space_config import ECC, EI, GJ, IP, MASS, N_B, N_T, TORSION, TRACKS, ZB, ZT, L, _text
 from test_space_config import _sweep as _sweep_file
-from test_space_config import _text
 
 from vsi_numba.config import ConfigError, load_config
 
@@ -189,3 +188,48 @@ def test_other_trains_keep_the_run_going_until_the_last_has_left(tmp_path):
     assert n2 - n1 == pytest.approx(30.0 / 20.0 / 5e-4, abs=1)
     with xr.set_options(keep_attrs=True):
         assert float(two["max_deck_displacement_all_tracks"].max()) > 0
+
+
+def test_trains_meeting_on_a_symmetric_continuous_deck_load_it_symmetrically(tmp_path):
+    """Two equal spans, the same train on each track entering at either end at the same
+    time: the deck's response with both trains is symmetric about mid-length (the
+    reversed run is the mirror image of the run's train), so every envelope with both
+    trains at x equals the one at L - x, and the reactions at the two ends are equal;
+    the run's train alone is not symmetric."""
+    text = f"""
+        title = "meeting"
+        [bridge]
+        kind = "continuous"
+        spans = [20.0, 20.0]
+        EI = 2.0e10
+        mass_per_length = 15000.0
+        damping_ratio = 0.01
+        n_modes = 6
+        elements_per_span = 10
+        output_points = [7.0, 33.0]
+        tracks = [{{ eccentricity = 2.0 }}, {{ eccentricity = -2.0 }}]
+        [train]
+        track = 1
+        other_trains = [{{ track = 2, direction = "opposite" }}]
+        {_forces(3, 6.0, 150e3)}
+        [track]
+        model = "rigid"
+        [solver]
+        dt = 1e-3
+        approach = 0.0
+        free_vibration = 0.1
+        [study]
+        speeds_kmh = [140.0]
+        output = "out.nc"
+        """
+    import textwrap
+    ds = _sweep_file(tmp_path, textwrap.dedent(text))
+    for name in ("max_deck_displacement", "max_bending_moment", "min_bending_moment",
+                 "max_deck_acceleration"):
+        both = ds[f"{name}_all_tracks"].values
+        # mirror images to round-off (the sums of the same numbers in another order)
+        np.testing.assert_allclose(both[0], both[1], rtol=1e-9, err_msg=name)
+        one = ds[name].values
+        assert abs(one[0] / one[1] - 1) > 1e-3, name
+    r = ds["max_support_reaction_all_tracks"].values
+    np.testing.assert_allclose(r[0], r[2], rtol=1e-9)

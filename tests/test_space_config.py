@@ -416,7 +416,26 @@ def test_double_track_viaduct_config_through_sweep_and_report(tmp_path):
                   > ds["max_track_displacement"].sel(track=2).values)
     report = (tmp_path / "r" / "report.md").read_text()
     assert "## Deck twist and tracks" in report
+    # the config's second train (track 2, entering at the far end): the envelopes with
+    # both tracks loaded, and the report's verdicts with one and with two tracks loaded
+    # against LM71 on one and on both tracks (a beam deck: twice the one-track LM71)
+    assert ds.attrs["loaded_tracks_all"] == "1 2"
+    for name in ("max_bending_moment", "max_shear_force", "max_support_reaction",
+                 "max_end_rotation", "max_deck_displacement", "max_track_acceleration",
+                 "max_deck_twist_whole_deck"):
+        both = ds[f"{name}_all_tracks"].values
+        assert np.isfinite(both).all(), name
+    assert np.all(ds["max_bending_moment_all_tracks"].values
+                  > ds["max_bending_moment"].values)
+    assert "### Several tracks loaded" in report
+    from vsi_numba.analysis.checks.load_effects import load_effect_checks
+
+    one, two = load_effect_checks(ds), load_effect_checks(ds, all_tracks=True)
+    lm1 = one.envelopes.set_index(["effect", "location"])["lm71"]
+    lm2 = two.envelopes.set_index(["effect", "location"])["lm71"]
+    np.testing.assert_allclose(lm2.values, 2 * lm1.loc[lm2.index].values, rtol=1e-12)
     out = twist_checks(ds)
+    assert len(out.dynamic_all) == 2 and len(out.acceleration_all) == 2
     assert out.limit == pytest.approx(1.5e-3)  # line speed 300 km/h > 200 km/h
     gj, e, spans = 1.0e11, 2.25, (25.0, 32.0, 25.0)
     sup = np.concatenate([[0.0], np.cumsum(spans)])

@@ -188,6 +188,9 @@ TABLE: tuple[Entry, ...] = (
           "LM71: spacing of the four point forces (zone of 4 spacings, centred on them)"),
     Entry("lm71_udl", 80e3, "N m-1", _LM71,
           "LM71: distributed load q_vk outside the zone, where unfavourable"),
+    Entry("lm71_factor_several_tracks", 1.0, "1", "EN 1991-2 6.8.1, Table 6.11",
+          "LM71 (x alpha) on each loaded track when several tracks are loaded (the study's "
+          "trains on other tracks, train.other_trains): full value on two tracks"),
     Entry("classification_factor_min", 0.75, "1", "EN 1991-2 6.3.2(3)",
           "smallest load classification factor alpha (study.classification_factor)",
           applies="input"),

@@ -27,8 +27,8 @@ import numpy as np
 
 from vsi_numba.io.netcdf import CASE_DIMS, MAX_TIME_CHUNK
 from vsi_numba.io.schema import (
-    DIAGNOSTICS,
     ALL_TRACKS,
+    DIAGNOSTICS,
     ENVELOPES,
     HISTORIES,
     SPACE_ENVELOPES,

@@ -22,7 +22,7 @@ import numpy as np
 
 from vsi_numba import kernels as ek
 from vsi_numba.io.schema import ALL_TRACKS_SUFFIX
-from vsi_numba.solver.batch import BatchResult, effect_series, run_batch
+from vsi_numba.solver.batch import BatchResult, run_batch
 from vsi_numba.solver.pack import Packed
 
 
@@ -60,10 +60,13 @@ def common_length(packed: Packed, others: list[OtherTrain]) -> list[Packed]:
 
 
 def run_with_others(packed: Packed, profile, speeds, points, settings, bridge,
-                    others: list[OtherTrain], deck: tuple) -> tuple[BatchResult, dict[str, np.ndarray]]:
-    """Run the run's train and every other train over one time grid; return the run's
-    :class:`BatchResult` (its own envelopes: one track loaded; it keeps the histories of
-    every run: write those asked for only) and the envelopes with every train loaded (:func:`all_tracks_envelopes`).
+                    others: list[OtherTrain], deck: tuple
+                    ) -> tuple[BatchResult, dict[str, np.ndarray]]:
+    """Run the run's train and every other train over one time grid.
+
+    Returns the run's :class:`BatchResult` (its own envelopes: one track loaded; it
+    keeps the histories of every run: write those asked for only) and the envelopes
+    with every train loaded (:func:`all_tracks_envelopes`).
     """
     models = common_length(packed, others)
     every = np.ones(np.size(speeds), bool)

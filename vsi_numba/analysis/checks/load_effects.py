@@ -33,6 +33,7 @@ from typing import NamedTuple
 import numpy as np
 
 from vsi_numba.en1991 import LM71, lm71
+from vsi_numba.io.schema import ALL_TRACKS_SUFFIX
 
 #: Half-gap (m) of the two evaluations either side of a breakpoint crossing.
 _EPS = 1e-9
@@ -404,7 +405,8 @@ def study_factors(ds) -> tuple[float, str]:
 
 
 def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None = None,
-                       length: float | None = None, step: float = 0.05, profile=None):
+                       length: float | None = None, step: float = 0.05, profile=None,
+                       all_tracks: bool = False):
     """EN 1991-2 6.4.6 checks of the load effects in a results file.
 
     Parameters
@@ -427,6 +429,12 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
     profile : CodeProfile, optional
         Code profile (LM71, Phi, phi'', L_Phi, rotation limit, HSLM-B span); default: the
         one stored with the results.
+    all_tracks : bool
+        Every train of a run loaded (``train.other_trains``): the ``..._all_tracks``
+        envelopes against LM71 on each loaded track (x ``lm71_factor_several_tracks``);
+        the static effect of the trains is their crawl envelopes added (the trains
+        placed most unfavourably each: an upper bound of the run's arrangement), for a
+        beam deck whose bending does not depend on where across the deck a load stands.
 
     Returns
     -------
@@ -445,6 +453,11 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
     from vsi_numba.model.influence import influence
 
     ds = prepare(ds)
+    sfx = ALL_TRACKS_SUFFIX if all_tracks else ""
+    if all_tracks and not any(v + sfx in ds.variables for v in _LOAD_EFFECT_VARIABLES):
+        why = _not_computed(ds).get("max_bending_moment" + sfx)
+        return (f"the study did not compute them: {why}" if why else
+                "the results hold no load effects with every train loaded")
     if not any(v in ds.variables for v in _LOAD_EFFECT_VARIABLES):
         why = _not_computed(ds).get("max_bending_moment")
         if why:  # the study said why when it wrote the file
@@ -461,6 +474,11 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
     alpha = a0 if alpha is None else float(alpha)
     maintenance = m0 if maintenance is None else maintenance
     profile = profile_of(ds, profile)
+    n_loaded = 1
+    if all_tracks:
+        n_loaded = len(str(ds.attrs.get("loaded_tracks_all", "1 2")).split())
+    # LM71 on each loaded track; the trains' static envelopes added (see all_tracks)
+    lm_factor = 1.0 if n_loaded == 1 else n_loaded * profile["lm71_factor_several_tracks"]
     rot_limit = profile["end_rotation_limit_abutment"]
     model = lm71(profile)
     lphi = determinant_length(ds, length, profile)
@@ -495,12 +513,12 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
     crawl_abs = {}
     lm71_abs = {}
     for name, (eff, stem, dim, units, _label) in EFFECTS.items():
-        vmax = f"max_{stem}"
+        vmax = f"max_{stem}{sfx}"
         if vmax not in ds.variables or dim not in ds.dims or eff not in static.effects:
             continue
         dyn = np.abs(ds[vmax].isel(isel).transpose("speed", "train", "irregularity", dim)
                      .values)
-        vmin = f"min_{stem}"
+        vmin = f"min_{stem}{sfx}"
         if vmin in ds.variables:
             low = np.abs(ds[vmin].isel(isel).transpose("speed", "train", "irregularity", dim)
                          .values)
@@ -537,9 +555,9 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
                     load = np.concatenate([load[~mf], dload])
                 e = crawl_envelope(line, pos - pos.min(), load, bp, ext, step=step,
                                    n_at=at.size)
-                stat[t] = e.max if name == "deflection" else e.abs
+                stat[t] = (e.max if name == "deflection" else e.abs) * n_loaded
         lm = lm71_envelope(line, bp, ext, step=step, n_at=at.size, model=model)
-        lm_abs = lm.max if name == "deflection" else lm.abs
+        lm_abs = (lm.max if name == "deflection" else lm.abs) * lm_factor
         crawl_abs[name], lm71_abs[name] = stat, lm_abs
         real = dyn + 0.5 * phi2[:, None, None] * stat[None, :, :]   # (speed, train, loc)
         lm_design = phi * alpha * lm_abs
@@ -600,7 +618,7 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
                         "theta_real_design": real, "theta_design": th,
                         "limit": rot_limit, "utilisation": th / rot_limit,
                         "result": "pass" if th <= rot_limit else "FAIL"})
-    deck = _whole_deck(ds, static, isel, phi * alpha, step, model)
+    deck = {} if all_tracks else _whole_deck(ds, static, isel, phi * alpha, step, model)
     notes = []
     max_span = profile["hslm_b_max_span"]
     if any(t.casefold() == "hslm-b" for t in trains) and not (
@@ -614,7 +632,9 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
                "phi_name": "Φ3" if maintenance == "standard" else "Φ2", "phi": phi,
                "length": lphi.value, "length_rule": lphi.rule,
                "phi2_max": float(_nanmax(phi2, 0)) if phi2.size else np.nan,
-               "phi2_note": note}
+               "phi2_note": note, "n_loaded": n_loaded, "lm71_factor": lm_factor,
+               "loaded_tracks": str(ds.attrs.get("loaded_tracks_all",
+                                                 ds.attrs.get("loaded_track", 1)))}
     return LoadEffectChecks(envelopes, pd.DataFrame(phi_rows), pd.DataFrame(speed_rows),
                             pd.DataFrame(ver_rows), pd.DataFrame(rot), deck, factors)
 

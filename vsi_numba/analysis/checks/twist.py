@@ -19,6 +19,7 @@ import numpy as np
 from vsi_numba.analysis.checks.load_effects import lm71_envelope
 from vsi_numba.code_profile import resolve
 from vsi_numba.en1991 import lm71
+from vsi_numba.io.schema import ALL_TRACKS_SUFFIX
 
 #: Clause of the check (the profile's twist entries carry it too).
 TWIST_CLAUSE = "EN 1990 A2.4.4.2.2"
@@ -136,6 +137,10 @@ class TwistResults(NamedTuple):
     loaded_track: int
     lphi: float
     maintenance: str
+    #: ``dynamic`` and ``acceleration`` with every train of a run loaded
+    #: (``train.other_trains``; empty without)
+    dynamic_all: list | tuple = ()
+    acceleration_all: list | tuple = ()
 
 
 def _deck_of(ds):
@@ -196,24 +201,37 @@ def twist_checks(ds, profile=None, length: float | None = None):
     lphi = determinant_length(ds, length, profile)
     acc_limits = deck_acceleration_limits(profile)
     acc_limit = float(acc_limits.get(track_type(ds), min(acc_limits.values())))
-    tracks = [int(t) for t in ds["track"].values]
-    dynamic, accel = [], []
-    for k in tracks:
-        if "max_deck_twist_whole_deck" in ds:
-            v1, w1 = _worst(ds["max_deck_twist_whole_deck"].sel(track=k),
-                            ("speed", "train", "twist_x"))
-            v2, w2 = _worst(ds["max_deck_twist"].sel(track=k), ("speed", "train", "point"))
-            v, w = (v1, w1) if not v2 > v1 else (v2, w2)
-            at = w.get("twist_x", w.get("point", np.nan))
-            dynamic.append((k, v, str(w.get("train", "")),
-                            float(w.get("speed", np.nan)) * 3.6, float(at)))
-        a, wa = _worst(ds["max_track_acceleration"].sel(track=k), ("speed", "train", "point"))
-        accel.append((k, a, str(wa.get("train", "")), float(wa.get("speed", np.nan)) * 3.6,
-                      float(wa.get("point", np.nan))))
+    dynamic, accel = _dynamic(ds, "")
+    dynamic_all, accel_all = _dynamic(ds, ALL_TRACKS_SUFFIX)
     static: list = []
     deck = _deck_of(ds)
     if not isinstance(deck, str) and np.isfinite(lphi.value):
         phi = dynamic_factor(lphi.value, maintenance, profile)
         static = static_twist_check(deck, line, alpha, phi, profile)
     return TwistResults(static, dynamic, accel, limit, line, acc_limit,
-                        int(ds.attrs.get("loaded_track", 1)), float(lphi.value), maintenance)
+                        int(ds.attrs.get("loaded_track", 1)), float(lphi.value), maintenance,
+                        dynamic_all, accel_all)
+
+
+def _dynamic(ds, sfx: str) -> tuple[list, list]:
+    """Per track: the largest |twist| of the runs (whole-deck grid and output points)
+    and the peak acceleration along the track, from the variables named with ``sfx``
+    (none: empty lists)."""
+    dynamic, accel = [], []
+    if f"max_track_acceleration{sfx}" not in ds:
+        return dynamic, accel
+    for k in [int(t) for t in ds["track"].values]:
+        if f"max_deck_twist_whole_deck{sfx}" in ds:
+            v1, w1 = _worst(ds[f"max_deck_twist_whole_deck{sfx}"].sel(track=k),
+                            ("speed", "train", "twist_x"))
+            v2, w2 = _worst(ds[f"max_deck_twist{sfx}"].sel(track=k),
+                            ("speed", "train", "point"))
+            v, w = (v1, w1) if not v2 > v1 else (v2, w2)
+            at = w.get("twist_x", w.get("point", np.nan))
+            dynamic.append((k, v, str(w.get("train", "")),
+                            float(w.get("speed", np.nan)) * 3.6, float(at)))
+        a, wa = _worst(ds[f"max_track_acceleration{sfx}"].sel(track=k),
+                       ("speed", "train", "point"))
+        accel.append((k, a, str(wa.get("train", "")), float(wa.get("speed", np.nan)) * 3.6,
+                      float(wa.get("point", np.nan))))
+    return dynamic, accel

@@ -33,6 +33,7 @@ from vsi_numba.analysis.report.document import (
 from vsi_numba.analysis.report.safe import mathtext, natural_key
 from vsi_numba.en1990 import END_ROTATION_CLAUSE
 from vsi_numba.en1991 import ALPHA_CLAUSE, LM71_CLAUSE, PHI_CLAUSE
+from vsi_numba.io.schema import ALL_TRACKS_SUFFIX
 
 #: Title of the section.
 TITLE = "Load effects"
@@ -104,6 +105,13 @@ def load_effects_section(ds, outdir: Path | str | None = None, *, checks=None,
         blocks.append(f"Not available: {checks}.")
     else:
         blocks, tables, figure = _blocks(checks)
+        if any(v.endswith(ALL_TRACKS_SUFFIX) for v in ds.variables):
+            several = load_effect_checks(ds, alpha=alpha, maintenance=maintenance,
+                                         length=length, all_tracks=True)
+            blocks += _several_blocks(ds, several)
+            if not isinstance(several, str):
+                tables["load_effect_verdict_all_tracks"] = several.verdict
+                tables["load_effect_envelopes_all_tracks"] = several.envelopes
     section = Section(TITLE, blocks)
     figs: list = []
     lines = section_markdown(section, figs, {"figure": 0, "table": 0})
@@ -213,6 +221,52 @@ def _blocks(c: LoadEffectChecks):
                             f"LM71 (α = {fa['alpha']:g}, {ph} = {fa['phi']:.3g}).")
             blocks.append(figure)
     return blocks, tables, figure
+
+
+def _several_blocks(ds, c) -> list:
+    """The sub-section of the load effects with every train of a run loaded
+    (``train.other_trains``)."""
+    import json
+
+    blocks: list = ["### Several tracks loaded"]
+    if isinstance(c, str):
+        return blocks + [f"Not available: {c}."]
+    fa = c.factors
+    ph = fa["phi_name"]
+    others = json.loads(ds.attrs.get("other_trains", "[]"))
+    ways = {"opposite": "entering at the far end (trains meeting)",
+            "same": "same direction"}
+    where = "; ".join(f"track {o['track']}, {ways[o['direction']]}"
+                      + (f", {o['offset']:g} m behind" if o["offset"] else "")
+                      for o in others)
+    blocks.append(
+        f"Every run also had the same train on the other tracks ({where}); tracks loaded: "
+        f"{fa['loaded_tracks']}. The envelopes of the trains together come from one "
+        "time history (their runs superposed: exact for moving forces on the linear "
+        f"deck). They are compared with {ph} × α × LM71 on each loaded track (× "
+        f"{_limit(c, 'lm71_factor_several_tracks'):g}, "
+        f"{fa['profile'].clause('lm71_factor_several_tracks')}); the φ''/2 term takes the "
+        "trains' static envelopes added (an upper bound). A beam deck's bending does not "
+        "depend on where across the deck a load stands, so LM71 on n tracks is n times "
+        "LM71 on one.")
+    rows = [{"Effect": EFFECTS[r.effect][4], "Governing location": _where(r.effect, r.location),
+             "(1 + φ'dyn + φ''/2) × trains": _v(r.real_design, r.units),
+             "Train, speed": f"{r.train} at {r.speed_kmh:g} km/h",
+             f"{ph} × α × LM71 (tracks {fa['loaded_tracks']})": _v(r.lm71_design, r.units),
+             "Ratio": f"{r.ratio:.3f}", "Governs": Markdown(f"**{r.governs}**"),
+             "Margin": f"{r.margin:.3f}"}
+            for r in c.verdict.itertuples(index=False)]
+    blocks.append(Table(pd.DataFrame(rows), "Load effects with every train loaded: EN "
+                                            "1991-2 6.4.6.5(3) verdict"))
+    if not c.rotation.empty:
+        rows = [{"Deck end": f"x = {r.support:g} m",
+                 "Design θ (the larger)": _v(r.theta_design, "rad"),
+                 "Limit": _v(r.limit, "rad"), "Utilisation": f"{r.utilisation:.3f}",
+                 "Result": Markdown("**FAIL**") if r.result == "FAIL" else r.result}
+                for r in c.rotation.itertuples(index=False)]
+        blocks.append(Table(pd.DataFrame(rows), "Deck-end rotation with every train "
+                                                "loaded"))
+    return blocks
 
 
 def _figure(c: LoadEffectChecks):

@@ -53,12 +53,15 @@ def twist_section(env) -> Section | None:
     else:
         lines += ["Static twist under LM71: not computed (the deck has no torsion, or no "
                   "determinant length).", ""]
-    if res.dynamic:
-        lines += ["**Dynamic: the study's trains**, largest |twist| over the speeds "
+    for dyn, what in ((res.dynamic, f"the study's trains on track {res.loaded_track}"),
+                      (res.dynamic_all, "every train of a run loaded (train.other_trains)")):
+        if not dyn:
+            continue
+        lines += [f"**Dynamic: {what}**, largest |twist| over the speeds "
                   "(whole-deck grid of window starts and the output points):", ""]
         rows = [[str(k), _mm(v), md(t), fmt_number(s, "km/h"), fmt_number(x, "m"),
                  fmt_number(v / res.limit, "", 3), _verdict(v, res.limit)]
-                for k, v, t, s, x in res.dynamic]
+                for k, v, t, s, x in dyn]
         lines += markdown_table(["track", "twist", "train", "speed", "window from",
                                  "utilisation", "verdict"], rows)
         lines.append("")
@@ -71,8 +74,16 @@ def twist_section(env) -> Section | None:
             for i, (k, a, t, s, x) in enumerate(res.acceleration)]
     lines += markdown_table(["track", "y", "peak acceleration", "train", "speed", "at x",
                              "verdict"], rows)
-    lines += ["", "Load effects (bending moment, shear, reactions) are those of the loaded "
-              "track's train: the beam's bending does not depend on where across the deck "
-              "the load stands. Several tracks loaded at once (trains meeting) are not "
-              "computed yet."]
+    if res.acceleration_all:
+        lines += ["", "With every train of a run loaded:", ""]
+        rows = [[str(k), fmt_number(ecc[i] if i < ecc.size else np.nan, "m"),
+                 fmt_number(a, "m/s²"), md(t), fmt_number(s, "km/h"), fmt_number(x, "m"),
+                 _verdict(a, res.acceleration_limit)]
+                for i, (k, a, t, s, x) in enumerate(res.acceleration_all)]
+        lines += markdown_table(["track", "y", "peak acceleration", "train", "speed",
+                                 "at x", "verdict"], rows)
+    lines += ["", "Load effects (bending moment, shear, reactions) of the beam deck do not "
+              "depend on where across the deck a load stands: the section *Load effects* "
+              "gives them with the train on its track and, for a study with trains on "
+              "other tracks (`train.other_trains`), with every train loaded."]
     return Section.from_markdown(lines)

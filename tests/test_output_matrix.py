@@ -26,6 +26,7 @@ from typer.testing import CliRunner
 
 from vsi_numba.cli import app
 from vsi_numba.io.schema import (
+    ALL_TRACKS,
     ENVELOPES,
     HISTORIES,
     LOAD_EFFECT_HISTORIES,
@@ -128,6 +129,7 @@ CAR_END = {"max_carbody_acceleration_car_end", "time_of_max_carbody_acceleration
 def expected_absent(bridge: str, trains: str) -> set[str]:
     """What the documentation says the combination does not offer."""
     out = set(SPACE_ENVELOPES)  # no bridge.tracks / bridge.torsion: the deck is a line
+    out |= set(ALL_TRACKS)  # one train per run (no train.other_trains)
     if bridge in ("modes_file", "matrices", "rigid"):
         out |= LOAD_EFFECT_VARIABLES
     if bridge == "rigid":

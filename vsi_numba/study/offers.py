@@ -97,9 +97,9 @@ def not_offered(models, packed) -> dict[str, str]:
                                                   "bridge.torsion (simply_supported and "
                                                   "continuous decks)"))
     elif not any(x is not None and x.has_twist for x in layouts):
-        out.update(dict.fromkeys(
-            [k for k in SPACE_ENVELOPES if "twist" in k],
-            "the deck does not twist: no bridge.torsion (its modes have no torsion)"))
+        why = next((x.no_twist for x in layouts if x is not None and x.no_twist),
+                   "the deck does not twist: no bridge.torsion (its modes have no torsion)")
+        out.update(dict.fromkeys([k for k in SPACE_ENVELOPES if "twist" in k], why))
     trains = [p for per in packed for p in per]
     if not any(np.asarray(p.vehicles.body_dof).size for p in trains):
         out.update(dict.fromkeys(CARBODY, "no train has a car body (moving forces only)"))

@@ -22,12 +22,13 @@ def _verdict(value, limit) -> str:
     return "pass" if value <= limit else "**FAIL**"
 
 
-def twist_section(env) -> Section | None:
+def twist_section(env, config_dir=None, source_path=None) -> Section | None:
     """The "Deck twist and tracks" section, or None for a planar deck (no per-track
-    outputs in the file)."""
+    outputs in the file); ``config_dir``, ``source_path``: where the files of an
+    imported deck are looked for."""
     if "max_track_displacement" not in env:
         return None
-    res = twist_checks(env)
+    res = twist_checks(env, base_dir=config_dir, source_path=source_path)
     if isinstance(res, str):
         return Section.from_markdown(["## Deck twist and tracks", "", f"Not checked: {res}."])
     ecc = (np.asarray(env["track_eccentricity"].values, float)
@@ -51,8 +52,7 @@ def twist_section(env) -> Section | None:
                                  "LM71 axle group at", "utilisation", "verdict"], rows)
         lines.append("")
     else:
-        lines += ["Static twist under LM71: not computed (the deck has no torsion, or no "
-                  "determinant length).", ""]
+        lines += [f"Static twist under LM71: not computed ({md(res.static_note)}).", ""]
     if res.dynamic:
         lines += ["**Dynamic: the study's trains**, largest |twist| over the speeds "
                   "(whole-deck grid of window starts and the output points):", ""]
@@ -65,7 +65,10 @@ def twist_section(env) -> Section | None:
     lines += [f"**Peak deck acceleration along each track** (at the output points, modes "
               f"up to the EN 1990 A2 cut-off; limit {fmt_number(res.acceleration_limit)} "
               "m/s²; the deck-acceleration check above takes the loaded track):", ""]
-    rows = [[str(k), fmt_number(ecc[i] if i < ecc.size else np.nan, "m"),
+    names = ([str(v) for v in env["track_line"].values] if "track_line" in env.coords
+             else None)
+    rows = [[str(k) if names is None else f"{k} ({md(names[i])})",
+             fmt_number(ecc[i] if i < ecc.size else np.nan, "m"),
              fmt_number(a, "m/s²"), md(t), fmt_number(s, "km/h"), fmt_number(x, "m"),
              _verdict(a, res.acceleration_limit)]
             for i, (k, a, t, s, x) in enumerate(res.acceleration)]

@@ -80,6 +80,11 @@ class LineDeck3D:
     static : object or None
         Matrices decks: ``(K, fixed, lines)`` for the static rail deflections
         (:meth:`static_twist_line`); None for modes files (no stiffness).
+    warnings : tuple of str
+    labels : ndarray or None
+        Per track, the y of its centre line (m) that labels it in the results, NaN where
+        the configuration does not give it; None: every track's ``eccentricity``.  The
+        model never uses it: the lines carry the geometry.
     """
 
     bridges: tuple
@@ -88,6 +93,24 @@ class LineDeck3D:
     all_frequencies: np.ndarray
     static: object | None = None
     warnings: tuple[str, ...] = ()
+    labels: np.ndarray | None = None
+
+    @property
+    def eccentricities(self) -> np.ndarray:
+        """Per track, the y (m) of :attr:`labels` (NaN: not given)."""
+        if self.labels is not None:
+            return np.asarray(self.labels, float)
+        return np.array([t.eccentricity for t in self.tracks], float)
+
+    @property
+    def no_twist(self) -> str:
+        """Why the deck has no twist output ("" when every track has its rails)."""
+        bare = [t.line for t, r in zip(self.tracks, self.rails, strict=True) if r is None]
+        if not bare:
+            return ""
+        return (f"the data has no rail lines for track(s) {', '.join(map(repr, bare))} "
+                f"(lines '{bare[0]}/left' and '{bare[0]}/right'): the deck twist needs the "
+                "rails of every track")
 
     @property
     def n_modes(self) -> int:
@@ -217,6 +240,13 @@ def _tracks_of(tracks) -> tuple[Track, ...]:
     return tuple(out)
 
 
+def _track_names(lines) -> str:
+    """The tracks a set of line names offers (a rail line ``T/left`` names track ``T``)."""
+    names = dict.fromkeys(n.rsplit("/", 1)[0] if n.endswith((LEFT, RIGHT)) else n
+                          for n in lines)
+    return ", ".join(repr(n) for n in names) or "none"
+
+
 def _track_lines(p, key, name, tracks, available):
     """For every track: (contact parts, rails or None); records missing lines."""
     plan = []
@@ -228,9 +258,11 @@ def _track_lines(p, key, name, tracks, available):
         elif t.line in available:
             plan.append(([t.line], None))
         else:
-            p.add(key, name, f"the lines of bridge.tracks[{i}] = '{t.line}': its rails "
-                             f"'{left}' and '{right}', or its centre line '{t.line}' "
-                             f"(lines found: {', '.join(repr(a) for a in available)})")
+            p.add(f"tracks[{i}].line", repr(t.line),
+                  f"a track of the {'modes file' if key == 'file' else 'station map'} "
+                  f"{name}: its rails '{left}' and '{right}', or its "
+                  f"centre line '{t.line}' (tracks found: {_track_names(available)}; "
+                  f"lines: {', '.join(repr(a) for a in available)})")
             plan.append(None)
     return plan
 

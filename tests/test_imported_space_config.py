@@ -21,6 +21,7 @@ import scipy.sparse
 import xarray as xr
 from typer.testing import CliRunner
 
+from vsi_numba.analysis.checks.twist import twist_checks
 from vsi_numba.cli import app
 from vsi_numba.config import ConfigError, load_config
 
@@ -239,3 +240,120 @@ def test_grillage_track_against_full_newmark(tmp_path):
     w_res = float(ds["max_track_displacement"].isel(speed=0, track=0, point=0))
     w_low = float(ds["max_track_displacement"].isel(speed=1, track=0, point=0))
     assert w_res > 1.5 * w_low
+
+
+def _modes_file(tmp_path, n_modes=N_MODES):
+    """The grillage's lowest modes (eigh of the full K, M, mass-normalised) as a netCDF
+    modes table on the rail lines T/left and T/right (values and slopes at the nodes)."""
+    K, M, fixed = _grillage()
+    n = K.shape[0]
+    free = np.setdiff1d(np.arange(n), fixed)
+    lam, vec = scipy.linalg.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)])
+    phi = np.zeros((n, n_modes))
+    phi[free] = vec[:, :n_modes]
+    x = np.arange(NE + 1) * LE
+    lines = {"T/left": LEFT_RAIL, "T/right": RIGHT_RAIL}
+    shape = np.stack([phi[[_dof(ln, i, 0) for i in range(NE + 1)]] for ln in lines.values()])
+    slope = np.stack([phi[[_dof(ln, i, 1) for i in range(NE + 1)]] for ln in lines.values()])
+    ds = xr.Dataset(
+        {"frequency": ("mode", np.sqrt(lam[:n_modes]) / (2 * np.pi)),
+         "x": ("station", x), "shape": (("line", "station", "mode"), shape),
+         "slope": (("line", "station", "mode"), slope),
+         "support_x": ("support", [0.0, L])},
+        coords={"line": list(lines)}, attrs={"mass_normalised": 1})
+    ds.to_netcdf(tmp_path / "modes.nc")
+
+
+def test_modes_file_tracks_against_full_newmark(tmp_path):
+    """The same grillage as a modes table with rail lines (kind = "modes_file"): the
+    track displacement and twist at the resonant speed against the full Newmark
+    integration; the static twist check is refused (a modes table has no stiffness),
+    saying so."""
+    _modes_file(tmp_path)
+    bridge = textwrap.dedent(f"""
+        kind = "modes_file"
+        file = "modes.nc"
+        damping_ratio = {ZETA}
+        output_points = [{MID}]
+        tracks = [{{ line = "T" }}]""")
+    ds = _sweep(tmp_path, _text(bridge, [RESONANT]))
+    assert "track_eccentricity" not in ds.variables  # not given: no label invented
+    w_ref, t_ref = _newmark_reference(RESONANT / 3.6)
+    w = float(ds["max_track_displacement"].isel(speed=0, track=0, point=0))
+    tw = float(ds["max_deck_twist"].isel(speed=0, track=0, point=0))
+    # the same 60 modes as the matrices case above (measured -0.02 % and +1.1 %)
+    assert w == pytest.approx(w_ref, rel=1.5e-2), (w, w_ref)
+    assert tw == pytest.approx(t_ref, rel=3e-2), (tw, t_ref)
+    out = twist_checks(ds, base_dir=tmp_path)
+    assert out.static == [] and "modes table" in out.static_note
+    assert "no stiffness" in out.static_note
+
+
+def test_track_without_rails_has_no_twist(tmp_path):
+    """A second track given by its centre line only (the left girder, 'G'): both tracks'
+    displacements are written, the twist is left out and named in not_computed with the
+    reason, and the configuration warns; the train on track 2 runs on the girder."""
+    fixed = _write_matrices(tmp_path, (("T/left", LEFT_RAIL), ("T/right", RIGHT_RAIL),
+                                       ("G", LEFT_GIRDER)))
+    tracks = 'tracks = [{ line = "T" }, { line = "G" }]'
+    cfg = load_config(_write(tmp_path, _text(_matrices_bridge(fixed, tracks), [LOW],
+                                             extra="").replace("[train]",
+                                                               "[train]\ntrack = 2")))
+    assert any("no rail lines ('G/left' and 'G/right')" in w for w in cfg.warnings)
+    ds = _sweep(tmp_path, (tmp_path / "deck.toml").read_text())
+    assert ds.attrs["loaded_track"] == 2
+    assert ds["max_track_displacement"].sizes["track"] == 2
+    assert np.isfinite(ds["max_track_displacement"].values).all()
+    assert "max_deck_twist" not in ds and "max_deck_twist_whole_deck" not in ds
+    why = json.loads(ds.attrs["not_computed"])["max_deck_twist"]
+    assert "'G'" in why and "rail" in why
+    # the train on the stiffer left girder: its line is the deck's line of the file
+    np.testing.assert_array_equal(ds["max_deck_displacement"].values[..., 0],
+                                  ds["max_track_displacement"].sel(track=2).values[..., 0])
+
+
+def _write(tmp_path, text):
+    path = tmp_path / "deck.toml"
+    path.write_text(text)
+    return path
+
+
+def _errors(tmp_path, text):
+    with pytest.raises(ConfigError) as exc:
+        load_config(_write(tmp_path, text))
+    return str(exc.value)
+
+
+def test_imported_track_errors(tmp_path):
+    """Unknown track names (the message lists the tracks of the data), track_line next
+    to tracks, the same track twice, train.track beyond the tracks, a key of the beam
+    tracks: each refused naming its key."""
+    fixed = _write_matrices(tmp_path)
+    msg = _errors(tmp_path, _text(_matrices_bridge(fixed, 'tracks = [{ line = "up" }]'),
+                                  [LOW]))
+    assert 'bridge.tracks[0].line = "up"' in msg and "tracks found: 'T'" in msg
+    assert "'T/left'" in msg
+    msg = _errors(tmp_path, _text(_matrices_bridge(
+        fixed, 'track_line = "T/left"\ntracks = [{ line = "T" }]'), [LOW]))
+    assert "bridge.track_line" in msg and "no track_line with bridge.tracks" in msg
+    msg = _errors(tmp_path, _text(_matrices_bridge(
+        fixed, 'tracks = [{ line = "T" }, { line = "T" }]'), [LOW]))
+    assert 'bridge.tracks[1].line = "T"' in msg
+    msg = _errors(tmp_path, _text(_matrices_bridge(fixed), [LOW]).replace(
+        "[train]", "[train]\ntrack = 2"))
+    assert "train.track = 2" in msg and "1 .. 1" in msg
+    msg = _errors(tmp_path, _text(_matrices_bridge(
+        fixed, 'tracks = [{ line = "T", gauge = 1.435 }]'), [LOW]))
+    assert "bridge.tracks[0]" in msg and "gauge" in msg
+
+
+def test_imported_track_warnings(tmp_path):
+    """An eccentricity beyond 8 m (mm?) and labels on some tracks only are warned."""
+    fixed = _write_matrices(tmp_path, (("T/left", LEFT_RAIL), ("T/right", RIGHT_RAIL),
+                                       ("G", LEFT_GIRDER)))
+    cfg = load_config(_write(tmp_path, _text(_matrices_bridge(
+        fixed, 'tracks = [{ line = "T", eccentricity = 800.0 }, { line = "G" }]'),
+        [LOW])))
+    text = "\n".join(cfg.warnings)
+    assert "bridge.tracks[0].eccentricity = 800 m" in text
+    assert "bridge.tracks[1] (line 'G') has no eccentricity" in text

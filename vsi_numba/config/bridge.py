@@ -631,7 +631,8 @@ def _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes, fmax,
         for key, value, expected in exc.problems:
             if key in given:
                 value = given[key]
-            chk.error(_join(path, key), _MISSING if value is None else value, expected)
+            where = f"{path}.{key}" if key.startswith("tracks[") else _join(path, key)
+            chk.error(where, _MISSING if value is None else value, expected)
         return _BAD
     except (ValueError, OSError, ArithmeticError, MemoryError) as exc:  # unforeseen content
         key = files[0]
@@ -648,20 +649,24 @@ def _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes, fmax,
 
 def _imported_tracks(_imp, kind, full, given, tracks, extra, names, *, n_modes,
                      max_frequency, damping, zeta, spans, cutoff):
-    """The :class:`~vsi_numba.model.imported.lines.LineDeck3D` of ``bridge.tracks``."""
+    """The :class:`~vsi_numba.model.imported.lines.LineDeck3D` of ``bridge.tracks``,
+    labelled by the eccentricities given (NaN where not given)."""
     from vsi_numba.model.imported import lines
 
     if kind == "modes_file":
-        return lines.read_modes_table_tracks(
+        deck = lines.read_modes_table_tracks(
             full["file"], tracks, n_modes=n_modes, max_frequency=max_frequency,
             damping_ratio=zeta, mass_normalised=extra["mass_normalised"], spans=spans,
             name=given["file"])
-    return lines.read_matrices_tracks(
-        full["stiffness_matrix"], full["mass_matrix"], full["station_map"], tracks,
-        fixed_dofs=extra["fixed_dofs"], dof_base=extra["dof_base"], n_modes=n_modes,
-        max_frequency=max_frequency, damping_ratio=damping,
-        rotation_sign=extra["rotation_sign"], vertical_dofs=extra["vertical_dofs"],
-        spans=spans, all_up_to=max(30.0, cutoff or 0.0), names=names)
+    else:
+        deck = lines.read_matrices_tracks(
+            full["stiffness_matrix"], full["mass_matrix"], full["station_map"], tracks,
+            fixed_dofs=extra["fixed_dofs"], dof_base=extra["dof_base"], n_modes=n_modes,
+            max_frequency=max_frequency, damping_ratio=damping,
+            rotation_sign=extra["rotation_sign"], vertical_dofs=extra["vertical_dofs"],
+            spans=spans, all_up_to=max(30.0, cutoff or 0.0), names=names)
+    labels = np.array([tr.get("eccentricity", np.nan) for tr in tracks], float)
+    return dataclasses.replace(deck, labels=labels)
 
 
 def _imported_track_warnings(chk, space):

@@ -33,11 +33,14 @@ def twist_section(env, config_dir=None, source_path=None) -> Section | None:
         return Section.from_markdown(["## Deck twist and tracks", "", f"Not checked: {res}."])
     ecc = (np.asarray(env["track_eccentricity"].values, float)
            if "track_eccentricity" in env else np.full(len(res.acceleration), np.nan))
+    names = [str(v) for v in env["track_line"].values] if "track_line" in env else None
+    rails = ("the rails of a track are 1.435 m apart unless the configuration says "
+             "otherwise" if names is None else "the rails of a track are the lines "
+             "<track>/left and <track>/right of the imported deck")
     lines = ["## Deck twist and tracks", "",
              f"Deck twist over 3 m ({TWIST_CLAUSE}): limit {_mm(res.limit)} for the line "
              f"speed {fmt_number(res.line_speed_kmh, 'km/h')} (from the code profile "
-             f"above). The train runs on track {res.loaded_track}; the rails of a "
-             "track are 1.435 m apart unless the configuration says otherwise, and the "
+             f"above). The train runs on track {res.loaded_track}; {rails}, and the "
              "deck model is vertical only (no roll of the vehicles, no lateral dynamics).",
              ""]
     if res.static:
@@ -65,8 +68,6 @@ def twist_section(env, config_dir=None, source_path=None) -> Section | None:
     lines += [f"**Peak deck acceleration along each track** (at the output points, modes "
               f"up to the EN 1990 A2 cut-off; limit {fmt_number(res.acceleration_limit)} "
               "m/s²; the deck-acceleration check above takes the loaded track):", ""]
-    names = ([str(v) for v in env["track_line"].values] if "track_line" in env.coords
-             else None)
     rows = [[str(k) if names is None else f"{k} ({md(names[i])})",
              fmt_number(ecc[i] if i < ecc.size else np.nan, "m"),
              fmt_number(a, "m/s²"), md(t), fmt_number(s, "km/h"), fmt_number(x, "m"),
@@ -75,7 +76,7 @@ def twist_section(env, config_dir=None, source_path=None) -> Section | None:
     lines += markdown_table(["track", "y", "peak acceleration", "train", "speed", "at x",
                              "verdict"], rows)
     lines += ["", "Load effects (bending moment, shear, reactions) are those of the loaded "
-              "track's train: the beam's bending does not depend on where across the deck "
-              "the load stands. Several tracks loaded at once (trains meeting) are not "
-              "computed yet."]
+              "track's train" + (": the beam's bending does not depend on where across "
+                                 "the deck the load stands" if names is None else "")
+              + ". Several tracks loaded at once (trains meeting) are not computed yet."]
     return Section.from_markdown(lines)

@@ -258,7 +258,7 @@ def _track_lines(p, key, name, tracks, available):
         elif t.line in available:
             plan.append(([t.line], None))
         else:
-            p.add(f"tracks[{i}].line", repr(t.line),
+            p.add(f"tracks[{i}].line", t.line,
                   f"a track of the {'modes file' if key == 'file' else 'station map'} "
                   f"{name}: its rails '{left}' and '{right}', or its "
                   f"centre line '{t.line}' (tracks found: {_track_names(available)}; "

@@ -375,6 +375,8 @@ class BatchResult:
                 ("shear_force", "shear", points, chan["shear_force"]),
                 ("support_reaction", "reaction", k, chan["support_reaction"]),
                 ("rotation", "rotation", k, chan["end_rotation"])):
+            if effect not in e.channels:
+                continue
             g = influence(static, effect, at, xs) * fs  # (len(at), pairs)
             total = np.stack([np.bincount(step, weights=row, minlength=n) for row in g],
                              axis=1) if len(at) else np.zeros((n, 0))

@@ -138,8 +138,10 @@ class Torsion(Section):
 class _Beam(_Modal):
     tracks: list[TrackLine] = key(
         None, default_text="one track on the axis, [{ eccentricity = 0 }]",
-        doc="the tracks on the deck, each { eccentricity, gauge }; train.track picks the "
-            "loaded one", example=[{"eccentricity": 2.25}, {"eccentricity": -2.25}])
+        doc="the tracks on the deck, each { eccentricity, gauge } (beam decks) or "
+            "{ line, eccentricity } (imported decks: named by their lines in the data, the "
+            "eccentricity a label only); train.track picks the loaded one",
+        example=[{"eccentricity": 2.25}, {"eccentricity": -2.25}])
     torsion: Torsion = key(None, default_text="none (the deck does not twist)",
                            doc="{ GJ, polar_mass, damping_ratio }: torsional modes of the "
                                "deck")
@@ -210,8 +212,9 @@ class _Imported(_Modal):
                            expected="the name of a track line (string)")
     tracks: list[ImportedTrack] = key(
         None, default_text="none: the deck is the track line (track_line)",
-        doc="the tracks on the deck, each { line, eccentricity }, named by their lines in "
-            "the data; train.track picks the loaded one",
+        doc="the tracks on the deck, each { eccentricity, gauge } (beam decks) or "
+            "{ line, eccentricity } (imported decks: named by their lines in the data, the "
+            "eccentricity a label only); train.track picks the loaded one",
         example=[{"line": "up"}, {"line": "down"}])
 
 

@@ -206,22 +206,22 @@ class LineDeck3D:
             np.add.at(F, (dofs[e], cols), weight * (1.0 - t) * on)
             np.add.at(F, (dofs[e + 1], cols), weight * t * on)
 
-        def read(u, name, x):
-            st, dofs = lines[name]
-            w = u[dofs]
-            return np.stack([np.interp(x, st, w[:, j], left=0.0, right=0.0)
-                             for j in range(u.shape[1])], axis=1)
+        # the twist at the window starts read from u (linear between stations, zero off
+        # the lines), t = C^T u = C^T K_ff^-1 f = Z^T f with K_ff Z = C (K symmetric):
+        # one solve per window start, not per load position
+        C = np.zeros((n, at.size))
+        for name, x, wgt in ((rl, at, 1.0), (rr, at, -1.0), (rl, at + base, -1.0),
+                             (rr, at + base, 1.0)):
+            share(x, name, wgt, C)
+        Z = np.zeros((n, at.size))
+        Z[free] = lu.solve(np.ascontiguousarray(C[free]))
 
         def line(x_load):
             x_load = np.atleast_1d(np.asarray(x_load, float))
             F = np.zeros((n, x_load.size))
             for name, wgt in load_lines:
                 share(x_load, name, wgt, F)
-            u = np.zeros((n, x_load.size))
-            u[free] = lu.solve(np.ascontiguousarray(F[free]))
-            d = read(u, rl, at) - read(u, rr, at)
-            d2 = read(u, rl, at + base) - read(u, rr, at + base)
-            return d - d2
+            return Z.T @ F
         return line
 
 

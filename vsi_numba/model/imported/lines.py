@@ -343,6 +343,10 @@ def read_modes_table_tracks(path, tracks, *, n_modes=None, max_frequency=None,
     sign[sign == 0] = 1.0
     shapes = {k: (x, v * sign, s * sign) for k, (x, v, s) in shapes.items()}
     warnings: list[str] = []
+    if tab.effects is not None:
+        warnings.append(f"bridge.tracks: the section forces of {name} are not used with "
+                        "bridge.tracks (not available yet): no bending moments or shear "
+                        "forces")
     zeta = _damping(p, damping_ratio, None if tab.damping is None else tab.damping[order],
                     n, warnings)
     p.raise_if_any()

@@ -33,7 +33,9 @@ given the same sign per mode (:class:`SectionForces` takes the scale and sign fr
 reader).  Between ``load_x`` the influence lines are interpolated linearly (give the
 kinks: supports and the sections themselves, both sides of a shear jump).  Signs as
 :mod:`vsi_numba.model.influence`.  ``influence_*`` may also come without the ``line``
-dimension (a file with one line).
+dimension: they then serve every line (a beam deck's bending does not depend on where
+across it the load stands); with ``bridge.tracks`` the train on track ``T`` takes the
+influence lines of the line ``T``.
 
 How the kernels use them (:func:`beam_statics`): the kernels evaluate the static part
 of every step in closed form for a beam on point supports (each span's statics plus

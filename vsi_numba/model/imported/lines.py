@@ -268,9 +268,12 @@ def _track_lines(p, key, name, tracks, available):
 
 
 def _assemble(tracks, plan, shapes, freqs, zeta, supports, description, all_freqs,
-              static=None, warnings=(), effective=None):
+              static=None, warnings=(), effective=None, statics=None):
+    """The :class:`LineDeck3D`; ``statics``: per track, the static deck of its load
+    effects (:mod:`.effects`) or None."""
     bridges, rails = [], []
-    for t, (parts, rl) in zip(tracks, plan, strict=True):
+    statics = [None] * len(tracks) if statics is None else statics
+    for t, (parts, rl), st in zip(tracks, plan, statics, strict=True):
         line = shapes[parts[0]] if len(parts) == 1 else _mean_line(shapes[parts[0]],
                                                                     shapes[parts[1]])
         x, v, s = line
@@ -278,7 +281,7 @@ def _assemble(tracks, plan, shapes, freqs, zeta, supports, description, all_freq
         bridges.append(_br.ModalBridge(
             kind=_br.HERMITE, length=float(x[-1]), frequencies=freqs, damping=zeta,
             nodes=x, values=np.ascontiguousarray(v), slopes=np.ascontiguousarray(s),
-            supports=supports, effective_mass_fraction=effective,
+            supports=supports, effective_mass_fraction=effective, static=st,
             description=f"{description}; track '{t.line}' ({what})"))
         rails.append(None if rl is None else tuple(Table(*shapes[r]) for r in rl))
     return LineDeck3D(tuple(bridges), tuple(rails), tracks, all_freqs, static,
@@ -343,18 +346,25 @@ def read_modes_table_tracks(path, tracks, *, n_modes=None, max_frequency=None,
     sign[sign == 0] = 1.0
     shapes = {k: (x, v * sign, s * sign) for k, (x, v, s) in shapes.items()}
     warnings: list[str] = []
-    if tab.effects is not None:
-        warnings.append(f"bridge.tracks: the section forces of {name} are not used with "
-                        "bridge.tracks (not available yet): no bending moments or shear "
-                        "forces")
     zeta = _damping(p, damping_ratio, None if tab.damping is None else tab.damping[order],
                     n, warnings)
     p.raise_if_any()
     x0 = shapes[used[0]][0]
     sup = tab.lines[used[0]].supports
     supports = _supports_from(spans, sup, float(x0[-1]))
+    statics = None
+    if tab.effects is not None:  # per track, the influence lines of its name
+        statics = [_tb._section_forces(tab.effects, sel, scale, sign, t.line, supports)
+                   for t in tracks]
+        for t, st in zip(tracks, statics, strict=True):
+            if isinstance(st, str):
+                warnings.append(f"bridge.tracks: the section forces of {name} are not used "
+                                f"for track '{t.line}', no bending moments or shear forces "
+                                f"with the train on it: {st}")
+        statics = [None if isinstance(st, str) else st for st in statics]
     return _assemble(tracks, plan, shapes, f[sel], zeta, supports,
-                     f"modes table {name}: {n} modes", np.sort(f), warnings=warnings)
+                     f"modes table {name}: {n} modes", np.sort(f), warnings=warnings,
+                     statics=statics)
 
 
 def read_matrices_tracks(stiffness, mass, stations, tracks, *, fixed_dofs=None,

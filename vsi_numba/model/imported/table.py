@@ -481,13 +481,16 @@ def read_modes_table(
 
 def _section_forces(eff, sel, scale, sign, line, supports):
     """The static deck of the file's section forces for the retained modes ``sel``
-    (:func:`~vsi_numba.model.imported.effects.beam_statics`), or why not (str)."""
+    (:func:`~vsi_numba.model.imported.effects.beam_statics`) for a train on ``line``, or
+    why not (str).  Influence lines without a line dimension serve every line."""
     from vsi_numba.model.imported import effects
 
-    if not any(k[1] == line for k in eff["influence"]):
-        found = sorted({k[1] for k in eff["influence"]})
+    found = {k[1] for k in eff["influence"]}
+    if line not in found and "" in found:
+        line = ""
+    if line not in found:
         return (f"no influence lines for the track line {line!r} (the file has them for "
-                f"{', '.join(map(repr, found))})")
+                f"{', '.join(map(repr, sorted(found)))})")
     sf = effects.from_arrays(eff["section_x"], {k: v[:, sel] for k, v in eff["modal"].items()},
                              eff["load_x"], {k: v for k, v in eff["influence"].items()
                                              if k[1] == line}, scale, sign)

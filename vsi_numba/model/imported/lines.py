@@ -313,11 +313,21 @@ def read_modes_table_tracks(path, tracks, *, n_modes=None, max_frequency=None,
     norm = mass_normalised if mass_normalised is not None else tab.normalised_flag
     if mm is None and not norm:
         p.add("file", name, "a modal_mass per mode (kg) -- or bridge.mass_normalised = true")
+    elif mm is not None and (not np.all(np.isfinite(mm)) or np.any(mm <= 0)):
+        p.add("file", name, "modal masses > 0 kg")
+    z = tab.damping
+    if z is not None and (not np.all(np.isfinite(z)) or np.any((z < 0) | (z >= 1))):
+        p.add("file", name, "damping ratios 0 <= zeta < 1")
     p.raise_if_any()
     length = float(np.sum(spans)) if spans is not None else None
     used = list(dict.fromkeys(n for parts, _ in plan for n in parts))
     for ln in used:
         line = tab.lines[ln]
+        bad = [a for a in (line.shape, line.slope) if a is not None
+               and not np.all(np.isfinite(a))]
+        if bad:
+            p.add("file", name, f"finite mode shapes and slopes on line '{ln}'")
+            continue
         if _check_stations(p, "file", name, line.x, ln, length):
             _check_ends(p, "file", name, line.x, line.shape, ln, tab.labels)
     p.raise_if_any()

@@ -202,6 +202,7 @@ def twist_checks(ds, profile=None, length: float | None = None, base_dir=None,
     from vsi_numba.analysis.dataset import prepare, track_type
     from vsi_numba.en1990 import deck_acceleration_limits
     from vsi_numba.en1991 import dynamic_factor
+    from vsi_numba.model.deck3d import SpaceModelError
 
     ds = prepare(ds)
     if "max_track_displacement" not in ds:
@@ -230,8 +231,6 @@ def twist_checks(ds, profile=None, length: float | None = None, base_dir=None,
         a, wa = _worst(ds["max_track_acceleration"].sel(track=k), ("speed", "train", "point"))
         accel.append((k, a, str(wa.get("train", "")), float(wa.get("speed", np.nan)) * 3.6,
                       float(wa.get("point", np.nan))))
-    from vsi_numba.model.deck3d import SpaceModelError
-
     static: list = []
     deck = _deck_of(ds, base_dir, source_path)
     note = deck if isinstance(deck, str) else ""

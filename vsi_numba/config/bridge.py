@@ -174,8 +174,9 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
                                 "out one of them")
     imported = None
     if kind in _IMPORTED:
+        tracks = _imported_track_keys(chk, d, res)
         imported = _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes,
-                                    fmax, solver_cutoff)
+                                    fmax, solver_cutoff, tracks)
         if imported is not _BAD:
             length = imported.bridge.length
 
@@ -212,10 +213,11 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
                                                        track, tracks, torsion)):
         return _BAD
     allf = None
+    space = None
     if kind in _IMPORTED:
         if imported is _BAD:
             return _BAD
-        model, allf = imported.bridge, imported.all_frequencies
+        model, allf, space = imported.bridge, imported.all_frequencies, imported.space
     elif kind == "rigid":
         model = _bridge.rigid(length)
     elif track is not None:
@@ -235,7 +237,6 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
             return chk.error("bridge.damping_ratio", damping, "a single ratio or at least one "
                              f"per retained mode ({model.n_modes} modes)")
         model = dataclasses.replace(model, damping=zeta)
-    space = None
     if flexible and (tracks is not None or torsion is not None):
         space = _space_deck(chk, kind, spans, ei, mass, model, tracks, torsion, eps)
         if space is _BAD:
@@ -503,8 +504,71 @@ def _dof_indices(chk, d, key, base, allow_pattern=False):
     return out if _ok(*out) else _BAD
 
 
-def _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes, fmax, cutoff):
-    """kind = modes_file | matrices: read the files now (errors join the others)."""
+@dataclass(frozen=True)
+class _Imported:
+    """An imported deck as read: the model along the first track (or the track line)."""
+
+    bridge: _bridge.ModalBridge
+    all_frequencies: np.ndarray
+    #: the deck with its tracks (:class:`~vsi_numba.model.imported.lines.LineDeck3D`)
+    #: when ``bridge.tracks`` is given, else None
+    space: Any = None
+
+
+def _imported_track_keys(chk, d, res):
+    """``bridge.tracks`` of an imported deck (declared:
+    :class:`~.schema.models.ImportedTrack`): the list of resolved tracks, None when not
+    given, or ``_BAD``."""
+    if "tracks" not in d:
+        return None
+    items = d["tracks"]
+    expected = "a list of 1 to 20 tracks, each { line = \"T\" } (a track of the data)"
+    if not isinstance(items, list) or not items or len(items) > 20:
+        return chk.error("bridge.tracks", items, expected)
+    tracks = []
+    for i, it in enumerate(items):
+        p = f"bridge.tracks[{i}]"
+        if chk.table(it, p, keys_of(_m.ImportedTrack), what=" { line = \"T\" }") is _BAD:
+            tracks = _BAD
+            continue
+        v = chk.fields(it, p, _m.ImportedTrack)
+        if not _ok(tracks, *v.values()):
+            tracks = _BAD
+            continue
+        tracks.append(_drop_none(v))
+    if not _ok(tracks):
+        return _BAD
+    if "track_line" in d:
+        return chk.error("bridge.track_line", d["track_line"], "no track_line with "
+                         "bridge.tracks: each track names its line ({ line = \"T\" })")
+    seen: dict[str, int] = {}
+    for i, tr in enumerate(tracks):
+        if tr["line"] in seen:
+            return chk.error(f"bridge.tracks[{i}].line", tr["line"],
+                             f"a track of its own (bridge.tracks[{seen[tr['line']]}] is "
+                             "that track already)")
+        seen[tr["line"]] = i
+        y = tr.get("eccentricity")
+        if y is not None and abs(y) > MAX_ECCENTRICITY:
+            chk.warn(f"bridge.tracks[{i}].eccentricity = {y:g} m: farther than "
+                     f"{MAX_ECCENTRICITY:g} m from the deck's axis (the outer tracks of a "
+                     "four-track deck stand about 7 m off it); a value in mm?",
+                     "plausibility", [f"bridge.tracks[{i}].eccentricity"])
+    given = [i for i, tr in enumerate(tracks) if "eccentricity" in tr]
+    if given and len(given) < len(tracks):
+        i = next(i for i, tr in enumerate(tracks) if "eccentricity" not in tr)
+        chk.warn(f"bridge.tracks[{i}] (line '{tracks[i]['line']}') has no eccentricity "
+                 "while other tracks have one: the results label the tracks by their "
+                 "eccentricity only when every track gives it", "input",
+                 [f"bridge.tracks[{i}].eccentricity"])
+    res["tracks"] = tracks
+    return tracks
+
+
+def _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes, fmax, cutoff,
+                     tracks=None):
+    """kind = modes_file | matrices: read the files now (errors join the others); with
+    ``tracks`` (:func:`_imported_track_keys`), the deck with its tracks."""
     from vsi_numba.model import imported as _imp
 
     path = "bridge"
@@ -536,12 +600,22 @@ def _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes, fmax,
         res.update(dof_base=base, rotation_sign=sign, fixed_dofs=fixed, vertical_dofs=vert)
         extra = {"dof_base": base, "rotation_sign": float(sign) if _ok(sign) else sign,
                  "fixed_dofs": fixed, "vertical_dofs": vert}
-    if not _ok(*full.values(), line, spans, damping, n_modes, fmax, *extra.values()):
+    if not _ok(*full.values(), line, spans, damping, n_modes, fmax, tracks,
+               *extra.values()):
         return _BAD
     zeta = damping if "damping_ratio" in d else None
     span_list = spans if isinstance(spans, list) else None
+    names = {"stiffness": given["stiffness_matrix"], "mass": given["mass_matrix"],
+             "stations": given["station_map"]} if kind == "matrices" else None
+    space = None
     try:
-        if kind == "modes_file":
+        if tracks is not None:
+            space = _imported_tracks(_imp, kind, full, given, tracks, extra, names,
+                                     n_modes=n_modes, max_frequency=fmax, damping=damping,
+                                     zeta=zeta, spans=span_list, cutoff=cutoff)
+            out = _imp.ImportResult(space.track_bridge(0), space.all_frequencies,
+                                    space.warnings)
+        elif kind == "modes_file":
             out = _imp.read_modes_table(
                 full["file"], track_line=line, n_modes=n_modes, max_frequency=fmax,
                 damping_ratio=zeta, mass_normalised=extra["mass_normalised"],
@@ -552,14 +626,13 @@ def _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes, fmax,
                 fixed_dofs=extra["fixed_dofs"], dof_base=extra["dof_base"], track_line=line,
                 n_modes=n_modes, max_frequency=fmax, damping_ratio=damping,
                 rotation_sign=extra["rotation_sign"], vertical_dofs=extra["vertical_dofs"],
-                spans=span_list, all_up_to=max(30.0, cutoff or 0.0),
-                names={"stiffness": given["stiffness_matrix"], "mass": given["mass_matrix"],
-                       "stations": given["station_map"]})
+                spans=span_list, all_up_to=max(30.0, cutoff or 0.0), names=names)
     except _imp.ModelFileError as exc:
         for key, value, expected in exc.problems:
             if key in given:
                 value = given[key]
-            chk.error(_join(path, key), _MISSING if value is None else value, expected)
+            where = f"{path}.{key}" if key.startswith("tracks[") else _join(path, key)
+            chk.error(where, _MISSING if value is None else value, expected)
         return _BAD
     except (ValueError, OSError, ArithmeticError, MemoryError) as exc:  # unforeseen content
         key = files[0]
@@ -569,7 +642,48 @@ def _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes, fmax,
         return _BAD
     for w in out.warnings:
         chk.warn(w)
-    return out
+    if space is not None:
+        _imported_track_warnings(chk, space)
+    return _Imported(out.bridge, out.all_frequencies, space)
+
+
+def _imported_tracks(_imp, kind, full, given, tracks, extra, names, *, n_modes,
+                     max_frequency, damping, zeta, spans, cutoff):
+    """The :class:`~vsi_numba.model.imported.lines.LineDeck3D` of ``bridge.tracks``,
+    labelled by the eccentricities given (NaN where not given)."""
+    from vsi_numba.model.imported import lines
+
+    if kind == "modes_file":
+        deck = lines.read_modes_table_tracks(
+            full["file"], tracks, n_modes=n_modes, max_frequency=max_frequency,
+            damping_ratio=zeta, mass_normalised=extra["mass_normalised"], spans=spans,
+            name=given["file"])
+    else:
+        deck = lines.read_matrices_tracks(
+            full["stiffness_matrix"], full["mass_matrix"], full["station_map"], tracks,
+            fixed_dofs=extra["fixed_dofs"], dof_base=extra["dof_base"], n_modes=n_modes,
+            max_frequency=max_frequency, damping_ratio=damping,
+            rotation_sign=extra["rotation_sign"], vertical_dofs=extra["vertical_dofs"],
+            spans=spans, all_up_to=max(30.0, cutoff or 0.0), names=names)
+    labels = np.array([tr.get("eccentricity", np.nan) for tr in tracks], float)
+    return dataclasses.replace(deck, labels=labels)
+
+
+def _imported_track_warnings(chk, space):
+    """Warn about the tracks of an imported deck that will give less than asked."""
+    bare = [i for i, r in enumerate(space.rails) if r is None]
+    if bare:
+        names = ", ".join(f"bridge.tracks[{i}] ('{space.tracks[i].line}')" for i in bare)
+        t = space.tracks[bare[0]].line
+        chk.warn(f"{names}: no rail lines ('{t}/left' and '{t}/right') in the data, only "
+                 "the centre line: the deck twist needs the rails of every track and is "
+                 "left out of the results", "input", [f"bridge.tracks[{i}]" for i in bare])
+    for i, r in enumerate(space.rails):
+        if r is not None and np.array_equal(r[0].values, r[1].values):
+            chk.warn(f"bridge.tracks[{i}] (line '{space.tracks[i].line}'): its two rail "
+                     "lines have the same mode shapes, so the deck never twists under "
+                     "them: are both rails mapped to the same DOFs?", "plausibility",
+                     [f"bridge.tracks[{i}]"])
 
 
 #: Modes kept when neither n_modes nor max_frequency is given, for the decks whose

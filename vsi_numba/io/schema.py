@@ -363,6 +363,8 @@ COORDS = {
     "track": ("1", "track on the deck (1-based, as in bridge.tracks)", {}),
     "track_eccentricity": ("m", "transverse position y of the track centre line", {
         "comment": _Y}),
+    "track_line": ("1", "name of the track in the imported deck's data (its rails are "
+                   "the lines <name>/left and <name>/right, its centre line <name>)", {}),
     "twist_x": ("m", "start of the 3 m twist window: distance from the left end of the "
                 "bridge (negative: the window straddles the left deck end)", {}),
 }

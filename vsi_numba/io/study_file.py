@@ -195,10 +195,14 @@ class StudyFile:
             per_dim.append(("twist_x", twist_xs))
             coord("track", ("track",), np.arange(1, sizes["track"] + 1, dtype=np.int64),
                   "i8", attrs_for("track"))
-            ecc = np.full(sizes["track"], np.nan)
-            ecc[:first.n_tracks] = first.eccentricity
-            self._float("track_eccentricity", ("track",), attrs_for("track_eccentricity"))[
-                ...] = ecc
+            if np.isfinite(first.eccentricity).all():  # imported decks: when given
+                ecc = np.full(sizes["track"], np.nan)
+                ecc[:first.n_tracks] = first.eccentricity
+                self._float("track_eccentricity", ("track",),
+                            attrs_for("track_eccentricity"))[...] = ecc
+            if first.lines:
+                coord("track_line", ("track",), np.array(list(first.lines), dtype=object),
+                      str, attrs_for("track_line"))
         for dim, per in per_dim:
             if all(np.array_equal(per[0], a) for a in per):
                 coord(dim, (dim,), per[0], "f8", attrs_for(dim))

@@ -91,6 +91,11 @@ class StaticDeck:
         this beam alone (the effect of a mode is then the static effect of its inertia
         load, see :func:`modal_effects`); None when other parts load the deck in its
         modes (a track layer), or for "matrices".
+    section_forces : SectionForces or None
+        "beam" of an imported deck (:func:`vsi_numba.model.imported.effects.beam_statics`):
+        the modal section forces of the file; the beam (``EI`` relative per span,
+        matched to the file's influence lines) gives the static bending moment and shear
+        force only.
     """
 
     kind: str
@@ -104,6 +109,7 @@ class StaticDeck:
     rotation_dofs: np.ndarray | None = None
     rotation_sign: float = 1.0
     mass_per_length: np.ndarray | None = None
+    section_forces: object | None = None
 
     @property
     def n_supports(self) -> int:
@@ -118,6 +124,8 @@ class StaticDeck:
         """The load effects this deck gives."""
         if self.kind == "matrices" and self.rotation_dofs is None:
             return ("deflection", "reaction")
+        if self.section_forces is not None:
+            return ("moment", "shear")
         return SUPPORTED[self.kind]
 
 
@@ -163,6 +171,11 @@ def _why_not(static: StaticDeck | None, effect: str) -> str:
         return (f"load effect {effect!r} is not available for a deck given as FE matrices "
                 f"(bridge.kind = \"matrices\"): {why}. Available: deflection, support "
                 f"reactions (from the fixed DOFs' rows of K), {rot}")
+    if static.section_forces is not None:
+        return (f"load effect {effect!r} is not available for this imported deck: its "
+                "modes table gives the section forces (bending moment and shear force) of "
+                "the modes and their influence lines, not the support reactions, rotations "
+                "or deflections")
     return f"load effect {effect!r} is not available for this deck"
 
 
@@ -401,6 +414,10 @@ def modal_effects(bridge, effect: str, at) -> np.ndarray:
     n_m = bridge.n_modes
     if n_m == 0:
         return np.zeros((at.size, 0))
+    if static.section_forces is not None:  # the file's, linear between its sections
+        sf = static.section_forces
+        e = sf.modal[effect]
+        return np.stack([np.interp(at, sf.sections, e[:, j]) for j in range(n_m)], axis=1)
     if bridge.kind == 1:  # SINE
         k = np.pi * np.arange(1, n_m + 1) / bridge.length
         a = bridge.values[0]

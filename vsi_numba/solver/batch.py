@@ -145,9 +145,11 @@ class SpaceLayout:
     twist on the whole-deck grid ``twist_x`` (n_tracks x n_twist)."""
 
     n_points: int
-    eccentricity: np.ndarray  # (n_tracks,) m
+    eccentricity: np.ndarray  # (n_tracks,) m (NaN: not known, imported decks)
     twist_x: np.ndarray  # (n_twist,) window starts, m
     has_twist: bool  # the deck twists (it has torsion or imported rails)
+    lines: tuple[str, ...] = ()  # imported decks: the track names in the data
+    no_twist: str = ""  # why there is no twist (has_twist false), "" for the default
 
     @property
     def n_tracks(self) -> int:
@@ -185,9 +187,13 @@ def space_operators(space, points, deck: tuple) -> tuple:
     extra = np.nan_to_num(np.concatenate([disp, twist_p, twist_g]))
     extra_a = np.concatenate([np.where(keep[None, :], disp, 0.0),
                               np.zeros((twist_p.shape[0] + twist_g.shape[0], n_m))])
-    layout = SpaceLayout(points.size, np.array([t.eccentricity for t in space.tracks],
-                                               float), grid,
-                         bool(getattr(space, "has_torsion", True) and rows.has_twist.all()))
+    ecc = getattr(space, "eccentricities", None)
+    if ecc is None:
+        ecc = np.array([t.eccentricity for t in space.tracks], float)
+    layout = SpaceLayout(points.size, np.asarray(ecc, float), grid,
+                         bool(getattr(space, "has_torsion", True) and rows.has_twist.all()),
+                         tuple(t.line for t in space.tracks if t.line),
+                         getattr(space, "no_twist", ""))
     return (np.ascontiguousarray(np.vstack([phi_d, extra])),
             np.ascontiguousarray(np.vstack([phi_a, extra_a])), *deck[2:6], layout)
 
@@ -430,6 +436,8 @@ def effect_series(e: LoadEffectTables, static, x: np.ndarray, force: np.ndarray,
             ("shear_force", "shear", points, chan["shear_force"]),
             ("support_reaction", "reaction", k, chan["support_reaction"]),
             ("rotation", "rotation", k, chan["end_rotation"])):
+        if effect not in e.channels:
+            continue
         g = influence(static, effect, at, xs) * fs  # (len(at), pairs)
         total = np.stack([np.bincount(step, weights=row, minlength=n) for row in g],
                          axis=1) if len(at) else np.zeros((n, 0))

@@ -471,6 +471,9 @@ class LoadEffectTables:
     span: np.ndarray
     E: np.ndarray
     w2inv: np.ndarray
+    #: the channels computed (an imported deck's section forces: moment and shear only;
+    #: the others' columns of ``E`` are zero and their envelopes are not written)
+    channels: tuple[str, ...] = ("moment", "shear", "reaction", "rotation")
 
     @property
     def n_sections(self) -> int:
@@ -483,8 +486,9 @@ class LoadEffectTables:
 
 def load_effect_tables(bridge: ModalBridge, points, grid) -> LoadEffectTables | None:
     """:class:`LoadEffectTables` of a bridge at the output ``points`` and on the
-    whole-deck ``grid`` (m); None when the bridge has no static beam deck (modes tables,
-    rigid track, FE matrices: see :mod:`vsi_numba.model.influence`)."""
+    whole-deck ``grid`` (m); None when the bridge has no static beam deck (modes tables
+    without section forces, rigid track, FE matrices: see
+    :mod:`vsi_numba.model.influence`)."""
     from vsi_numba.model import influence as inf
 
     st = bridge.static
@@ -507,13 +511,16 @@ def load_effect_tables(bridge: ModalBridge, points, grid) -> LoadEffectTables | 
             B[s] = 3.0 * (u[:, 1] - u[:, 0])
             A[s] = u[:, 0] - B[s] / 3.0
     k = np.arange(sup.size)
-    E = np.concatenate([inf.modal_effects(bridge, "moment", sections),
-                        inf.modal_effects(bridge, "shear", sections),
-                        inf.modal_effects(bridge, "reaction", k),
-                        inf.modal_effects(bridge, "rotation", k)], axis=0)
+    channels = tuple(c for c in ("moment", "shear", "reaction", "rotation")
+                     if c in st.effects)
+    E = np.concatenate([inf.modal_effects(bridge, c, at) if c in channels
+                        else np.zeros((at.size, bridge.n_modes))
+                        for c, at in (("moment", sections), ("shear", sections),
+                                      ("reaction", k), ("rotation", k))], axis=0)
     return LoadEffectTables(
         sections=sections, point_index=inv[: points.size].astype(np.int64),
         grid_index=inv[points.size:].astype(np.int64), grid=grid, supports=sup,
         spans=spans, EI=np.asarray(st.EI, f64), A=A, B=B,
         X=np.ascontiguousarray(sections - sup[span]), span=span.astype(np.int64),
-        E=np.ascontiguousarray(E.T), w2inv=1.0 / np.asarray(bridge.omega, f64) ** 2)
+        E=np.ascontiguousarray(E.T), w2inv=1.0 / np.asarray(bridge.omega, f64) ** 2,
+        channels=channels)

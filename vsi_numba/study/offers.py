@@ -67,7 +67,9 @@ def _effects_reason(model) -> str:
         return ("the deck is imported as modes or matrices (bridge.kind = "
                 f"\"{_kind(cfg)}\"), which carry no static deck "
                 "model: bending moments, shear forces, support reactions and end rotations "
-                "need one (built-in decks: simply_supported or continuous)")
+                "need one (built-in decks: simply_supported or continuous; a modes table "
+                "gives bending moments and shear forces with its optional section forces "
+                "and influence lines, see vsi_numba.model.imported.effects)")
     return "the deck model gives no load effects"
 
 
@@ -87,6 +89,17 @@ def not_offered(models, packed) -> dict[str, str]:
     if all(m.deck[5] is None for m in models):
         why = _effects_reason(models[0])
         out.update(dict.fromkeys(load_effect_variables(), why))
+    else:
+        computed = {c for m in models if m.deck[5] is not None for c in m.deck[5].channels}
+        for effect, name, history in (("reaction", "support_reaction", "support_reaction"),
+                                      ("rotation", "end_rotation", "rotation")):
+            if effect not in computed:
+                why = ("the imported deck's section forces are the bending moment and "
+                       "shear force only (its modes table gives no support reactions or "
+                       "rotations)")
+                out.update(dict.fromkeys(
+                    [f"{pre}{ext}_{name}" for ext in ("max", "min")
+                     for pre in ("", "time_of_")] + [history], why))
     if all(np.asarray(m.deck[3]).size == 0 for m in models):
         b = models[0].bridge
         why = ("no deck: the bridge is rigid" if b.n_modes == 0 else
@@ -99,9 +112,9 @@ def not_offered(models, packed) -> dict[str, str]:
                                                   "bridge.torsion (simply_supported and "
                                                   "continuous decks)"))
     elif not any(x is not None and x.has_twist for x in layouts):
-        out.update(dict.fromkeys(
-            [k for k in SPACE_ENVELOPES if "twist" in k],
-            "the deck does not twist: no bridge.torsion (its modes have no torsion)"))
+        why = next((x.no_twist for x in layouts if x is not None and x.no_twist),
+                   "the deck does not twist: no bridge.torsion (its modes have no torsion)")
+        out.update(dict.fromkeys([k for k in SPACE_ENVELOPES if "twist" in k], why))
     trains = [p for per in packed for p in per]
     if not any(np.asarray(p.vehicles.body_dof).size for p in trains):
         out.update(dict.fromkeys(CARBODY, "no train has a car body (moving forces only)"))

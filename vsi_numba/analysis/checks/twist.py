@@ -75,8 +75,10 @@ def static_twist_check(deck, speed_kmh: float, alpha: float, phi: float, profile
 
     Parameters
     ----------
-    deck : vsi_numba.model.deck3d.BeamDeck3D
-        With torsion (else the twist is zero and the check says so by raising).
+    deck : vsi_numba.model.deck3d.BeamDeck3D or LineDeck3D
+        A beam deck with torsion, or an imported deck from FE matrices with rail lines
+        (:class:`~vsi_numba.model.imported.lines.LineDeck3D`; a modes table has no
+        stiffness and is refused, raising ``SpaceModelError``).
     speed_kmh : float
         The line speed (km/h) that selects the limit.
     alpha, phi : float
@@ -125,7 +127,8 @@ class TwistResults(NamedTuple):
     file has no twist; ``acceleration``: per track, the peak deck acceleration along the
     track (m s-2, at the output points) with its train and speed; ``limit`` (m) of
     ``line_speed_kmh``; ``acceleration_limit`` (m s-2); ``loaded_track`` (1-based);
-    ``lphi`` (m), ``maintenance``.
+    ``lphi`` (m), ``maintenance``; ``static_note``: why there is no static check ("" when
+    there is one).
     """
 
     static: list
@@ -137,26 +140,39 @@ class TwistResults(NamedTuple):
     loaded_track: int
     lphi: float
     maintenance: str
+    static_note: str = ""
     #: ``dynamic`` and ``acceleration`` with every train of a run loaded
     #: (``train.other_trains``; empty without)
     dynamic_all: list | tuple = ()
     acceleration_all: list | tuple = ()
 
 
-def _deck_of(ds):
-    """The deck in space rebuilt from the stored configuration, or why not (str)."""
+#: Bridge kinds whose tracks are lines of imported data (their files are read again).
+_IMPORTED = ("modes_file", "matrices")
+
+
+def _deck_of(ds, base_dir=None, source_path=None):
+    """The deck in space rebuilt from the stored configuration, or why not (str).  The
+    files of an imported deck are looked for next to ``base_dir``, the results file
+    ``source_path`` (and up to three folders above it) and the working folder."""
     from vsi_numba.analysis.checks.determinant import results_config
+    from vsi_numba.analysis.recompute import _candidates
     from vsi_numba.config import ConfigError, load_config
 
     cfg = results_config(ds)
     bridge = cfg.get("bridge", {}) if isinstance(cfg, dict) else {}
-    if not isinstance(bridge, dict) or "torsion" not in bridge:
+    imported = isinstance(bridge, dict) and bridge.get("kind") in _IMPORTED
+    if not isinstance(bridge, dict) or ("torsion" not in bridge and not imported):
         return "the deck has no torsion (bridge.torsion): it does not twist"
-    try:
-        deck = load_config(cfg).deck_in_space
-    except (ConfigError, OSError, ValueError) as exc:
-        return f"the stored configuration cannot be rebuilt ({' '.join(str(exc).split())})"
-    return deck if deck is not None else "the stored configuration has no deck in space"
+    why = ""
+    for folder in _candidates(base_dir, source_path) if imported else [None]:
+        try:
+            deck = load_config(cfg, base_dir=folder).deck_in_space
+        except (ConfigError, OSError, ValueError) as exc:
+            why = why or " ".join(str(exc).split())
+            continue
+        return deck if deck is not None else "the stored configuration has no deck in space"
+    return f"the stored configuration cannot be rebuilt ({why})"
 
 
 def _worst(da, dims):
@@ -169,12 +185,16 @@ def _worst(da, dims):
                          if d in dims}
 
 
-def twist_checks(ds, profile=None, length: float | None = None):
+def twist_checks(ds, profile=None, length: float | None = None, base_dir=None,
+                 source_path=None):
     """EN 1990 A2.4.4.2.2 from a results file of a deck in space: the static check
     under LM71 x Phi x alpha (:func:`static_twist_check`, each track loaded in turn)
     and the largest twist of the dynamic runs, both against the limit of the line speed
     (``study.line_speed_kmh``, else the highest speed of the study), and the peak deck
     acceleration along each track (limit of the track type).
+
+    ``base_dir``, ``source_path``: where to look for the files of an imported deck
+    (:func:`_deck_of`).
 
     Returns
     -------
@@ -187,6 +207,7 @@ def twist_checks(ds, profile=None, length: float | None = None):
     from vsi_numba.analysis.dataset import prepare, track_type
     from vsi_numba.en1990 import deck_acceleration_limits
     from vsi_numba.en1991 import dynamic_factor
+    from vsi_numba.model.deck3d import SpaceModelError
 
     ds = prepare(ds)
     if "max_track_displacement" not in ds:
@@ -204,13 +225,19 @@ def twist_checks(ds, profile=None, length: float | None = None):
     dynamic, accel = _dynamic(ds, "")
     dynamic_all, accel_all = _dynamic(ds, ALL_TRACKS_SUFFIX)
     static: list = []
-    deck = _deck_of(ds)
-    if not isinstance(deck, str) and np.isfinite(lphi.value):
+    deck = _deck_of(ds, base_dir, source_path)
+    note = deck if isinstance(deck, str) else ""
+    if not np.isfinite(lphi.value):
+        note = note or "no determinant length"
+    elif not note:
         phi = dynamic_factor(lphi.value, maintenance, profile)
-        static = static_twist_check(deck, line, alpha, phi, profile)
+        try:
+            static = static_twist_check(deck, line, alpha, phi, profile)
+        except SpaceModelError as exc:
+            note = str(exc)
     return TwistResults(static, dynamic, accel, limit, line, acc_limit,
                         int(ds.attrs.get("loaded_track", 1)), float(lphi.value), maintenance,
-                        dynamic_all, accel_all)
+                        note, dynamic_all, accel_all)
 
 
 def _dynamic(ds, sfx: str) -> tuple[list, list]:

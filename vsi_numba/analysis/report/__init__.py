@@ -262,7 +262,7 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
     add(_cases(env))
     add(_statistics(results, env))
     body.append(load_effects.section)
-    twist = twist_section(env)
+    twist = twist_section(env, config_dir, source_path)
     if twist is not None:
         body.append(twist)
     if has_fatigue(full):

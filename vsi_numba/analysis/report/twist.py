@@ -22,21 +22,25 @@ def _verdict(value, limit) -> str:
     return "pass" if value <= limit else "**FAIL**"
 
 
-def twist_section(env) -> Section | None:
+def twist_section(env, config_dir=None, source_path=None) -> Section | None:
     """The "Deck twist and tracks" section, or None for a planar deck (no per-track
-    outputs in the file)."""
+    outputs in the file); ``config_dir``, ``source_path``: where the files of an
+    imported deck are looked for."""
     if "max_track_displacement" not in env:
         return None
-    res = twist_checks(env)
+    res = twist_checks(env, base_dir=config_dir, source_path=source_path)
     if isinstance(res, str):
         return Section.from_markdown(["## Deck twist and tracks", "", f"Not checked: {res}."])
     ecc = (np.asarray(env["track_eccentricity"].values, float)
            if "track_eccentricity" in env else np.full(len(res.acceleration), np.nan))
+    names = [str(v) for v in env["track_line"].values] if "track_line" in env else None
+    rails = ("the rails of a track are 1.435 m apart unless the configuration says "
+             "otherwise" if names is None else "the rails of a track are the lines "
+             "<track>/left and <track>/right of the imported deck")
     lines = ["## Deck twist and tracks", "",
              f"Deck twist over 3 m ({TWIST_CLAUSE}): limit {_mm(res.limit)} for the line "
              f"speed {fmt_number(res.line_speed_kmh, 'km/h')} (from the code profile "
-             f"above). The train runs on track {res.loaded_track}; the rails of a "
-             "track are 1.435 m apart unless the configuration says otherwise, and the "
+             f"above). The train runs on track {res.loaded_track}; {rails}, and the "
              "deck model is vertical only (no roll of the vehicles, no lateral dynamics).",
              ""]
     if res.static:
@@ -51,8 +55,7 @@ def twist_section(env) -> Section | None:
                                  "LM71 axle group at", "utilisation", "verdict"], rows)
         lines.append("")
     else:
-        lines += ["Static twist under LM71: not computed (the deck has no torsion, or no "
-                  "determinant length).", ""]
+        lines += [f"Static twist under LM71: not computed ({md(res.static_note)}).", ""]
     for dyn, what in ((res.dynamic, f"the study's trains on track {res.loaded_track}"),
                       (res.dynamic_all, "every train of a run loaded (train.other_trains)")):
         if not dyn:
@@ -68,7 +71,8 @@ def twist_section(env) -> Section | None:
     lines += [f"**Peak deck acceleration along each track** (at the output points, modes "
               f"up to the EN 1990 A2 cut-off; limit {fmt_number(res.acceleration_limit)} "
               "m/s²; the deck-acceleration check above takes the loaded track):", ""]
-    rows = [[str(k), fmt_number(ecc[i] if i < ecc.size else np.nan, "m"),
+    rows = [[str(k) if names is None else f"{k} ({md(names[i])})",
+             fmt_number(ecc[i] if i < ecc.size else np.nan, "m"),
              fmt_number(a, "m/s²"), md(t), fmt_number(s, "km/h"), fmt_number(x, "m"),
              _verdict(a, res.acceleration_limit)]
             for i, (k, a, t, s, x) in enumerate(res.acceleration)]
@@ -76,14 +80,19 @@ def twist_section(env) -> Section | None:
                              "verdict"], rows)
     if res.acceleration_all:
         lines += ["", "With every train of a run loaded:", ""]
-        rows = [[str(k), fmt_number(ecc[i] if i < ecc.size else np.nan, "m"),
+        rows = [[str(k) if names is None else f"{k} ({md(names[i])})",
+                 fmt_number(ecc[i] if i < ecc.size else np.nan, "m"),
                  fmt_number(a, "m/s²"), md(t), fmt_number(s, "km/h"), fmt_number(x, "m"),
                  _verdict(a, res.acceleration_limit)]
                 for i, (k, a, t, s, x) in enumerate(res.acceleration_all)]
         lines += markdown_table(["track", "y", "peak acceleration", "train", "speed",
                                  "at x", "verdict"], rows)
-    lines += ["", "Load effects (bending moment, shear, reactions) of the beam deck do not "
-              "depend on where across the deck a load stands: the section *Load effects* "
-              "gives them with the train on its track and, for a study with trains on "
-              "other tracks (`train.other_trains`), with every train loaded."]
+    if names is None:
+        lines += ["", "Load effects (bending moment, shear, reactions) of the beam deck do "
+                  "not depend on where across the deck a load stands: the section *Load "
+                  "effects* gives them with the train on its track and, for a study with "
+                  "trains on other tracks (`train.other_trains`), with every train loaded."]
+    else:
+        lines += ["", "Load effects (bending moment, shear force) are those of the loaded "
+                  "track's train."]
     return Section.from_markdown(lines)

@@ -138,8 +138,10 @@ class Torsion(Section):
 class _Beam(_Modal):
     tracks: list[TrackLine] = key(
         None, default_text="one track on the axis, [{ eccentricity = 0 }]",
-        doc="the tracks on the deck, each { eccentricity, gauge }; train.track picks the "
-            "loaded one", example=[{"eccentricity": 2.25}, {"eccentricity": -2.25}])
+        doc="the tracks on the deck, each { eccentricity, gauge } (beam decks) or "
+            "{ line, eccentricity } (imported decks: named by their lines in the data, the "
+            "eccentricity a label only); train.track picks the loaded one",
+        example=[{"eccentricity": 2.25}, {"eccentricity": -2.25}])
     torsion: Torsion = key(None, default_text="none (the deck does not twist)",
                            doc="{ GJ, polar_mass, damping_ratio }: torsional modes of the "
                                "deck")
@@ -182,13 +184,38 @@ class Rigid(_Deck):
                          expected="a span length > 0 m")
 
 
+class ImportedTrack(Section):
+    """``[bridge] tracks = [{ line = "T" }, ...]`` of an imported deck: one track, named by
+    its lines in the modes file or station map (rails ``T/left`` and ``T/right``, and/or
+    the centre line ``T``)."""
+
+    line: Text = key(required=True, doc="the track's name in the data: its rails are the "
+                                        "lines 'line/left' and 'line/right', its centre "
+                                        "line 'line'",
+                     expected="the name of a track of the modes file / station map "
+                              "(string)")
+    eccentricity: float = key(
+        None, unit="m", default_text="unknown (no track_eccentricity in the results)",
+        doc="y of the track centre line from the deck's reference axis (positive to the "
+            "left looking in +x), a label of the results only: the lines carry the "
+            "geometry",
+        expected="a transverse distance y of the track centre line (m)")
+
+
 class _Imported(_Modal):
     spans: PerSpan = key(None, unit="m", default_text="the length of the track line",
                          doc="span lengths along the track line (the table must cover "
                              "their sum)", expected="a span length > 0 m")
     track_line: Text = key(None, default_text="the only line",
-                           doc="the track line of the file when it has several",
+                           doc="the track line of the file when it has several (not with "
+                               "tracks)",
                            expected="the name of a track line (string)")
+    tracks: list[ImportedTrack] = key(
+        None, default_text="none: the deck is the track line (track_line)",
+        doc="the tracks on the deck, each { eccentricity, gauge } (beam decks) or "
+            "{ line, eccentricity } (imported decks: named by their lines in the data, the "
+            "eccentricity a label only); train.track picks the loaded one",
+        example=[{"line": "up"}, {"line": "down"}])
 
 
 class ModesFile(_Imported):

@@ -38,6 +38,10 @@ mode and slopes d(phi)/dx at the stations.  Shapes are divided by sqrt(modal mas
     support_x(support) or support_x(line, support)   m   optional support abscissae
                                                  along each line (NaN-padded): for plots,
                                                  default output points and reports
+    section_x, section_moment, section_shear, load_x, influence_moment,
+    influence_shear                     optional section forces of the modes and their
+                                        static influence lines (:mod:`.effects`): the
+                                        bending moment and shear force of the deck
 
 *CSV* (``.csv``; one row per station and mode, "long" layout as FE post-processors
 export it; ``#`` starts a comment; header names are case-insensitive)::

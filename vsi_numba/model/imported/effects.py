@@ -15,9 +15,9 @@ forces, and converges with the few modes a study keeps.  Without these data an i
 deck has deflections and rotations only, and the load effects say so
 (:func:`vsi_numba.model.influence.check_effects`).
 
-The data format planned for the modes table (optional netCDF variables next to its own,
-see :mod:`vsi_numba.model.imported`; the reader is not wired to them yet: build a
-:class:`SectionForces` with :func:`from_arrays`)::
+The data of a netCDF modes table (optional variables next to its own, see
+:mod:`vsi_numba.model.imported`; read by
+:func:`~vsi_numba.model.imported.read_modes_table` for the track line)::
 
     section_x(section)                 m      sections along the deck (x from its left end)
     section_moment(section, mode)      N m    bending moment of each mode as stored
@@ -32,7 +32,24 @@ The modal section forces are scaled like the shapes (divided by sqrt(modal mass)
 given the same sign per mode (:class:`SectionForces` takes the scale and sign from the
 reader).  Between ``load_x`` the influence lines are interpolated linearly (give the
 kinks: supports and the sections themselves, both sides of a shear jump).  Signs as
-:mod:`vsi_numba.model.influence`.
+:mod:`vsi_numba.model.influence`.  ``influence_*`` may also come without the ``line``
+dimension: they then serve every line (a beam deck's bending does not depend on where
+across it the load stands); with ``bridge.tracks`` the train on track ``T`` takes the
+influence lines of the line ``T``.
+
+How the kernels use them (:func:`beam_statics`): the kernels evaluate the static part
+of every step in closed form for a beam on point supports (each span's statics plus
+the support moments, :class:`vsi_numba.solver.pack.LoadEffectTables`).  The file's
+influence lines give that beam: its supports are the file's (``support_x`` or
+``bridge.spans``) and its bending stiffness per span, relative to the first span, is
+fitted to the file's bending-moment influence lines (least squares; nothing to fit on
+one span).  That is exact for a beam exported by another program (a continuous beam
+with one EI per span); a deck whose influence lines differ from every such beam by
+more than :data:`BEAM_TOLERANCE` of their peak (a grillage girder, a frame) is refused,
+and its moments and shears are not computed.  The modal part is the file's: the
+modal section forces, linear between the file's sections (give sections at the output
+points for exact values there).  Support reactions and rotations are not given by the
+file and are not computed.
 """
 
 from __future__ import annotations
@@ -40,6 +57,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+#: Largest deviation (relative to the peak of each influence line) of the file's
+#: influence lines from those of the beam the kernels evaluate (:func:`beam_statics`).
+BEAM_TOLERANCE = 1e-2
 
 
 @dataclass(frozen=True)
@@ -120,3 +141,61 @@ def mode_acceleration(sf: SectionForces, effect: str, line: str, omega, q, F, x_
     static = np.einsum("stl,tl->ts", g, p)
     return static + (np.asarray(q) - np.asarray(F) / np.asarray(omega) ** 2) @ \
         sf.modal[effect].T
+
+
+def beam_statics(sf: SectionForces, line: str, supports):
+    """The beam on the ``supports`` (m) whose static bending moment and shear force are
+    the influence lines of ``sf`` on ``line`` (module notes), as a
+    :class:`~vsi_numba.model.influence.StaticDeck` carrying ``sf``, or the reason (str)
+    why there is none.
+
+    Parameters
+    ----------
+    sf : SectionForces
+    line : str
+        The track line whose influence lines the train loads.
+    supports : array_like
+        Support abscissae (m), from 0.
+
+    Returns
+    -------
+    StaticDeck or str
+    """
+    import scipy.optimize
+
+    from vsi_numba.model.influence import StaticDeck, influence
+
+    sup = np.asarray(supports, float)
+    spans = np.diff(sup)
+    if ("moment", line) not in sf.influence:
+        return f"the file has no influence_moment for the track line {line!r}"
+
+    def deck(log_ratio):
+        ei = np.exp(np.concatenate([[0.0], log_ratio]))
+        return StaticDeck(kind="beam", supports=sup, spans=spans, EI=ei, section_forces=sf)
+
+    x = sf.load_x
+    g = sf.influence[("moment", line)]
+    scale = np.maximum(np.max(np.abs(g), axis=1, keepdims=True), 1e-300)
+
+    def misfit(log_ratio):
+        return ((influence(deck(log_ratio), "moment", sf.sections, x) - g) / scale).ravel()
+
+    p0 = np.zeros(spans.size - 1)
+    p = (scipy.optimize.least_squares(misfit, p0, x_scale=1.0).x if p0.size else p0)
+    worst = {"moment": float(np.max(np.abs(misfit(p)), initial=0.0))}
+    if ("shear", line) in sf.influence:
+        gs = sf.influence[("shear", line)]
+        vs = influence(deck(p), "shear", sf.sections, x)
+        # a load at the section itself: the shear jumps there (the file gives one side)
+        away = np.abs(x[None, :] - sf.sections[:, None]) > 1e-9 * max(sup[-1], 1.0)
+        ss = np.maximum(np.max(np.abs(gs), axis=1, keepdims=True), 1e-300)
+        worst["shear"] = float(np.max(np.abs(vs - gs) / ss * away, initial=0.0))
+    effect = max(worst, key=worst.get)
+    if worst[effect] > BEAM_TOLERANCE:
+        return (f"the file's influence lines ({effect}) differ by {100 * worst[effect]:.3g} % "
+                "of their peak from those of every beam on the supports at "
+                f"{', '.join(f'{s:g}' for s in sup)} m (at most "
+                f"{100 * BEAM_TOLERANCE:g} %): the static part of the load effects is "
+                "evaluated as such a beam")
+    return deck(p)

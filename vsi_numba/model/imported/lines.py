@@ -80,6 +80,11 @@ class LineDeck3D:
     static : object or None
         Matrices decks: ``(K, fixed, lines)`` for the static rail deflections
         (:meth:`static_twist_line`); None for modes files (no stiffness).
+    warnings : tuple of str
+    labels : ndarray or None
+        Per track, the y of its centre line (m) that labels it in the results, NaN where
+        the configuration does not give it; None: every track's ``eccentricity``.  The
+        model never uses it: the lines carry the geometry.
     """
 
     bridges: tuple
@@ -88,6 +93,24 @@ class LineDeck3D:
     all_frequencies: np.ndarray
     static: object | None = None
     warnings: tuple[str, ...] = ()
+    labels: np.ndarray | None = None
+
+    @property
+    def eccentricities(self) -> np.ndarray:
+        """Per track, the y (m) of :attr:`labels` (NaN: not given)."""
+        if self.labels is not None:
+            return np.asarray(self.labels, float)
+        return np.array([t.eccentricity for t in self.tracks], float)
+
+    @property
+    def no_twist(self) -> str:
+        """Why the deck has no twist output ("" when every track has its rails)."""
+        bare = [t.line for t, r in zip(self.tracks, self.rails, strict=True) if r is None]
+        if not bare:
+            return ""
+        return (f"the data has no rail lines for track(s) {', '.join(map(repr, bare))} "
+                f"(lines '{bare[0]}/left' and '{bare[0]}/right'): the deck twist needs the "
+                "rails of every track")
 
     @property
     def n_modes(self) -> int:
@@ -183,22 +206,22 @@ class LineDeck3D:
             np.add.at(F, (dofs[e], cols), weight * (1.0 - t) * on)
             np.add.at(F, (dofs[e + 1], cols), weight * t * on)
 
-        def read(u, name, x):
-            st, dofs = lines[name]
-            w = u[dofs]
-            return np.stack([np.interp(x, st, w[:, j], left=0.0, right=0.0)
-                             for j in range(u.shape[1])], axis=1)
+        # the twist at the window starts read from u (linear between stations, zero off
+        # the lines), t = C^T u = C^T K_ff^-1 f = Z^T f with K_ff Z = C (K symmetric):
+        # one solve per window start, not per load position
+        C = np.zeros((n, at.size))
+        for name, x, wgt in ((rl, at, 1.0), (rr, at, -1.0), (rl, at + base, -1.0),
+                             (rr, at + base, 1.0)):
+            share(x, name, wgt, C)
+        Z = np.zeros((n, at.size))
+        Z[free] = lu.solve(np.ascontiguousarray(C[free]))
 
         def line(x_load):
             x_load = np.atleast_1d(np.asarray(x_load, float))
             F = np.zeros((n, x_load.size))
             for name, wgt in load_lines:
                 share(x_load, name, wgt, F)
-            u = np.zeros((n, x_load.size))
-            u[free] = lu.solve(np.ascontiguousarray(F[free]))
-            d = read(u, rl, at) - read(u, rr, at)
-            d2 = read(u, rl, at + base) - read(u, rr, at + base)
-            return d - d2
+            return Z.T @ F
         return line
 
 
@@ -217,6 +240,13 @@ def _tracks_of(tracks) -> tuple[Track, ...]:
     return tuple(out)
 
 
+def _track_names(lines) -> str:
+    """The tracks a set of line names offers (a rail line ``T/left`` names track ``T``)."""
+    names = dict.fromkeys(n.rsplit("/", 1)[0] if n.endswith((LEFT, RIGHT)) else n
+                          for n in lines)
+    return ", ".join(repr(n) for n in names) or "none"
+
+
 def _track_lines(p, key, name, tracks, available):
     """For every track: (contact parts, rails or None); records missing lines."""
     plan = []
@@ -228,17 +258,22 @@ def _track_lines(p, key, name, tracks, available):
         elif t.line in available:
             plan.append(([t.line], None))
         else:
-            p.add(key, name, f"the lines of bridge.tracks[{i}] = '{t.line}': its rails "
-                             f"'{left}' and '{right}', or its centre line '{t.line}' "
-                             f"(lines found: {', '.join(repr(a) for a in available)})")
+            p.add(f"tracks[{i}].line", t.line,
+                  f"a track of the {'modes file' if key == 'file' else 'station map'} "
+                  f"{name}: its rails '{left}' and '{right}', or its "
+                  f"centre line '{t.line}' (tracks found: {_track_names(available)}; "
+                  f"lines: {', '.join(repr(a) for a in available)})")
             plan.append(None)
     return plan
 
 
 def _assemble(tracks, plan, shapes, freqs, zeta, supports, description, all_freqs,
-              static=None, warnings=(), effective=None):
+              static=None, warnings=(), effective=None, statics=None):
+    """The :class:`LineDeck3D`; ``statics``: per track, the static deck of its load
+    effects (:mod:`.effects`) or None."""
     bridges, rails = [], []
-    for t, (parts, rl) in zip(tracks, plan, strict=True):
+    statics = [None] * len(tracks) if statics is None else statics
+    for t, (parts, rl), st in zip(tracks, plan, statics, strict=True):
         line = shapes[parts[0]] if len(parts) == 1 else _mean_line(shapes[parts[0]],
                                                                     shapes[parts[1]])
         x, v, s = line
@@ -246,7 +281,7 @@ def _assemble(tracks, plan, shapes, freqs, zeta, supports, description, all_freq
         bridges.append(_br.ModalBridge(
             kind=_br.HERMITE, length=float(x[-1]), frequencies=freqs, damping=zeta,
             nodes=x, values=np.ascontiguousarray(v), slopes=np.ascontiguousarray(s),
-            supports=supports, effective_mass_fraction=effective,
+            supports=supports, effective_mass_fraction=effective, static=st,
             description=f"{description}; track '{t.line}' ({what})"))
         rails.append(None if rl is None else tuple(Table(*shapes[r]) for r in rl))
     return LineDeck3D(tuple(bridges), tuple(rails), tracks, all_freqs, static,
@@ -278,11 +313,21 @@ def read_modes_table_tracks(path, tracks, *, n_modes=None, max_frequency=None,
     norm = mass_normalised if mass_normalised is not None else tab.normalised_flag
     if mm is None and not norm:
         p.add("file", name, "a modal_mass per mode (kg) -- or bridge.mass_normalised = true")
+    elif mm is not None and (not np.all(np.isfinite(mm)) or np.any(mm <= 0)):
+        p.add("file", name, "modal masses > 0 kg")
+    z = tab.damping
+    if z is not None and (not np.all(np.isfinite(z)) or np.any((z < 0) | (z >= 1))):
+        p.add("file", name, "damping ratios 0 <= zeta < 1")
     p.raise_if_any()
     length = float(np.sum(spans)) if spans is not None else None
     used = list(dict.fromkeys(n for parts, _ in plan for n in parts))
     for ln in used:
         line = tab.lines[ln]
+        bad = [a for a in (line.shape, line.slope) if a is not None
+               and not np.all(np.isfinite(a))]
+        if bad:
+            p.add("file", name, f"finite mode shapes and slopes on line '{ln}'")
+            continue
         if _check_stations(p, "file", name, line.x, ln, length):
             _check_ends(p, "file", name, line.x, line.shape, ln, tab.labels)
     p.raise_if_any()
@@ -317,8 +362,19 @@ def read_modes_table_tracks(path, tracks, *, n_modes=None, max_frequency=None,
     x0 = shapes[used[0]][0]
     sup = tab.lines[used[0]].supports
     supports = _supports_from(spans, sup, float(x0[-1]))
+    statics = None
+    if tab.effects is not None:  # per track, the influence lines of its name
+        statics = [_tb._section_forces(tab.effects, sel, scale, sign, t.line, supports)
+                   for t in tracks]
+        for t, st in zip(tracks, statics, strict=True):
+            if isinstance(st, str):
+                warnings.append(f"bridge.tracks: the section forces of {name} are not used "
+                                f"for track '{t.line}', no bending moments or shear forces "
+                                f"with the train on it: {st}")
+        statics = [None if isinstance(st, str) else st for st in statics]
     return _assemble(tracks, plan, shapes, f[sel], zeta, supports,
-                     f"modes table {name}: {n} modes", np.sort(f), warnings=warnings)
+                     f"modes table {name}: {n} modes", np.sort(f), warnings=warnings,
+                     statics=statics)
 
 
 def read_matrices_tracks(stiffness, mass, stations, tracks, *, fixed_dofs=None,

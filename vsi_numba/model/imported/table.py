@@ -3,6 +3,7 @@ modal masses and mode shapes at stations along track lines, see :mod:`vsi_numba.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -42,6 +43,10 @@ class _Table:
     damping: np.ndarray | None
     normalised_flag: bool | None
     lines: dict  # name -> _Line
+    #: the optional section forces (:mod:`.effects`): "section_x", "load_x" (arrays),
+    #: "modal" {effect: (n_sec, n_mode), file order}, "influence" {(effect, line):
+    #: (n_sec, n_load)}; None without them
+    effects: dict | None = None
 
 
 def _is_netcdf(path: Path) -> bool:
@@ -171,7 +176,66 @@ def _read_netcdf(path: Path, name, p: _Problems) -> _Table | None:
             sv = sv[i] if sv.ndim == 2 else sv
             si = sv[np.isfinite(sv)]
         lines[ln] = _Line(xi, shi, sli, si)
-    return _Table(labels, freq, mm, zeta, flag, lines)
+    return _Table(labels, freq, mm, zeta, flag, lines, _read_effects(ds, name, p, names))
+
+
+#: The optional variables of the section forces (:mod:`.effects`).
+EFFECT_VARIABLES = ("section_x", "section_moment", "section_shear", "load_x",
+                    "influence_moment", "influence_shear")
+
+
+def _read_effects(ds, name, p: _Problems, lines) -> dict | None:
+    """The section forces of a netCDF modes table (:mod:`.effects`), None without them;
+    problems are recorded in ``p``."""
+    given = [v for v in EFFECT_VARIABLES if v in ds.variables]
+    if not given:
+        return None
+    need = ("section_x", "section_moment", "load_x", "influence_moment")
+    missing = [v for v in need if v not in ds.variables]
+    if missing:
+        p.add("file", name, "the section forces complete: section_x(section), "
+                            "section_moment(section, mode), load_x(load), influence_moment("
+                            f"line, section, load) (+ optional section_shear, influence_shear"
+                            f"); missing: {', '.join(missing)}")
+        return None
+    out = {"modal": {}, "influence": {}}
+    for var, dims in (("section_x", ("section",)), ("load_x", ("load",))):
+        a = np.asarray(ds[var].values, float)
+        if ds[var].dims != dims or not np.all(np.isfinite(a)) or np.any(np.diff(a) < 0):
+            p.add("file", name, f"{var}{dims} finite and ascending (m)")
+            return None
+        out[var] = a
+    for effect in ("moment", "shear"):
+        var = f"section_{effect}"
+        if var in ds.variables:
+            da = ds[var]
+            if set(da.dims) != {"section", "mode"}:
+                p.add("file", name, f"{var} with dimensions (section, mode) (found {da.dims})")
+                return None
+            a = np.asarray(da.transpose("section", "mode").values, float)
+            if not np.all(np.isfinite(a)):
+                p.add("file", name, f"finite values of {var}")
+                return None
+            out["modal"][effect] = a
+        var = f"influence_{effect}"
+        if var not in ds.variables:
+            continue
+        da = ds[var]
+        if set(da.dims) not in ({"section", "load"}, {"line", "section", "load"}):
+            p.add("file", name, f"{var} with dimensions (line, section, load) or (section, "
+                                f"load) (found {da.dims})")
+            return None
+        a = np.asarray(da.transpose(*[d for d in ("line", "section", "load")
+                                      if d in da.dims]).values, float)
+        if not np.all(np.isfinite(a)):
+            p.add("file", name, f"finite values of {var}")
+            return None
+        for i, ln in enumerate(lines if a.ndim == 3 else [""]):
+            out["influence"][(effect, ln if a.ndim == 3 else "")] = a[i] if a.ndim == 3 else a
+    if ("shear" in out["modal"]) != any(k[0] == "shear" for k in out["influence"]):
+        p.add("file", name, "section_shear and influence_shear together (one is missing)")
+        return None
+    return out
 
 
 def _read_csv(path: Path, name, p: _Problems) -> _Table | None:
@@ -387,10 +451,19 @@ def read_modes_table(
     scale = 1.0 / np.sqrt(mm[sel]) if mm is not None else np.ones(n)
     values = ln.shape[:, sel] * scale
     slopes = ln.slope[:, sel] * scale if ln.slope is not None else _spline_slopes(ln.x, values)
+    sign = np.sign(values[np.argmax(np.abs(values), axis=0), np.arange(n)])
+    sign[sign == 0] = 1.0
     values, slopes = _flip_positive(values, slopes)
     zeta = _damping(p, damping_ratio, None if z is None else z[order], n, warnings)
     p.raise_if_any()
     supports = _supports_from(spans, ln.supports, float(ln.x[-1]))
+    static = None
+    if tab.effects is not None:
+        static = _section_forces(tab.effects, sel, scale, sign, line_name, supports)
+        if isinstance(static, str):
+            warnings.append(f"bridge.file ({name}): its section forces are not used, "
+                            f"bending moments and shear forces are not computed: {static}")
+            static = None
     x = ln.x.copy()
     x[0] = 0.0
     if length is not None:
@@ -401,4 +474,24 @@ def read_modes_table(
                      f"{'Hermite with the given slopes' if ln.slope is not None else 'C2 spline'}"
                      " between stations"),
     )
+    if static is not None:
+        bridge = dataclasses.replace(bridge, static=static)
     return ImportResult(bridge, f.copy(), tuple(warnings), tuple(shown))
+
+
+def _section_forces(eff, sel, scale, sign, line, supports):
+    """The static deck of the file's section forces for the retained modes ``sel``
+    (:func:`~vsi_numba.model.imported.effects.beam_statics`) for a train on ``line``, or
+    why not (str).  Influence lines without a line dimension serve every line."""
+    from vsi_numba.model.imported import effects
+
+    found = {k[1] for k in eff["influence"]}
+    if line not in found and "" in found:
+        line = ""
+    if line not in found:
+        return (f"no influence lines for the track line {line!r} (the file has them for "
+                f"{', '.join(map(repr, sorted(found)))})")
+    sf = effects.from_arrays(eff["section_x"], {k: v[:, sel] for k, v in eff["modal"].items()},
+                             eff["load_x"], {k: v for k, v in eff["influence"].items()
+                                             if k[1] == line}, scale, sign)
+    return effects.beam_statics(sf, line, supports)

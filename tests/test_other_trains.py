@@ -233,3 +233,21 @@ def test_trains_meeting_on_a_symmetric_continuous_deck_load_it_symmetrically(tmp
         assert abs(one[0] / one[1] - 1) > 1e-3, name
     r = ds["max_support_reaction_all_tracks"].values
     np.testing.assert_allclose(r[0], r[2], rtol=1e-9)
+
+
+def test_other_trains_on_an_imported_deck_are_refused(tmp_path):
+    """A grillage exported as matrices with two tracks (one by its rails, one by a
+    centre line): several trains in one run are refused on imported decks, naming the
+    key."""
+    from test_imported_space_config import LEFT_RAIL, RIGHT_RAIL, _matrices_bridge, _write_matrices
+    from test_imported_space_config import _text as _imported_text
+
+    fixed = _write_matrices(tmp_path, (("T/left", LEFT_RAIL), ("T/right", RIGHT_RAIL),
+                                       ("U", LEFT_RAIL)))
+    text = _imported_text(_matrices_bridge(
+        fixed, 'tracks = [{ line = "T" }, { line = "U" }]'), [60.0]).replace(
+        'name = "axles"', 'name = "axles"\nother_trains = [{ track = 2 }]')
+    with pytest.raises(ConfigError) as err:
+        load_config(_toml(tmp_path, text))
+    assert "train.other_trains" in str(err.value)
+    assert "not offered on imported decks yet" in str(err.value), str(err.value)

@@ -546,6 +546,11 @@ def _other_train_checks(chk, bridge, train) -> None:
     if "track" in bridge.resolved:
         chk.error("train.other_trains", others, "no other trains with the FE track layer "
                   "[bridge.track] (its track is the deck's line: one track)")
+    kind = bridge.resolved.get("kind")
+    if kind not in ("simply_supported", "continuous"):
+        chk.error("train.other_trains", others, "a simply_supported or continuous deck "
+                  f"(bridge.kind = \"{kind}\": several trains in one run are not offered "
+                  "on imported decks yet)")
     dyn = [tr.name for tr in train.trains if any(v.n_dof > 0 for v in tr.vehicles)]
     if dyn:
         chk.error("train.other_trains", others,

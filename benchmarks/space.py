@@ -132,6 +132,7 @@ def mode_count(path: Path) -> int:
 @dataclass
 class SpaceResult:
     mode: str
+    rounds: int = 1
     grid: str = ""
     walls: dict = field(default_factory=dict)  # variant -> [s], full grid
     cpus: dict = field(default_factory=dict)
@@ -161,7 +162,8 @@ def run_space_bench(mode: str = "normal", write: bool = True, report: Path | Non
     plan = make_space_plan(mode, rounds)
     trains = ("HSLM-A1",) if mode == "smoke" else None
     cfgs = space_configs(plan.speeds, trains)
-    res = SpaceResult(mode, date=_dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"))
+    res = SpaceResult(mode, plan.rounds,
+                      date=_dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"))
     runs = n_runs(cfgs["a"])
     n_tr, n_sp = len(cfgs["a"]["train"]["preset"]), len(plan.speeds)
     res.grid = (f"{n_tr} HSLM-A train{'s' * (n_tr > 1)} x {n_sp} speed{'s' * (n_sp > 1)} "
@@ -275,6 +277,10 @@ def _measures(res: SpaceResult) -> None:
         Measure("c3", "two tracks + torsion / planar, compute (CPU - 1-run CPU)",
                 res.grid, _ratio(comp["c"], comp["a"]), "ratio", mode_ratio, None,
                 f"{fmt_s(comp['c'])} / {fmt_s(comp['a'])}"),
+        Measure("n1", "noise: slowest / fastest repetition of (a), CPU", res.grid,
+                max(res.cpus["a"]) / min(res.cpus["a"]), "ratio", None, None,
+                f"the same command {len(res.cpus['a'])} times; a ratio of the medians "
+                "above closer to 1 than this spread is within the noise of the machine"),
     ]
 
 
@@ -318,13 +324,15 @@ def text_table(res: SpaceResult) -> str:
 
 def markdown(res: SpaceResult) -> str:
     m = machine_info()
-    flag = "" if res.mode == "normal" else " --" + res.mode
+    flag = ("" if res.mode == "normal" else " --" + res.mode) + (
+        "" if res.rounds == make_space_plan(res.mode).rounds else f" --rounds {res.rounds}")
     lines = [
         BEGIN,
         "## Decks in space: tracks and torsion",
         "",
         f"Written by `python -m benchmarks.space{flag}` on {res.date} (mode **{res.mode}**, "
-        f"{res.seconds:.0f} s; load {res.load[0]:.2f} at start, {res.load[1]:.2f} at end; "
+        f"{res.rounds} round{'s' * (res.rounds > 1)}, {res.seconds:.0f} s; "
+        f"load {res.load[0]:.2f} at start, {res.load[1]:.2f} at end; "
         f"git {m['git_commit']}; {m['cores']} cores).",
         "",
         "Whole `python -m vsi_numba.cli sweep CONFIG -o OUT --quiet` commands on three "

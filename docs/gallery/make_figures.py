@@ -132,17 +132,17 @@ def _limit_line(ax, value: float, text: str):
     ax.axhline(value, color="#c0392b", ls="--", lw=1.2)
     ax.annotate(text, (0.99, value), xycoords=("axes fraction", "data"), color="#c0392b",
                 fontsize=8, ha="right", va="top", xytext=(0, -2), textcoords="offset points")
-    bottom, top = ax.get_ylim()
     if ax.get_yscale() == "linear":
-        ax.set_ylim(0, max(top, 1.3 * value))
+        ax.set_ylim(0, max(ax.get_ylim()[1], 1.3 * value))
 
 
-def _per_train(ax, ds, var: str, scale: float = 1.0, reduce_dims=("irregularity",)):
-    """One line per train of ``var`` (max over ``reduce_dims``) against the speed."""
-    da = ds[var].max([d for d in reduce_dims if d in ds[var].dims])
+def _per_train(ax, ds, var: str):
+    """One line per train of ``var`` (max over the track realisations) against the
+    speed."""
+    da = ds[var].max("irregularity")
     kmh = ds["speed_kmh"].values
     for t in ds["train"].values:
-        ax.plot(kmh, da.sel(train=t).values * scale, lw=1.0, label=str(t))
+        ax.plot(kmh, da.sel(train=t).values, lw=1.0, label=str(t))
     ax.set_xlabel("speed (km/h)")
     ax.grid(alpha=0.3)
 
@@ -248,15 +248,13 @@ def interaction(ds, title: str):
     return fig
 
 
-def histories(ds, title: str, speeds=None):
+def histories(ds, title: str):
     """Mid-span deflection and car-body acceleration against time, one line per speed."""
     fig, (a1, a2) = _figure(2, 2.6)
     point = float(ds["point"].values[len(ds["point"]) // 2])
     sel = ds.isel(train=0, irregularity=0)
     for s in sel["speed"].values:
         one = sel.sel(speed=s)
-        if speeds is not None and round(float(one["speed_kmh"])) not in speeds:
-            continue
         t = one["time"].values
         label = f"{float(one['speed_kmh']):g} km/h"
         a1.plot(t, one["deck_displacement"].sel(point=point).values * 1e3, lw=1.0,

@@ -332,7 +332,7 @@ def test_space_smoke(tmp_path):
     assert res.planar_identical == []
     assert res.modes["a"] == res.modes["b"] < res.modes["c"]
     keys = {m.key: m for m in res.measures}
-    assert set(keys) == {"b1", "b2", "b3", "c1", "c2", "c3"}
+    assert set(keys) == {"b1", "b2", "b3", "c1", "c2", "c3", "n1"}
     assert keys["b1"].bar == 1.10 and keys["c1"].bar == res.modes["c"] / res.modes["a"]
     table = SP.text_table(res)
     assert "two tracks + torsion / planar" in table and "one track at 0" in table

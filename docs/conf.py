@@ -5,7 +5,8 @@ Build (from the repository root)::
     python -m sphinx -W -b html docs docs/_build/html
 
 A small directive keeps a page in step with the code: ``verification-table`` renders a
-``verification.csv`` written by ``vsi verify``.  (The key reference,
+CSV file kept beside the page (the ``verification.csv`` written by ``vsi verify``, the
+gallery's result tables written by ``docs/gallery/make_figures.py``).  (The key reference,
 ``reference/config_keys.md``, is generated from the config models and committed.)
 """
 
@@ -46,7 +47,7 @@ html_static_path: list[str] = []
 
 
 class VerificationTable(Directive):
-    """A table of the chosen columns of a verification.csv (path relative to the page)."""
+    """A table of the chosen columns of a CSV file (path relative to the page)."""
 
     required_arguments = 1
     option_spec = {"columns": directives.unchanged, "unique": directives.flag}

@@ -288,3 +288,56 @@ def test_study_smoke(tmp_path, capsys):
 
     agree = re.search(r"output agrees with the yardstick to ([0-9.]+e[-+][0-9]+)", text)
     assert agree and float(agree.group(1)) <= YARDSTICK_TOL
+
+
+# ------------------------------------------------- decks in space (benchmarks/space.py)
+
+
+def test_space_configs_differ_only_in_the_deck_in_space():
+    """The three configs of ``benchmarks/space.py`` load, and differ only in the keys of
+    a deck in space: (a) none, (b) one track at 0, (c) the bundled tracks and torsion."""
+    import tomllib
+
+    from benchmarks import space as SP
+    from benchmarks.study import to_toml
+    from vsi_numba.config import load_config
+
+    cfgs = SP.space_configs((140.0, 250.0, 360.0))
+    a, b, c = cfgs["a"], cfgs["b"], cfgs["c"]
+    assert "tracks" not in a["bridge"] and "torsion" not in a["bridge"]
+    assert "track" not in a["train"]
+    assert b["bridge"]["tracks"] == [{"eccentricity": 0.0}] and "torsion" not in b["bridge"]
+    assert [t["eccentricity"] for t in c["bridge"]["tracks"]] == [2.25, -2.25]
+    assert c["bridge"]["torsion"]["GJ"] > 0 and c["train"]["track"] == 1
+    for key in ("tracks", "torsion"):
+        b["bridge"].pop(key, None)
+        c["bridge"].pop(key)
+    c["train"].pop("track")
+    assert a == b == c
+    for cfg in SP.space_configs((140.0, 250.0, 360.0)).values():
+        load_config(tomllib.loads(to_toml(cfg)))
+        assert SP.n_runs(cfg) == 4 * 3
+
+
+def test_space_smoke(tmp_path):
+    """`python -m benchmarks.space --smoke`: one 1-run `vsi sweep` per variant; the
+    planar results equal those with one track at 0 in every shared variable, the torsion
+    adds modes, and the section is written beside the report's other sections."""
+    from benchmarks import space as SP
+
+    report = tmp_path / "bench.md"
+    report.write_text("# report\n\n## Case 1\n\ntext\n")
+    res = SP.run_space_bench("smoke", report=report, echo=lambda s: None)
+    assert not res.errors, res.errors
+    assert res.planar_identical == []
+    assert res.modes["a"] == res.modes["b"] < res.modes["c"]
+    keys = {m.key: m for m in res.measures}
+    assert set(keys) == {"b1", "b2", "b3", "c1", "c2", "c3", "n1"}
+    assert keys["b1"].bar == 1.10 and keys["c1"].bar == res.modes["c"] / res.modes["a"]
+    table = SP.text_table(res)
+    assert "two tracks + torsion / planar" in table and "one track at 0" in table
+    text = report.read_text()
+    assert text.startswith("# report") and "## Case 1" in text
+    assert "## Decks in space" in text and "| b1 |" in text and "| c1 |" in text
+    SP.write_section(report, SP.markdown(res))  # replaced in place, not appended
+    assert report.read_text().count("## Decks in space") == 1

@@ -35,3 +35,24 @@ def test_docs__build_without_warnings(tmp_path):
     # the verification table is rendered from the CSV kept beside the page
     table = (out / "manual" / "verification.html").read_text(encoding="utf-8")
     assert "V01-0.5" in table and "V08-x" in table
+
+
+def test_gallery__every_bundled_config_has_its_entry():
+    """docs/gallery.md shows every config of configs/: its section names the file, its
+    figure and results table are committed beside the page, and the script that makes
+    them runs it."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "make_figures", ROOT / "docs" / "gallery" / "make_figures.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    page = (ROOT / "docs" / "gallery.md").read_text(encoding="utf-8")
+    stems = sorted(p.stem for p in (ROOT / "configs").glob("*.toml"))
+    assert sorted(script.GALLERY) == stems
+    for stem in stems:
+        assert f"`configs/{stem}.toml`" in page, stem
+        assert f"(gallery/{stem}.png)" in page and f"gallery/{stem}.csv" in page, stem
+        assert (ROOT / "docs" / "gallery" / f"{stem}.png").stat().st_size > 10_000, stem
+        rows = (ROOT / "docs" / "gallery" / f"{stem}.csv").read_text("utf-8").splitlines()
+        assert rows[0] == "result,value,limit,verdict,where" and len(rows) > 1, stem

@@ -6,10 +6,13 @@ HSLM-A1..A4 as moving forces, bending modes up to 30 Hz) on the same reduced spe
 a. planar: the deck without ``bridge.tracks``, ``bridge.torsion`` and ``train.track``;
 b. one track at eccentricity 0, no torsion: the project promises results bit for bit
    those of (a) and at most 10 % more time (ratio b / a, bar 1.10);
-c. the bundled double-track viaduct with St-Venant torsion (two tracks at +-2.25 m, the
-   torsional modes up to the highest bending mode): the promise is a cost of at most the
-   extra modes' share, i.e. the ratio c / a at most the ratio of the mode counts (read
-   from the ``mode`` dimension of the two results files).
+c. the double-track viaduct with St-Venant torsion (two tracks at +-2.25 m, the
+   torsional modes up to the highest bending mode), one train per run: the promise is a
+   cost of at most the extra modes' share, i.e. the ratio c / a at most the ratio of the
+   mode counts (read from the ``mode`` dimension of the two results files);
+d. the bundled config: (c) with the same train on track 2 entering at the far end
+   (``train.other_trains``, two trains per run superposed): the ratio d / c against 2,
+   the number of trains per run.
 
 Each command is ``python -m vsi_numba.cli sweep CONFIG -o OUT --quiet`` as a subprocess
 (:func:`benchmarks.study.run_command`: wall time, CPU time of the command and its
@@ -48,10 +51,11 @@ from benchmarks.timing import REPO, load1, machine_info, user_env
 DOUBLE_TRACK = REPO / "configs" / "double_track_viaduct.toml"
 BEGIN = "<!-- space-benchmark:begin -->"
 END = "<!-- space-benchmark:end -->"
-VARIANTS = ("a", "b", "c")
+VARIANTS = ("a", "b", "c", "d")
 LABELS = {"a": "planar (no tracks, no torsion)",
           "b": "one track at eccentricity 0, no torsion",
-          "c": "two tracks at +-2.25 m with torsion (bundled config)"}
+          "c": "two tracks at +-2.25 m with torsion, one train per run",
+          "d": "(c) with the train meeting on track 2 (bundled config)"}
 SINGLE_TRACK_BAR = 1.10
 
 
@@ -96,14 +100,16 @@ def space_configs(speeds, trains: tuple | None = None) -> dict[str, dict]:
     study["output"] = "results.nc"
     if trains is not None:
         base["train"]["preset"] = list(trains)
-    c = base
-    a = copy.deepcopy(base)
+    d = base
+    c = copy.deepcopy(base)
+    c["train"].pop("other_trains", None)
+    a = copy.deepcopy(c)
     for key in ("tracks", "torsion"):
         a["bridge"].pop(key)
     a["train"].pop("track")
     b = copy.deepcopy(a)
     b["bridge"]["tracks"] = [{"eccentricity": 0.0}]
-    return {"a": a, "b": b, "c": c}
+    return {"a": a, "b": b, "c": c, "d": d}
 
 
 def n_runs(cfg: dict) -> int:
@@ -205,7 +211,8 @@ def run_space_bench(mode: str = "normal", write: bool = True, report: Path | Non
                     echo(f"[space] warm-up {v} (1 run): {r.wall:.2f} s")
             outs = {}
             for i in range(plan.rounds):
-                order = VARIANTS[i % 3:] + VARIANTS[:i % 3]
+                j = i % len(VARIANTS)
+                order = VARIANTS[j:] + VARIANTS[:j]
                 for v in order:
                     r, out = sweep(paths[v], keep=i == 0)
                     if i == 0:
@@ -277,6 +284,12 @@ def _measures(res: SpaceResult) -> None:
         Measure("c3", "two tracks + torsion / planar, compute (CPU - 1-run CPU)",
                 res.grid, _ratio(comp["c"], comp["a"]), "ratio", mode_ratio, None,
                 f"{fmt_s(comp['c'])} / {fmt_s(comp['a'])}"),
+        Measure("d1", "trains meeting (two per run) / one train, wall", res.grid,
+                wall["d"] / wall["c"], "ratio", 2.0, None,
+                f"{fmt_s(wall['d'])} / {fmt_s(wall['c'])}; bar = 2 trains per run"),
+        Measure("d3", "trains meeting (two per run) / one train, compute", res.grid,
+                _ratio(comp["d"], comp["c"]), "ratio", 2.0, None,
+                f"{fmt_s(comp['d'])} / {fmt_s(comp['c'])}"),
         Measure("n1", "noise: slowest / fastest repetition of (a), CPU", res.grid,
                 max(res.cpus["a"]) / min(res.cpus["a"]), "ratio", None, None,
                 f"the same command {len(res.cpus['a'])} times; a ratio of the medians "
@@ -335,11 +348,12 @@ def markdown(res: SpaceResult) -> str:
         f"load {res.load[0]:.2f} at start, {res.load[1]:.2f} at end; "
         f"git {m['git_commit']}; {m['cores']} cores).",
         "",
-        "Whole `python -m vsi_numba.cli sweep CONFIG -o OUT --quiet` commands on three "
+        "Whole `python -m vsi_numba.cli sweep CONFIG -o OUT --quiet` commands on four "
         "configs derived from `configs/double_track_viaduct.toml` (same deck, trains and "
         f"speeds: {res.grid}): (a) without `bridge.tracks`, `bridge.torsion` and "
-        "`train.track`; (b) (a) with `tracks = [{ eccentricity = 0.0 }]`; (c) the bundled "
-        "config, two tracks at +-2.25 m with torsion.  Warm numba cache (each variant first "
+        "`train.track`; (b) (a) with `tracks = [{ eccentricity = 0.0 }]`; (c) two tracks "
+        "at +-2.25 m with torsion, one train per run; (d) the bundled config, (c) with the "
+        "same train on track 2 entering at the far end (`train.other_trains`).  Warm numba cache (each variant first "
         "ran once on a 1-run grid), interleaved rounds, medians over the rounds; *CPU* is "
         "the user + system time of the command and its children; *compute* is the CPU "
         "time on the full grid minus that of the same command on 1 run (start-up, "

@@ -294,8 +294,9 @@ def test_study_smoke(tmp_path, capsys):
 
 
 def test_space_configs_differ_only_in_the_deck_in_space():
-    """The three configs of ``benchmarks/space.py`` load, and differ only in the keys of
-    a deck in space: (a) none, (b) one track at 0, (c) the bundled tracks and torsion."""
+    """The four configs of ``benchmarks/space.py`` load, and differ only in the keys of
+    a deck in space: (a) none, (b) one track at 0, (c) the bundled tracks and torsion,
+    (d) the bundled config with its train on track 2."""
     import tomllib
 
     from benchmarks import space as SP
@@ -303,7 +304,11 @@ def test_space_configs_differ_only_in_the_deck_in_space():
     from vsi_numba.config import load_config
 
     cfgs = SP.space_configs((140.0, 250.0, 360.0))
-    a, b, c = cfgs["a"], cfgs["b"], cfgs["c"]
+    a, b, c, d = cfgs["a"], cfgs["b"], cfgs["c"], cfgs["d"]
+    assert d["train"]["other_trains"] == [{"track": 2, "direction": "opposite",
+                                           "offset": 0.0}]
+    d["train"].pop("other_trains")
+    assert c == d
     assert "tracks" not in a["bridge"] and "torsion" not in a["bridge"]
     assert "track" not in a["train"]
     assert b["bridge"]["tracks"] == [{"eccentricity": 0.0}] and "torsion" not in b["bridge"]
@@ -332,7 +337,8 @@ def test_space_smoke(tmp_path):
     assert res.planar_identical == []
     assert res.modes["a"] == res.modes["b"] < res.modes["c"]
     keys = {m.key: m for m in res.measures}
-    assert set(keys) == {"b1", "b2", "b3", "c1", "c2", "c3", "n1"}
+    assert set(keys) == {"b1", "b2", "b3", "c1", "c2", "c3", "d1", "d3", "n1"}
+    assert res.modes["d"] == res.modes["c"] and keys["d1"].bar == 2.0
     assert keys["b1"].bar == 1.10 and keys["c1"].bar == res.modes["c"] / res.modes["a"]
     table = SP.text_table(res)
     assert "two tracks + torsion / planar" in table and "one track at 0" in table

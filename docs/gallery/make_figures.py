@@ -29,10 +29,12 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from vsi_numba.analysis import run_checks, summary_table
+from vsi_numba.analysis.checks.load_effects import load_effect_checks
 from vsi_numba.analysis.checks.twist import twist_checks
 
 HERE = Path(__file__).resolve().parent
@@ -62,6 +64,8 @@ def _value(value: float, units: str) -> str:
         return f"{_num(value * 1e3)} mm"
     if units == "m s-2":
         return f"{_num(value)} m/s²"
+    if units == "N m":
+        return f"{_num(value / 1e3)} kN m"
     return _num(value)
 
 
@@ -95,6 +99,20 @@ def results_rows(ds) -> list[dict]:
                     "verdict": "pass" if c.value <= c.limit else "FAIL",
                     "where": f"Φ = {c.phi:.3f}, α = {c.alpha:g}, window from "
                              f"x = {c.at:.1f} m"})
+        le = {"": load_effect_checks(ds), " (both tracks loaded)":
+              load_effect_checks(ds, all_tracks=True)}
+        for what, c in le.items():
+            if isinstance(c, str):
+                continue
+            for r in c.verdict.itertuples(index=False):
+                if r.effect != "moment":
+                    continue
+                rows.append({
+                    "result": f"Bending moment, EN 1991-2 6.4.6.5(3){what}",
+                    "value": _value(r.real_design, "N m"),
+                    "limit": _value(r.lm71_design, "N m") + " (Φ × α × LM71)",
+                    "verdict": r.governs,
+                    "where": f"{r.train}, {r.speed_kmh:g} km/h, x = {r.location:g} m"})
         for k, value, train, speed, x in tw.acceleration:
             rows.append({"result": f"Peak deck acceleration along track {k}",
                          "value": _value(value, "m s-2"),
@@ -177,8 +195,9 @@ def viaduct(ds):
 
 def double_track(ds):
     """Acceleration of the axis vs speed, twist per track vs speed, acceleration along
-    each track vs x."""
-    fig, (a1, a2, a3) = _figure(3, 2.9)
+    each track vs x, and the bending moment at the central mid-span with one and with
+    both tracks loaded vs speed."""
+    fig, (a1, a2, a3, a4) = _figure(4, 2.9)
     _per_train(a1, ds, "max_deck_acceleration_whole_deck")
     limit = _limit_of(ds)
     _limit_line(a1, limit, f"limit {limit:g} m/s²")
@@ -216,6 +235,16 @@ def double_track(ds):
     a3.set_ylabel("peak deck acc. (m/s²),\nall trains and speeds")
     a3.grid(alpha=0.3, axis="y")
     a3.legend(fontsize=7, loc="upper left", frameon=False, ncol=3)
+    mid = int(np.argmin(np.abs(x - 41.0)))
+    for sfx, style, what in (("", "-", "train on track 1"),
+                             ("_all_tracks", "--", "trains meeting on tracks 1 and 2")):
+        m = ds[f"max_bending_moment{sfx}"].isel(point=mid).max(["train", "irregularity"])
+        a4.plot(kmh, m.values / 1e6, style, lw=1.4, label=what)
+    a4.set_xlabel("speed (km/h)")
+    a4.set_ylabel(f"max bending moment\nat x = {x[mid]:g} m (MN m)")
+    a4.set_ylim(0, None)
+    a4.grid(alpha=0.3)
+    a4.legend(fontsize=7, loc="lower right", frameon=False)
     return fig
 
 

@@ -208,8 +208,17 @@ def twist_checks(ds, profile=None, length: float | None = None):
             dynamic.append((k, v, str(w.get("train", "")),
                             float(w.get("speed", np.nan)) * 3.6, float(at)))
         a, wa = _worst(ds["max_track_acceleration"].sel(track=k), ("speed", "train", "point"))
+        x = float(wa.get("point", np.nan))
+        name = "max_track_acceleration_whole_deck"
+        if name in ds:  # the whole-deck grid along the track line
+            g = ds[name].sel(track=k)
+            a2, w2 = _worst(g, ("speed", "train", "irregularity"))
+            if a2 > a or not np.isfinite(a):
+                a, wa = a2, w2
+                x = float(ds[f"position_of_{name}"].sel(track=k).sel(
+                    {d: w2[d] for d in g.dims}).values)
         accel.append((k, a, str(wa.get("train", "")), float(wa.get("speed", np.nan)) * 3.6,
-                      float(wa.get("point", np.nan))))
+                      x))
     static: list = []
     deck = _deck_of(ds)
     if not isinstance(deck, str) and np.isfinite(lphi.value):

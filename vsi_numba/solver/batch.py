@@ -202,7 +202,7 @@ def torsional_moment_tables(space, points, effects: LoadEffectTables | None,
     section, so this static part is not available without a kernel change.
     """
     points = np.atleast_1d(np.asarray(points, float))
-    e = float(space.tracks[loaded].eccentricity) if loaded < len(space.tracks) else 0.0
+    e = float(space.tracks[loaded].eccentricity)
     if not getattr(space, "has_torsion", False):
         return effects, None, 0.0, "the deck has no torsion (no bridge.torsion)"
     if effects is None:

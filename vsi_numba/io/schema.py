@@ -258,6 +258,9 @@ SPACE_HISTORIES = {
     "track_acceleration": (
         ("time", "track", "point"), "m s-2", "vertical deck acceleration along the track "
         "centre line, modes up to the EN 1990 A2.4.4.2.1 cut-off", {**DOWN, "comment": _Y}),
+    "torsional_moment": (
+        ("time", "point"), "N m", "St-Venant torsional moment of the deck (train on the "
+        "loaded track)", _TORQUE),
     "deck_twist": (
         ("time", "track", "point"), "m", "deck twist over 3 m along the track, window from "
         "the output point", {**_TWIST, "sign_convention": _TWIST["sign_convention"].replace(

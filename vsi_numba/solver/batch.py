@@ -440,7 +440,9 @@ class BatchResult:
         modal forces and contact forces, with the static part from
         :func:`vsi_numba.model.influence.influence`: ``bending_moment``,
         ``shear_force`` (time, point), ``support_reaction``, ``rotation``
-        (time, support).  Empty when the load effects were not computed."""
+        (time, support), and ``torsional_moment`` (time, point) when the
+        :class:`SpaceLayout` has it (:func:`torsional_moment_tables`).  Empty when the
+        load effects were not computed."""
         from vsi_numba.model.influence import influence
 
         e = self.effects
@@ -475,6 +477,12 @@ class BatchResult:
             total = np.stack([np.bincount(step, weights=row, minlength=n) for row in g],
                              axis=1) if len(at) else np.zeros((n, 0))
             out[name] = total + c @ e.E[:, cols]
+            if name == "shear_force" and self.space is not None and (
+                    self.space.torque_channel is not None):
+                # the torque channel: the same static shear (simply supported span)
+                sp = self.space
+                out["torsional_moment"] = sp.torque_scale * (
+                    total + c @ e.E[:, sp.torque_channel])
         if self.status[r] != ek.OK:
             for a in out.values():
                 a[...] = np.nan

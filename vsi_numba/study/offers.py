@@ -42,9 +42,9 @@ CARBODY = ("max_carbody_acceleration", "time_of_max_carbody_acceleration",
 TRACK_WHOLE_DECK_ACCELERATION = tuple(f"{pre}max_track_acceleration_whole_deck" for pre in
                                       ("", "time_of_", "position_of_"))
 
-#: The torsional moment envelopes of a deck in space.
+#: The torsional moment envelopes and history of a deck in space.
 TORSIONAL_MOMENT = tuple(f"{pre}{ext}_torsional_moment" for ext in ("max", "min")
-                         for pre in ("", "time_of_"))
+                         for pre in ("", "time_of_")) + ("torsional_moment",)
 
 #: Histories of the wheels in contact (a moving force's contact force is its load).
 CONTACT_HISTORIES = ("contact_force", "in_contact")

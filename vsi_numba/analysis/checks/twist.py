@@ -211,12 +211,12 @@ def twist_checks(ds, profile=None, length: float | None = None):
         x = float(wa.get("point", np.nan))
         name = "max_track_acceleration_whole_deck"
         if name in ds:  # the whole-deck grid along the track line
-            g = ds[name].sel(track=k)
-            a2, w2 = _worst(g, ("speed", "train", "irregularity"))
-            if a2 > a or not np.isfinite(a):
+            g = np.asarray(ds[name].sel(track=k).values, float)
+            a2, w2 = _worst(ds[name].sel(track=k), ("speed", "train"))
+            if np.isfinite(a2) and (a2 > a or not np.isfinite(a)):
                 a, wa = a2, w2
-                x = float(ds[f"position_of_{name}"].sel(track=k).sel(
-                    {d: w2[d] for d in g.dims}).values)
+                x = float(np.asarray(ds[f"position_of_{name}"].sel(track=k).values)[
+                    np.unravel_index(int(np.nanargmax(g)), g.shape)])
         accel.append((k, a, str(wa.get("train", "")), float(wa.get("speed", np.nan)) * 3.6,
                       x))
     static: list = []

@@ -32,6 +32,7 @@ from vsi_numba.io.schema import (
     LOAD_EFFECT_HISTORIES,
     LOAD_EFFECTS,
     SPACE_ENVELOPES,
+    SPACE_HISTORIES,
 )
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -128,7 +129,8 @@ CAR_END = {"max_carbody_acceleration_car_end", "time_of_max_carbody_acceleration
 
 def expected_absent(bridge: str, trains: str) -> set[str]:
     """What the documentation says the combination does not offer."""
-    out = set(SPACE_ENVELOPES)  # no bridge.tracks / bridge.torsion: the deck is a line
+    # no bridge.tracks / bridge.torsion: the deck is a line
+    out = set(SPACE_ENVELOPES) | set(SPACE_HISTORIES)
     out |= set(ALL_TRACKS)  # one train per run (no train.other_trains)
     if bridge in ("modes_file", "matrices", "rigid"):
         out |= LOAD_EFFECT_VARIABLES

@@ -393,3 +393,33 @@ def test_bending_load_effects_of_the_track_bridge_are_the_beams():
         # amplitude): measured 1.3e-7 of the largest value; tolerance 3e-7
         np.testing.assert_allclose(got[:, ~tor], want, atol=3e-7 * np.abs(want).max())
         assert np.all(got[:, tor] == 0.0)
+
+
+def test_torsional_moment_sections_leave_the_bending_load_effects_bit_for_bit():
+    """The torsional moment's extra load-effect sections (``space_operators``) change no
+    other envelope: the bending moments, shears, reactions, rotations and the deck and
+    track outputs are bit for bit those of the same run without them."""
+    import dataclasses
+
+    from vsi_numba.solver.batch import deck_operators, space_operators
+
+    deck = d3.simply_supported(L, EI, MASS, d3.Torsion(GJ, IP, 0.01),
+                               [{"eccentricity": ECC}, {"eccentricity": -ECC}], n_modes=3,
+                               damping_ratio=0.01, n_torsion_modes=6)
+    bridge = deck.track_bridge(0)
+    settings = SolverSettings(dt=1e-3, approach=0.0, free_vibration=0.2)
+    pts = np.array([5.0, 10.0, 15.0])
+    planar = deck_operators(bridge, pts, settings)
+    with_torque = space_operators(deck, pts, planar, 0)
+    without = (*with_torque[:5], planar[5],
+               dataclasses.replace(with_torque[6], torque_channel=None))
+    assert with_torque[5].n_sections == planar[5].n_sections + pts.size
+    train = vh.Train("t", (vh.point_loads([0.0, 3.0, 15.0], [1e5, 1e5, 1.2e5], name="x"),),
+                     (0.0,))
+    packed = pack(bridge, train, 40.0, no_irregularity(), settings)
+    a, b = (run_batch(packed, no_irregularity(), [40.0, 60.0], pts, settings, bridge,
+                      deck=d).envelopes() for d in (with_torque, without))
+    assert set(a) - set(b) == {f"{p}{e}_torsional_moment" for e in ("max", "min")
+                               for p in ("", "time_of_")}
+    for name, value in b.items():
+        np.testing.assert_array_equal(a[name], value, err_msg=name)

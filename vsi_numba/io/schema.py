@@ -194,6 +194,17 @@ _TWIST = {"sign_convention": "t(x) = [w(x, y_L) - w(x, y_R)] - [w(x + 3, y_L) - 
           "w(x + 3, y_R)] over the 3 m base from x (EN 1990 A2.4.4.2.2), w positive down, "
           "y_L / y_R the left / right rail; the envelope is of |t|; " + _Y}
 
+_TORQUE = {"sign_convention": "T = GJ dtheta/dx (St-Venant), theta the rotation of the "
+           "section positive when its left side (+y) goes down: a downward load P at "
+           "y = e > 0 on a fork-supported span of length L gives T = P e (1 - a/L) between "
+           "the left support and the load (a its abscissa) and -P e a/L beyond it; T > 0 "
+           "is a moment vector along -x on the face whose outward normal is +x "
+           "(right-handed x, y left, z up); at a section holding a load the value just "
+           "right of it",
+           "comment": "mode-acceleration method: the closed-form static St-Venant torque "
+           "of the loads on the deck plus the torsional modes' inertia and damping "
+           "correction; " + _Y}
+
 #: Per-track envelopes of a deck in space (``bridge.tracks``, ``bridge.torsion``; see
 #: :mod:`vsi_numba.model.deck3d`): along each track line, and the deck twist.
 SPACE_ENVELOPES = {
@@ -220,6 +231,40 @@ SPACE_ENVELOPES = {
     "time_of_max_deck_twist_whole_deck": (
         ("track", "twist_x"), "s", "time of the maximum absolute deck twist over 3 m on the "
         "whole-deck grid", {}),
+    "max_track_acceleration_whole_deck": (
+        ("track",), "m s-2", "maximum absolute vertical deck acceleration along the track "
+        "centre line over the whole deck (grid of every span plus the output points), "
+        "modes up to the EN 1990 A2 cut-off", {**DOWN, "comment": _Y}),
+    "time_of_max_track_acceleration_whole_deck": (
+        ("track",), "s", "time of the maximum absolute deck acceleration along the track "
+        "centre line over the whole deck", {}),
+    "position_of_max_track_acceleration_whole_deck": (
+        ("track",), "m", "deck abscissa of the maximum absolute deck acceleration along the "
+        "track centre line over the whole deck (distance from the left end of the bridge)",
+        {}),
+    **{f"{pre}{ext}_torsional_moment": (
+        ("point",), "s" if pre else "N m",
+        f"time of the {word} torsional moment of the deck" if pre else
+        f"{word} St-Venant torsional moment of the deck (train on the loaded track)",
+        {} if pre else {**_TORQUE, "cell_methods": f"time: {word}"})
+       for ext, word in (("max", "maximum"), ("min", "minimum")) for pre in ("", "time_of_")},
+}
+
+#: Histories along the tracks of a deck in space (``[study] save_time_histories``).
+SPACE_HISTORIES = {
+    "track_displacement": (
+        ("time", "track", "point"), "m", "vertical deck displacement along the track centre "
+        "line", {**DOWN, "comment": _Y}),
+    "track_acceleration": (
+        ("time", "track", "point"), "m s-2", "vertical deck acceleration along the track "
+        "centre line, modes up to the EN 1990 A2.4.4.2.1 cut-off", {**DOWN, "comment": _Y}),
+    "torsional_moment": (
+        ("time", "point"), "N m", "St-Venant torsional moment of the deck (train on the "
+        "loaded track)", _TORQUE),
+    "deck_twist": (
+        ("time", "track", "point"), "m", "deck twist over 3 m along the track, window from "
+        "the output point", {**_TWIST, "sign_convention": _TWIST["sign_convention"].replace(
+            "; the envelope is of |t|", "")}),
 }
 
 #: Suffix of the envelopes with every train of a run loaded (``train.other_trains``).
@@ -233,7 +278,10 @@ ALL_TRACKS_BASES = (
     *(f"{pre}{ext}_{name}" for name in ("bending_moment", "shear_force", "support_reaction",
                                         "end_rotation")
       for ext in ("max", "min") for pre in ("", "time_of_")),
-    *SPACE_ENVELOPES,
+    *(f"{pre}{name}" for name in ("max_track_displacement", "max_track_acceleration",
+                                  "max_deck_twist", "max_deck_twist_whole_deck")
+      for pre in ("", "time_of_")),
+    *(f"{pre}max_track_acceleration_whole_deck" for pre in ("", "time_of_", "position_of_")),
 )
 
 
@@ -372,7 +420,8 @@ COORDS = {
 
 def attrs_for(name: str) -> dict:
     """CF attributes (units, long_name, ...) for a declared variable or coordinate."""
-    for table in (HISTORIES, ENVELOPES, SPACE_ENVELOPES, ALL_TRACKS, DIAGNOSTICS,
+    for table in (HISTORIES, ENVELOPES, SPACE_ENVELOPES, SPACE_HISTORIES, ALL_TRACKS,
+                  DIAGNOSTICS,
                   STUDY_VARIABLES, FATIGUE):
         if name in table:
             _, units, long_name, extra = table[name]

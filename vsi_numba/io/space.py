@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from vsi_numba.io.schema import DIAGNOSTICS, ENVELOPES, HISTORIES
+from vsi_numba.io.schema import DIAGNOSTICS, ENVELOPES, HISTORIES, SPACE_HISTORIES
 
 #: ``.npz`` bytes per stored array beside its data (zip entries + ``.npy`` header),
 #: measured: 128 (header) + about 150 (local and central zip records with the name).
@@ -80,16 +80,18 @@ def envelope_row_bytes(n_point: int, n_wheel: int, n_vehicle: int, n_deck_x: int
 
 
 def history_row_bytes(n_point: int, n_wheel_dynamic: int, n_vehicle: int,
-                      n_support: int = 0) -> int:
-    """float32 bytes of every history of one run at one time step."""
+                      n_support: int = 0, n_track: int = 0) -> int:
+    """float32 bytes of every history of one run at one time step (``n_track``: the
+    tracks of a deck in space, 0 for a planar deck)."""
     sizes = {"point": n_point, "wheel": n_wheel_dynamic, "vehicle": n_vehicle,
-             "support": n_support}
-    return 4 * sum(_width(dims, sizes) for dims, *_ in HISTORIES.values())
+             "support": n_support, "track": n_track}
+    return 4 * sum(_width(dims, sizes) for dims, *_ in (*HISTORIES.values(),
+                                                        *SPACE_HISTORIES.values()))
 
 
 def batch_bytes(n_runs: int, hist_steps: list[int], n_point: int, n_wheel: int,
                 n_wheel_dynamic: int, n_vehicle: int, n_deck_x: int = 0,
-                n_support: int = 0) -> int:
+                n_support: int = 0, n_track: int = 0) -> int:
     """Size of one stored batch (bytes): ``n_runs`` runs, of which those in
     ``hist_steps`` (time steps + 1 each) keep their histories, NaN-padded to the
     longest (:func:`vsi_numba.study.batches.run_batch_task`)."""
@@ -98,7 +100,8 @@ def batch_bytes(n_runs: int, hist_steps: list[int], n_point: int, n_wheel: int,
     n_arrays = len(ENVELOPES) + len(DIAGNOSTICS) + 3
     if hist_steps:
         size += (len(hist_steps) * max(hist_steps)
-                 * history_row_bytes(n_point, n_wheel_dynamic, n_vehicle, n_support))
+                 * history_row_bytes(n_point, n_wheel_dynamic, n_vehicle, n_support,
+                                     n_track))
         size += 16 * len(hist_steps)
         n_arrays += len(HISTORIES) + 2
     return size + NPZ_OVERHEAD * n_arrays

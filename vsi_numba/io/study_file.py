@@ -32,6 +32,7 @@ from vsi_numba.io.schema import (
     ENVELOPES,
     HISTORIES,
     SPACE_ENVELOPES,
+    SPACE_HISTORIES,
     attrs_for,
 )
 
@@ -271,7 +272,8 @@ class StudyFile:
             _put_attrs(var, {**attrs_for(name), "coordinates": self._coords_attr(case)})
             self.vars[name] = var
         if n_time is not None:
-            for name, (dims, *_rest) in HISTORIES.items():
+            space_histories = SPACE_HISTORIES.items() if self.space is not None else ()
+            for name, (dims, *_rest) in (*HISTORIES.items(), *space_histories):
                 if name in self.omit:
                     continue
                 self.found[name] = False
@@ -349,7 +351,7 @@ class StudyFile:
                     continue
                 a = np.asarray(data[name], float)
                 block = np.full((a.shape[0], *(self.sizes[d] for d in dims)), np.nan)
-                block[:, :a.shape[1], :a.shape[2]] = a
+                block[(slice(None), *(slice(0, n) for n in a.shape[1:]))] = a
                 parts[name] = (None, block)
         for name, (dims, *_rest) in ALL_TRACKS.items():
             if name in self.omit or name not in data:
@@ -377,15 +379,15 @@ class StudyFile:
                                            strict=True)):
                 s = s0 + int(r)
                 n = int(n)
-                for name in HISTORIES:
-                    if data.get(name) is None or name in self.omit:  # not computed
+                for name in (*HISTORIES, *SPACE_HISTORIES):
+                    if data.get(name) is None or name not in self.vars:  # not computed
                         continue
                     block = data[name][h, :n]
                     if block.shape[1]:  # moving forces only: no contact histories
                         if not self.found[name]:
                             self.found[name] = bool(np.isfinite(block).any())
                         self.vars[name][(*v, s, i_t, i_i, slice(0, n),
-                                         slice(0, block.shape[1]))] = block
+                                         *(slice(0, k) for k in block.shape[1:]))] = block
 
     def flush(self) -> None:
         """Write the gathered envelopes, diagnostics and messages (:meth:`write_batch`)."""

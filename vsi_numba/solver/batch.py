@@ -3,6 +3,7 @@ the envelopes reduced in the time loop and the raw histories (:class:`BatchResul
 
 from __future__ import annotations
 
+import dataclasses
 import time as _time
 from dataclasses import dataclass
 
@@ -10,6 +11,7 @@ import numpy as np
 
 from vsi_numba import kernels as ek
 from vsi_numba.en1990 import frequency_cutoff
+from vsi_numba.model import hermite
 from vsi_numba.model.bridge import ModalBridge
 from vsi_numba.model.irregularity import Profile
 from vsi_numba.solver import driver, kernel_cache
@@ -141,15 +143,26 @@ def deck_operators(bridge: ModalBridge, points, settings: SolverSettings,
 class SpaceLayout:
     """Where the per-track rows sit under the planar output operators (stacked by
     :func:`space_operators`): after the ``n_points`` deck rows come the track-line rows
-    (n_tracks x n_points), the twist at the output points (n_tracks x n_points) and the
-    twist on the whole-deck grid ``twist_x`` (n_tracks x n_twist)."""
+    (n_tracks x n_points), the twist at the output points (n_tracks x n_points), the
+    twist on the whole-deck grid ``twist_x`` (n_tracks x n_twist) and the band-limited
+    acceleration rows on the whole-deck grid ``grid_x`` along each track line
+    (n_tracks x n_grid; their displacement rows are zero).
+
+    The torsional moment at the output points, when computed, is the shear-force
+    channel ``torque_channel`` of the load-effect tables scaled by ``torque_scale``
+    (see :func:`torsional_moment_tables`); ``torque_reason`` says why it is not
+    computed otherwise."""
 
     n_points: int
     eccentricity: np.ndarray  # (n_tracks,) m (NaN: not known, imported decks)
     twist_x: np.ndarray  # (n_twist,) window starts, m
     has_twist: bool  # the deck twists (it has torsion or imported rails)
+    grid_x: np.ndarray  # (n_grid,) whole-deck acceleration grid, m
     lines: tuple[str, ...] = ()  # imported decks: the track names in the data
     no_twist: str = ""  # why there is no twist (has_twist false), "" for the default
+    torque_channel: np.ndarray | None = None  # (n_points,) load-effect channels
+    torque_scale: float = 0.0  # N m per channel unit: the loaded track's eccentricity
+    torque_reason: str = ""  # why the torsional moment is not computed ("" if it is)
 
     @property
     def n_tracks(self) -> int:
@@ -157,21 +170,87 @@ class SpaceLayout:
 
     def split(self, a: np.ndarray) -> dict[str, np.ndarray]:
         """Columns of ``a`` (n_runs, n_rows): ``deck`` (n_runs, n_p), ``track`` and
-        ``twist`` (n_runs, n_tracks, n_p), ``twist_whole`` (n_runs, n_tracks, n_twist)."""
-        n_p, n_k, n_g = self.n_points, self.n_tracks, self.twist_x.size
+        ``twist`` (n_runs, n_tracks, n_p), ``twist_whole`` (n_runs, n_tracks, n_twist),
+        ``track_whole`` (n_runs, n_tracks, n_grid)."""
+        n_p, n_k, n_w, n_g = self.n_points, self.n_tracks, self.twist_x.size, self.grid_x.size
         r = a.shape[0]
         o1, o2 = n_p + n_k * n_p, n_p + 2 * n_k * n_p
+        o3 = o2 + n_k * n_w
         return {"deck": a[:, :n_p], "track": a[:, n_p:o1].reshape(r, n_k, n_p),
                 "twist": a[:, o1:o2].reshape(r, n_k, n_p),
-                "twist_whole": a[:, o2:o2 + n_k * n_g].reshape(r, n_k, n_g)}
+                "twist_whole": a[:, o2:o3].reshape(r, n_k, n_w),
+                "track_whole": a[:, o3:o3 + n_k * n_g].reshape(r, n_k, n_g)}
 
 
-def space_operators(space, points, deck: tuple) -> tuple:
+def torsional_moment_tables(space, points, effects: LoadEffectTables | None,
+                            loaded: int = 0) -> tuple:
+    """The load-effect tables with one more section per output point whose shear-force
+    channel, times the eccentricity e of the loaded track, is the St-Venant torsional
+    moment ``T = GJ dtheta/dx`` there, by the mode-acceleration method.
+
+    Returns ``(effects, channel, scale, reason)``: the tables (``effects`` itself when
+    the moment is not computed), the channels of the points' moments, ``scale`` = e (m)
+    and the reason it is not computed ("" when it is).
+
+    Notes
+    -----
+    T(x, t) = sum_k P_k e G_T(x, x_k) + sum_j T_j (q_j - F_j / w_j^2), with T_j =
+    GJ theta_j'(x).  On a span with fork supports the static torque of a point torque
+    P e at a is P e (1 - a/L) left of it and -P e a/L right of it: e times the shear
+    force of the simply supported span, which the kernels already compute for every
+    section (the value just right of a load).  The extra sections' shear columns of
+    ``E`` are T_j / e (their moment columns zero), so the channel is T / e.  On a
+    continuous deck the kernels add the bending support moments to the shear of every
+    section, so this static part is not available without a kernel change.
+    """
+    points = np.atleast_1d(np.asarray(points, float))
+    if not getattr(space, "has_torsion", False):
+        return effects, None, 0.0, "the deck has no torsion (no bridge.torsion)"
+    e = float(space.tracks[loaded].eccentricity)
+    if effects is None:
+        return effects, None, 0.0, ("needs the load effects (mode-acceleration method), "
+                                    "which are not computed")
+    if effects.n_supports != 2:
+        return effects, None, 0.0, (
+            "continuous deck: the static torque of the mode-acceleration method needs a "
+            "kernel channel of its own (only simply_supported decks have it)")
+    if e == 0.0:
+        return effects, None, 0.0, ("the loaded track is on the deck's axis: the train "
+                                    "does not twist the deck")
+    n_s = effects.n_sections
+    sections = np.concatenate([effects.sections, points])
+    order = np.argsort(sections, kind="stable")
+    where = np.empty_like(order)
+    where[order] = np.arange(order.size)  # new index of every old / extra section
+    n_new, n_sup = sections.size, effects.n_supports
+    gj = float(space.GJ[0])
+    slope = hermite.evaluate(space.theta.nodes, space.theta.values, space.theta.slopes,
+                             points, 1)
+    E = np.zeros((effects.E.shape[0], 2 * n_new + 2 * n_sup))
+    E[:, where[:n_s]] = effects.E[:, :n_s]
+    E[:, n_new + where[:n_s]] = effects.E[:, n_s:2 * n_s]
+    E[:, n_new + where[n_s:]] = (gj * slope / e).T
+    E[:, 2 * n_new:] = effects.E[:, 2 * n_s:]
+    sup = effects.supports
+    span = np.clip(np.searchsorted(sup, sections[order], side="right") - 1, 0,
+                   effects.spans.size - 1).astype(np.int64)
+    tables = dataclasses.replace(
+        effects, sections=sections[order], point_index=where[effects.point_index],
+        grid_index=where[effects.grid_index],
+        X=np.ascontiguousarray(sections[order] - sup[span]), span=span,
+        E=np.ascontiguousarray(E))
+    return tables, (n_new + where[n_s:]).astype(np.int64), e, ""
+
+
+def space_operators(space, points, deck: tuple, loaded: int = 0) -> tuple:
     """``deck`` (:func:`deck_operators`' tuple) with the rows of the deck in space
     (:func:`vsi_numba.model.deck3d.output_rows`) stacked under ``phi_d`` / ``phi_a``:
     the kernels' envelopes of every row are then the per-track displacement,
-    acceleration (band-limited like the deck's) and twist, no kernel change.  Returns
-    the tuple with a :class:`SpaceLayout` appended (element 6)."""
+    acceleration (band-limited like the deck's, at the output points and on the
+    whole-deck grid :func:`deck_grid`) and twist, no kernel change.  With torsion, the
+    load-effect tables gain the torsional moment at the points for a train on track
+    ``loaded`` (0-based; :func:`torsional_moment_tables`).  Returns the tuple with a
+    :class:`SpaceLayout` appended (element 6)."""
     from vsi_numba.model import deck3d
 
     points = np.atleast_1d(np.asarray(points, float))
@@ -184,18 +263,24 @@ def space_operators(space, points, deck: tuple) -> tuple:
     disp = rows.disp.reshape(-1, n_m)
     twist_p = rows.twist[:, :points.size].reshape(-1, n_m)
     twist_g = rows.twist[:, points.size:].reshape(-1, n_m)
-    extra = np.nan_to_num(np.concatenate([disp, twist_p, twist_g]))
+    grid_x = np.asarray(deck[3], float) if len(deck) > 3 else np.zeros(0)
+    whole = np.concatenate([space.track_shapes(k, grid_x) for k in range(len(space.tracks))]
+                           ) if grid_x.size else np.zeros((0, n_m))
+    whole = np.where(keep[None, :], whole, 0.0)
+    extra = np.nan_to_num(np.concatenate([disp, twist_p, twist_g, np.zeros_like(whole)]))
     extra_a = np.concatenate([np.where(keep[None, :], disp, 0.0),
-                              np.zeros((twist_p.shape[0] + twist_g.shape[0], n_m))])
+                              np.zeros((twist_p.shape[0] + twist_g.shape[0], n_m)), whole])
+    effects = deck[5] if len(deck) > 5 else None
+    effects, channel, scale, reason = torsional_moment_tables(space, points, effects, loaded)
     ecc = getattr(space, "eccentricities", None)
     if ecc is None:
         ecc = np.array([t.eccentricity for t in space.tracks], float)
     layout = SpaceLayout(points.size, np.asarray(ecc, float), grid,
                          bool(getattr(space, "has_torsion", True) and rows.has_twist.all()),
-                         tuple(t.line for t in space.tracks if t.line),
-                         getattr(space, "no_twist", ""))
+                         grid_x, tuple(t.line for t in space.tracks if t.line),
+                         getattr(space, "no_twist", ""), channel, scale, reason)
     return (np.ascontiguousarray(np.vstack([phi_d, extra])),
-            np.ascontiguousarray(np.vstack([phi_a, extra_a])), *deck[2:6], layout)
+            np.ascontiguousarray(np.vstack([phi_a, extra_a])), *deck[2:5], effects, layout)
 
 
 @dataclass
@@ -308,6 +393,22 @@ class BatchResult:
                         "time_of_max_deck_twist": dt["twist"].copy(),
                         "max_deck_twist_whole_deck": d["twist_whole"].copy(),
                         "time_of_max_deck_twist_whole_deck": dt["twist_whole"].copy()})
+        if sp.grid_x.size:
+            g, gt = a["track_whole"], at["track_whole"]
+            i = np.argmax(g, axis=2)[..., None]
+            out.update({"max_track_acceleration_whole_deck":
+                        np.take_along_axis(g, i, 2)[..., 0].copy(),
+                        "time_of_max_track_acceleration_whole_deck":
+                        np.take_along_axis(gt, i, 2)[..., 0].copy(),
+                        "position_of_max_track_acceleration_whole_deck": sp.grid_x[i[..., 0]]})
+        if sp.torque_channel is not None:
+            e, c = sp.torque_scale, sp.torque_channel
+            hi, lo = ((red.le_max, red.le_max_t), (red.le_min, red.le_min_t))[::int(
+                np.sign(e))]
+            out.update({"max_torsional_moment": e * hi[0][:, c],
+                        "time_of_max_torsional_moment": hi[1][:, c].copy(),
+                        "min_torsional_moment": e * lo[0][:, c],
+                        "time_of_min_torsional_moment": lo[1][:, c].copy()})
         return out
 
     def _effect_channels(self) -> dict[str, np.ndarray]:
@@ -344,9 +445,11 @@ class BatchResult:
         mode-acceleration formula as the kernel but from the stored modal coordinates,
         modal forces and contact forces (:func:`effect_series`): ``bending_moment``,
         ``shear_force`` (time, point), ``support_reaction``, ``rotation`` (time,
-        support).  Empty when the load effects were not computed.  ``mirror``: the run
-        went over the deck seen from its far end (a train in -x), its loads stand at
-        ``mirror - x``; ``static``: the static deck (default the run's)."""
+        support), and ``torsional_moment`` (time, point) when the :class:`SpaceLayout`
+        has it (:func:`torsional_moment_tables`).  Empty when the load effects were not
+        computed.  ``mirror``: the run went over the deck seen from its far end (a train
+        in -x), its loads stand at ``mirror - x``; ``static``: the static deck (default
+        the run's)."""
         e = self.effects
         h = int(self.slots[r])
         if e is None or h < 0:
@@ -362,8 +465,16 @@ class BatchResult:
         if mirror is not None:
             x = mirror - x
         c = self.out.q[h, :n] - self.out.fq[h, :n] * e.w2inv  # q - F / w^2
+        chan = self._effect_channels()
         out = effect_series(e, self.static_deck if static is None else static, x, force, c,
-                            self._effect_channels())
+                            chan)
+        sp = self.space
+        if sp is not None and sp.torque_channel is not None and "shear_force" in out:
+            # the torque channel: the same static shear (simply supported span), its own
+            # modal part
+            out["torsional_moment"] = sp.torque_scale * (
+                out["shear_force"] + c @ (e.E[:, sp.torque_channel]
+                                          - e.E[:, chan["shear_force"]]))
         if self.status[r] != ek.OK:
             for a in out.values():
                 a[...] = np.nan
@@ -405,12 +516,28 @@ class BatchResult:
                            axis=1)
         contact = np.concatenate([self.out.contact[h, :n], np.ones((n, n_l), np.int8)], axis=1)
         body = self.out.body_acc[h, :n].copy()
+        space = self._space_histories(q, qdd)
         if self.status[r] != ek.OK:
-            for a in (disp, acc, X, body):
+            for a in (disp, acc, X, body, *space.values()):
                 a[...] = np.nan
         return {"deck_displacement": disp, "deck_acceleration": acc, "contact_force": X,
                 "in_contact": contact, "carbody_acceleration": body,
-                **self.effect_histories(r)}
+                **self.effect_histories(r), **space}
+
+    def _space_histories(self, q: np.ndarray, qdd: np.ndarray) -> dict[str, np.ndarray]:
+        """Histories along the tracks (:data:`vsi_numba.io.schema.SPACE_HISTORIES`) from
+        the modal coordinates ``q`` and accelerations ``qdd`` (time, mode) and the rows
+        of :func:`space_operators`; none for a planar deck."""
+        sp = self.space
+        if sp is None:
+            return {}
+        n = q.shape[0]
+        d, a = sp.split(self.phi_d.T), sp.split(self.phi_a.T)  # blocks (n_m, n_k, ...)
+        out = {"track_displacement": np.einsum("tm,mkp->tkp", q, d["track"]),
+               "track_acceleration": np.einsum("tm,mkp->tkp", qdd, a["track"])}
+        if sp.has_twist:
+            out["deck_twist"] = np.einsum("tm,mkp->tkp", q, d["twist"])
+        return {k: v.reshape(n, sp.n_tracks, sp.n_points) for k, v in out.items()}
 
 
 def effect_series(e: LoadEffectTables, static, x: np.ndarray, force: np.ndarray,

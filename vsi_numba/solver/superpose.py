@@ -105,6 +105,9 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
     rows_d, rows_dt, rows_a, rows_at = [], [], [], []
     gacc, gacc_t, gacc_x = np.full(n_r, np.nan), np.full(n_r, np.nan), np.full(n_r, np.nan)
     effects: dict[str, list] = {}
+    # the load effects every train adds to (the torsional moment is the run's train's)
+    names = {"bending_moment": "bending_moment", "shear_force": "shear_force",
+             "support_reaction": "support_reaction", "rotation": "end_rotation"}
     for r in range(n_r):
         n = int(main.n_steps[r]) + 1
         t = np.arange(n) * dt
@@ -127,6 +130,7 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
             gacc[r], gacc_t[r], gacc_x[r] = ga.flat[k], t[k // grid.size], grid[k % grid.size]
         if main.effects is not None:
             series = main.effect_histories(r)
+            series = {k: v for k, v in series.items() if k in names}
             for res, o in others:
                 more = res.effect_histories(r, mirror=o.length if o.reversed else None,
                                             static=main.static_deck)
@@ -155,8 +159,14 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
             out.update({"max_deck_twist": d["twist"], "time_of_max_deck_twist": dtime["twist"],
                         "max_deck_twist_whole_deck": d["twist_whole"],
                         "time_of_max_deck_twist_whole_deck": dtime["twist_whole"]})
-    names = {"bending_moment": "bending_moment", "shear_force": "shear_force",
-             "support_reaction": "support_reaction", "rotation": "end_rotation"}
+        if space.grid_x.size:  # along each track line on the whole-deck grid
+            g, gt = a["track_whole"], atime["track_whole"]
+            i = np.argmax(g, axis=2)[..., None]
+            out.update({"max_track_acceleration_whole_deck": np.take_along_axis(g, i, 2)[..., 0],
+                        "time_of_max_track_acceleration_whole_deck":
+                        np.take_along_axis(gt, i, 2)[..., 0],
+                        "position_of_max_track_acceleration_whole_deck":
+                        space.grid_x[i[..., 0]]})
     for name, rows in effects.items():
         stem = names[name]
         hi, hi_t, lo, lo_t = (stack([row[i] for row in rows]) for i in range(4))

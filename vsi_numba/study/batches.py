@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vsi_numba.io.schema import HISTORIES
+from vsi_numba.io.schema import HISTORIES, SPACE_HISTORIES
 
 #: Estimated kernel seconds per batch (see :func:`run_cost`).
 BATCH_SECONDS = 0.5
@@ -255,14 +255,15 @@ def run_batch_task(spec, batch: Batch) -> dict:
         n_t = int(lengths.max())
         out["hist_runs"] = np.array(runs, np.int64)
         out["hist_steps"] = lengths
-        for name in HISTORIES:
+        for name in (*HISTORIES, *SPACE_HISTORIES):
             out[name] = None
         for h, r in enumerate(runs):
             for name, val in res.histories(r).items():
                 if name in ("contact_force", "in_contact"):
                     val = val[:, :n_dyn]
                 if out[name] is None:
-                    out[name] = np.full((len(runs), n_t, val.shape[1]), np.nan, np.float32)
+                    out[name] = np.full((len(runs), n_t, *val.shape[1:]), np.nan,
+                                        np.float32)
                 out[name][h, : val.shape[0]] = val
     return out
 

@@ -24,6 +24,7 @@ from vsi_numba.io.schema import (
     LOAD_EFFECT_HISTORIES,
     LOAD_EFFECTS,
     SPACE_ENVELOPES,
+    SPACE_HISTORIES,
 )
 
 #: The whole-deck acceleration envelope and its time and position.
@@ -38,6 +39,14 @@ CAR_END = ("max_carbody_acceleration_car_end", "time_of_max_carbody_acceleration
 #: The car-body accelerations (at the centres of gravity).
 CARBODY = ("max_carbody_acceleration", "time_of_max_carbody_acceleration",
            "position_of_max_carbody_acceleration", "carbody_acceleration")
+
+#: The whole-deck acceleration envelope along each track and its time and position.
+TRACK_WHOLE_DECK_ACCELERATION = tuple(f"{pre}max_track_acceleration_whole_deck" for pre in
+                                      ("", "time_of_", "position_of_"))
+
+#: The torsional moment envelopes and history of a deck in space.
+TORSIONAL_MOMENT = tuple(f"{pre}{ext}_torsional_moment" for ext in ("max", "min")
+                         for pre in ("", "time_of_")) + ("torsional_moment",)
 
 #: Histories of the wheels in contact (a moving force's contact force is its load).
 CONTACT_HISTORIES = ("contact_force", "in_contact")
@@ -107,14 +116,24 @@ def not_offered(models, packed) -> dict[str, str]:
                f"({models[0].deck[2]:.4g} Hz)")
         out.update(dict.fromkeys(WHOLE_DECK_ACCELERATION, why))
     layouts = [m.deck[6] if len(m.deck) > 6 else None for m in models]
+    space = [*SPACE_ENVELOPES, *SPACE_HISTORIES]
     if all(x is None for x in layouts):
-        out.update(dict.fromkeys(SPACE_ENVELOPES, "the deck is a line: no bridge.tracks or "
-                                                  "bridge.torsion (simply_supported and "
-                                                  "continuous decks)"))
-    elif not any(x is not None and x.has_twist for x in layouts):
-        why = next((x.no_twist for x in layouts if x is not None and x.no_twist),
-                   "the deck does not twist: no bridge.torsion (its modes have no torsion)")
-        out.update(dict.fromkeys([k for k in SPACE_ENVELOPES if "twist" in k], why))
+        out.update(dict.fromkeys(space, "the deck is a line: no bridge.tracks or "
+                                        "bridge.torsion (simply_supported and continuous "
+                                        "decks)"))
+    else:
+        if not any(x is not None and x.has_twist for x in layouts):
+            why = next((x.no_twist for x in layouts if x is not None and x.no_twist),
+                       "the deck does not twist: no bridge.torsion (its modes have no "
+                       "torsion)")
+            out.update(dict.fromkeys([k for k in space if "twist" in k], why))
+        if not any(x is not None and x.grid_x.size for x in layouts):
+            out.update(dict.fromkeys(
+                TRACK_WHOLE_DECK_ACCELERATION, "no mode of the deck up to the EN 1990 A2 "
+                f"acceleration cut-off ({models[0].deck[2]:.4g} Hz)"))
+        if not any(x is not None and x.torque_channel is not None for x in layouts):
+            why = next(x.torque_reason for x in layouts if x is not None)
+            out.update(dict.fromkeys(TORSIONAL_MOMENT, why))
     trains = [p for per in packed for p in per]
     if not any(np.asarray(p.vehicles.body_dof).size for p in trains):
         out.update(dict.fromkeys(CARBODY, "no train has a car body (moving forces only)"))
@@ -131,7 +150,8 @@ def not_offered(models, packed) -> dict[str, str]:
     else:  # what the run's train alone cannot give, every train together cannot either
         n = len(ALL_TRACKS_SUFFIX)
         out.update({k: out[k[:-n]] for k in ALL_TRACKS if k[:-n] in out})
-    known = set(ENVELOPES) | set(HISTORIES) | set(SPACE_ENVELOPES) | set(ALL_TRACKS)
+    known = (set(ENVELOPES) | set(HISTORIES) | set(SPACE_ENVELOPES) | set(SPACE_HISTORIES)
+             | set(ALL_TRACKS))
     return {k: v for k, v in out.items() if k in known}
 
 

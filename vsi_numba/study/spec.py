@@ -126,7 +126,7 @@ def _build_model(cfg, first_realisation: bool = False) -> StudyModel:
     if space is not None:  # per-track rows under the deck's (solver.batch.SpaceLayout)
         from vsi_numba.solver.batch import space_operators
 
-        deck = space_operators(space, points, deck)
+        deck = space_operators(space, points, deck, int(cfg.train_track) - 1)
     return StudyModel(cfg, bridge, trains, settings, points, profiles, x_range,
                       np.asarray(cfg.speeds_kmh, float), deck)
 

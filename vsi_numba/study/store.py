@@ -473,6 +473,9 @@ def study_need(study, pending):
     # load effects: the whole-deck grid and the supports (upper bound: always counted)
     n_x = max(deck_grid(m.bridge, m.output_points).size for m in study.models)
     n_s = max(np.asarray(m.bridge.supports).size for m in study.models)
+    # a deck in space: the histories along its tracks
+    n_k = max(m.deck[6].n_tracks if len(m.deck) > 6 and m.deck[6] is not None else 0
+              for m in study.models)
     packed = [_packed_trains(sp, m) for sp, m in zip(study.specs, study.models, strict=True)]
     speeds = [float(v) / 3.6 for v in grid.speeds_kmh]
 
@@ -487,7 +490,7 @@ def study_need(study, pending):
         n_p, n_w, n_wd, n_v, p = dims(b)
         steps = [p.n_steps(speeds[s]) + 1
                  for s, h in zip(b.speeds, b.histories, strict=True) if h]
-        store += batch_bytes(b.n_runs, steps, n_p, n_w, n_wd, n_v, n_x, n_s)
+        store += batch_bytes(b.n_runs, steps, n_p, n_w, n_wd, n_v, n_x, n_s, n_k)
     n_p = max(m.output_points.size for m in study.models)
     shapes = [dims(b)[1:4] for b in study.plan]
     n_w = max((d[0] for d in shapes), default=0)  # the file's wheel dim: all the wheels
@@ -498,7 +501,7 @@ def study_need(study, pending):
     hist = [dims(b)[4].n_steps(speeds[s]) + 1 for b in study.plan
             for s, h in zip(b.speeds, b.histories, strict=True) if h]
     final_max = final_min + (len(hist) * max(hist, default=0)
-                             * history_row_bytes(n_p, n_w, n_v, n_s)) + (
+                             * history_row_bytes(n_p, n_w, n_v, n_s, n_k)) + (
         NC_VARIABLE_OVERHEAD * n_file_variables())
     return DiskNeed(store=int(store), final_min=int(final_min), final_max=int(final_max))
 

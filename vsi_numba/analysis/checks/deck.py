@@ -48,7 +48,9 @@ def deck_acceleration_check(
         along every span plus the output points, so the check does not depend on where
         the output points are.  Files without it are checked at the output points only
         (attribute ``whole_deck`` = 0).  A deck in space (attribute ``loaded_track``)
-        adds ``max_track_acceleration`` of the loaded track at the output points.  The
+        adds ``max_track_acceleration`` of the loaded track at the output points and its
+        ``max_track_acceleration_whole_deck`` (with its position) on the whole-deck grid
+        along the track line when present (attribute ``loaded_track_whole_deck`` = 1).  The
         solver band-limits both to the modes up to
         the cut-off ``max(30 Hz, 1.5 f1, f3)`` (:func:`frequency_cutoff`), as the clause
         requires.
@@ -101,19 +103,35 @@ def deck_acceleration_check(
     limit = float(limit)
     acc = ds["max_deck_acceleration"]
     at_points = nanmax(acc, "point")
-    whole = ("max_deck_acceleration_whole_deck" in ds
-             and bool(ds["max_deck_acceleration_whole_deck"].notnull().any()))
+    wd, wd_x = None, None
+    if ("max_deck_acceleration_whole_deck" in ds
+            and bool(ds["max_deck_acceleration_whole_deck"].notnull().any())):
+        wd = ds["max_deck_acceleration_whole_deck"]
+        wd_x = ds["position_of_max_deck_acceleration_whole_deck"]
     loaded = ds.attrs.get("loaded_track")
+    track_whole = False
     if loaded is not None and "max_track_acceleration" in ds:
         # a deck in space: the loaded track's line counts too (EN 1990 A2.4.4.2.1 takes
-        # the acceleration along the track); its points are the output points
+        # the acceleration along the track), at the output points and on the whole-deck
+        # grid along the track when the file has it
         along = nanmax(ds["max_track_acceleration"].sel(track=int(loaded)), "point")
         at_points = np.fmax(at_points, along)
         acc = np.fmax(acc, ds["max_track_acceleration"].sel(track=int(loaded)).drop_vars(
             "track"))
+        name = "max_track_acceleration_whole_deck"
+        if name in ds and bool(ds[name].sel(track=int(loaded)).notnull().any()):
+            tw = ds[name].sel(track=int(loaded)).drop_vars("track")
+            tw_x = ds[f"position_of_{name}"].sel(track=int(loaded)).drop_vars("track")
+            if wd is None:
+                wd, wd_x = tw, tw_x
+            else:
+                wd_x = xr.where(tw.fillna(-np.inf) >= wd.fillna(-np.inf), tw_x, wd_x)
+                wd = np.fmax(wd, tw)
+            track_whole = True
+    whole = wd is not None
     peak = at_points
     if whole:
-        peak = np.fmax(at_points, ds["max_deck_acceleration_whole_deck"])
+        peak = np.fmax(at_points, wd)
     peak = peak.assign_attrs(units="m s-2")
     out = design_value(peak, q=q, limit=limit, n_boot=n_boot, seed=seed)
     out["value"].attrs.update(units="m s-2",
@@ -122,10 +140,9 @@ def deck_acceleration_check(
     out_point = worst.fillna(-np.inf).idxmax("point").where(worst.notnull().any("point"))
     point_of_max = out_point
     if whole:
-        wd = ds["max_deck_acceleration_whole_deck"]
         i_wd = wd.fillna(-np.inf).argmax("irregularity")
         wd_worst = wd.isel(irregularity=i_wd)
-        wd_x = ds["position_of_max_deck_acceleration_whole_deck"].isel(irregularity=i_wd)
+        wd_x = wd_x.isel(irregularity=i_wd)
         better = wd_worst.fillna(-np.inf) >= nanmax(worst, "point").fillna(-np.inf)
         point_of_max = xr.where(better & wd_worst.notnull(), wd_x, out_point)
         point_of_max = point_of_max.drop_vars("irregularity", errors="ignore")
@@ -139,7 +156,8 @@ def deck_acceleration_check(
         "highest_frequency": float(f[-1]) if f.size else np.nan,
         "basis": out.attrs["basis"],
         "whole_deck": int(whole),
-        **({"loaded_track": int(loaded)} if loaded is not None else {}),
+        **({"loaded_track": int(loaded), "loaded_track_whole_deck": int(track_whole)}
+           if loaded is not None else {}),
     }
     out = _summarise(out, "Peak deck acceleration", clause, "m s-2", limit, extra=extra)
     if out.attrs["governing_train"]:

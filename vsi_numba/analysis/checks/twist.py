@@ -259,6 +259,16 @@ def _dynamic(ds, sfx: str) -> tuple[list, list]:
                             float(w.get("speed", np.nan)) * 3.6, float(at)))
         a, wa = _worst(ds[f"max_track_acceleration{sfx}"].sel(track=k),
                        ("speed", "train", "point"))
+        x = float(wa.get("point", np.nan))
+        name = f"max_track_acceleration_whole_deck{sfx}"
+        if name in ds:  # the whole-deck grid along the track line
+            g = np.asarray(ds[name].sel(track=k).values, float)
+            a2, w2 = _worst(ds[name].sel(track=k), ("speed", "train"))
+            if np.isfinite(a2) and (a2 > a or not np.isfinite(a)):
+                a, wa = a2, w2
+                x = float(np.asarray(ds[f"position_of_max_track_acceleration_whole_deck{sfx}"]
+                                     .sel(track=k).values)[
+                    np.unravel_index(int(np.nanargmax(g)), g.shape)])
         accel.append((k, a, str(wa.get("train", "")), float(wa.get("speed", np.nan)) * 3.6,
-                      float(wa.get("point", np.nan))))
+                      x))
     return dynamic, accel

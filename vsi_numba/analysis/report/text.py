@@ -281,8 +281,11 @@ def _summary(results: dict, table: pd.DataFrame, pts: np.ndarray) -> list[str]:
         assumed = (f" Track type not stated in the file: ballasted ({a['limit']:g} m/s²) "
                    "assumed." if a.get("track_type_assumed") else "")
         if a.get("whole_deck"):
-            out.append(f"- Deck acceleration: max over the whole deck (a grid along every "
-                       f"span plus the {pts.size} output point{'s' if pts.size != 1 else ''}"
+            line = (f" and along the line of the loaded track {a['loaded_track']}"
+                    if a.get("loaded_track_whole_deck") else "")
+            out.append(f"- Deck acceleration: max over the whole deck{line} (a grid along "
+                       f"every span plus the {pts.size} output point"
+                       f"{'s' if pts.size != 1 else ''}"
                        f", x = {shown} m); governing x = {a['governing_point']:g} m "
                        f"(max at the output points in that case: "
                        f"{_fmt(a.get('value_at_output_points', np.nan))} m/s², at x = "

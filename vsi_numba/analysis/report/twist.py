@@ -68,7 +68,9 @@ def twist_section(env, config_dir=None, source_path=None) -> Section | None:
         lines += markdown_table(["track", "twist", "train", "speed", "window from",
                                  "utilisation", "verdict"], rows)
         lines.append("")
-    lines += [f"**Peak deck acceleration along each track** (at the output points, modes "
+    where = ("the whole-deck grid along the track line and the output points"
+             if "max_track_acceleration_whole_deck" in env else "the output points")
+    lines += [f"**Peak deck acceleration along each track** (on {where}, modes "
               f"up to the EN 1990 A2 cut-off; limit {fmt_number(res.acceleration_limit)} "
               "m/s²; the deck-acceleration check above takes the loaded track):", ""]
     rows = [[str(k) if names is None else f"{k} ({md(names[i])})",

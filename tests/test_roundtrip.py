@@ -178,6 +178,12 @@ FEATURES = {
         bridge__tracks=[{"eccentricity": 2.25}, {"eccentricity": -2.25, "gauge": 1.5}],
         bridge__torsion={"GJ": 2e10, "polar_mass": 4e4, "damping_ratio": 0.01,
                          "n_modes": 2}, train__track=2),
+    "trains_meeting": feature(
+        bridge__kind="continuous", bridge__spans=[20.0, 25.0], bridge__elements_per_span=10,
+        bridge__tracks=[{"eccentricity": 2.25}, {"eccentricity": -2.25}],
+        bridge__torsion={"GJ": 2e10, "polar_mass": 4e4},
+        train={**HSLM, "other_trains": [{"track": 2, "direction": "opposite",
+                                         "offset": 12.5}]}),
     "continuous_torsion_en_damping": feature(
         bridge__kind="continuous", bridge__spans=[20.0, 25.0], bridge__elements_per_span=10,
         bridge__damping_ratio="EN1991-2", bridge__deck_type="prestressed_concrete",

@@ -772,7 +772,7 @@ def v16_torsion(workdir: Path) -> list[Row]:
     p = _SPACE
     L, ecc, n_b, n_t = p["L"], 2.5, 3, 4
     n_f, d, P, dt, free = 8, 12.0, 1.5e5, 2.5e-4, 0.3
-    f_t = np.arange(1, n_t + 1) * np.pi / L * np.sqrt(p["GJ"] / p["Ip"]) / (2.0 * np.pi)
+    f_t = ref.fork_torsion_frequencies(L, p["GJ"], p["Ip"], n_t)
     v = float(f_t[0] * d)  # the first torsional resonance
     x_twist, x_line = 4.0, 12.0
     text = (_space_bridge([x_twist, x_line], [ecc], n_b, n_t) + "[train]\ntrack = 1\n"
@@ -788,9 +788,10 @@ def v16_torsion(workdir: Path) -> list[Row]:
              f"{v * 3.6:.1f} km/h")
     model = (f"moving forces on track 1, {n_b} bending + {n_t} torsional modes (1 %), "
              f"HHT alpha = 0, dt {dt * 1e3:g} ms")
-    src_f = "St-Venant torsion of a fork-supported span: f_j = (j pi / L) sqrt(GJ / I_p) / (2 pi)"
+    src_f = ("St-Venant torsion of a fork-supported span, f_j = (j pi / L) sqrt(GJ / I_p) "
+             "/ (2 pi), vsi_numba.verification.reference.fork_torsion_frequencies")
     reason_f = ("closed form in the model too: round-off of the file's frequency; "
-                "measured <= 2e-16")
+                "measured 0")
     reason = ("the resonance builds up over 8 cycles: the trapezoidal rule's period error "
               "(w dt)^2/12 a cycle and the peak sampled at dt; measured ")
     rows = []

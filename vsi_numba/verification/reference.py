@@ -473,6 +473,12 @@ def ss_mode_table(L, EI, m, n_modes, dx):
 
 
 # ----------------------------------------------------------------- deck in space
+def fork_torsion_frequencies(L: float, GJ: float, Ip: float, n_modes: int) -> np.ndarray:
+    """Natural frequencies (Hz) of St-Venant torsion of a span on fork supports (rotation
+    about x restrained at both ends): ``f_j = (j pi / L) sqrt(GJ / Ip) / (2 pi)``."""
+    return np.arange(1, n_modes + 1) * np.pi / L * np.sqrt(GJ / Ip) / (2.0 * np.pi)
+
+
 def deck_in_space_forces(forces, L, EI, m, zeta, n_bending, GJ, Ip, zeta_t, n_torsion, t):
     """Moving forces on a simply supported deck that bends and twists (St-Venant torsion,
     fork supports), integrated by ``solve_ivp`` (DOP853, rtol 1e-10) from rest.

@@ -725,6 +725,184 @@ def v08_opensees_dip(workdir: Path) -> list[Row]:
     ]
 
 
+# ------------------------------------------------------------------ V16-V18 decks in space
+#: The deck in space of V16-V18: a 24 m fork-supported span (f1 = 3.05 Hz in bending,
+#: 6.59 Hz in torsion), its tracks at +-2.5 m (V16, V17) or +-2.0 m (V18).
+_SPACE = dict(L=24.0, EI=1.5e10, m=1.2e4, zeta=0.01, GJ=6.0e9, Ip=6.0e4, zeta_t=0.01)
+
+
+def _space_bridge(points, tracks, n_bending, n_torsion):
+    p = _SPACE
+    tr = ", ".join(f"{{ eccentricity = {y!r} }}" for y in tracks)
+    return (_ss_bridge(p["L"], p["EI"], p["m"], p["zeta"], n_bending, points)
+            + f"        tracks = [{tr}]\n"
+            + f"        torsion = {{ GJ = {p['GJ']!r}, polar_mass = {p['Ip']!r}, "
+              f"damping_ratio = {p['zeta_t']!r}, n_modes = {n_torsion} }}\n")
+
+
+def _space_run(dt, speed_kmh, free, approach=0.0):
+    return f"""
+        [track]
+        model = "rigid"
+        [solver]
+        dt = {dt!r}
+        hht_alpha = 0.0
+        approach = {approach!r}
+        free_vibration = {free!r}
+        [study]
+        speeds_kmh = [{float(speed_kmh)!r}]
+        save_time_histories = false
+        """
+
+
+def _space_reference(forces, n_bending, n_torsion, t_end, dt):
+    """The deck's modal response to ``forces`` (rows P, y, x0, u) on a grid dt / 4."""
+    p = _SPACE
+    t = np.linspace(0.0, t_end, int(round(4 * t_end / dt)) + 1)
+    return ref.deck_in_space_forces(forces, p["L"], p["EI"], p["m"], p["zeta"], n_bending,
+                                    p["GJ"], p["Ip"], p["zeta_t"], n_torsion, t)
+
+
+_SPACE_IVP = ("solve_ivp (DOP853, rtol 1e-10) of the closed-form bending and St-Venant "
+              "torsion sine modes under the moving forces, "
+              "vsi_numba.verification.reference.deck_in_space_forces")
+
+
+def v16_torsion(workdir: Path) -> list[Row]:
+    p = _SPACE
+    L, ecc, n_b, n_t = p["L"], 2.5, 3, 4
+    n_f, d, P, dt, free = 8, 12.0, 1.5e5, 2.5e-4, 0.3
+    f_t = ref.fork_torsion_frequencies(L, p["GJ"], p["Ip"], n_t)
+    v = float(f_t[0] * d)  # the first torsional resonance
+    x_twist, x_line = 4.0, 12.0
+    text = (_space_bridge([x_twist, x_line], [ecc], n_b, n_t) + "[train]\ntrack = 1\n"
+            + _forces([k * d for k in range(n_f)], P) + _space_run(dt, v * 3.6, free))
+    ds = sweep(workdir, "v16_torsion", text).isel(speed=0, train=0, irregularity=0)
+    freq = np.asarray(ds["frequency"].values, float).ravel()
+    forces = [(P, ecc, -k * d, v) for k in range(n_f)]
+    res = _space_reference(forces, n_b, n_t, (L + (n_f - 1) * d) / v + free, dt)
+    twist = float(np.abs(ref.deck_in_space_twist(res, [x_twist])).max())
+    w, a = ref.deck_in_space_line(res, [x_line], ecc)
+    title = (f"Torsion of a {L:g} m fork-supported span with a track at {ecc:g} m: "
+             f"{n_f} forces of {P / 1e3:g} kN at d = {d:g} m, v = f_t1 d = "
+             f"{v * 3.6:.1f} km/h")
+    model = (f"moving forces on track 1, {n_b} bending + {n_t} torsional modes (1 %), "
+             f"HHT alpha = 0, dt {dt * 1e3:g} ms")
+    src_f = ("St-Venant torsion of a fork-supported span, f_j = (j pi / L) sqrt(GJ / I_p) "
+             "/ (2 pi), vsi_numba.verification.reference.fork_torsion_frequencies")
+    reason_f = ("closed form in the model too: round-off of the file's frequency; "
+                "measured 0")
+    reason = ("the resonance builds up over 8 cycles: the trapezoidal rule's period error "
+              "(w dt)^2/12 a cycle and the peak sampled at dt; measured ")
+    rows = []
+    for j in range(n_t):
+        got = freq[int(np.argmin(abs(freq - f_t[j])))]
+        rows.append(Row(f"V16-f{j + 1}", title, src_f, model,
+                        f"torsional frequency {j + 1} (nearest of the file's frequency)",
+                        "Hz", float(f_t[j]), float(got), 1e-12, reason_f))
+    dsel = ds.sel(track=1)
+    rows += [
+        Row("V16-twist", title, _SPACE_IVP, model, f"max deck twist over 3 m from x = "
+            f"{x_twist:g} m", "m", twist,
+            float(dsel["max_deck_twist"].sel(point=x_twist).values), 3e-4,
+            reason + "9.6e-5"),
+        Row("V16-w", title, _SPACE_IVP, model, f"max displacement of the track line at x = "
+            f"{x_line:g} m", "m", float(np.abs(w).max()),
+            float(dsel["max_track_displacement"].sel(point=x_line).values), 2e-4,
+            reason + "5.7e-5"),
+        Row("V16-a", title, _SPACE_IVP, model, f"max |acceleration| of the track line at "
+            f"x = {x_line:g} m (every mode below the 30 Hz cut-off)", "m/s2",
+            float(np.abs(a).max()),
+            float(dsel["max_track_acceleration"].sel(point=x_line).values), 2e-4,
+            reason + "8.0e-5"),
+    ]
+    return rows
+
+
+def v17_crawl_twist(workdir: Path) -> list[Row]:
+    p = _SPACE
+    L, ecc, n_b, n_t, P, approach = p["L"], 2.5, 3, 40, 2.0e5, 1.0
+    points = [4.0, 10.5]
+    text = (_space_bridge(points, [ecc], n_b, n_t) + "[train]\ntrack = 1\n" + _forces([0.0], P)
+            + _space_run(1e-3, 3.0, 0.2, approach))
+    ds = sweep(workdir, "v17_crawl_twist", text).isel(speed=0, train=0, irregularity=0)
+    title = (f"A {P / 1e3:g} kN force crawling (3 km/h) on a track at {ecc:g} m of a "
+             f"{L:g} m fork-supported span: a point torque P e")
+    src = ("St-Venant rotation of a point torque on a fork-supported span, theta(x) = "
+           "P e x (L - a) / (GJ L) for x <= a, max twist at a = x or x + 3 m, "
+           "vsi_numba.verification.reference.point_torque_twist")
+    model = (f"moving force on track 1, {n_b} bending + {n_t} torsional modes (1 %), "
+             "HHT alpha = 0, dt 1 ms")
+    src_n = (f"the sine series of the same rotation truncated to the {n_t} torsional "
+             "modes kept, the torque moved in 1 mm steps, "
+             "vsi_numba.verification.reference.point_torque_twist")
+    measured = {4.0: ("6.2e-3", "7e-5"), 10.5: ("9.7e-3", "5e-5")}
+    rows = []
+    for i, x in enumerate(points):
+        closed = ref.point_torque_twist(P * ecc, p["GJ"], L, x)
+        series = ref.point_torque_twist(P * ecc, p["GJ"], L, x, n_modes=n_t)
+        got = float(ds["max_deck_twist"].sel(track=1, point=x).values)
+        what = f"max deck twist over 3 m from x = {x:g} m"
+        rows += [
+            Row(f"V17-twist-{i + 1}", title, src, model, what, "m", closed, got, 2e-2,
+                f"modal truncation: the series of the {n_t} torsional modes kept is "
+                f"{series / closed - 1:+.1e} off the closed form (the rotation has a kink "
+                f"under the torque, its series converges as 1/n); measured "
+                f"{measured[x][0]}"),
+            Row(f"V17-twist-{i + 1}-series", title, src_n, model, what, "m", series, got,
+                2e-4, "the same modes: the dynamic part at 3 km/h and the torque's "
+                f"positions sampled at v dt = 0.83 mm; measured {measured[x][1]}"),
+        ]
+    return rows
+
+
+def v18_trains_meeting(workdir: Path) -> list[Row]:
+    p = _SPACE
+    L, ecc, n_b, n_t = p["L"], 2.0, 3, 4
+    n_f, d, P, off, kmh, dt, free = 5, 8.0, 1.5e5, 10.0, 160.0, 2.5e-4, 0.3
+    v = kmh / 3.6
+    x = L / 2
+    text = (_space_bridge([x], [ecc, -ecc], n_b, n_t) + "[train]\ntrack = 1\n"
+            + f'other_trains = [{{ track = 2, direction = "opposite", offset = {off!r} }}]\n'
+            + _forces([k * d for k in range(n_f)], P) + _space_run(dt, kmh, free))
+    ds = sweep(workdir, "v18_trains_meeting", text).isel(speed=0, train=0, irregularity=0)
+    forces = ([(P, ecc, -k * d, v) for k in range(n_f)]
+              + [(P, -ecc, L + off + k * d, -v) for k in range(n_f)])
+    res = _space_reference(forces, n_b, n_t, (L + (n_f - 1) * d + off) / v + free, dt)
+    w1, _ = ref.deck_in_space_line(res, [x], ecc)
+    w2, _ = ref.deck_in_space_line(res, [x], -ecc)
+    w0, _ = ref.deck_in_space_line(res, [x], 0.0)
+    moment = ref.deck_in_space_moment(res, x)
+    title = (f"Trains meeting on a twisting {L:g} m deck: {n_f} forces of {P / 1e3:g} kN at "
+             f"d = {d:g} m on each track (+-{ecc:g} m), the second in -x {off:g} m behind, "
+             f"{kmh:g} km/h")
+    model = (f"moving forces on tracks 1 and 2 (other_trains, superposed), {n_b} bending + "
+             f"{n_t} torsional modes (1 %), mode acceleration, HHT alpha = 0, "
+             f"dt {dt * 1e3:g} ms")
+    src = _SPACE_IVP + " (all ten forces at once); the moment by deck_in_space_moment"
+    reason = ("HHT alpha = 0 at dt 0.25 ms (no resonance: 5.6 forces a second on each "
+              "track, f1 = 3.05 Hz, f_t1 = 6.59 Hz) and the peak sampled at dt; measured ")
+    at = dict(point=x)
+    return [
+        Row("V18-w-axis", title, src, model, f"max deck (axis) displacement at x = {x:g} m, "
+            "both trains", "m", float(np.abs(w0).max()),
+            float(ds["max_deck_displacement_all_tracks"].sel(**at).values), 3e-5,
+            reason + "1.1e-5"),
+        Row("V18-w-track1", title, src, model, f"max displacement of track 1 at x = {x:g} m,"
+            " both trains", "m", float(np.abs(w1).max()),
+            float(ds["max_track_displacement_all_tracks"].sel(track=1, **at).values), 3e-6,
+            reason + "1.1e-6"),
+        Row("V18-w-track2", title, src, model, f"max displacement of track 2 at x = {x:g} m,"
+            " both trains", "m", float(np.abs(w2).max()),
+            float(ds["max_track_displacement_all_tracks"].sel(track=2, **at).values), 1e-5,
+            reason + "4.1e-6"),
+        Row("V18-M", title, src, model, f"max bending moment at x = {x:g} m, both trains",
+            "N m", float(moment.max()),
+            float(ds["max_bending_moment_all_tracks"].sel(**at).values), 4e-6,
+            reason + "1.4e-6"),
+    ]
+
+
 CASES: tuple[Case, ...] = (
     Case("V01", "Moving force on a simply supported beam (Frýba)", True, v01_fryba),
     Case("V02", "Sprung mass on a simply supported beam (Yang & Wu)", True, v02_yang_wu),
@@ -751,4 +929,8 @@ CASES: tuple[Case, ...] = (
          v14_second_resonance),
     Case("V15", "Hertz contact and a light wheel against OpenSees (peer case S1)", False,
          v15_opensees_s1),
+    Case("V16", "Torsion of a simply supported deck with an eccentric track", False,
+         v16_torsion),
+    Case("V17", "Crawl twist of a point torque", True, v17_crawl_twist),
+    Case("V18", "Trains meeting on a twisting deck", True, v18_trains_meeting),
 )

@@ -263,7 +263,7 @@ class StudyFile:
             self.vars[name] = self._float(name, (*case, *dims), attrs_for(name))
             self.found[name] = False
         for name, (dims, *_rest) in ALL_TRACKS.items():
-            if name in self.omit:
+            if name in self.omit or not set(dims) <= set(sizes):  # per-track: a deck in space
                 continue
             self.vars[name] = self._float(name, (*case, *dims), attrs_for(name))
             self.found[name] = False
@@ -354,7 +354,7 @@ class StudyFile:
                 block[(slice(None), *(slice(0, n) for n in a.shape[1:]))] = a
                 parts[name] = (None, block)
         for name, (dims, *_rest) in ALL_TRACKS.items():
-            if name in self.omit or name not in data:
+            if name not in self.vars or name not in data:
                 continue
             a = np.asarray(data[name], float)
             block = np.full((a.shape[0], *(self.sizes[d] for d in dims)), np.nan)

@@ -76,6 +76,7 @@ def run_with_others(packed: Packed, profile, speeds, points, settings, bridge,
                       deck=deck) for p in models[1:]]
     env = all_tracks_envelopes(main, [(r, o) for r, o in zip(runs, others, strict=True)],
                                deck)
+    main.elapsed += sum(r.elapsed for r in runs)  # the kernel time of every train
     return main, env
 
 

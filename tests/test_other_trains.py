@@ -134,6 +134,14 @@ def test_same_direction_offset_zero_is_the_sum_of_two_files(tmp_path):
                                    rtol=1e-9, err_msg=name)
     for name in ("time_of_max_deck_displacement", "time_of_max_bending_moment"):
         np.testing.assert_array_equal(ds[f"{name}_all_tracks"].values, ds[name].values)
+    # without torsion each track line is the axis: its whole-deck acceleration is the
+    # deck's (taken from the deck's envelope, with no rows of its own)
+    for sfx in ("", "_all_tracks"):
+        for k in (1, 2):
+            for pre in ("", "time_of_", "position_of_"):
+                np.testing.assert_array_equal(
+                    ds[f"{pre}max_track_acceleration_whole_deck{sfx}"].sel(track=k).values,
+                    ds[f"{pre}max_deck_acceleration_whole_deck{sfx}"].values)
 
 
 def test_files_without_other_trains_name_the_all_tracks_outputs(tmp_path):

@@ -146,7 +146,11 @@ class SpaceLayout:
     (n_tracks x n_points), the twist at the output points (n_tracks x n_points), the
     twist on the whole-deck grid ``twist_x`` (n_tracks x n_twist) and the band-limited
     acceleration rows on the whole-deck grid ``grid_x`` along each track line
-    (n_tracks x n_grid; their displacement rows are zero).
+    (n_tracks x n_grid; their displacement rows are zero).  A deck that does not twist
+    has no twist rows; a beam deck without torsion (every track line is the axis, the
+    per-track values are the deck's) no whole-deck rows either (``whole_from_deck``:
+    the deck's own whole-deck envelope is each track's), so that a deck declared with
+    tracks but no torsion costs little more than the planar one.
 
     The torsional moment at the output points, when computed, is the shear-force
     channel ``torque_channel`` of the load-effect tables scaled by ``torque_scale``
@@ -163,6 +167,7 @@ class SpaceLayout:
     torque_channel: np.ndarray | None = None  # (n_points,) load-effect channels
     torque_scale: float = 0.0  # N m per channel unit: the loaded track's eccentricity
     torque_reason: str = ""  # why the torsional moment is not computed ("" if it is)
+    whole_from_deck: bool = False  # the tracks' whole-deck acceleration is the deck's
 
     @property
     def n_tracks(self) -> int:
@@ -172,12 +177,16 @@ class SpaceLayout:
         """Columns of ``a`` (n_runs, n_rows): ``deck`` (n_runs, n_p), ``track`` and
         ``twist`` (n_runs, n_tracks, n_p), ``twist_whole`` (n_runs, n_tracks, n_twist),
         ``track_whole`` (n_runs, n_tracks, n_grid)."""
-        n_p, n_k, n_w, n_g = self.n_points, self.n_tracks, self.twist_x.size, self.grid_x.size
+        n_p, n_k = self.n_points, self.n_tracks
+        n_t = n_p if self.has_twist else 0
+        n_w = self.twist_x.size if self.has_twist else 0
+        n_g = 0 if self.whole_from_deck else self.grid_x.size
         r = a.shape[0]
-        o1, o2 = n_p + n_k * n_p, n_p + 2 * n_k * n_p
+        o1 = n_p + n_k * n_p
+        o2 = o1 + n_k * n_t
         o3 = o2 + n_k * n_w
         return {"deck": a[:, :n_p], "track": a[:, n_p:o1].reshape(r, n_k, n_p),
-                "twist": a[:, o1:o2].reshape(r, n_k, n_p),
+                "twist": a[:, o1:o2].reshape(r, n_k, n_t),
                 "twist_whole": a[:, o2:o3].reshape(r, n_k, n_w),
                 "track_whole": a[:, o3:o3 + n_k * n_g].reshape(r, n_k, n_g)}
 
@@ -264,8 +273,12 @@ def space_operators(space, points, deck: tuple, loaded: int = 0) -> tuple:
     twist_p = rows.twist[:, :points.size].reshape(-1, n_m)
     twist_g = rows.twist[:, points.size:].reshape(-1, n_m)
     grid_x = np.asarray(deck[3], float) if len(deck) > 3 else np.zeros(0)
+    has_twist = bool(getattr(space, "has_torsion", True) and rows.has_twist.all())
+    if not has_twist:
+        twist_p, twist_g = np.zeros((0, n_m)), np.zeros((0, n_m))
+    from_deck = getattr(space, "has_torsion", None) is False  # every track is the axis
     whole = np.concatenate([space.track_shapes(k, grid_x) for k in range(len(space.tracks))]
-                           ) if grid_x.size else np.zeros((0, n_m))
+                           ) if grid_x.size and not from_deck else np.zeros((0, n_m))
     whole = np.where(keep[None, :], whole, 0.0)
     extra = np.nan_to_num(np.concatenate([disp, twist_p, twist_g, np.zeros_like(whole)]))
     extra_a = np.concatenate([np.where(keep[None, :], disp, 0.0),
@@ -275,10 +288,9 @@ def space_operators(space, points, deck: tuple, loaded: int = 0) -> tuple:
     ecc = getattr(space, "eccentricities", None)
     if ecc is None:
         ecc = np.array([t.eccentricity for t in space.tracks], float)
-    layout = SpaceLayout(points.size, np.asarray(ecc, float), grid,
-                         bool(getattr(space, "has_torsion", True) and rows.has_twist.all()),
-                         grid_x, tuple(t.line for t in space.tracks if t.line),
-                         getattr(space, "no_twist", ""), channel, scale, reason)
+    layout = SpaceLayout(points.size, np.asarray(ecc, float), grid, has_twist, grid_x,
+                         tuple(t.line for t in space.tracks if t.line),
+                         getattr(space, "no_twist", ""), channel, scale, reason, from_deck)
     return (np.ascontiguousarray(np.vstack([phi_d, extra])),
             np.ascontiguousarray(np.vstack([phi_a, extra_a])), *deck[2:5], effects, layout)
 
@@ -393,7 +405,15 @@ class BatchResult:
                         "time_of_max_deck_twist": dt["twist"].copy(),
                         "max_deck_twist_whole_deck": d["twist_whole"].copy(),
                         "time_of_max_deck_twist_whole_deck": dt["twist_whole"].copy()})
-        if sp.grid_x.size:
+        if sp.grid_x.size and sp.whole_from_deck:  # every track line is the axis
+            k = sp.n_tracks
+            out.update({"max_track_acceleration_whole_deck": np.repeat(
+                red.gacc[:, None], k, axis=1),
+                "time_of_max_track_acceleration_whole_deck": np.repeat(
+                    red.gacc_t[:, None], k, axis=1),
+                "position_of_max_track_acceleration_whole_deck": np.repeat(
+                    sp.grid_x[red.gacc_i][:, None], k, axis=1)})
+        elif sp.grid_x.size:
             g, gt = a["track_whole"], at["track_whole"]
             i = np.argmax(g, axis=2)[..., None]
             out.update({"max_track_acceleration_whole_deck":

@@ -160,7 +160,11 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
             out.update({"max_deck_twist": d["twist"], "time_of_max_deck_twist": dtime["twist"],
                         "max_deck_twist_whole_deck": d["twist_whole"],
                         "time_of_max_deck_twist_whole_deck": dtime["twist_whole"]})
-        if space.grid_x.size:  # along each track line on the whole-deck grid
+        if space.grid_x.size and space.whole_from_deck:  # every track line is the axis
+            out.update({f"{pre}max_track_acceleration_whole_deck": np.repeat(
+                v[:, None], space.n_tracks, axis=1) for pre, v in (
+                    ("", gacc), ("time_of_", gacc_t), ("position_of_", gacc_x))})
+        elif space.grid_x.size:  # along each track line on the whole-deck grid
             g, gt = a["track_whole"], atime["track_whole"]
             i = np.argmax(g, axis=2)[..., None]
             out.update({"max_track_acceleration_whole_deck": np.take_along_axis(g, i, 2)[..., 0],

@@ -121,7 +121,7 @@ def test_trains_meeting_on_a_twisting_deck_against_own_integration(tmp_path):
                   > ds["max_bending_moment"].values)
 
 
-def test_same_direction_offset_zero_is_the_sum_of_two_files(tmp_path):
+def test_side_by_side_without_torsion_is_twice_the_one_track_envelopes(tmp_path):
     """The same train side by side on both tracks (same direction, offset 0): on a deck
     without torsion the axis sees twice the train, so every deck envelope with both
     trains is twice the one-track envelope (the deck is linear), to round-off."""

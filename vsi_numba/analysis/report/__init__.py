@@ -76,6 +76,7 @@ from vsi_numba.analysis.report.text import (
     stored_warnings,
 )
 from vsi_numba.analysis.report.twist import twist_section
+from vsi_numba.io.schema import ALL_TRACKS_SUFFIX
 
 __all__ = [
     "FIGURE_NAMES",
@@ -201,7 +202,10 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
     le_checks = consistent_deflection(
         load_effect_checks(env, length=determinant_length), env,
         results.get("dynamic_amplification"))
-    table = mark_unreliable(summary_with_load_effects(chk.summary_table(results), le_checks),
+    le_all = (load_effect_checks(env, length=determinant_length, all_tracks=True)
+              if any(str(v).endswith(ALL_TRACKS_SUFFIX) for v in env.variables) else None)
+    table = mark_unreliable(summary_with_load_effects(chk.summary_table(results), le_checks,
+                                                      le_all),
                             records)
     if has_fatigue(full):  # Miner's damage per section (a [fatigue] study)
         table = pd.concat([table, pd.DataFrame(fatigue_rows(full))], ignore_index=True)
@@ -223,7 +227,8 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
              "maxima_per_point": tbl.ascii_units(per_point)}
     if zone_table is not None:
         extra["wheel_unloading_zones"] = tbl.ascii_units(zone_table)
-    load_effects = load_effects_section(env, None, checks=le_checks, save_figure=False)
+    load_effects = load_effects_section(env, None, checks=le_checks, save_figure=False,
+                                        checks_all=le_all)
     extra.update(load_effects.tables)
     tbl.write_tables(speed_tables, extra, outdir)
 

@@ -71,8 +71,8 @@ def _where(effect: str, x: float) -> str:
 
 def load_effects_section(ds, outdir: Path | str | None = None, *, checks=None,
                          alpha: float | None = None, maintenance: str | None = None,
-                         length: float | None = None, save_figure: bool = True
-                         ) -> LoadEffectsSection:
+                         length: float | None = None, save_figure: bool = True,
+                         checks_all=None) -> LoadEffectsSection:
     """Build the "Load effects" section of a results file.
 
     Parameters
@@ -88,6 +88,9 @@ def load_effects_section(ds, outdir: Path | str | None = None, *, checks=None,
         ``length``).
     save_figure : bool
         Write the PNG into ``outdir`` (the report's Markdown writer writes it itself).
+    checks_all : LoadEffectChecks or str, optional
+        The checks with every train loaded (``all_tracks=True``), for a study with
+        trains on other tracks (default: computed here when the file has them).
 
     Returns
     -------
@@ -105,9 +108,9 @@ def load_effects_section(ds, outdir: Path | str | None = None, *, checks=None,
         blocks.append(f"Not available: {checks}.")
     else:
         blocks, tables, figure = _blocks(checks)
-        if any(v.endswith(ALL_TRACKS_SUFFIX) for v in ds.variables):
-            several = load_effect_checks(ds, alpha=alpha, maintenance=maintenance,
-                                         length=length, all_tracks=True)
+        if any(str(v).endswith(ALL_TRACKS_SUFFIX) for v in ds.variables):
+            several = checks_all if checks_all is not None else load_effect_checks(
+                ds, alpha=alpha, maintenance=maintenance, length=length, all_tracks=True)
             blocks += _several_blocks(ds, several)
             if not isinstance(several, str):
                 tables["load_effect_verdict_all_tracks"] = several.verdict
@@ -400,19 +403,26 @@ def consistent_deflection(c, ds, dyn, step: float = 0.05):
                       factors=factors)
 
 
-def summary_with_load_effects(table: pd.DataFrame, c) -> pd.DataFrame:
+def summary_with_load_effects(table: pd.DataFrame, c, c_all=None) -> pd.DataFrame:
     """The summary table (:func:`vsi_numba.analysis.checks.summary_table`) with the
     EN 1991-2 6.4.6.5(3) verdict (one row per effect: the ratio of the real trains'
     design effect to Φ × α × LM71, and which governs) and the deck-end rotation check
-    (the worse deck end) appended; ``table`` itself when ``c`` is a reason (str)."""
+    (the worse deck end) appended; ``table`` itself when ``c`` is a reason (str).
+    ``c_all``: the checks with every train loaded (``train.other_trains``), whose
+    verdicts follow, marked with the tracks loaded."""
     if isinstance(c, str):
         return table
     rows = []
     ph = c.factors["phi_name"]
-    for r in c.verdict.itertuples(index=False):
+    verdicts = [(r, "") for r in c.verdict.itertuples(index=False)]
+    if c_all is not None and not isinstance(c_all, str):
+        tracks = c_all.factors["loaded_tracks"]
+        verdicts += [(r, f", tracks {tracks} loaded") for r in
+                     c_all.verdict.itertuples(index=False)]
+    for r, loaded in verdicts:
         rows.append({
-            "check": f"6.4.6.5(3) {EFFECTS[r.effect][4]}: (1 + φ'dyn + φ''/2) × train / "
-                     f"({ph} × α × LM71)",
+            "check": f"6.4.6.5(3) {EFFECTS[r.effect][4]}{loaded}: (1 + φ'dyn + φ''/2) × "
+                     f"train / ({ph} × α × LM71)",
             "value": float(r.ratio), "units": "1", "limit": np.nan, "margin": np.nan,
             "utilisation": np.nan, "result": f"{r.governs} govern"
                                              + ("" if r.governs.endswith("s") else "s"),

@@ -436,6 +436,8 @@ def test_double_track_viaduct_config_through_sweep_and_report(tmp_path):
     assert np.all(ds["max_bending_moment_all_tracks"].values
                   > ds["max_bending_moment"].values)
     assert "### Several tracks loaded" in report
+    summary = (tmp_path / "r" / "summary.csv").read_text()
+    assert "6.4.6.5(3) bending moment M, tracks 1, 2 loaded" in summary
     from vsi_numba.analysis.checks.load_effects import load_effect_checks
 
     one, two = load_effect_checks(ds), load_effect_checks(ds, all_tracks=True)

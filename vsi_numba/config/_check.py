@@ -231,6 +231,28 @@ class _Checker:
                 out[key] = self.error(p, v, expected + hint)
         return out
 
+    def table_list(self, items, path: str, model, *, expected: str, what: str,
+                   max_len: int):
+        """Read a list of 1 to ``max_len`` tables, each of the declared keys of ``model``
+        (:meth:`table`, :meth:`fields`; keys given as None dropped): the list of
+        resolved tables, or ``_BAD`` (every problem reported)."""
+        from vsi_numba.config.schema._fields import keys_of
+
+        if not isinstance(items, list) or not items or len(items) > max_len:
+            return self.error(path, items, expected)
+        out = []
+        for i, it in enumerate(items):
+            p = f"{path}[{i}]"
+            if self.table(it, p, keys_of(model), what=what) is _BAD:
+                out = _BAD
+                continue
+            v = self.fields(it, p, model)
+            if out is not _BAD and _ok(*v.values()):
+                out.append({k: x for k, x in v.items() if x is not None})
+            else:
+                out = _BAD
+        return out
+
     def number_list(self, value, path: str, item: _Num, *, expected: str,
                     scalar_ok: bool = False, min_len: int = 1, max_len: int | None = None):
         """Read a list of numbers (or a single number when ``scalar_ok``)."""

@@ -259,22 +259,10 @@ def _space_keys(chk, d, n_spans, res):
     keeps its resolved configuration and hash) or ``_BAD``."""
     tracks = torsion = None
     if "tracks" in d:
-        items = d["tracks"]
-        if not isinstance(items, list) or not items or len(items) > 20:
-            tracks = chk.error("bridge.tracks", items, "a list of 1 to 20 tracks, each "
-                               "{ eccentricity = y } (m)")
-        else:
-            tracks = []
-            for i, it in enumerate(items):
-                p = f"bridge.tracks[{i}]"
-                if chk.table(it, p, keys_of(_m.TrackLine),
-                             what=" { eccentricity = y } (m)") is _BAD:
-                    tracks = _BAD
-                    continue
-                v = chk.fields(it, p, _m.TrackLine)
-                tracks = tracks if _ok(tracks, *v.values()) else _BAD
-                if tracks is not _BAD:
-                    tracks.append(v)
+        tracks = chk.table_list(d["tracks"], "bridge.tracks", _m.TrackLine,
+                                expected="a list of 1 to 20 tracks, each "
+                                         "{ eccentricity = y } (m)",
+                                what=" { eccentricity = y } (m)", max_len=20)
         if _ok(tracks):
             res["tracks"] = tracks
     if "torsion" in d:
@@ -521,21 +509,10 @@ def _imported_track_keys(chk, d, res):
     given, or ``_BAD``."""
     if "tracks" not in d:
         return None
-    items = d["tracks"]
-    expected = "a list of 1 to 20 tracks, each { line = \"T\" } (a track of the data)"
-    if not isinstance(items, list) or not items or len(items) > 20:
-        return chk.error("bridge.tracks", items, expected)
-    tracks = []
-    for i, it in enumerate(items):
-        p = f"bridge.tracks[{i}]"
-        if chk.table(it, p, keys_of(_m.ImportedTrack), what=" { line = \"T\" }") is _BAD:
-            tracks = _BAD
-            continue
-        v = chk.fields(it, p, _m.ImportedTrack)
-        if not _ok(tracks, *v.values()):
-            tracks = _BAD
-            continue
-        tracks.append(_drop_none(v))
+    tracks = chk.table_list(d["tracks"], "bridge.tracks", _m.ImportedTrack,
+                            expected="a list of 1 to 20 tracks, each { line = \"T\" } (a "
+                                     "track of the data)",
+                            what=" { line = \"T\" }", max_len=20)
     if not _ok(tracks):
         return _BAD
     if "track_line" in d:

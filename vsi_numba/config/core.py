@@ -112,7 +112,7 @@ class Config:
         #: what the rules of the input derive (Table 6.6 damping, refined speeds, ...):
         #: not part of the stored configuration, which keeps the rules themselves
         self._derived: dict = dict(derived or {})
-        self._built = None  # the bridge with its track (build_bridge)
+        self._built: dict = {}  # track -> the bridge along it (build_bridge)
         #: ``[(labels, Config)]``: the variants of ``study.vary`` (empty: none)
         self.variants: list = []
 
@@ -126,24 +126,27 @@ class Config:
         return f"Config(title={self.title!r}, sha256={self.sha256[:12]}...)"
 
     # -- model
-    def build_bridge(self) -> _bridge.ModalBridge:
-        """Return the bridge model (:class:`~vsi_numba.model.bridge.ModalBridge`).
+    def build_bridge(self, track: int | None = None) -> _bridge.ModalBridge:
+        """Return the bridge model (:class:`~vsi_numba.model.bridge.ModalBridge`) along
+        ``track`` (1-based; default ``train.track``).
 
         Imported bridges (``modes_file``, ``matrices``) are read and checked by
         :func:`load_config` already; this returns that model, with the track of
-        ``[track]`` (:attr:`track_model`, :attr:`rail_track`).
+        ``[track]`` (:attr:`track_model`, :attr:`rail_track`).  A deck in space gives the
+        track's line (the axis without torsion).
         """
-        if self._built is None:
+        track = self.train_track if track is None else int(track)
+        if track not in self._built:
             model = self._bridge.model
             space = self._bridge.space
-            if space is not None:  # the loaded track's line (the axis without torsion)
-                model = space.track_bridge(self.train_track - 1)
+            if space is not None:
+                model = space.track_bridge(track - 1)
             if self.rail_track is not None:
                 model = dataclasses.replace(model, track=self.rail_track)
             if self.load_distribution is not None:
                 model = dataclasses.replace(model, load_distribution=self.load_distribution)
-            self._built = model
-        return self._built
+            self._built[track] = model
+        return self._built[track]
 
     @property
     def deck_in_space(self):
@@ -169,13 +172,7 @@ class Config:
         (:func:`vsi_numba.model.bridge.reversed_bridge`): a train running in -x is a
         train running in +x on the reversed deck, and its modal coordinates are the
         deck's own."""
-        bridge = self.bridge_for(train)
-        space = self._bridge.space
-        if space is not None and track != self.train_track:
-            base = space.track_bridge(track - 1)
-            bridge = dataclasses.replace(bridge, values=base.values, slopes=base.slopes,
-                                         nodes=base.nodes, kind=base.kind,
-                                         description=base.description)
+        bridge = self.bridge_for(train, track)
         if direction == "opposite":
             bridge = _bridge.reversed_bridge(bridge)
         return bridge
@@ -245,11 +242,12 @@ class Config:
             return self._derived["damping_ratio"]
         return self._resolved["bridge"].get("damping_ratio")
 
-    def bridge_for(self, train) -> _bridge.ModalBridge:
-        """The bridge a train runs on: :meth:`build_bridge`, with the additional damping
-        of ``bridge.additional_damping`` added to every mode when ``train`` is moving
-        forces only (never for interaction models, which carry that interaction)."""
-        bridge = self.build_bridge()
+    def bridge_for(self, train, track: int | None = None) -> _bridge.ModalBridge:
+        """The bridge a train runs on (along ``track``, default ``train.track``):
+        :meth:`build_bridge`, with the additional damping of ``bridge.additional_damping``
+        added to every mode when ``train`` is moving forces only (never for interaction
+        models, which carry that interaction)."""
+        bridge = self.build_bridge(track)
         extra = self.additional_damping
         if extra and all(v.n_dof == 0 for v in train.vehicles):
             return dataclasses.replace(bridge, damping=np.asarray(bridge.damping) + extra)

@@ -284,24 +284,11 @@ def _get_preset(chk, name, path, model):
 def _other_trains(chk, items):
     """``train.other_trains`` (declared: :class:`~.schema.models.OtherTrain`): the list of
     resolved ``{track, direction, offset}`` or ``_BAD``."""
-    path = "train.other_trains"
-    if not isinstance(items, list) or not items or len(items) > 19:
-        return chk.error(path, items, "a list of 1 to 19 trains on other tracks, each "
-                                      "{ track = k, direction = \"same\" | \"opposite\", "
-                                      "offset = m }")
-    out = []
-    for i, it in enumerate(items):
-        p = f"{path}[{i}]"
-        if chk.table(it, p, keys_of(_m.OtherTrain),
-                     what=" { track = k, direction, offset }") is _BAD:
-            out = _BAD
-            continue
-        v = chk.fields(it, p, _m.OtherTrain)
-        if out is not _BAD and _ok(*v.values()):
-            out.append(v)
-        else:
-            out = _BAD
-    return out
+    return chk.table_list(items, "train.other_trains", _m.OtherTrain,
+                          expected="a list of 1 to 19 trains on other tracks, each "
+                                   "{ track = k, direction = \"same\" | \"opposite\", "
+                                   "offset = m }",
+                          what=" { track = k, direction, offset }", max_len=19)
 
 
 def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:

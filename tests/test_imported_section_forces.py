@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 import xarray as xr
 from typer.testing import CliRunner
+from userpath import sweep_file
 
 from vsi_numba.cli import app
 from vsi_numba.config import load_config
@@ -92,11 +93,7 @@ def _text(bridge, speeds):
 
 
 def _sweep(tmp_path, text):
-    (tmp_path / "deck.toml").write_text(text)
-    res = CliRunner().invoke(app, ["sweep", str(tmp_path / "deck.toml"), "-q"])
-    assert res.exit_code == 0, res.output
-    with xr.open_dataset(tmp_path / "out.nc") as ds:
-        return ds.isel(train=0, irregularity=0, point=0).load()
+    return sweep_file(tmp_path, text, point=0)
 
 
 def test_modes_file_moment_and_shear_against_builtin_and_crawl(tmp_path):

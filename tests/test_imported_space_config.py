@@ -20,6 +20,7 @@ import scipy.linalg
 import scipy.sparse
 import xarray as xr
 from typer.testing import CliRunner
+from userpath import sweep_file
 
 from vsi_numba.analysis.checks.twist import twist_checks
 from vsi_numba.cli import app
@@ -149,12 +150,7 @@ def _matrices_bridge(fixed, tracks='tracks = [{ line = "T", eccentricity = 0.8 }
 
 
 def _sweep(tmp_path, text):
-    path = tmp_path / "deck.toml"
-    path.write_text(text)
-    res = CliRunner().invoke(app, ["sweep", str(path), "-q"])
-    assert res.exit_code == 0, res.output
-    with xr.open_dataset(tmp_path / "out.nc") as ds:
-        return ds.isel(train=0, irregularity=0).load()
+    return sweep_file(tmp_path, text)
 
 
 def _hermite_load(f, x, line, p):

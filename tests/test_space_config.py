@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 import xarray as xr
 from typer.testing import CliRunner
+from userpath import sweep_file
 
 from vsi_numba.cli import app
 from vsi_numba.config import ConfigError, load_config
@@ -76,12 +77,7 @@ M_S, K_S = 20000.0, 4e6
 
 
 def _sweep(tmp_path, text):
-    path = tmp_path / "deck.toml"
-    path.write_text(text)
-    res = CliRunner().invoke(app, ["sweep", str(path), "-q"])
-    assert res.exit_code == 0, res.output
-    with xr.open_dataset(tmp_path / "out.nc") as ds:
-        return ds.isel(speed=0, train=0, irregularity=0).load()
+    return sweep_file(tmp_path, text, speed=0)
 
 
 def _reference(y, t, v, torsion=True):

@@ -295,15 +295,7 @@ def read_modes_table_tracks(path, tracks, *, n_modes=None, max_frequency=None,
     whose lines name them (module notes).  Checks as
     :func:`~vsi_numba.model.imported.read_modes_table` on every line used."""
     tracks = _tracks_of(tracks)
-    path = Path(path)
-    name = str(path) if name is None else name
-    p = _Problems()
-    if not path.is_file():
-        p.add("file", name, f"an existing modes table file (looked for {path.resolve()})")
-        p.raise_if_any()
-    tab = (_tb._read_netcdf(path, name, p) if _tb._is_netcdf(path)
-           else _tb._read_csv(path, name, p))
-    p.raise_if_any()
+    tab, name, p = _tb.open_table(path, name)
     plan = _track_lines(p, "file", name, tracks, list(tab.lines))
     p.raise_if_any()
     f = tab.frequency

@@ -324,6 +324,24 @@ def _read_csv(path: Path, name, p: _Problems) -> _Table | None:
                   per_mode["damping_ratio"], None, lines)
 
 
+def open_table(path, name=None):
+    """Read a modes table file (netCDF or CSV): ``(table, name, problems)``, ``name`` how
+    the messages name the file (default: the path as given).  Raises
+    :class:`ModelFileError` when the file is missing, empty or unreadable."""
+    path = Path(path)
+    name = str(path) if name is None else name
+    p = _Problems()
+    if not path.is_file():
+        p.add("file", name, f"an existing modes table file (looked for {path.resolve()})")
+        p.raise_if_any()
+    if path.stat().st_size == 0:
+        p.add("file", name, "a netCDF or CSV modes table (the file is empty)")
+        p.raise_if_any()
+    tab = _read_netcdf(path, name, p) if _is_netcdf(path) else _read_csv(path, name, p)
+    p.raise_if_any()
+    return tab, name, p
+
+
 def read_modes_table(
     path,
     *,
@@ -364,17 +382,7 @@ def read_modes_table(
     ModelFileError
         Listing every problem found, each naming the file.
     """
-    path = Path(path)
-    name = str(path) if name is None else name
-    p = _Problems()
-    if not path.is_file():
-        p.add("file", name, f"an existing modes table file (looked for {path.resolve()})")
-        p.raise_if_any()
-    if path.stat().st_size == 0:
-        p.add("file", name, "a netCDF or CSV modes table (the file is empty)")
-        p.raise_if_any()
-    tab = _read_netcdf(path, name, p) if _is_netcdf(path) else _read_csv(path, name, p)
-    p.raise_if_any()
+    tab, name, p = open_table(path, name)
     warnings: list[str] = []
 
     # per-mode data

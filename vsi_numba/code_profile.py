@@ -29,6 +29,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from functools import lru_cache
+from typing import NamedTuple
 
 #: Name of the default profile.
 DEFAULT_NAME = "EN 1990 A2 / EN 1991-2:2003 recommended values"
@@ -89,6 +90,8 @@ _A2_ACC = "EN 1990 A2.4.4.2.1(4)P"
 _A2_COMFORT = "EN 1990 A2.4.4.3.2, Table A2.9"
 _ROT = "EN 1991-2 6.5.4.5.2"
 _TWIST = "EN 1990 A2.4.4.2.2, Table A2.7"
+_DEFLECTION = "EN 1990 A2.4.4.2.3(1)"
+_COMFORT_DEFLECTION = "EN 1990 A2.4.4.3.2, Fig. A2.3"
 _T66 = "EN 1991-2 6.4.6.3.1, Table 6.6"
 _T62 = "EN 1991-2 6.4.5.3, Table 6.2"
 _PHI = "EN 1991-2 6.4.5.2"
@@ -135,6 +138,21 @@ TABLE: tuple[Entry, ...] = (
           "runs)"),
     Entry("twist_limit_above_200", 1.5e-3, "m", _TWIST,
           "deck twist over 3 m, V > 200 km/h (LM71 and the dynamic runs)"),
+    Entry("deflection_span_ratio", 600.0, "1", _DEFLECTION,
+          "vertical deflection along any track under LM71 x Phi x alpha, every track "
+          "loaded: at most L / this ratio (L the span)"),
+    Entry("comfort_deflection_factor_two_spans", 0.7, "1", _COMFORT_DEFLECTION + "; (6)",
+          "factor on the L/delta of Fig. A2.3 for a single span, two simply supported "
+          "spans or two continuous spans"),
+    Entry("comfort_deflection_factor_continuous", 0.9, "1", _COMFORT_DEFLECTION + "; (6)",
+          "factor on the L/delta of Fig. A2.3 for a continuous deck of three or more spans"),
+    Entry("comfort_deflection_factor_single_deck", 1.0, "1", _COMFORT_DEFLECTION + "; (6)",
+          "factor on the L/delta of Fig. A2.3 for a deck of one span modelled alone: 1.0, "
+          "the figure's own case (a succession of three or more simply supported spans), "
+          "the safe side; a bridge of one or two simply supported spans may take the "
+          "two-span factor (override this entry)"),
+    Entry("comfort_deflection_max_span", 120.0, "m", _COMFORT_DEFLECTION + "; (7)",
+          "Fig. A2.3 is valid for spans up to this length (longer: special analysis)"),
     # ------------------------------------------------------------------ wheel unloading
     Entry("wheel_unloading_limit", 0.6, "1", "EN 14363 / UIC practice",
           "admissible wheel unloading dQ/Q0"),
@@ -269,6 +287,7 @@ ORDERED = (
     ("hslm_b_d_min", "hslm_b_d_max"),
     ("twist_limit_above_200", "twist_limit_up_to_200"),
     ("twist_limit_up_to_200", "twist_limit_up_to_120"),
+    ("comfort_deflection_factor_two_spans", "comfort_deflection_factor_continuous"),
     ("signature_wavelength_min", "signature_wavelength_max"),
     ("fatigue_reference_cycles", "fatigue_constant_amplitude_cycles"),
     ("fatigue_constant_amplitude_cycles", "fatigue_cutoff_cycles"),
@@ -450,3 +469,126 @@ ANNEX_D_MIXES = {
     "heavy": {5: 6, 6: 13, 11: 16, 12: 16},
     "light": {1: 10, 2: 5, 5: 2, 9: 190},
 }
+
+
+# ------------------------------------------------------------ EN 1990 A2, Fig. A2.3
+#: Clause of the passenger-comfort deflection limit.
+COMFORT_DEFLECTION_CLAUSE = "EN 1990 A2.4.4.3.2, Fig. A2.3"
+#: Fig. A2.3 of EN 1990 A2 [R]: the largest permissible vertical deflection delta of a
+#: railway bridge for a car-body vertical acceleration b_v = 1.0 m/s2 ("very good"), as
+#: the least L/delta against the span L, one curve per speed V: V (km/h) -> points
+#: ((L m, L/delta), ...), L ascending.  The figure is drawn for a succession of three or
+#: more simply supported spans; the factors of A2.4.4.3.2(6) (the ``comfort_deflection_
+#: factor_*`` entries of :data:`TABLE`) adapt it to other decks, and for another level
+#: of comfort the L/delta is divided by b_v (m/s2) (A2.4.4.3.2(5)).  Between two points
+#: the limit is linear in L, between two curves linear in V
+#: (:func:`comfort_deflection_ratio`).  The points are a reading of the figure recalled
+#: and not re-read against the primary text: every point is [R], those of the curves for
+#: V >= 250 km/h the least certain.  Check them against the figure before relying on
+#: the comfort verdict.
+COMFORT_DEFLECTION_CURVES: dict[float, tuple[tuple[float, float], ...]] = {
+    120.0: ((0.0, 800.0), (10.0, 800.0), (22.0, 900.0), (35.0, 600.0), (120.0, 600.0)),
+    160.0: ((0.0, 900.0), (12.0, 900.0), (29.0, 1200.0), (63.0, 600.0), (120.0, 600.0)),
+    200.0: ((0.0, 1000.0), (14.0, 1000.0), (37.0, 1550.0), (90.0, 600.0), (120.0, 600.0)),
+    220.0: ((0.0, 1200.0), (17.0, 1200.0), (40.0, 1700.0), (102.0, 600.0), (120.0, 600.0)),
+    250.0: ((0.0, 1400.0), (20.0, 1400.0), (44.0, 1950.0), (118.0, 600.0), (120.0, 600.0)),
+    280.0: ((0.0, 1500.0), (22.0, 1500.0), (48.0, 2200.0), (120.0, 900.0)),
+    300.0: ((0.0, 1600.0), (24.0, 1600.0), (51.0, 2400.0), (120.0, 1200.0)),
+    350.0: ((0.0, 1800.0), (28.0, 1800.0), (57.0, 2800.0), (120.0, 1700.0)),
+}
+
+
+class ComfortDeflectionRatio(NamedTuple):
+    """The least L/delta of Fig. A2.3 at one span and speed (:func:`comfort_deflection_ratio`).
+
+    ``ratio``: the figure's L/delta at (L, V) for b_v = 1 m/s2 (NaN when out of the
+    figure); ``note``: how it was read (the curves used), or why there is none.
+    """
+
+    ratio: float
+    note: str
+
+
+def comfort_deflection_ratio(span: float, speed_kmh: float, profile=None,
+                             curves=None) -> ComfortDeflectionRatio:
+    """The least L/delta of EN 1990 A2 Fig. A2.3 (b_v = 1 m/s2, before the factors of
+    A2.4.4.3.2(6)) at the span ``span`` (m) and speed ``speed_kmh`` (km/h).
+
+    Linear in L between the points of a curve, linear in V between the two curves that
+    bracket ``speed_kmh``.  Below the slowest curve the slowest is taken (a lower speed
+    needs no more: the safe side); above the fastest, or for a span beyond
+    ``comfort_deflection_max_span``, the figure does not give a value (NaN, ``note``
+    says why).
+
+    Parameters
+    ----------
+    span : float
+        Span L (m), > 0.
+    speed_kmh : float
+        Speed V (km/h), > 0.
+    profile : CodeProfile, optional
+        For ``comfort_deflection_max_span`` (default: the recommended values).
+    curves : mapping, optional
+        Speed -> points, as :data:`COMFORT_DEFLECTION_CURVES` (the default).
+    """
+    p = resolve(profile)
+    curves = COMFORT_DEFLECTION_CURVES if curves is None else curves
+    L, v = float(span), float(speed_kmh)
+    if not (math.isfinite(L) and L > 0 and math.isfinite(v) and v > 0):
+        raise ValueError(f"span = {span!r} m, speed = {speed_kmh!r} km/h: expected both > 0")
+    max_span = p["comfort_deflection_max_span"]
+    if L > max_span:
+        return ComfortDeflectionRatio(math.nan, f"the span {L:g} m is longer than the "
+                                      f"{max_span:g} m of Fig. A2.3: special analysis needed")
+    speeds = sorted(float(s) for s in curves)
+    if v > speeds[-1]:
+        return ComfortDeflectionRatio(math.nan, f"the speed {v:g} km/h is above the "
+                                      f"fastest curve of Fig. A2.3 ({speeds[-1]:g} km/h)")
+
+    def at(s):
+        pts = curves[s]
+        xs, ys = [q[0] for q in pts], [q[1] for q in pts]
+        return _interp(L, xs, ys)
+
+    if v <= speeds[0]:
+        note = (f"curve V = {speeds[0]:g} km/h" if v == speeds[0] else
+                f"curve V = {speeds[0]:g} km/h, the slowest of the figure (V = {v:g} km/h "
+                "is below it: the safe side)")
+        return ComfortDeflectionRatio(at(speeds[0]), note)
+    for lo, hi in zip(speeds[:-1], speeds[1:], strict=True):
+        if lo < v <= hi:
+            if v == hi:
+                return ComfortDeflectionRatio(at(hi), f"curve V = {hi:g} km/h")
+            t = (v - lo) / (hi - lo)
+            return ComfortDeflectionRatio((1.0 - t) * at(lo) + t * at(hi),
+                                          f"linear between the curves V = {lo:g} and "
+                                          f"{hi:g} km/h")
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def _interp(x: float, xs, ys) -> float:
+    """Linear interpolation of (xs, ys) at x (xs ascending; constant beyond the ends)."""
+    if x <= xs[0]:
+        return float(ys[0])
+    for i in range(1, len(xs)):
+        if x <= xs[i]:
+            t = (x - xs[i - 1]) / (xs[i] - xs[i - 1])
+            return float(ys[i - 1] + t * (ys[i] - ys[i - 1]))
+    return float(ys[-1])
+
+
+# ---------------------------------------------------- EN 1991-2 Table 6.6: the span L
+#: The span L of EN 1991-2 Table 6.6 (the lower-bound damping, ``damping_ratio =
+#: "EN1991-2"``) and of the additional damping of 6.4.6.3.1(3) [R]: the span of a simply
+#: supported deck; for a continuous deck, the **mean** of its spans.  The one place the
+#: rule is stated; configurations, docs and reports refer to it.
+DAMPING_SPAN_RULE = ("L of EN 1991-2 Table 6.6 and 6.4.6.3.1(3): the span of a simply "
+                     "supported deck, the mean span of a continuous deck [R]")
+
+
+def damping_span(spans) -> float:
+    """The span L (m) of EN 1991-2 Table 6.6 for a deck of ``spans`` (m):
+    :data:`DAMPING_SPAN_RULE`."""
+    import numpy as np
+
+    return float(np.mean(np.asarray(spans, float)))

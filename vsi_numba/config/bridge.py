@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from vsi_numba import en1990, en1991
+from vsi_numba.code_profile import damping_span
 from vsi_numba.config._check import (
     _BAD,
     _MISSING,
@@ -372,9 +373,9 @@ def _damping_ratio(chk, value):
 
 
 def _span_for_damping(kind, spans):
-    """The span L of EN 1991-2 Table 6.6 and §6.4.6.3.1: the span of a simply supported
-    deck, the mean span of a continuous one [R]."""
-    return float(np.mean(spans))
+    """The span L of EN 1991-2 Table 6.6 and §6.4.6.3.1:
+    :data:`vsi_numba.code_profile.DAMPING_SPAN_RULE`."""
+    return damping_span(spans)
 
 
 def _en_damping(chk, d, kind, spans, res):

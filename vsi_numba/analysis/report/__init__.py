@@ -30,6 +30,7 @@ import pandas as pd
 import xarray as xr
 
 from vsi_numba.analysis import checks as chk
+from vsi_numba.analysis.checks.deflection import deflection_checks
 from vsi_numba.analysis.checks.load_effects import load_effect_checks
 from vsi_numba.analysis.dataset import envelopes, prepare, require
 from vsi_numba.analysis.recompute import CaseRunner
@@ -38,6 +39,8 @@ from vsi_numba.analysis.report import tables as tbl
 from vsi_numba.analysis.report.atomic import atomic_directory, checkpoint
 from vsi_numba.analysis.report.compatibility import compatibility_section
 from vsi_numba.analysis.report.convergence import convergence_section
+from vsi_numba.analysis.report.deflection import deflection_section
+from vsi_numba.analysis.report.deflection import summary_rows as deflection_rows
 from vsi_numba.analysis.report.document import (
     Figure,
     Section,
@@ -207,6 +210,11 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
     table = mark_unreliable(summary_with_load_effects(chk.summary_table(results), le_checks,
                                                       le_all),
                             records)
+    # EN 1990 A2.4.4.2.3(1) / A2.4.4.3.2: the static deflection under LM71
+    deflection = deflection_checks(env, length=determinant_length,
+                                   comfort_level=comfort_level, base_dir=config_dir,
+                                   source_path=source_path)
+    table = pd.concat([table, pd.DataFrame(deflection_rows(deflection))], ignore_index=True)
     if has_fatigue(full):  # Miner's damage per section (a [fatigue] study)
         table = pd.concat([table, pd.DataFrame(fatigue_rows(full))], ignore_index=True)
     # 10 significant digits: the same results give the same file (the last bits of a
@@ -267,6 +275,7 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
     add(_cases(env))
     add(_statistics(results, env))
     body.append(load_effects.section)
+    body.append(deflection_section(deflection))
     twist = twist_section(env, config_dir, source_path)
     if twist is not None:
         body.append(twist)

@@ -159,6 +159,9 @@ def deck_acceleration_check(
         **({"loaded_track": int(loaded), "loaded_track_whole_deck": int(track_whole)}
            if loaded is not None else {}),
     }
+    note = rail_mass_note(ds)
+    if note:
+        extra["accuracy_note"] = note
     out = _summarise(out, "Peak deck acceleration", clause, "m s-2", limit, extra=extra)
     if out.attrs["governing_train"]:
         t, v = out.attrs["governing_train"], out.attrs["governing_speed"]
@@ -172,6 +175,29 @@ def deck_acceleration_check(
         out.attrs["governing_output_point"] = np.nan
         out.attrs["value_at_output_points"] = np.nan
     return out
+
+
+def rail_mass_note(ds: xr.Dataset) -> str:
+    """The sign and size of the deck acceleration's error when the runs put interaction
+    trains on an elastic track with rail mass
+    (:func:`vsi_numba.model.track.rail_mass_acceleration_note`), else ""."""
+    from vsi_numba.analysis.checks.determinant import results_config
+    from vsi_numba.analysis.checks.wheels import prescribed_wheels
+    from vsi_numba.model.track import rail_mass_acceleration_note
+
+    track = results_config(ds).get("track")
+    if not isinstance(track, dict) or track.get("model") != "elastic":
+        return ""
+    try:
+        mass = float(track.get("rail_mass", 0.0))
+    except (TypeError, ValueError):
+        return ""
+    if "static_wheel_load" in ds and "min_contact_force" in ds:
+        pres = np.asarray(prescribed_wheels(ds).values, bool)
+        has = np.isfinite(np.asarray(ds["static_wheel_load"].values, float))
+        if has.shape == pres.shape and bool(pres[has].all()):
+            return ""  # moving forces only: the track element is not used
+    return rail_mass_acceleration_note(mass)
 
 
 def dynamic_amplification(

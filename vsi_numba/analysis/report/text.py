@@ -262,19 +262,24 @@ def _bridge(ds: xr.Dataset, lphi: chk.DeterminantLength | None = None) -> list[s
 def _summary(results: dict, table: pd.DataFrame, pts: np.ndarray) -> list[str]:
     out = ["## Summary of checks", ""]
     rows = []
+    acc = results.get("deck_acceleration")
+    acc_note = ("" if isinstance(acc, str) or acc is None
+                else str(acc.attrs.get("accuracy_note", "")))
     for _, r in table.iterrows():
         units = r["units"]
         util = r["utilisation"]
+        verdict = _result(r["result"])
+        if acc_note and r["check"] == "Peak deck acceleration":
+            verdict += f" ({acc_note})"
         rows.append([
             r["check"], _fmt(r["value"], units), _fmt(r["limit"], units),
             _fmt(r["margin"], units), "–" if not np.isfinite(util) else f"{100 * util:.1f} %",
-            _result(r["result"]), md(r["governing_train"]) if r["governing_train"] else "–",
+            verdict, md(r["governing_train"]) if r["governing_train"] else "–",
             _fmt(r["governing_speed_kmh"]), r["clause"],
         ])
     out += _table(["Check", "Value", "Limit", "Margin (limit − value)", "Utilisation",
                    "Result", "Governing train", "Speed [km/h]", "Clause"], rows)
     out.append("")
-    acc = results.get("deck_acceleration")
     if not isinstance(acc, str) and acc is not None:
         a = acc.attrs
         shown = ", ".join(f"{x:g}" for x in pts[:8]) + (" …" if pts.size > 8 else "")

@@ -22,6 +22,16 @@ def _verdict(value, limit) -> str:
     return "pass" if value <= limit else "**FAIL**"
 
 
+def dynamic_twist_note(env) -> str:
+    """The sign and size of the dynamic twist's error, for beside its verdict: files whose
+    twist is a plain modal sum (no ``deck_twist_method`` attribute) state it."""
+    method = str(env.attrs.get("deck_twist_method", "modal sum"))
+    if method == "modal sum":
+        return ("modal sum without static correction: up to 6 % LOW, unsafe side, "
+                "against a converged reference")
+    return ""
+
+
 def twist_section(env, config_dir=None, source_path=None) -> Section | None:
     """The "Deck twist and tracks" section, or None for a planar deck (no per-track
     outputs in the file); ``config_dir``, ``source_path``: where the files of an
@@ -62,8 +72,10 @@ def twist_section(env, config_dir=None, source_path=None) -> Section | None:
             continue
         lines += [f"**Dynamic: {what}**, largest |twist| over the speeds "
                   "(whole-deck grid of window starts and the output points):", ""]
+        note = dynamic_twist_note(env)
         rows = [[str(k), _mm(v), md(t), fmt_number(s, "km/h"), fmt_number(x, "m"),
-                 fmt_number(v / res.limit, "", 3), _verdict(v, res.limit)]
+                 fmt_number(v / res.limit, "", 3),
+                 _verdict(v, res.limit) + (f" ({note})" if note and np.isfinite(v) else "")]
                 for k, v, t, s, x in dyn]
         lines += markdown_table(["track", "twist", "train", "speed", "window from",
                                  "utilisation", "verdict"], rows)

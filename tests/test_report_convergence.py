@@ -50,13 +50,18 @@ def study(tmp_path, name, dt, speeds, extra=""):
     return section[:section.index("\n## ", 5)], tmp_path / f"{name}.nc"
 
 
+#: Columns of the table: quantity and place, case, summary value, dt, dt/2, change,
+#: resonance speeds, result.
+QUANTITY, CASE, SUMMARY, AT_DT, AT_HALF, CHANGE, RESONANCE, RESULT = range(8)
+
+
 def rows(section):
-    """Table rows: check -> cells."""
+    """Table rows: the quantity's name (before its place) -> cells."""
     out = {}
     for line in section.splitlines():
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        if len(cells) == 7 and cells[0] not in ("Check", "---"):
-            out[cells[0]] = cells
+        if len(cells) == 8 and cells[0] not in ("Quantity and place", "---"):
+            out[cells[0].split(",")[0]] = cells
     return out
 
 
@@ -66,29 +71,29 @@ def test_convergence__resonance_between_grid_speeds_is_found_and_flagged(tmp_pat
     acc = table["Peak deck acceleration"]
     f1 = np.pi / (2 * L**2) * np.sqrt(EI / M)
     v_res = f1 * D * 3.6
-    speed = float(re.match(r"([\d.]+) km/h", acc[5]).group(1))
+    speed = float(re.match(r"([\d.]+) km/h", acc[RESONANCE]).group(1))
     assert abs(speed - v_res) < 0.06  # printed to 0.1 km/h
-    assert acc[6] == "**FLAG**" and "Flagged:" in section
+    assert acc[RESULT] == "**FLAG**" and "Flagged:" in section
     # the value at the study's dt is the file's own envelope for the governing case
     with xr.open_dataset(nc) as ds:
         peak = float(np.fmax(ds["max_deck_acceleration"].max(),
                              ds["max_deck_acceleration_whole_deck"].max()))
-    assert acc[2] == f"{peak:.4g} m s-2"
+    assert acc[AT_DT] == acc[SUMMARY] == f"{peak:.4g} m/s²"
     # the resonance value really is higher (a run at that speed, as a user would run it)
     res_section, res_nc = study(tmp_path, "exact", 2e-3, [round(float(v_res), 6)])
     with xr.open_dataset(res_nc) as ds:
         at_res = float(np.fmax(ds["max_deck_acceleration"].max(),
                                ds["max_deck_acceleration_whole_deck"].max()))
-    assert f"{at_res:.4g}" in acc[5] and at_res > 1.05 * peak
-    assert "–" == rows(res_section)["Peak deck acceleration"][5]  # on the grid: none
+    assert f"{at_res:.4g}" in acc[RESONANCE] and at_res > 1.05 * peak
+    assert rows(res_section)["Peak deck acceleration"][RESONANCE] == "none off the grid"
 
 
 def test_convergence__coarse_time_step_is_flagged_and_a_fine_one_is_not(tmp_path):
     coarse, _ = study(tmp_path, "coarse", 4e-2, [250.0], "allow_coarse_dt = true")
     acc = rows(coarse)["Peak deck acceleration"]
-    change = float(acc[4].rstrip(" %"))
-    assert abs(change) > 5 and acc[6] == "**FLAG**"
+    change = float(acc[CHANGE].rstrip(" %"))
+    assert abs(change) > 5 and acc[RESULT] == "**FLAG**"
     fine, _ = study(tmp_path, "fine", 2e-3, [250.0])
     for cells in rows(fine).values():
-        assert abs(float(cells[4].rstrip(" %"))) < 5 and cells[6] == "converged"
+        assert abs(float(cells[CHANGE].rstrip(" %"))) < 5 and cells[RESULT] == "converged"
     assert "Every governing result is converged" in fine

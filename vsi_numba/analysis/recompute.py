@@ -9,8 +9,9 @@ over the same track range (:func:`vsi_numba.model.irregularity.profile_range`, s
 the same realisation), and the file's own output points.
 
 Relative paths in the configuration (train file, profile file, imported modes) resolve
-against a base directory: the one given, else the first of the results file's directory
-and its parents (up to three levels) and the working directory where the configuration
+against a base directory: the one given, else the first of the configuration's own
+directory (the results file's ``config_directory``), the results file's directory and
+its parents (up to three levels) and the working directory where the configuration
 loads.
 """
 
@@ -30,10 +31,16 @@ class RecomputeError(RuntimeError):
     """The case cannot be re-run from the results file (the message says why)."""
 
 
-def _candidates(base_dir, source_path) -> list[Path]:
+def _candidates(base_dir, source_path, stored=None) -> list[Path]:
+    """The directories a configuration's relative paths are tried against: ``base_dir``
+    (given), ``stored`` (the configuration's own directory, the results file's
+    ``config_directory``), the results file's directory and up to three above it, the
+    working directory."""
     dirs: list[Path] = []
     if base_dir is not None:
         dirs.append(Path(base_dir))
+    if stored:
+        dirs.append(Path(str(stored)))
     if source_path is not None:
         here = Path(source_path).resolve().parent
         dirs += [here, *list(here.parents)[:3]]
@@ -85,37 +92,101 @@ class CaseRunner:
     def __init__(self, ds: xr.Dataset, base_dir=None, source_path=None):
         self.config_json = str(ds.attrs.get("config_json", "") or "")
         self.points = np.atleast_1d(np.asarray(ds["point"].values, float))
-        self.dirs = _candidates(base_dir, source_path)
+        self.dirs = _candidates(base_dir, source_path, ds.attrs.get("config_directory"))
         self._model = None
 
-    def model(self):
-        """(bridge, trains by name, settings, profiles by realisation id); built once."""
-        if self._model is not None:
-            return self._model
+    def _data(self) -> dict:
+        """The stored configuration as a mapping, without the keys that lift the budgets
+        of a run (a results file is input: the report must not start a run beyond them)."""
         if not self.config_json:
             raise RecomputeError("the file carries no config_json")
         try:
             data = json.loads(self.config_json)
         except ValueError as exc:
             raise RecomputeError(f"config_json is not JSON ({exc})") from None
-        from vsi_numba.config import ConfigError, load_config
-
-        if isinstance(data, dict) and isinstance(data.get("solver"), dict):
-            # the budgets of a run apply, whatever the file says: a results file is
-            # input, and the report must not start a run beyond them
+        if not isinstance(data, dict):
+            raise RecomputeError("config_json is not a table")
+        if isinstance(data.get("solver"), dict):
             data["solver"] = {k: v for k, v in data["solver"].items()
                               if k != "allow_large_problem"}
+        return data
+
+    def _load(self, data: dict):
+        """``data`` loaded with the first candidate directory its files resolve in."""
+        from vsi_numba.config import ConfigError, load_config
+
         first = None
-        cfg = None
         for d in self.dirs:
             try:
-                cfg = load_config(data, base_dir=d)
-                break
+                return load_config(data, base_dir=d)
             except ConfigError as exc:
                 errs = getattr(exc, "errors", None)
                 first = first or (str(errs[0]) if errs else str(exc).strip().splitlines()[0])
-        if cfg is None:
-            raise RecomputeError(f"its configuration does not load ({first})")
+        raise RecomputeError(f"its configuration does not load ({first})")
+
+    def study(self, train: str, speed_kmh: float, dt: float | None = None) -> xr.Dataset:
+        """Run the study engine on one train at one speed (every irregularity realisation
+        of the file) and return its results, loaded: the same variables, computed the
+        same way as the file's, so a check gives the quantity the report states.
+
+        Parameters
+        ----------
+        train : str
+            Train name, as in the file's ``train`` coordinate.
+        speed_kmh : float
+            Speed (km/h).
+        dt : float, optional
+            Time step (s) instead of the stored configuration's.
+
+        Raises
+        ------
+        RecomputeError
+            Configuration missing or not loadable, the train not in it, the run refused
+            or failed.
+        """
+        import tempfile
+
+        from vsi_numba.study.runner import execute_study
+        from vsi_numba.study.store import StudyError
+
+        data = self._data()
+        if dt is not None:
+            data["solver"] = {**data.get("solver", {}), "dt": float(dt)}
+        study = {k: v for k, v in dict(data.get("study", {})).items()
+                 if k not in ("history_speeds_kmh", "refine_resonance", "vary")}
+        study.update(speeds_kmh=[round(float(speed_kmh), 9)], output="rerun.nc",
+                     save_time_histories=False)
+        data["study"] = study
+        data.pop("fatigue", None)
+        tr = dict(data.get("train", {}))
+        if isinstance(tr.get("preset"), list):
+            if str(train) not in [str(t) for t in tr["preset"]]:
+                raise RecomputeError(f"train {train!r} is not in the stored configuration")
+            tr["preset"] = [str(train)]
+        data["train"] = tr
+        cfg = self._load(data)
+        with tempfile.TemporaryDirectory(prefix="vsi_rerun_") as tmp:
+            out = Path(tmp) / "rerun.nc"
+            try:
+                execute_study(cfg, output=out, backend="serial", quiet=True,
+                              command="vsi report (re-run of a governing case)")
+            except (StudyError, OSError, ValueError) as exc:
+                raise RecomputeError(f"the re-run was refused or failed ({exc})") from None
+            with xr.open_dataset(out) as ds:
+                res = ds.load()
+        if str(train) not in [str(t) for t in res["train"].values]:
+            raise RecomputeError(f"train {train!r} is not in the stored configuration")
+        res = res.sel(train=[str(train)])
+        if "status" in res and bool((res["status"].values != 0).any()):
+            msg = (str(np.ravel(res["message"].values)[0]) if "message" in res else "")
+            raise RecomputeError(f"the re-run failed numerically ({msg})")
+        return res
+
+    def model(self):
+        """(bridge, trains by name, settings, profiles by realisation id); built once."""
+        if self._model is not None:
+            return self._model
+        cfg = self._load(self._data())
         from vsi_numba.config.physics import train_extent
         from vsi_numba.model.irregularity import profile_range
 

@@ -57,6 +57,32 @@ class _BridgeSpec:
     #: the deck in space (tracks, torsion; :mod:`vsi_numba.model.deck3d`) of a beam deck
     #: with ``tracks`` or ``torsion`` given, else None (today's planar deck)
     space: Any = None
+    #: the torsional spectrum of a beam deck with torsion up to (at least) the cut-off
+    #: of the deck-acceleration check (Hz, ascending), else None
+    torsional_frequencies: np.ndarray | None = None
+
+    def frequencies_left_out(self, cutoff: float) -> np.ndarray | None:
+        """The natural frequencies (Hz) up to ``cutoff`` of the modes the model does not
+        keep (empty: every mode up to the cut-off is kept); None when the spectrum up to
+        the cut-off is not known (a rigid deck has no modes: empty)."""
+        if self.kind == "rigid":
+            return np.zeros(0)
+        if self.all_frequencies is None:
+            return None
+        top = float(cutoff) * (1 + 1e-9)
+        kept = np.asarray(self.model.frequencies, float)
+        share = getattr(self.space, "torsional_share", None)
+        share = np.zeros(kept.size) if share is None else np.asarray(share, float)
+        out = []
+        families = [(np.asarray(self.all_frequencies, float), kept[share <= 0.5])]
+        if self.torsional_frequencies is not None:
+            families.append((np.asarray(self.torsional_frequencies, float),
+                             kept[share > 0.5]))
+        for every, have in families:
+            below = np.sort(every[every <= top])
+            n_kept = int(np.count_nonzero(have <= top))
+            out += list(below[n_kept:])  # the lowest are the ones kept
+        return np.sort(np.asarray(out, float))
 
 
 _POS = _Num("a value > 0", gt=0)
@@ -238,14 +264,42 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
             return chk.error("bridge.damping_ratio", damping, "a single ratio or at least one "
                              f"per retained mode ({model.n_modes} modes)")
         model = dataclasses.replace(model, damping=zeta)
+    torsional = None
     if flexible and (tracks is not None or torsion is not None):
         space = _space_deck(chk, kind, spans, ei, mass, model, tracks, torsion, eps)
         if space is _BAD:
             return _BAD
+        if torsion is not None and allf is not None:
+            torsional = _torsional_spectrum(kind, spans, ei, mass, torsion, eps,
+                                            allf, solver_cutoff)
         model = space.bending
     return _BridgeSpec(kind=kind, resolved=resolved, length=length, model=model,
                        all_frequencies=allf, output_points=np.asarray(points, float),
-                       space=space)
+                       space=space, torsional_frequencies=torsional)
+
+
+def _torsional_spectrum(kind, spans, ei, mass, torsion, eps, allf, solver_cutoff):
+    """The torsional frequencies (Hz) of a beam deck with torsion up to the highest
+    cut-off the deck-acceleration check may take (``solver.acceleration_cutoff``, else
+    max(30 Hz, 1.5 f1, f3) of the bending spectrum, which bounds that of the bending and
+    torsional modes together); None when the deck cannot be built so."""
+    from vsi_numba.model import deck3d
+
+    cap = (float(solver_cutoff) if solver_cutoff is not None
+           else en1990.frequency_cutoff(np.asarray(allf, float)))
+    tor = deck3d.Torsion(torsion["GJ"], torsion["polar_mass"], torsion["damping_ratio"])
+    try:
+        with np.errstate(all="ignore"):
+            if kind == "simply_supported":  # f_j = j sqrt(GJ / I_p) / (2 L)
+                gj, ip = (float(v[0]) for v in tor.per_span(1))
+                f1 = np.sqrt(gj / ip) / (2.0 * float(spans[0]))
+                n = int(np.floor(cap * (1 + 1e-9) / f1)) + 1
+                return f1 * np.arange(1, n + 1)
+            deck = deck3d.continuous(spans, ei, mass, tor, None, 1, cap, 0.0, eps)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError):  # SpaceModelError too
+        return None
+    share = np.asarray(deck.torsional_share, float)
+    return np.sort(np.asarray(deck.frequencies, float)[share > 0.5])
 
 
 #: |eccentricity| (m) above which a track is warned as implausible: the outer tracks of

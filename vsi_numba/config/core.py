@@ -242,6 +242,12 @@ class Config:
             return self._derived["damping_ratio"]
         return self._resolved["bridge"].get("damping_ratio")
 
+    def frequencies_left_out(self, cutoff: float) -> np.ndarray | None:
+        """The natural frequencies (Hz) up to ``cutoff`` of the bridge's modes that the
+        model does not keep (empty: none is left out); None when the spectrum up to
+        the cut-off is not known."""
+        return self._bridge.frequencies_left_out(cutoff)
+
     def bridge_for(self, train, track: int | None = None) -> _bridge.ModalBridge:
         """The bridge a train runs on (along ``track``, default ``train.track``):
         :meth:`build_bridge`, with the additional damping of ``bridge.additional_damping``

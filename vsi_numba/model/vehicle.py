@@ -580,6 +580,65 @@ def user_vehicle(
     )
 
 
+#: Wavelengths (m) searched for the regular length of a train given by its axles: the
+#: axle and bogie spacings and coach lengths of railway vehicles.
+REGULAR_WAVELENGTHS = (2.0, 40.0)
+#: Coherence |sum P_k exp(2 pi i x_k / lambda)| / sum P_k of the axle loads above which a
+#: wavelength is a regular one (1: every axle in phase).
+REGULAR_COHERENCE = 0.5
+
+
+def regular_length(positions, loads, wavelengths=REGULAR_WAVELENGTHS,
+                   coherence: float = REGULAR_COHERENCE) -> float:
+    """The regular length D (m) of a train given by its axles: the longest wavelength
+    at which the axle loads excite the deck in phase, from their spectrum.
+
+    The load train's excitation at wavelength lambda (speed v, frequency v / lambda) is
+    A(lambda) = |sum_k P_k exp(2 pi i x_k / lambda)| / sum_k P_k (1 when every axle is
+    in phase).  Its peaks of A >= ``coherence`` between ``wavelengths`` are the regular
+    wavelengths; D is the longest of them (the coach length, whose fractions D / i are
+    the other resonance wavelengths of EN 1991-2 6.4.6.2, v_i = f D / i).  11 axles
+    10 m apart give D = 10 m; coaches of 18 m with bogies of two axles 3.5 m apart,
+    D = 18 m (A = cos(pi 3.5 / 18) = 0.82).
+
+    Parameters
+    ----------
+    positions, loads : array_like
+        Axle positions (m, any origin) and loads (N, > 0).
+    wavelengths : (float, float)
+        Shortest and longest wavelength (m) searched.
+    coherence : float
+        Lowest A of a regular wavelength.
+
+    Returns
+    -------
+    float
+        D (m), 0.0 when the axles have no regular wavelength (fewer than 4 axles, or no
+        peak of A >= ``coherence``).
+    """
+    x = np.asarray(positions, float).ravel()
+    p = np.abs(np.asarray(loads, float).ravel())
+    ok = np.isfinite(x) & np.isfinite(p) & (p > 0)
+    x, p = x[ok], p[ok]
+    if x.size < 4:
+        return 0.0
+    x = x - x.min()
+    span = max(float(x.max()), 1e-9)
+    lo, hi = 1.0 / wavelengths[1], 1.0 / wavelengths[0]
+    # wavenumbers 1/lambda: a step of a fraction of the peaks' width 1 / (train length)
+    k = np.arange(lo, hi + 1e-12, 1.0 / (40.0 * span))
+    a = np.empty(k.size)
+    for s in range(0, k.size, 512):  # bounded memory for long trains
+        kk = k[s:s + 512]
+        a[s:s + 512] = np.abs(np.exp(2j * np.pi * np.outer(kk, x)) @ p) / p.sum()
+    peak = np.zeros(k.size, bool)
+    peak[1:-1] = (a[1:-1] >= a[:-2]) & (a[1:-1] >= a[2:])
+    peak &= a >= coherence
+    if not peak.any():
+        return 0.0
+    return float(round(1.0 / k[np.flatnonzero(peak)[0]], 3))
+
+
 @dataclass(frozen=True)
 class Train:
     """Vehicles in order, each with its first axle ``offset`` metres behind the train's.

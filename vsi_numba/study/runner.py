@@ -244,6 +244,9 @@ def _global_attrs(model: StudyModel, config_json: str, sha: str, grid: StudyGrid
         "hht_alpha": float(model.settings.hht_alpha),
         "acceleration_cutoff_hz": float(model.deck[2]),
     }
+    base = getattr(cfg, "base_dir", None)
+    if base is not None:  # where the configuration's relative paths resolve (vsi report)
+        attrs["config_directory"] = str(Path(base).resolve())
     if warnings:
         attrs["config_warnings"] = "\n".join(str(w) for w in warnings)
     attrs["warnings_json"] = json.dumps(records, ensure_ascii=False)
@@ -568,6 +571,7 @@ def _write_results(output: Path, store: CaseStore, study: _Study,
                     attrs["dt"] = VARIES
             if labels is None:  # per variant otherwise (damping_rule(variant))
                 _bridge_rules(attrs, model.config)
+                _modes_left_out(attrs, model.config, float(model.deck[2]))
             f.flush()
             empty = no_values(f.found, not failed)
             if empty:
@@ -604,6 +608,18 @@ def _bridge_rules(attrs: dict, cfg) -> None:
         rule = getattr(cfg, key, None)
         if rule:
             attrs[key] = str(rule)
+
+
+def _modes_left_out(attrs: dict, cfg, cutoff: float) -> None:
+    """``modes_left_out_below_cutoff`` (how many modes up to the deck-acceleration
+    cut-off the model leaves out) and ``frequencies_left_out_below_cutoff`` (their
+    frequencies, Hz), when the configuration knows its spectrum up to the cut-off."""
+    left = getattr(cfg, "frequencies_left_out", None)
+    freqs = left(cutoff) if left is not None else None
+    if freqs is None:
+        return
+    attrs["modes_left_out_below_cutoff"] = int(len(freqs))
+    attrs["frequencies_left_out_below_cutoff"] = " ".join(f"{f:.6g}" for f in freqs)
 
 
 def _hold_after() -> int | str | None:

@@ -172,6 +172,16 @@ def summary_table(checks: dict) -> pd.DataFrame:
         if isinstance(check, str):
             continue
         rows.append({c: check.attrs.get(c, np.nan) for c in SUMMARY_COLUMNS})
+        if "approach_value" in check.attrs:  # wheel unloading off the bridge's zone
+            a = check.attrs
+            rows.append({
+                "check": "Wheel unloading ΔQ/Q₀ on the approach / exit track "
+                         f"(beyond {a['transition_zone']:g} m of the deck ends; "
+                         "information, not the bridge's check)",
+                "value": a["approach_value"], "units": "1", "limit": np.nan,
+                "margin": np.nan, "utilisation": np.nan, "result": "info",
+                "governing_train": a["approach_train"],
+                "governing_speed_kmh": a["approach_speed_kmh"], "clause": "information"})
         if "design_factor" in check:
             a = check.attrs
             gov = _governing(check["design_factor"])

@@ -165,7 +165,8 @@ def _deck_of(ds, base_dir=None, source_path=None):
     if not isinstance(bridge, dict) or ("torsion" not in bridge and not imported):
         return "the deck has no torsion (bridge.torsion): it does not twist"
     why = ""
-    for folder in _candidates(base_dir, source_path) if imported else [None]:
+    stored = ds.attrs.get("config_directory")
+    for folder in _candidates(base_dir, source_path, stored) if imported else [None]:
         try:
             deck = load_config(cfg, base_dir=folder).deck_in_space
         except (ConfigError, OSError, ValueError) as exc:

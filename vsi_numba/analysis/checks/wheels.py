@@ -22,10 +22,33 @@ from vsi_numba.analysis.dataset import (
     require,
 )
 
+#: Length (m) of track beyond each deck end that the bridge's wheel-unloading check
+#: takes with the deck: the transition where the deck end and its joint act on the wheels
+#: (the kink or the rail's bending over the joint; about three times the elastic
+#: rail's characteristic length 1 / beta of ordinary track).  Axles whose minimum contact
+#: force lay farther off the deck are the approach (or exit) track's: information.
+TRANSITION_ZONE = 3.0
+
+
+def _bridge_zone(ds: xr.Dataset, transition: float):
+    """(mask of the records whose minimum contact force lay on the deck or within
+    ``transition`` of a deck end, the deck length), or (None, None) when the file does not
+    say where the minimum was."""
+    length = ds.attrs.get("bridge_length")
+    try:
+        length = float(length)
+    except (TypeError, ValueError):
+        return None, None
+    if "position_of_min_contact_force" not in ds or not (np.isfinite(length) and length > 0):
+        return None, None
+    x = ds["position_of_min_contact_force"]
+    return (x >= -transition) & (x <= length + transition), length
+
 
 def wheel_unloading(
     ds: xr.Dataset, limit: float | None = None, q: float = DEFAULT_Q,
     n_boot: int = 2000, seed: int = 0, profile=None,
+    transition: float = TRANSITION_ZONE,
 ) -> xr.Dataset:
     """Wheel unloading dQ/Q0 against 0.6 (EN 14363 practice) and contact loss.
 
@@ -47,6 +70,14 @@ def wheel_unloading(
         (``profile``, else the results', 0.6 recommended).
     q : float
         Characteristic fractile (upper for dQ/Q0, 1 - q for the minimum contact force).
+    transition : float
+        The bridge's check takes the axles whose minimum contact force
+        (``position_of_min_contact_force``) lay on the deck or within this length (m) of
+        a deck end (:data:`TRANSITION_ZONE`); the others, on the approach or exit track,
+        give the attributes ``approach_value`` (the largest dQ/Q0 there, over every
+        case and realisation), ``approach_train``, ``approach_speed_kmh``,
+        ``approach_wheel``, ``approach_x`` (information: not the bridge's check).
+        Without the position every axle is taken (attribute ``zone`` says which).
 
     Returns
     -------
@@ -84,6 +115,30 @@ def wheel_unloading(
         return ds[name].where(~fixed)
 
     dq = free("max_wheel_unloading")
+    zone, length = _bridge_zone(ds, float(transition))
+    approach = {}
+    if zone is not None:
+        off = dq.where(~zone & dq.notnull())
+        if bool(off.notnull().any()):
+            a = np.asarray(off.transpose("speed", "train", "irregularity", "wheel").values,
+                           float)
+            i = np.unravel_index(int(np.nanargmax(a)), a.shape)
+            xs = ds["position_of_min_contact_force"].transpose(
+                "speed", "train", "irregularity", "wheel").values
+            approach = {"approach_value": float(a[i]),
+                        "approach_train": str(ds["train"].values[i[1]]),
+                        "approach_speed_kmh": float(ds["speed_kmh"].values[i[0]])
+                        if "speed_kmh" in ds.coords else float(ds["speed"].values[i[0]] * 3.6),
+                        "approach_wheel": int(ds["wheel"].values[i[3]]),
+                        "approach_x": float(xs[i]),
+                        "approach_records": int(off.notnull().sum())}
+        dq = dq.where(zone)
+        where = (f"axles whose minimum contact force lay on the deck or within "
+                 f"{transition:g} m of a deck end (x from {-transition:g} to "
+                 f"{length + transition:g} m)")
+    else:
+        where = ("every axle (the file does not say where an axle's minimum contact force "
+                 "was: the approach and exit track are included)")
     out = design_value(nanmax(dq, "wheel"), q=q, limit=limit, n_boot=n_boot, seed=seed)
     out["value"].attrs.update(units="1", long_name="maximum wheel unloading dQ/Q0")
     per_wheel = design_value(dq, q=q, n_boot=0)["value"]
@@ -94,9 +149,12 @@ def wheel_unloading(
     names = [str(t) for t in ds["train"].values]
     yes = [t for t, a in zip(names, applicable.values, strict=True) if a]
     no = [t for t, a in zip(names, applicable.values, strict=True) if not a]
-    extra = {"applicable_trains": ", ".join(yes), "not_applicable_trains": ", ".join(no)}
+    extra = {"applicable_trains": ", ".join(yes), "not_applicable_trains": ", ".join(no),
+             "zone": where, "transition_zone": float(transition) if zone is not None
+             else np.nan, **approach}
     if "min_contact_force" in ds:
-        qmin = nanmin(free("min_contact_force"), "wheel")
+        qmin = free("min_contact_force")
+        qmin = nanmin(qmin if zone is None else qmin.where(zone), "wheel")
         out["min_contact_force"] = design_value(qmin, q=1.0 - q, n_boot=0)["value"].assign_attrs(
             units="N", long_name="minimum wheel-rail contact force (design value)")
         worst = nanargmax_case(-out["min_contact_force"])

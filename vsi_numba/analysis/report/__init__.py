@@ -263,7 +263,13 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
     compat = compatibility_section(env, table)  # [compatibility]: the answer comes first
     if compat is not None:
         body.append(compat)
-    summary = _summary(results, table, np.asarray(env["point"].values, float))
+    # the sections whose checks may not be made, first: the summary lists what was not
+    not_made: list[str] = []
+    twist = twist_section(env, config_dir, source_path, not_made=not_made)
+    convergence = convergence_section(env, results, runner, q=q, le_checks=le_checks,
+                                      not_made=not_made, length=determinant_length)
+    checkpoint()
+    summary = _summary(results, table, np.asarray(env["point"].values, float), not_made)
     at = len(summary) - 1 if summary and not summary[-1] else len(summary)
     add(summary[:at] + _zone_lines(zone_table) + summary[at:] + _deck_end_note(env)
         + _one_step_losses(results))
@@ -276,13 +282,11 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
     add(_statistics(results, env))
     body.append(load_effects.section)
     body.append(deflection_section(deflection))
-    twist = twist_section(env, config_dir, source_path)
     if twist is not None:
         body.append(twist)
     if has_fatigue(full):
         body.append(fatigue_section(full))
-    body.append(convergence_section(env, results, runner))
-    checkpoint()
+    body.append(convergence)
     for extra_section in sections or []:
         sec = extra_section(env, results) if callable(extra_section) else extra_section
         if sec is not None:
@@ -307,13 +311,17 @@ def _zone_lines(zone_table) -> list[str]:
     if zone_table is None:
         return []
     parts = []
+    zone = f"{tbl.TRANSITION_ZONE:g} m"
     for _, r in zone_table.iterrows():
-        where = ("on the deck" if "deck" in r["Minimum contact force"] else
-                 "off the deck (approach or exit track)")
+        bridge = r["Minimum contact force"].startswith("on the bridge")
+        where = (f"on the bridge (the deck and {zone} beyond its ends: the check)" if bridge
+                 else f"on the approach / exit track beyond {zone} of the deck ends "
+                      "(information, not the bridge's check)")
         if not np.isfinite(r["ΔQ/Q₀ max"]):
             parts.append(f"{where}: none")
             continue
-        parts.append(f"{where} **{r['ΔQ/Q₀ max']:.3f}** ({md(r['Train'])}, "
+        value = f"{r['ΔQ/Q₀ max']:.3f}"
+        parts.append(f"{where} {f'**{value}**' if bridge else value} ({md(r['Train'])}, "
                      f"{r['Speed [km/h]']:.0f} km/h, axle {r['Axle']} at "
                      f"x = {r['x of the axle [m]']:.1f} m)")
     return ["- Wheel unloading by where the axle was at its minimum contact force (largest "

@@ -31,6 +31,7 @@ from vsi_numba.analysis.report.document import (
     section_markdown,
 )
 from vsi_numba.analysis.report.safe import mathtext, natural_key
+from vsi_numba.analysis.report.text import fixed_against
 from vsi_numba.en1990 import END_ROTATION_CLAUSE
 from vsi_numba.en1991 import ALPHA_CLAUSE, LM71_CLAUSE, PHI_CLAUSE
 from vsi_numba.io.schema import ALL_TRACKS_SUFFIX
@@ -158,8 +159,9 @@ def _blocks(c: LoadEffectChecks):
     rows = [{"Effect": EFFECTS[r.effect][4], "Governing location": _where(r.effect, r.location),
              "(1 + φ'dyn + φ''/2) × train": _v(r.real_design, r.units),
              "Train, speed": f"{r.train} at {r.speed_kmh:g} km/h",
-             f"{ph} × α × LM71": _v(r.lm71_design, r.units), "Ratio": f"{r.ratio:.3f}",
-             "Governs": Markdown(f"**{r.governs}**"), "Margin": f"{r.margin:.3f}"}
+             f"{ph} × α × LM71": _v(r.lm71_design, r.units),
+             "Ratio": fixed_against(r.ratio, 1.0), "Governs": Markdown(f"**{r.governs}**"),
+             "Margin": fixed_against(r.margin, 1.0)}
             for r in c.verdict.itertuples(index=False)]
     blocks += ["### Verdict (EN 1991-2 6.4.6.5(3))",
                Table(pd.DataFrame(rows), "Load effects: EN 1991-2 6.4.6.5(3) verdict"),
@@ -171,7 +173,8 @@ def _blocks(c: LoadEffectChecks):
              "Dynamic max |E|": _v(r.dynamic, r.units),
              "Train, speed": f"{r.train} at {r.speed_kmh:g} km/h",
              "Static crawl max |E|": _v(r.static, r.units), "LM71 (static)": _v(r.lm71, r.units),
-             f"{ph} × α × LM71": _v(r.lm71_design, r.units), "Ratio": f"{r.ratio:.3f}"}
+             f"{ph} × α × LM71": _v(r.lm71_design, r.units),
+             "Ratio": fixed_against(r.ratio, 1.0)}
             for r in c.envelopes.itertuples(index=False)]
     blocks += ["### Envelopes",
                Table(pd.DataFrame(rows), "Load-effect envelopes: dynamic, static crawl, LM71"),
@@ -205,7 +208,7 @@ def _blocks(c: LoadEffectChecks):
                  "θ (1 + φ'dyn + φ''/2) × train": _v(r.theta_real_design, "rad"),
                  "Design θ (the larger)": _v(r.theta_design, "rad"),
                  "Limit (ballasted, deck to abutment)": _v(r.limit, "rad"),
-                 "Utilisation": f"{r.utilisation:.3f}",
+                 "Utilisation": fixed_against(r.utilisation, 1.0),
                  "Result": Markdown("**FAIL**") if r.result == "FAIL" else r.result}
                 for r in c.rotation.itertuples(index=False)]
         blocks += [Table(pd.DataFrame(rows), "Deck-end rotation"),
@@ -256,15 +259,16 @@ def _several_blocks(ds, c) -> list:
              "(1 + φ'dyn + φ''/2) × trains": _v(r.real_design, r.units),
              "Train, speed": f"{r.train} at {r.speed_kmh:g} km/h",
              f"{ph} × α × LM71 (tracks {fa['loaded_tracks']})": _v(r.lm71_design, r.units),
-             "Ratio": f"{r.ratio:.3f}", "Governs": Markdown(f"**{r.governs}**"),
-             "Margin": f"{r.margin:.3f}"}
+             "Ratio": fixed_against(r.ratio, 1.0), "Governs": Markdown(f"**{r.governs}**"),
+             "Margin": fixed_against(r.margin, 1.0)}
             for r in c.verdict.itertuples(index=False)]
     blocks.append(Table(pd.DataFrame(rows), "Load effects with every train loaded: EN "
                                             "1991-2 6.4.6.5(3) verdict"))
     if not c.rotation.empty:
         rows = [{"Deck end": f"x = {r.support:g} m",
                  "Design θ (the larger)": _v(r.theta_design, "rad"),
-                 "Limit": _v(r.limit, "rad"), "Utilisation": f"{r.utilisation:.3f}",
+                 "Limit": _v(r.limit, "rad"),
+                 "Utilisation": fixed_against(r.utilisation, 1.0),
                  "Result": Markdown("**FAIL**") if r.result == "FAIL" else r.result}
                 for r in c.rotation.itertuples(index=False)]
         blocks.append(Table(pd.DataFrame(rows), "Deck-end rotation with every train "
@@ -423,7 +427,8 @@ def summary_with_load_effects(table: pd.DataFrame, c, c_all=None) -> pd.DataFram
         rows.append({
             "check": f"6.4.6.5(3) {EFFECTS[r.effect][4]}{loaded}: (1 + φ'dyn + φ''/2) × "
                      f"train / ({ph} × α × LM71)",
-            "value": float(r.ratio), "units": "1", "limit": np.nan, "margin": np.nan,
+            # the verdict hinges on the ratio 1 (which model governs)
+            "value": float(r.ratio), "units": "1", "limit": 1.0, "margin": np.nan,
             "utilisation": np.nan, "result": f"{r.governs} govern"
                                              + ("" if r.governs.endswith("s") else "s"),
             "governing_train": str(r.train), "governing_speed_kmh": float(r.speed_kmh),

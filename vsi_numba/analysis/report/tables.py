@@ -25,6 +25,7 @@ import pandas as pd
 import xarray as xr
 
 from vsi_numba.analysis.checks import applicable_trains, prescribed_wheels
+from vsi_numba.analysis.checks.wheels import TRANSITION_ZONE
 from vsi_numba.analysis.dataset import nanargmax_case, nanmax
 from vsi_numba.analysis.report.atomic import checkpoint
 from vsi_numba.analysis.report.safe import clean
@@ -43,7 +44,9 @@ def _bridge_length(ds: xr.Dataset) -> float | None:
 
 
 def wheel_unloading_by_zone(ds: xr.Dataset) -> xr.Dataset | None:
-    """dQ/Q0 per (speed, train) on the deck and on the approach track, separately.
+    """dQ/Q0 per (speed, train) on the bridge (the deck and :data:`TRANSITION_ZONE` beyond
+    each end, the zone of the wheel-unloading check) and on the approach track beyond,
+    separately.
 
     Parameters
     ----------
@@ -71,7 +74,9 @@ def wheel_unloading_by_zone(ds: xr.Dataset) -> xr.Dataset | None:
         return None
     dq = ds["max_wheel_unloading"].where(~fixed)
     x = ds["position_of_min_contact_force"].where(dq.notnull())
-    on_deck = (x >= -END_TOLERANCE) & (x <= length + END_TOLERANCE)
+    # the bridge's zone of the wheel-unloading check: the deck and the transitions
+    z = TRANSITION_ZONE + END_TOLERANCE
+    on_deck = (x >= -z) & (x <= length + z)
     out = xr.Dataset(coords={"speed": ds["speed"], "train": ds["train"]})
     if "speed_kmh" in ds.coords:
         out = out.assign_coords(speed_kmh=ds["speed_kmh"])
@@ -106,8 +111,11 @@ def _gov(da: xr.DataArray) -> dict | None:
 def wheel_unloading_zones_table(zones: xr.Dataset) -> pd.DataFrame:
     """The governing case of dQ/Q0 on the deck and on the approach track (two rows)."""
     rows = []
-    for zone, what in (("deck", "on the deck (0 ≤ x ≤ L)"),
-                       ("approach", "on the approach / exit track (x < 0 or x > L)")):
+    t = f"{TRANSITION_ZONE:g} m"
+    for zone, what in (("deck", f"on the bridge: the deck and {t} beyond its ends "
+                                f"(−{t} ≤ x ≤ L + {t})"),
+                       ("approach", f"on the approach / exit track (x < −{t} or "
+                                    f"x > L + {t}; information)")):
         g = _gov(zones[zone])
         n = int(zones[f"n_{zone}"].sum())
         if g is None:

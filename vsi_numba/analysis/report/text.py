@@ -69,6 +69,58 @@ def _fmt(value, units: str = "", digits: int = 3) -> str:
     return f"{v:.{digits}g}"
 
 
+#: Scale of a unit to the number the report shows (``_fmt``: kN, mm, mrad).
+_SHOWN_SCALE = {"N": 1e-3, "m": 1e3, "rad": 1e3}
+
+
+def fmt_against(value, threshold, units: str = "", digits: int = 3) -> str:
+    """``value`` as :func:`_fmt` shows it, with more significant digits where that
+    rounding would put it on the threshold or on the other side of it (a ratio of 1.0049
+    to the threshold 1 shows as ``1.005``, not ``1``): the number shown is on the same
+    side of ``threshold`` (same units) as the verdict it stands beside."""
+    text = _fmt(value, units, digits)
+    try:
+        v, t = float(value), float(threshold)
+    except (TypeError, ValueError):
+        return text
+    if not (np.isfinite(v) and np.isfinite(t)) or v == t:
+        return text
+    scale = _SHOWN_SCALE.get(units, 1.0)
+    unit = text.split(" ", 1)[1] if " " in text else ""
+    for d in range(digits, 16):
+        number = float(f"{v * scale:.{d}g}")
+        if number != t * scale and (number > t * scale) == (v > t):
+            if d == digits:
+                return text
+            return f"{v * scale:.{d}g}" + (f" {unit}" if unit else "")
+    return text
+
+
+def fixed_against(value, threshold: float, decimals: int = 3, scale: float = 1.0) -> str:
+    """``value × scale`` with ``decimals`` decimals, more where that many would show it on
+    ``threshold × scale`` or beyond it (a ratio 1.0004 to 1 is ``1.0004``, not
+    ``1.000``); "–" when not finite."""
+    try:
+        v, t = float(value), float(threshold)
+    except (TypeError, ValueError):
+        return "–"
+    if not np.isfinite(v):
+        return "–"
+    for d in range(decimals, decimals + 12):
+        shown = round(v * scale, d)
+        if v == t or not np.isfinite(t) or (shown != t * scale
+                                             and (shown > t * scale) == (v > t)):
+            return f"{v * scale:.{d}f}"
+    return f"{v * scale:.{decimals}f}"
+
+
+def fmt_percent_against(fraction, threshold: float = 1.0) -> str:
+    """A utilisation (a fraction) in per cent with one decimal, more where one decimal
+    would show it on the threshold (99.96 % is not shown as 100.0 %)."""
+    text = fixed_against(fraction, threshold, 1, 100.0)
+    return text if text == "–" else f"{text} %"
+
+
 def _result(text: str) -> str:
     return {"FAIL": "**FAIL**", "pass": "pass", NOT_RELIABLE: f"**{NOT_RELIABLE}**",
             f"FAIL ({NOT_RELIABLE})": f"**FAIL ({NOT_RELIABLE})**"}.get(text, text)
@@ -249,17 +301,40 @@ def _bridge(ds: xr.Dataset, lphi: chk.DeterminantLength | None = None) -> list[s
                    if f.size >= 3 else
                    f"- Frequency cut-off of the acceleration check: {cut:.2f} Hz "
                    f"(fewer than 3 modes known: f₃ not included)")
-        if f[-1] < cut:
-            out.append(f"\n> **Note:** the highest mode in the model is {f[-1]:.2f} Hz, below "
-                       f"the cut-off {cut:.2f} Hz: modes between the two are missing and the "
-                       "deck accelerations may be underestimated. Keep more modes.")
+        out += _modes_left_out_note(ds, f, cut)
     else:
         out.append("- Natural frequencies: not in the file (no `frequency` variable); the "
                    "acceleration cut-off max(30 Hz, 1.5 f₁, f₃) cannot be stated.")
     return out + [""]
 
 
-def _summary(results: dict, table: pd.DataFrame, pts: np.ndarray) -> list[str]:
+def _modes_left_out_note(ds: xr.Dataset, f: np.ndarray, cut: float) -> list[str]:
+    """The note on modes up to the acceleration cut-off that the model left out: from the
+    file's record of them (``modes_left_out_below_cutoff``); a file without that record
+    and whose highest mode is below the cut-off gets a line saying it is not known."""
+    a = ds.attrs
+    if "modes_left_out_below_cutoff" in a:
+        n = int(a["modes_left_out_below_cutoff"])
+        if n <= 0:
+            return []
+        freqs = [float(x) for x in str(a.get("frequencies_left_out_below_cutoff", "")).split()]
+        shown = ", ".join(f"{x:.2f}" for x in freqs[:10]) + (" …" if len(freqs) > 10 else "")
+        return [f"\n> **Note:** {n} mode{'s' if n != 1 else ''} of the deck below the "
+                f"cut-off {cut:.2f} Hz {'are' if n != 1 else 'is'} left out of the model"
+                + (f" ({shown} Hz)" if shown else "") + ": the deck accelerations may be "
+                "underestimated. Keep more modes (`bridge.n_modes` or "
+                "`bridge.max_frequency`).\n"]
+    if f[-1] < cut:
+        return [f"\n> **Note:** the highest mode in the model is {f[-1]:.2f} Hz, below the "
+                f"cut-off {cut:.2f} Hz, and the results file does not record whether the "
+                "deck has modes between the two that were left out (written by an earlier "
+                "version): not checked. Keep every mode up to the cut-off "
+                "(`bridge.max_frequency`) if there are.\n"]
+    return []
+
+
+def _summary(results: dict, table: pd.DataFrame, pts: np.ndarray,
+             not_made: list[str] | None = None) -> list[str]:
     out = ["## Summary of checks", ""]
     rows = []
     acc = results.get("deck_acceleration")
@@ -272,8 +347,8 @@ def _summary(results: dict, table: pd.DataFrame, pts: np.ndarray) -> list[str]:
         if acc_note and r["check"] == "Peak deck acceleration":
             verdict += f" ({acc_note})"
         rows.append([
-            r["check"], _fmt(r["value"], units), _fmt(r["limit"], units),
-            _fmt(r["margin"], units), "–" if not np.isfinite(util) else f"{100 * util:.1f} %",
+            r["check"], fmt_against(r["value"], r["limit"], units), _fmt(r["limit"], units),
+            _fmt(r["margin"], units), fmt_percent_against(util),
             verdict, md(r["governing_train"]) if r["governing_train"] else "–",
             _fmt(r["governing_speed_kmh"]), r["clause"],
         ])
@@ -351,6 +426,7 @@ def _summary(results: dict, table: pd.DataFrame, pts: np.ndarray) -> list[str]:
                "(one table, values recalled and not re-read marked there).")
     missing = [f"- {name.replace('_', ' ')}: {why}" for name, why in results.items()
                if isinstance(why, str)]
+    missing += [f"- {md(why)}" for why in not_made or []]
     if missing:
         out += ["", "Checks not made:", *missing]
     return out + [""]
@@ -363,6 +439,8 @@ def _wheel_unloading_line(a: dict) -> str:
         txt += (f" (checked for {md(a['applicable_trains'])}; **not applicable** to "
                 f"{md(a['not_applicable_trains'])}: prescribed contact forces, moving-force "
                 "model — no ΔQ/Q₀ and no contact loss)")
+    if a.get("zone"):
+        txt += f" ({md(a['zone'])})"
     txt += f": governing axle {a['governing_wheel']}"
     if "min_contact_force" in a:
         txt += f"; smallest contact force {_fmt(a['min_contact_force'], 'N')}"

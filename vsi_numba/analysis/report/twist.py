@@ -32,15 +32,22 @@ def dynamic_twist_note(env) -> str:
     return ""
 
 
-def twist_section(env, config_dir=None, source_path=None) -> Section | None:
+def twist_section(env, config_dir=None, source_path=None,
+                  not_made: list | None = None) -> Section | None:
     """The "Deck twist and tracks" section, or None for a planar deck (no per-track
     outputs in the file); ``config_dir``, ``source_path``: where the files of an
-    imported deck are looked for."""
+    imported deck are looked for; ``not_made``: a list the checks not made are appended
+    to (for the summary)."""
     if "max_track_displacement" not in env:
         return None
+    missing = not_made if not_made is not None else []
     res = twist_checks(env, base_dir=config_dir, source_path=source_path)
     if isinstance(res, str):
+        missing.append(f"deck twist ({TWIST_CLAUSE}): {res}")
         return Section.from_markdown(["## Deck twist and tracks", "", f"Not checked: {res}."])
+    if not res.static:
+        missing.append(f"static deck twist under LM71 × Φ × α ({TWIST_CLAUSE}): "
+                       f"{res.static_note or 'not computed'}")
     ecc = (np.asarray(env["track_eccentricity"].values, float)
            if "track_eccentricity" in env else np.full(len(res.acceleration), np.nan))
     names = [str(v) for v in env["track_line"].values] if "track_line" in env else None

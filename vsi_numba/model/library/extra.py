@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from vsi_numba.en1991 import HSLM_B_CLAUSE, HSLM_B_LOAD, HSLM_B_MAX_SPAN
-from vsi_numba.model.vehicle import Train, point_loads
+from vsi_numba.model.vehicle import Train, point_loads, regular_length
 
 #: Preset name of HSLM-B.
 HSLM_B_NAME = "HSLM-B"
@@ -135,12 +135,15 @@ def axle_list_train(path, load_unit: str = "kN", name: str | None = None) -> Tra
     Returns
     -------
     Train
-        One vehicle of point forces, status "user", named ``name`` or the file stem.
+        One vehicle of point forces, status "user", named ``name`` or the file stem,
+        with the regular length D of its axles
+        (:func:`~vsi_numba.model.vehicle.regular_length`; 0 when they have none).
     """
     pos, load = read_axle_file(path, load_unit)
     name = name or Path(path).stem
     veh = point_loads(pos, load, name=name, status="user")
-    return Train(name, (veh,), (0.0,), status="user")
+    return Train(name, (veh,), (0.0,), status="user",
+                 regular_length=regular_length(pos, load))
 
 
 def hslm_b_row() -> dict:

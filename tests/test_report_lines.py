@@ -134,8 +134,8 @@ def test_convergence__a_train_without_regular_length_says_the_check_was_not_made
     (tmp_path / "axles.csv").write_text("position,load\n0,170\n7.3,170\n19.1,170\n")
     text, _ = sweep_report(tmp_path, axle_deck([190.0, 240.0]))
     conv = section(text, "Convergence of the governing cases")
-    assert "**Not checked** — Peak deck acceleration: resonance speeds between the grid " \
-           "speeds not checked" in conv
+    assert "**Not checked** — resonance speeds of axles between the grid speeds not " \
+           "checked: train axles has no regular length D" in conv
     assert "Every governing result is converged" not in conv
     summary = section(text, "Summary of checks")
     assert "- convergence of the governing cases:" in summary
@@ -188,6 +188,68 @@ def test_report__modes_left_out_below_the_cutoff_are_named(tmp_path):
     bridge = section(text, "Bridge")
     assert "1 mode of the deck below the cut-off 30.00 Hz is left out of the model " \
            f"({9 * f1:.2f} Hz)" in bridge, bridge
+
+
+# ------------------------------------------------------ 7. wheel unloading on the bridge
+
+
+def exit_dip_deck(tmp_path) -> tuple[str, Path]:
+    """A single interaction car on a 20 m span and a cosine dip on the exit track 15 m
+    past the deck, reached by the front bogie only (the run ends as the last axle
+    leaves the deck): the front axles unload there far more than any axle on the deck."""
+    return sweep_report(tmp_path, textwrap.dedent(f"""
+        title = "a dip on the exit track"
+        [bridge]
+        kind = "simply_supported"
+        spans = [{SPAN}]
+        EI = {EI!r}
+        mass_per_length = {MASS}
+        damping_ratio = 0.01
+        [train]
+        preset = "manchester_benchmark_single"
+        model = "interaction"
+        [irregularity]
+        kind = "cosine"
+        depth = 0.003
+        wavelength = 3.0
+        position = {SPAN + 15.0}
+        [solver]
+        dt = 5e-4
+        free_vibration = 0.0
+        [study]
+        speeds_kmh = [200.0]
+        output = "out.nc"
+        """))
+
+
+def test_wheel_unloading__the_bridge_check_takes_the_deck_and_its_transitions(tmp_path):
+    from vsi_numba.analysis.checks.wheels import TRANSITION_ZONE
+
+    text, rep = exit_dip_deck(tmp_path)
+    with xr.open_dataset(tmp_path / "out.nc") as ds:
+        dq = np.asarray(ds["max_wheel_unloading"].values, float).ravel()
+        x = np.asarray(ds["position_of_min_contact_force"].values, float).ravel()
+    zone = (x >= -TRANSITION_ZONE) & (x <= SPAN + TRANSITION_ZONE)
+    assert zone.any() and (~zone).any()  # the case is what it is meant to be
+    bridge, approach = np.nanmax(dq[zone]), np.nanmax(dq[~zone])
+    assert approach > 5 * bridge and approach < 0.6
+    summary = pd.read_csv(rep / "summary.csv").set_index("check")
+    row = summary.loc["Wheel unloading ΔQ/Q₀"]
+    # summary.csv keeps 10 significant digits
+    assert math.isclose(float(row["value"]), bridge, rel_tol=1e-9)
+    # the exit-track records bound their axles' unloading on the bridge by 0.44 < 0.6
+    assert row["result"] == "pass"
+    info = [c for c in summary.index if c.startswith("Wheel unloading ΔQ/Q₀ on the approach")]
+    assert len(info) == 1 and summary.loc[info[0], "result"] == "info"
+    assert math.isclose(float(summary.loc[info[0], "value"]), approach, rel_tol=1e-9)
+    lines = section(text, "Summary of checks").splitlines()
+    # the headline bullet: the bridge's value in bold, the approach's labelled information
+    line = [ln for ln in lines if ln.startswith("- Wheel unloading by where")][0]
+    assert f"**{bridge:.3f}**" in line and f"**{approach:.3f}**" not in line
+    assert f"{approach:.3f}" in line and "information, not the bridge's check" in line
+    # the bound on the axles whose minimum lay off the bridge, on the check's own line
+    check = [ln for ln in lines if ln.startswith("- Wheel unloading (axles whose")][0]
+    assert f"between {bridge:.3f} and {approach:.3f}" in check
 
 
 # ----------------------------------------------------------- 8. digits of a verdict

@@ -208,6 +208,8 @@ def wheel_unloading(
                          governing_train="", governing_speed=np.nan, governing_speed_kmh=np.nan,
                          note="the contact forces never change (moving-force model): wheel "
                               "unloading does not apply")
+    if yes and approach:
+        _bound_by_approach(out, limit)
     if out.attrs["governing_train"]:
         t, v = out.attrs["governing_train"], out.attrs["governing_speed"]
         w = nanargmax_case(out["wheel_unloading"].sel(train=t, speed=v))
@@ -216,6 +218,39 @@ def wheel_unloading(
     else:
         out.attrs["governing_wheel"] = -1
     return out
+
+
+#: Result of the wheel-unloading check when the file cannot tell (see
+#: :func:`_bound_by_approach`).
+UNDETERMINED = "not determined"
+
+
+def _bound_by_approach(out: xr.Dataset, limit: float) -> None:
+    """The bridge's value when some axles had their minimum contact force off the
+    bridge: the file holds one minimum per axle and run, so such an axle's ΔQ/Q₀ while on
+    the bridge is not in it, only that it is at most its value off the bridge.  The
+    bridge's maximum then lies between the value of the axles on it and the approach's
+    value (attributes ``bridge_lower``, ``bridge_upper``): the verdict stands where both
+    give it (pass when the upper is within the limit, FAIL when the lower exceeds it),
+    else it is :data:`UNDETERMINED`.  Without any axle whose minimum lay on the bridge
+    the value is the upper bound (attribute ``value_is_upper_bound`` = 1)."""
+    a = out.attrs
+    v, up = float(a.get("value", np.nan)), float(a["approach_value"])
+    if np.isfinite(v) and up <= v:
+        return  # every axle's value on the bridge is at most v: v is the bridge's maximum
+    a["bridge_lower"] = v if np.isfinite(v) else 0.0
+    a["bridge_upper"] = up
+    if not np.isfinite(v):
+        a.update(value=up, value_is_upper_bound=1, governing_train=a["approach_train"],
+                 governing_speed=a["approach_speed_kmh"] / 3.6,
+                 governing_speed_kmh=a["approach_speed_kmh"],
+                 margin=float(limit - up), utilisation=float(up / limit) if limit else np.nan)
+    if up <= limit:
+        a["result"] = "pass"
+    elif np.isfinite(v) and v > limit:
+        a["result"] = "FAIL"
+    else:
+        a["result"] = UNDETERMINED
 
 
 def prescribed_wheels(ds: xr.Dataset) -> xr.DataArray:

@@ -349,11 +349,12 @@ def _maxima_section(env, per_train, per_point, zone_table, zones, speed_tables) 
     if zone_table is not None:
         length = zones.attrs["bridge_length"]
         blocks.append(
-            "Wheel unloading on the deck and on the approach track, separately "
-            f"(deck 0 ≤ x ≤ {length:g} m; x from `position_of_min_contact_force`). The file "
-            "keeps one minimum contact force per run and axle: a record whose minimum lay on "
-            "the approach bounds that axle's unloading on the deck from above but does not "
-            "give it.")
+            "Wheel unloading on the bridge and on the approach track, separately "
+            f"(bridge: the deck 0 ≤ x ≤ {length:g} m and {tbl.TRANSITION_ZONE:g} m beyond "
+            "each end, the zone of the check; x from `position_of_min_contact_force`). The "
+            "file keeps one minimum contact force per run and axle: a record whose minimum "
+            "lay on the approach bounds that axle's unloading on the bridge from above but "
+            "does not give it.")
         blocks.append(Table(zone_table, "Governing wheel unloading by zone"))
     blocks.append(Table(per_point, "Maxima per output point (over speeds, trains and "
                                    "realisations)"))

@@ -246,8 +246,9 @@ def convergence_section(env: xr.Dataset, results: dict, runner: CaseRunner | Non
         res_parts = []
         if why:
             res_text = "not checked"
-            unchecked.append(f"{label}: resonance speeds between the grid speeds not checked: "
-                             f"{why}.")
+            line = f"resonance speeds of {train} between the grid speeds not checked: {why}."
+            if line not in unchecked:
+                unchecked.append(line)
         elif not v_res:
             res_text = "none off the grid"
         for v in v_res:
@@ -278,7 +279,8 @@ def convergence_section(env: xr.Dataset, results: dict, runner: CaseRunner | Non
                      f"Re-run at dt/2 = {dt / 2:g} s": _fmt(b, units),
                      "Change": f"{100 * change:+.2f} %" if np.isfinite(change) else "–",
                      "At the resonance speeds off the grid": res_text,
-                     "Result": Markdown("**FLAG**") if flag else "converged"})
+                     "Result": Markdown("**FLAG**") if flag else
+                     ("converged in dt; resonance not checked" if why else "converged")})
     blocks: list = [
         f"Each governing case of the summary re-run through the study engine from the "
         f"stored configuration (every realisation of the file; the summary's own check "

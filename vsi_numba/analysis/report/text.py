@@ -123,6 +123,7 @@ def fmt_percent_against(fraction, threshold: float = 1.0) -> str:
 
 def _result(text: str) -> str:
     return {"FAIL": "**FAIL**", "pass": "pass", NOT_RELIABLE: f"**{NOT_RELIABLE}**",
+            "not determined": "**not determined**",
             f"FAIL ({NOT_RELIABLE})": f"**FAIL ({NOT_RELIABLE})**"}.get(text, text)
 
 
@@ -457,6 +458,15 @@ def _wheel_unloading_line(a: dict) -> str:
                     "the longest single loss of contact is not in the file (at most this)")
         if "max_contact_loss_count" in a:
             txt += f" ({a['max_contact_loss_count']:.0f} events in the worst case)"
+    if "bridge_upper" in a:
+        txt += (f"; **{a.get('approach_records', 0)} axle records had their minimum contact "
+                f"force off the bridge** (the approach / exit track): their ΔQ/Q₀ while on "
+                f"the bridge is not in the file, only that it is at most "
+                f"{a['bridge_upper']:.3f}, so the bridge's maximum lies between "
+                f"{a['bridge_lower']:.3f} and {a['bridge_upper']:.3f}"
+                + ("; the value shown is that upper bound" if a.get("value_is_upper_bound")
+                   else "")
+                + f" — result: {a['result']}")
     if "max_single_step_contact_losses" in a:
         n = a["max_single_step_contact_losses"]
         txt += ("; no one-step losses of contact" if np.isfinite(n) and n == 0 else

@@ -314,11 +314,14 @@ def _modes_left_out_note(ds: xr.Dataset, f: np.ndarray, cut: float) -> list[str]
     file's record of them (``modes_left_out_below_cutoff``); a file without that record
     and whose highest mode is below the cut-off gets a line saying it is not known."""
     a = ds.attrs
-    if "modes_left_out_below_cutoff" in a:
-        n = int(a["modes_left_out_below_cutoff"])
+    try:  # a results file is input: an unreadable record is no record
+        n = int(a["modes_left_out_below_cutoff"]) if "modes_left_out_below_cutoff" in a else None
+        freqs = [float(x) for x in str(a.get("frequencies_left_out_below_cutoff", "")).split()]
+    except (TypeError, ValueError):
+        n, freqs = None, []
+    if n is not None:
         if n <= 0:
             return []
-        freqs = [float(x) for x in str(a.get("frequencies_left_out_below_cutoff", "")).split()]
         shown = ", ".join(f"{x:.2f}" for x in freqs[:10]) + (" …" if len(freqs) > 10 else "")
         return [f"\n> **Note:** {n} mode{'s' if n != 1 else ''} of the deck below the "
                 f"cut-off {cut:.2f} Hz {'are' if n != 1 else 'is'} left out of the model"

@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import math
 import textwrap
-from pathlib import Path
 
 import numpy as np
 
+from vsi_numba.analysis.figure_file import save_figure
 from vsi_numba.model import bridge as _br
 
 
@@ -65,8 +65,10 @@ def plot_modes(bridge: _br.ModalBridge, path, title: str = "", per_panel: int = 
     desc = "\n".join(textwrap.wrap(bridge.description, 120)) if bridge.description else ""
     fig.suptitle(f"{head}\n{desc}" if desc else head, fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+    try:
+        save_figure(fig, path, dpi=130)
+    finally:
+        plt.close(fig)
 
 
 def plot_profiles(profiles, x: np.ndarray, bridge_length: float, title: str, path,
@@ -90,5 +92,4 @@ def plot_profiles(profiles, x: np.ndarray, bridge_length: float, title: str, pat
     ax.legend(fontsize=7, loc="lower right")
     ax.set_title(title, fontsize=9)
     fig.tight_layout()
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
+    save_figure(fig, path)

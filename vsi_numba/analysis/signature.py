@@ -238,6 +238,8 @@ def plot_signature(cov_or_sig, path, title: str | None = None) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from vsi_numba.analysis.figure_file import save_figure
+
     sig = cov_or_sig.train if isinstance(cov_or_sig, Coverage) else cov_or_sig
     fig, ax = plt.subplots(figsize=(8, 4.2), dpi=110)
     if isinstance(cov_or_sig, Coverage):
@@ -259,5 +261,7 @@ def plot_signature(cov_or_sig, path, title: str | None = None) -> None:
     ax.set_title(head, fontsize=10)
     ax.legend(fontsize=8, loc="upper left")
     fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+    try:
+        save_figure(fig, path)
+    finally:
+        plt.close(fig)

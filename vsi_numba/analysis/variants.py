@@ -400,6 +400,20 @@ def write_variants_report(ds: xr.Dataset, outdir, source_path=None, **kwargs):
     """
     from pathlib import Path
 
+    from vsi_numba.analysis.report.atomic import atomic_directory
+
+    if _all_failed(ds):
+        raise ResultsError(_ALL_FAILED)
+    with atomic_directory(outdir) as tmp:  # whole or not at all, like every report
+        _write_variants_files(ds, tmp, source_path, **kwargs)
+    return Path(outdir) / "report.md"
+
+
+def _write_variants_files(ds: xr.Dataset, outdir, source_path=None, **kwargs):
+    """The files of :func:`write_variants_report`, written into ``outdir`` (the new
+    report directory) as they come."""
+    from pathlib import Path
+
     from vsi_numba.analysis.report import write_report
     from vsi_numba.analysis.report.text import _warnings_block
 

@@ -107,11 +107,16 @@ def init_command(path: Path, template: str = "default") -> int:
                  "(vsi init NEW.toml) or remove it first")
         return EXIT_USAGE
     text = TEMPLATES[template].format(name=str(path), stem=path.stem)
-    try:
-        with path.open("x", encoding="utf-8") as f:  # "x": never replaces a file
-            f.write(text)
+    from vsi_numba.io.atomic import describe, write_text_atomic
+
+    try:  # whole or not at all, and never over a file (one made meanwhile included)
+        write_text_atomic(path, text, exclusive=True)
+    except FileExistsError:
+        pr.error(f"{path} exists: refusing to overwrite it; give another file name "
+                 "(vsi init NEW.toml) or remove it first")
+        return EXIT_USAGE
     except OSError as exc:
-        pr.error(f"cannot write {path}: {exc.strerror or exc}")
+        pr.error(f"cannot write {path}: {describe(exc)}; nothing was written")
         return EXIT_USAGE
     pr.line(f"wrote {path}: check it with `vsi check {path}`, run it with "
             f"`vsi sweep {path}`")

@@ -20,6 +20,8 @@ def modes_command(config, output=None) -> int:
     from vsi_numba.config import ConfigError
 
     pr = Printer()
+    if _bad_figure(pr, output, "-o"):
+        return EXIT_USAGE
     cfg = load_config(config, pr)
     if cfg is None:
         return EXIT_USAGE
@@ -57,9 +59,34 @@ def modes_command(config, output=None) -> int:
     elif output is not None:
         from vsi_numba.analysis.model_plots import plot_modes
 
-        plot_modes(bridge, output, title=cfg.title)
+        if _figure_failed(pr, output, lambda: plot_modes(bridge, output, title=cfg.title)):
+            return EXIT_USAGE
         console.print(f"mode shapes plotted to {output}", highlight=False)
     return 0
+
+
+def _bad_figure(pr: Printer, path, option: str) -> bool:
+    """Say why a figure cannot be written to ``path`` (None: no figure asked for)."""
+    if path is None:
+        return False
+    from vsi_numba.analysis.figure_file import figure_problem
+
+    problem = figure_problem(path, f"{option} figure")
+    if problem is not None:
+        pr.error(problem)
+    return problem is not None
+
+
+def _figure_failed(pr: Printer, path, draw) -> bool:
+    """Run ``draw()``; on a write failure say so (nothing is left) and return True."""
+    from vsi_numba.io.atomic import describe
+
+    try:
+        draw()
+    except OSError as exc:
+        pr.error(f"cannot write {path}: {describe(exc)}; nothing was written")
+        return True
+    return False
 
 
 def profile_command(config: Path, plot: Path | None) -> int:
@@ -74,6 +101,8 @@ def profile_command(config: Path, plot: Path | None) -> int:
     from vsi_numba.model.irregularity import profile_range
 
     pr = Printer()
+    if _bad_figure(pr, plot, "--plot"):
+        return EXIT_USAGE
     cfg = load_config(config, pr)
     if cfg is None:
         return EXIT_USAGE
@@ -95,6 +124,8 @@ def profile_command(config: Path, plot: Path | None) -> int:
     if plot is not None:
         from vsi_numba.analysis.model_plots import plot_profiles
 
-        plot_profiles(profiles, x, bridge.length, cfg.title, plot)
+        if _figure_failed(pr, plot, lambda: plot_profiles(profiles, x, bridge.length,
+                                                           cfg.title, plot)):
+            return EXIT_USAGE
         pr.out.print(f"wrote {plot}")
     return 0

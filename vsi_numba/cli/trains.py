@@ -123,6 +123,13 @@ def signature_command(name: str | None, damping_pct: float | None = None, plot=N
     if not name:
         pr.line("error: --signature needs a train name or an axle-load CSV file", stderr=True)
         return EXIT_USAGE
+    if plot is not None:
+        from vsi_numba.analysis.figure_file import figure_problem
+
+        problem = figure_problem(plot, "--plot figure")
+        if problem is not None:
+            pr.line(f"error: {problem}", stderr=True)
+            return EXIT_USAGE
     profile = default_profile()
     zeta = profile["signature_damping"] if damping_pct is None else damping_pct / 100.0
     if not (np.isfinite(zeta) and 0.0 <= zeta < 0.2):
@@ -179,6 +186,13 @@ def signature_command(name: str | None, damping_pct: float | None = None, plot=N
                   + ": not shown covered by the signature route, not a verdict on the "
                   "bridge", highlight=False, markup=False)
     if plot is not None:
-        sg.plot_signature(cov, plot)
+        from vsi_numba.io.atomic import describe
+
+        try:
+            sg.plot_signature(cov, plot)
+        except OSError as exc:
+            pr.line(f"error: cannot write {plot}: {describe(exc)}; nothing was written",
+                    stderr=True)
+            return EXIT_USAGE
         out.print(f"wrote {plot}", highlight=False, markup=False)
     return 0

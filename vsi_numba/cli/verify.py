@@ -28,20 +28,43 @@ def verify(
 
 def verify_command(quick: bool, output: Path) -> int:
     """``vsi verify``: returns the exit code (see the module docstring)."""
+    import contextlib
+    import os
+
+    from vsi_numba.io.atomic import describe
+
     pr = Printer()
+    output = Path(output)
+    # the manual is built beside its directory: prove that place writable first
+    parent = Path(os.path.abspath(output)).parent
+    probe = parent / f".vsi-write-test.{os.getpid()}"
     try:
-        output.mkdir(parents=True, exist_ok=True)
-        probe = output / ".vsi-verify-write-test"
-        probe.write_text("")
-        probe.unlink()
+        parent.mkdir(parents=True, exist_ok=True)
+        try:
+            with open(probe, "wb") as f:
+                f.write(b"x")
+                f.flush()
+                os.fsync(f.fileno())
+        finally:
+            with contextlib.suppress(OSError):
+                probe.unlink()
     except OSError as exc:
         pr.error(f"--output {output}: cannot write the verification manual there "
-                 f"({exc.strerror or exc}); choose a writable directory")
+                 f"({describe(exc)}); choose a writable directory")
         return EXIT_USAGE
-    from vsi_numba.verification.manual import run_verification
+    from vsi_numba.verification.manual import ManualDirectoryError, run_verification
 
-    rows, failures = run_verification(output, quick=quick,
-                                      progress=lambda s: pr.line(s, stderr=True))
+    try:
+        rows, failures = run_verification(output, quick=quick,
+                                          progress=lambda s: pr.line(s, stderr=True))
+    except ManualDirectoryError as exc:
+        pr.error(f"--output {output}: {exc}")
+        return EXIT_USAGE
+    except OSError as exc:
+        where = f" ({exc.filename})" if getattr(exc, "filename", None) else ""
+        pr.error(f"--output {output}: cannot write the verification manual{where}: "
+                 f"{describe(exc)}; nothing was written (an earlier manual there is kept)")
+        return EXIT_USAGE
     bad = [r for r in rows if not r["pass"]]
     for r in bad:
         pr.line(f"FAIL {r['id']}: {r['quantity']}: computed {r['computed']:.6g}, reference "

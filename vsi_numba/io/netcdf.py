@@ -10,21 +10,23 @@ Layout rules (docs/manual/developer.md, "Results files"):
 * strings are netCDF-4 variable-length strings (the xarray default);
 * attributes are str or numbers only: bools, None and dicts are refused by netCDF4, so the
   resolved configuration travels as one JSON string ``config_json``;
-* a file is never written in place: it goes to a temporary file in the same directory,
-  is flushed to disk, then renamed over the target (``os.replace`` is atomic on POSIX), so
-  a crash or Ctrl-C leaves either the old file or the new one, never half a file.
+* a file is never written in place (:func:`vsi_numba.io.atomic.write_atomic`): it goes to
+  a temporary file in the same directory, is flushed to disk, then renamed over the
+  target (``os.replace`` is atomic on POSIX), so a crash or Ctrl-C leaves either the old
+  file or the new one, never half a file.
 """
 
 from __future__ import annotations
 
 import os
-import tempfile
 from collections.abc import Hashable
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
+
+from vsi_numba.io.atomic import fsync_dir, write_atomic, write_bytes_atomic  # noqa: F401
 
 if TYPE_CHECKING:  # xarray is imported where a Dataset is made (it takes ~1 s to import)
     import xarray as xr
@@ -88,69 +90,8 @@ def encoding_for(ds: xr.Dataset) -> dict[Hashable, dict]:
     return enc
 
 
-def _fsync_dir(directory: Path) -> None:
-    try:
-        fd = os.open(directory, os.O_RDONLY)
-    except OSError:  # pragma: no cover - platforms without directory fds
-        return
-    try:
-        os.fsync(fd)
-    except OSError:  # pragma: no cover
-        pass
-    finally:
-        os.close(fd)
-
-
-def _temp_path(path: Path) -> Path:
-    from vsi_numba.io.paths import fitting_name, name_max
-
-    # mkstemp adds 8 random characters and the suffix: the prefix leaves room for them
-    prefix = fitting_name(path.name, prefix=".", suffix=".",
-                          limit=name_max(path.parent) - 12)
-    fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    _default_mode(tmp)
-    return Path(tmp)
-
-
-def _default_mode(path) -> None:
-    """Give a temporary file the mode of a normally created one (0666 & ~umask):
-    mkstemp makes it private (0600), and the rename would keep that."""
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(path, 0o666 & ~umask)
-
-
-def _replace_atomically(path: Path, write) -> Path:
-    """Call ``write(tmp)`` on a temporary file beside ``path``, flush it to disk and
-    rename it over ``path``; on any error the temp file goes and ``path`` is untouched."""
-    tmp = _temp_path(path)
-    try:
-        write(tmp)
-        with open(tmp, "rb+") as f:
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    _fsync_dir(path.parent)
-    return path
-
-
-def write_atomic(path: str | os.PathLike, write) -> Path:
-    """Call ``write(tmp)`` on a temporary file beside ``path``, flush it to disk and
-    rename it over ``path`` (atomic: ``path`` is the old file or the new one, never half
-    of one).  Raises ``OSError``; the temp file is removed and ``path`` left untouched."""
-    return _replace_atomically(Path(path), write)
-
-
-def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically (temp file in the same directory + rename).
-
-    Raises ``OSError`` (e.g. ``PermissionError``, ``ENOSPC``); the temp file is removed and
-    an existing ``path`` is left untouched.
-    """
-    return _replace_atomically(Path(path), lambda tmp: tmp.write_bytes(data))
+#: Atomic writes live in :mod:`vsi_numba.io.atomic`; these names stay for the callers.
+_fsync_dir = fsync_dir
 
 
 def open_results(path: str | os.PathLike) -> xr.Dataset:

@@ -9,6 +9,11 @@ run`` or ``vsi sweep`` (or ``run_study``) on the same output is refused at once 
 :class:`OutputBusyError`, naming the output and the process that holds it (its pid and
 command line, written into the lock file).
 
+The holder also holds a shared lock on the output's directory and on every directory
+above it (:class:`vsi_numba.io.atomic.DirectoryLocks`), so a command that replaces a
+directory whole (``vsi report -o DIR``, ``vsi verify -o DIR``) and a study writing into it
+exclude each other, whichever starts first; the output's directory is created for that.
+
 The lock file is removed by its holder (unlinked while still locked); a process that
 locked a file that has since been unlinked (the race with that removal) sees that the
 name no longer points to its file and tries again, so two processes can never both hold
@@ -22,6 +27,7 @@ import os
 from datetime import UTC, datetime
 from pathlib import Path
 
+from vsi_numba.io.atomic import DirectoryBusyError, DirectoryLocks
 from vsi_numba.io.paths import fitting_name, name_max
 from vsi_numba.study.store import StoreBusyError
 
@@ -67,6 +73,7 @@ class OutputLock:
         self.path = lock_path(self.output)
         self.command = command
         self._fd: int | None = None
+        self._dirs: DirectoryLocks | None = None
 
     def acquire(self) -> OutputLock:
         """Take the lock or raise :class:`OutputBusyError` (never waits)."""
@@ -74,11 +81,29 @@ class OutputLock:
             import fcntl
         except ImportError:  # pragma: no cover - Windows: no advisory lock
             return self
+        parent = self.output.parent if str(self.output.parent) else Path(".")
+        with contextlib.suppress(OSError):  # else the writability check says why
+            parent.mkdir(parents=True, exist_ok=True)
+        dirs = DirectoryLocks(shared=parent)
+        try:
+            dirs.acquire()
+        except DirectoryBusyError as exc:
+            raise OutputBusyError(f"cannot write the output {self.output}: {exc}") from None
+        try:
+            self._take(fcntl)
+        except BaseException:
+            dirs.release()
+            raise
+        self._dirs = dirs
+        return self
+
+    def _take(self, fcntl) -> None:
+        """The lock file itself (see :meth:`acquire`)."""
         for _ in range(100):  # each retry follows a removal by the previous holder
             try:
                 fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
             except OSError:  # the directory cannot take it: the writability check says why
-                return self
+                return
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except OSError:
@@ -102,16 +127,18 @@ class OutputLock:
             os.ftruncate(fd, 0)
             os.pwrite(fd, text.encode("utf-8", "replace"), 0)
         self._fd = fd
-        return self
 
     def release(self) -> None:
-        """Remove the lock file, then unlock it (the name goes first: see the module)."""
-        if self._fd is None:
-            return
-        with contextlib.suppress(OSError):
-            self.path.unlink()
-        os.close(self._fd)
-        self._fd = None
+        """Remove the lock file, then unlock it (the name goes first: see the module),
+        then the directories."""
+        if self._fd is not None:
+            with contextlib.suppress(OSError):
+                self.path.unlink()
+            os.close(self._fd)
+            self._fd = None
+        if self._dirs is not None:
+            self._dirs.release()
+            self._dirs = None
 
     def __enter__(self) -> OutputLock:
         return self.acquire()

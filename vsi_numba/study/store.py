@@ -48,12 +48,9 @@ from pathlib import Path
 
 import numpy as np
 
-from vsi_numba.io.netcdf import (
-    _fsync_dir,
-    package_version,
-    write_atomic,
-    write_bytes_atomic,
-)
+from vsi_numba.io.atomic import describe, write_atomic, write_bytes_atomic
+from vsi_numba.io.atomic import fsync_dir as _fsync_dir
+from vsi_numba.io.netcdf import package_version
 from vsi_numba.io.paths import fitting_name, name_max
 
 STORE_FORMAT = 2
@@ -147,16 +144,23 @@ def check_writable(directory: Path, what: str) -> None:
 
     Raises :class:`OutputNotWritableError` with the reason (read-only, permissions).
     """
+    probe = directory / f".vsi-write-test.{os.getpid()}"
     try:
         directory.mkdir(parents=True, exist_ok=True)
-        probe = directory / f".vsi-write-test.{os.getpid()}"
-        with open(probe, "wb") as f:
-            f.write(b"x")
-        probe.unlink()
+        try:
+            with open(probe, "wb") as f:
+                f.write(b"x")
+                f.flush()
+                os.fsync(f.fileno())
+        finally:  # a full disk fails the write or the flush: the probe goes either way
+            with contextlib.suppress(OSError):
+                probe.unlink()
     except OSError as exc:
+        full = exc.errno in (errno.ENOSPC, errno.EDQUOT)
         raise OutputNotWritableError(
-            f"cannot write the {what} in {directory}: {exc.strerror or exc}. "
-            "Choose another output (-o PATH) or make the directory writable."
+            f"cannot write the {what} in {directory}: {describe(exc)}. "
+            + ("Free some space or choose another output (-o PATH)." if full else
+               "Choose another output (-o PATH) or make the directory writable.")
         ) from exc
 
 

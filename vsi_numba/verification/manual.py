@@ -1,6 +1,12 @@
 """Run the verification cases and write the manual: ``verification.csv`` (one row per
 compared figure) and ``verification.html`` (the same, with the installation and each
-case's source, inputs and tolerance reasons), in the report's look."""
+case's source, inputs and tolerance reasons), in the report's look.
+
+The manual's directory is written whole or not at all
+(:func:`vsi_numba.io.atomic.replace_directory`): the cases run and the two files are
+written in a new directory beside it, which takes its place when complete; a directory
+holding other files is refused, and one that another process writes into is refused
+(and locked against such writers while the manual is built)."""
 
 from __future__ import annotations
 
@@ -42,6 +48,7 @@ def run_cases(quick: bool = False, progress=None, workdir: Path | None = None):
     called with a line of text per case.  Each case's output of ``vsi sweep`` is kept in
     ``<case>.log`` of ``workdir`` (a temporary directory by default).
     """
+    from vsi_numba.io.atomic import write_text_atomic
     from vsi_numba.verification.cases import CASES
 
     rows: list[dict] = []
@@ -61,12 +68,12 @@ def run_cases(quick: bool = False, progress=None, workdir: Path | None = None):
                     result = case.run(sub)
             except Exception as exc:  # a case that cannot run fails, the others go on
                 failures[case.id] = f"{type(exc).__name__}: {exc}"
-                (sub / f"{case.id}.log").write_text(log.getvalue() + traceback.format_exc(),
-                                                     encoding="utf-8")
+                write_text_atomic(sub / f"{case.id}.log",
+                                  log.getvalue() + traceback.format_exc())
                 if progress:
                     progress(f"{case.id} {case.title}: could not run ({failures[case.id]})")
                 continue
-            (sub / f"{case.id}.log").write_text(log.getvalue(), encoding="utf-8")
+            write_text_atomic(sub / f"{case.id}.log", log.getvalue())
             for r in result:
                 err = r.error
                 rows.append({"id": r.id, "case": case.id, "title": r.title, "source": r.source,
@@ -85,9 +92,54 @@ def write_csv(rows: list[dict], path: Path) -> Path:
     """verification.csv: the :data:`COLUMNS`, one row per compared figure."""
     import pandas as pd
 
+    from vsi_numba.io.atomic import write_atomic
+
     frame = pd.DataFrame(rows, columns=list(COLUMNS))
-    frame.to_csv(path, index=False, float_format="%.10g")
-    return path
+    return write_atomic(path, lambda tmp: frame.to_csv(tmp, index=False,
+                                                       float_format="%.10g"))
+
+
+#: What a verification directory holds (anything else is another program's).
+MANUAL_ENTRIES = {"verification.csv": False, "verification.html": False, "cases": True}
+
+
+class ManualDirectoryError(OSError):
+    """The directory cannot take the verification manual (other files in it, the
+    working directory, or another process writes into it)."""
+
+
+def _owns(rel: str, is_dir: bool) -> bool:
+    head, _, rest = rel.partition("/")
+    if head not in MANUAL_ENTRIES:
+        return False
+    return bool(rest) or is_dir == MANUAL_ENTRIES[head]
+
+
+def check_directory(target: Path) -> None:
+    """Raise :class:`ManualDirectoryError` when ``target`` cannot be replaced by the
+    manual: not a directory, the working directory (or one holding it), or holding
+    files that are not the manual's."""
+    import os
+
+    from vsi_numba.io.atomic import foreign_entries
+
+    if not os.path.lexists(target):
+        return
+    if not target.is_dir():
+        raise ManualDirectoryError(f"'{target}' exists and is not a directory")
+    cwd = Path.cwd().resolve()
+    if cwd == target.resolve() or target.resolve() in cwd.parents:
+        raise ManualDirectoryError(
+            f"'{target}' is the working directory or holds it: the manual replaces its "
+            "directory whole; give a directory of its own (-o DIR)")
+    foreign = foreign_entries(target, _owns)
+    if foreign:
+        shown = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more"
+                                          if len(foreign) > 3 else "")
+        raise ManualDirectoryError(
+            f"'{target}' holds files that are not part of the verification manual "
+            f"({shown}): the manual replaces its directory whole; give an empty or new "
+            "directory, or one that holds only an earlier manual")
 
 
 def write_html(rows: list[dict], failures: dict[str, str], info: dict[str, str], path: Path,
@@ -144,14 +196,19 @@ def write_html(rows: list[dict], failures: dict[str, str], info: dict[str, str],
 def run_verification(outdir, quick: bool = False, progress=None) -> tuple[list[dict], dict]:
     """Run the cases, write ``outdir/verification.csv`` and ``outdir/verification.html``
     and return ``(rows, failures)``; the run failed if any row fails or ``failures``."""
-    outdir = Path(outdir)
-    outdir.mkdir(parents=True, exist_ok=True)
+    from vsi_numba.io.atomic import DirectoryBusyError, replace_directory
+
     info = installation()
-    rows, failures = run_cases(quick=quick, progress=progress, workdir=outdir / "cases")
-    for r in rows:
-        if not math.isfinite(r["error"]):
-            r["pass"] = False
-        r.update({k: info[k] for k in ("vsi_numba", "numba", "numpy", "scipy", "platform")})
-    write_csv(rows, outdir / "verification.csv")
-    write_html(rows, failures, info, outdir / "verification.html", quick, outdir / "cases")
+    try:
+        with replace_directory(outdir, _owns, check=check_directory) as tmp:
+            rows, failures = run_cases(quick=quick, progress=progress, workdir=tmp / "cases")
+            for r in rows:
+                if not math.isfinite(r["error"]):
+                    r["pass"] = False
+                r.update({k: info[k] for k in ("vsi_numba", "numba", "numpy", "scipy",
+                                               "platform")})
+            write_csv(rows, tmp / "verification.csv")
+            write_html(rows, failures, info, tmp / "verification.html", quick, tmp / "cases")
+    except DirectoryBusyError as exc:
+        raise ManualDirectoryError(str(exc)) from None
     return rows, failures

@@ -272,8 +272,10 @@ def generated() -> dict[Path, str]:
 
 
 def main() -> int:
+    from vsi_numba.io.atomic import write_text_atomic
+
     for path, text in generated().items():
-        path.write_text(text, encoding="utf-8")
+        write_text_atomic(path, text)
         print(f"wrote {path.relative_to(ROOT)}")
     return 0
 

@@ -191,6 +191,57 @@ def test_writes__a_file_dropped_into_the_report_directory_meanwhile_is_kept(tmp_
     assert names(tmp_path) == ["r.nc", "rep"]  # no temporary directory left
 
 
+def test_writes__killed_at_every_step_of_the_swap_a_dropped_file_survives(tmp_path, capsys,
+                                                                          during_report):
+    """SIGKILL at each step of the swap of a report into DIR, a file having been dropped
+    into DIR during the build: DIR holds one whole report, and the next report into DIR
+    tidies what the killed one left, with the dropped file back in DIR, byte for byte,
+    whatever the step (that report then refuses DIR: it holds a file of another
+    program)."""
+    from vsi_numba.analysis.report import atomic
+
+    import shutil
+
+    results = results_file(tmp_path / "r.nc")
+    # an undisturbed report, and its steps: the swap's are the last ones
+    os.environ[atomic.KILL_ENV] = "100000"
+    atomic._checkpoints[0] = 0
+    try:
+        assert report_command(results, tmp_path / "ref") == 0
+    finally:
+        del os.environ[atomic.KILL_ENV]
+    n_steps = atomic._checkpoints[0]
+    whole = snapshot(tmp_path / "ref")
+    rep = tmp_path / "rep"
+    parent = os.getpid()
+    during_report(lambda: os.getpid() != parent and (rep / "notes.txt").write_bytes(b"x"))
+    killed = 0
+    # after the rename of the new directory beside the old one, after the exchange (the
+    # last step, after the old one is emptied, leaves nothing to tidy)
+    for k in (n_steps - 2, n_steps - 1):
+        shutil.rmtree(rep, ignore_errors=True)
+        shutil.copytree(tmp_path / "ref", rep)  # the earlier report
+        pid = os.fork()
+        if pid == 0:  # the child: never returns into pytest
+            code = 3
+            try:
+                os.environ[atomic.KILL_ENV] = str(k)
+                atomic._checkpoints[0] = 0
+                code = report_command(results, rep)
+            finally:
+                os._exit(code)
+        status = os.waitpid(pid, 0)[1]
+        killed += os.WIFSIGNALED(status)
+        now = snapshot(rep)
+        now.pop("notes.txt", None)
+        assert now == whole, f"kill at step {k}: DIR is not one whole report"
+        assert report_command(results, rep) == 2  # tidied, then refused: notes.txt
+        assert "notes.txt" in capsys.readouterr().err
+        assert (rep / "notes.txt").read_bytes() == b"x", f"kill at step {k}"
+        assert not [n for n in names(tmp_path) if n.startswith(".rep")], names(tmp_path)
+    assert killed == 2
+
+
 def test_writes__report_during_a_running_sweep_in_its_directory(tmp_path, capsys,
                                                                during_report):
     """A real ``vsi sweep -o DIR/x.nc`` started while ``vsi report -o DIR`` is built (and

@@ -424,9 +424,10 @@ def dispose(old, into, owns: Owns) -> bool:
 
 
 def leftovers(target) -> list[tuple[Path, str, int]]:
-    """``(path, kind, pid)`` of the directories writers into ``target`` made beside it
-    (kind :data:`TMP_MARK`: being built or, after the swap, the old one; kind
-    :data:`OLD_MARK`: the old one renamed aside)."""
+    """``(path, kind, pid)`` of the directories writers into ``target`` made beside it:
+    kind :data:`TMP_MARK`, a new directory being built (everything in it is its
+    writer's); kind :data:`OLD_MARK`, the old directory (after the swap, or renamed
+    aside) or the complete new one just before the swap (see :func:`_swap`)."""
     target = Path(target)
     out = []
     prefix = f".{target.name}"
@@ -442,19 +443,26 @@ def leftovers(target) -> list[tuple[Path, str, int]]:
     return out
 
 
+def _everything(rel: str, is_dir: bool) -> bool:
+    return True
+
+
 def tidy(target, owns: Owns) -> None:
-    """Finish what killed writers into ``target`` left beside it: an old directory
-    renamed aside whose replacement never arrived goes back to ``target``; the others
-    are emptied with :func:`dispose` (their foreign entries into ``target``)."""
+    """Finish what killed writers into ``target`` left beside it: a new directory never
+    swapped in is removed; an old directory renamed aside whose replacement never
+    arrived goes back to ``target``; any other old one is emptied with :func:`dispose`
+    (what ``owns`` does not claim into ``target``)."""
     target = Path(target)
-    for path, kind, pid in leftovers(target):
+    for path, kind, pid in sorted(leftovers(target), key=lambda t: t[1] != OLD_MARK):
         if pid != os.getpid() and _pid_alive(pid):
             continue  # another writer into the same place is running
         if kind == OLD_MARK and not os.path.lexists(target):
             os.rename(path, target)
-            continue
-        dispose(path, target if target.is_dir() and not target.is_symlink() else None,
-                owns)
+        elif kind == OLD_MARK:
+            dispose(path, target if target.is_dir() and not target.is_symlink() else None,
+                    owns)
+        else:
+            dispose(path, None, _everything)
 
 
 def _exchange(a: Path, b: Path) -> bool:
@@ -501,23 +509,29 @@ def _swap(tmp: Path, target: Path, owns: Owns, step: Callable[[], None]) -> None
     held = {signal.SIGINT, signal.SIGTERM}
     mask = signal.pthread_sigmask(signal.SIG_BLOCK, held)
     try:
+        old = target.with_name(f".{target.name}{OLD_MARK}{os.getpid()}")
         if not os.path.lexists(target):
             os.rename(tmp, target)
             step()
-        elif _exchange(tmp, target):
+            return
+        # the complete new directory takes the old one's name first, so that whatever
+        # a kill leaves under that name is emptied into the target by the next writer
+        os.rename(tmp, old)
+        step()
+        if _exchange(old, target):
             step()
-            dispose(tmp, target, owns)  # the old directory, now under the temporary name
+            dispose(old, target, owns)  # the old directory, now under that name
             step()
         else:
-            old = target.with_name(f".{target.name}{OLD_MARK}{os.getpid()}")
+            os.rename(old, tmp)
             os.rename(target, old)
             step()
             os.rename(tmp, target)
             step()
             dispose(old, target, owns)
             step()
-        fsync_dir(target.parent)
     finally:
+        fsync_dir(target.parent)
         signal.pthread_sigmask(signal.SIG_SETMASK, mask)
 
 

@@ -121,4 +121,4 @@ def atomic_directory(outdir) -> Iterator[Path]:
                                    step=checkpoint) as tmp:
             yield tmp
     except _io.DirectoryBusyError as exc:
-        raise ReportDirectoryError(f"'{target}': {exc}") from None
+        raise ReportDirectoryError(str(exc)) from None

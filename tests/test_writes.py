@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import errno
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -199,8 +200,6 @@ def test_writes__killed_at_every_step_of_the_swap_a_dropped_file_survives(tmp_pa
     whatever the step (that report then refuses DIR: it holds a file of another
     program)."""
     from vsi_numba.analysis.report import atomic
-
-    import shutil
 
     results = results_file(tmp_path / "r.nc")
     # an undisturbed report, and its steps: the swap's are the last ones

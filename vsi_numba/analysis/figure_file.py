@@ -39,6 +39,7 @@ def figure_problem(path, what: str = "figure") -> str | None:
 def save_figure(fig, path, **options) -> Path:
     """Write the matplotlib figure ``fig`` to ``path`` in the format of its suffix
     (``options`` go to ``savefig``), whole or not at all; create missing directories.
+    Its texts are drawn literally (:func:`vsi_numba.analysis.sanitize.plot_labels`).
 
     Raises
     ------
@@ -47,8 +48,10 @@ def save_figure(fig, path, **options) -> Path:
     OSError
         If the file cannot be written (a full disk, permissions); nothing is left.
     """
+    from vsi_numba.analysis.sanitize import plot_labels
     from vsi_numba.io.atomic import write_atomic
 
+    plot_labels(fig)  # text from inputs drawn literally
     problem = figure_problem(path)
     if problem is not None:
         raise ValueError(problem)

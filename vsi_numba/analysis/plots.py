@@ -23,6 +23,7 @@ from matplotlib.transforms import blended_transform_factory
 
 from vsi_numba.analysis.checks import profile_of, resonance_speeds
 from vsi_numba.analysis.dataset import bridge_frequencies, prepare
+from vsi_numba.analysis.sanitize import MATH_GID, plot_labels
 from vsi_numba.en1990 import comfort_levels
 
 WIDTH = 6.5  # in, text width of an A4 report
@@ -33,7 +34,7 @@ LIMIT_COLOR = "#c0392b"
 
 def save(fig: Figure, path: Path) -> Path:
     """Write ``fig`` as PNG at :data:`DPI` and return the path."""
-    fig.savefig(path, dpi=DPI)
+    plot_labels(fig).savefig(path, dpi=DPI)
     return Path(path)
 
 
@@ -236,9 +237,9 @@ def plot_dynamic_amplification(ds: xr.Dataset, dyn: xr.Dataset) -> Figure:
     _headroom(ax, 0.18)
     handles.append(_resonances(ax, ds, handles=handles))
     _governing(ax, dyn, fmt="{:.3f}")
-    ax.set_ylabel("Dynamic increment φ'$_{dyn}$ [–]", fontsize=9)
+    ax.set_ylabel("Dynamic increment φ'$_{dyn}$ [–]", fontsize=9, gid=MATH_GID)
     ax.set_title("Dynamic increment of the deck displacement, "
-                 "max|y$_{dyn}$| / max|y$_{stat}$| − 1", fontsize=10)
+                 "max|y$_{dyn}$| / max|y$_{stat}$| − 1", fontsize=10, gid=MATH_GID)
     _legend(fig, ax, handles)
     return fig
 
@@ -324,7 +325,7 @@ def plot_comfort(ds: xr.Dataset, cf: xr.Dataset) -> Figure:
     ax.set_ylim(0, top)
     handles.append(_resonances(ax, ds, handles=handles))
     _governing(ax, cf, units="m/s²")
-    ax.set_ylabel("Car-body acceleration $b_v$ [m/s²]", fontsize=9)
+    ax.set_ylabel("Car-body acceleration $b_v$ [m/s²]", fontsize=9, gid=MATH_GID)
     ax.set_title("Passenger comfort: vertical car-body acceleration", fontsize=10)
     _legend(fig, ax, handles)
     return fig

@@ -19,6 +19,7 @@ import xarray as xr
 from vsi_numba.analysis import checks as chk
 from vsi_numba.analysis.dataset import ResultsError, track_type
 from vsi_numba.analysis.report.text import NOT_RELIABLE, stored_warnings
+from vsi_numba.analysis.sanitize import markdown_document, plot_labels, write_csv
 from vsi_numba.en1990 import deck_acceleration_limits
 
 #: Per-variant variables that become attributes of a variant's view.
@@ -383,7 +384,7 @@ def design_charts(ds: xr.Dataset, path, x_key: str | None = None):
     import matplotlib.pyplot as plt
 
     fig, caption = design_chart_figure(ds, x_key)
-    fig.savefig(path, dpi=110)
+    plot_labels(fig).savefig(path, dpi=110)
     plt.close(fig)
     return caption
 
@@ -422,7 +423,7 @@ def _write_variants_files(ds: xr.Dataset, outdir, source_path=None, **kwargs):
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     table = variant_table(ds)
-    table.to_csv(outdir / "variants.csv", index=False, float_format="%.10g")
+    write_csv(table, outdir / "variants.csv", float_format="%.10g")
     gov = governing_variant(ds)
     sub = write_report(variant_view(ds, gov), outdir / "governing_variant",
                        source_path=source_path, **kwargs)
@@ -463,7 +464,8 @@ def _write_variants_files(ds: xr.Dataset, outdir, source_path=None, **kwargs):
     lines += ["", "## Design chart", "", "![Design chart](design_chart.png)", "",
               f"*{caption}*", ""]
     path = outdir / "report.md"
-    path.write_text("\n".join(lines), encoding="utf-8")
+    path.write_text(markdown_document("\n".join(lines), images={"design_chart.png"}),
+                    encoding="utf-8")
     (outdir / "variants.json").write_text(json.dumps(
         {"governing_variant": gov, "label": variant_label(ds, gov)}, indent=1))
     return path

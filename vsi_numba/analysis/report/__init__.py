@@ -57,7 +57,7 @@ from vsi_numba.analysis.report.load_effects import (
     load_effects_section,
     summary_with_load_effects,
 )
-from vsi_numba.analysis.report.safe import clean, code, md, natural_order
+from vsi_numba.analysis.report.safe import clean, code, md, natural_order, write_csv
 from vsi_numba.analysis.report.text import (
     FIGURE_NAMES,
     MAX_ONE_STEP_ROWS,
@@ -219,7 +219,7 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
         table = pd.concat([table, pd.DataFrame(fatigue_rows(full))], ignore_index=True)
     # 10 significant digits: the same results give the same file (the last bits of a
     # float may differ between machines and thread schedules)
-    table.to_csv(outdir / "summary.csv", index=False, float_format="%.10g")
+    write_csv(table, outdir / "summary.csv", float_format="%.10g")
     checkpoint()
     runner = (CaseRunner(env, base_dir=config_dir, source_path=source_path) if recompute
               else None)

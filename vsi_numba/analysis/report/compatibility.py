@@ -130,7 +130,7 @@ def compatibility_section(ds, table: pd.DataFrame) -> Section | None:
         blocks.append(Table(frame, "Largest ratio of the train's signature to the HSLM-A "
                                    "envelope on the bridge's wavelengths"))
         fig = _figure(cov, f0)
-        blocks.append(Figure(fig, "signature.png", f"DER signature of {name} and the "
+        blocks.append(Figure(fig, "signature.png", f"DER signature of {md(name)} and the "
                                                    "HSLM-A1..A10 envelope"))
     return Section("Compatibility", blocks)
 

@@ -26,6 +26,7 @@ import xarray as xr
 from vsi_numba.analysis import checks as chk
 from vsi_numba.analysis.recompute import CaseRunner, RecomputeError
 from vsi_numba.analysis.report.document import Markdown, Section, Table
+from vsi_numba.analysis.report.safe import md
 
 #: Relative change of a governing result between dt and dt/2 above which it is flagged.
 DT_THRESHOLD = 0.05
@@ -194,7 +195,7 @@ def convergence_section(env: xr.Dataset, results: dict, runner: CaseRunner | Non
     def refused(why: str) -> Section:
         missing.append(f"convergence of the governing cases (time step, resonance speeds "
                        f"between the grid speeds): {why}")
-        return Section(title, [f"Not checked: {why}."])
+        return Section(title, [f"Not checked: {md(why)}."])
 
     if runner is None:
         return refused("the report was written without re-runs")
@@ -292,7 +293,7 @@ def convergence_section(env: xr.Dataset, results: dict, runner: CaseRunner | Non
     if rows:
         blocks.append(Table(pd.DataFrame(rows), "Convergence of the governing cases"))
     blocks += notes
-    blocks += [f"**Not checked** — {u}" for u in unchecked]
+    blocks += [f"**Not checked** — {md(u)}" for u in unchecked]
     others = _other_trains_off_grid(env, {g[0] for g in governing.values()})
     if others:
         blocks.append(others)

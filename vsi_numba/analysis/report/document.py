@@ -25,7 +25,6 @@ from __future__ import annotations
 import base64
 import html
 import io
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -33,7 +32,7 @@ import numpy as np
 import pandas as pd
 
 from vsi_numba.analysis.report.atomic import checkpoint
-from vsi_numba.analysis.report.safe import clean, md
+from vsi_numba.analysis.report.safe import clean, local_link, markdown_document, md, plot_labels
 
 #: Resolution of the embedded and written PNGs (dots per inch).
 DPI = 150
@@ -94,7 +93,7 @@ class Figure:
                 self._png = bytes(self.figure)
             else:
                 buf = io.BytesIO()
-                self.figure.savefig(buf, format="png", dpi=DPI)
+                plot_labels(self.figure).savefig(buf, format="png", dpi=DPI)
                 self._png = buf.getvalue()
                 self.figure = None  # let matplotlib free it
         return self._png
@@ -188,7 +187,9 @@ def write_markdown(sections: list[Section], path: Path, title: str = "") -> Path
     for fig in figures:
         (path.parent / fig.name).write_bytes(fig.png())
         checkpoint()
-    path.write_text("\n".join(lines).rstrip("\n") + "\n", encoding="utf-8")
+    text = markdown_document("\n".join(lines).rstrip("\n") + "\n",
+                             images={fig.name for fig in figures})
+    path.write_text(text, encoding="utf-8")
     checkpoint()
     return path
 
@@ -259,18 +260,20 @@ window.addEventListener("load", function () {
 """
 
 
-def _local_link(url: str) -> bool:
-    """Links the HTML may hold: anchors and relative paths (another file of the report),
-    never a URL with a scheme (http:, file:, javascript:) or a network path (//host)."""
-    url = url.strip()
-    return not (url.startswith(("//", "\\\\")) or re.match(r"^[A-Za-z][A-Za-z0-9+.-]*:", url))
-
-
 def _markdown_renderer():
+    """markdown-it as the HTML writer uses it: raw HTML shown as text, links to anchors and
+    relative paths only (:func:`~vsi_numba.analysis.sanitize.local_link`), and a Markdown
+    image shown as its source text (the page's only images are its embedded figures)."""
     from markdown_it import MarkdownIt
 
     md_ = MarkdownIt("commonmark", {"html": False, "typographer": False}).enable("table")
-    md_.validateLink = _local_link  # the page fetches and links to nothing outside itself
+    md_.validateLink = local_link  # the page fetches and links to nothing outside itself
+
+    def image(tokens, idx, options, env):
+        tok = tokens[idx]
+        return html.escape(f"![{tok.content}]({tok.attrs.get('src', '')})")
+
+    md_.add_render_rule("image", image)
     return md_
 
 

@@ -14,45 +14,9 @@ from vsi_numba.analysis.dataset import (
 )
 from vsi_numba.analysis.recompute import CaseRunner, RecomputeError
 from vsi_numba.analysis.report.document import Figure
-from vsi_numba.analysis.report.safe import clean, mathtext, md
+from vsi_numba.analysis.report.safe import md
 from vsi_numba.analysis.report.tables import wheel_unloading_by_zone
 from vsi_numba.analysis.report.text import _fmt
-
-
-def literal_names(fig, names):
-    """``fig`` with every occurrence of a name (train, vehicle) in its texts escaped for
-    matplotlib's math text (:func:`~vsi_numba.analysis.report.safe.mathtext`): a name
-    such as ``$\\frac{$`` is shown, not parsed (which would fail when the figure is
-    drawn)."""
-    risky = sorted({n for n in names if n and ("$" in n or clean(n) != n)}, key=len,
-                   reverse=True)
-    if fig is None:
-        return fig
-    from matplotlib.text import Text
-
-    for text in fig.findobj(Text):
-        old = text.get_text()
-        new = old
-        for n in risky:
-            new = new.replace(n, mathtext(n))
-        if new != old:
-            text.set_text(new)
-        if "$" in new and not _parses(new):  # a name cut short ("…") in a title
-            text.set_text(mathtext(new.replace(r"\$", "$")))
-    return fig
-
-
-def _parses(text: str) -> bool:
-    """Whether matplotlib can draw ``text`` (its math text, if any, parses)."""
-    from matplotlib.mathtext import MathTextParser
-
-    if text.replace(r"\$", "").count("$") < 2:
-        return True
-    try:
-        MathTextParser("path").parse(text.replace(r"\$", ""))
-    except ValueError:
-        return False
-    return True
 
 # --------------------------------------------------------------------------------------
 # Figures
@@ -165,7 +129,7 @@ def _deck_history(ds, results, hist: _Histories, applicable):
     kmh = float(ds["speed_kmh"].sel(speed=speed))
     q0 = (float(ds["static_wheel_load"].sel(train=train, wheel=wheel))
           if wheel is not None and "static_wheel_load" in ds else None)
-    fig = plots.plot_case_history(case, plots.case_title(mathtext(train), kmh, irr, point),
+    fig = plots.plot_case_history(case, plots.case_title(train, kmh, irr, point),
                                   point=point, wheel=wheel, limit=a["limit"], q0=q0)
     role = "governing train" if fallback else "governing case"
     caption = (f"Time histories of {md(train)} at {kmh:.0f} km/h ({_irr_text(irr)}), "
@@ -199,7 +163,7 @@ def _wheel_history(ds, results, hist: _Histories):
     length = float(ds.attrs["bridge_length"]) if "bridge_length" in ds.attrs else None
     dq = float(ds["max_wheel_unloading"].sel(sel))
     fig = plots.plot_case_history(
-        case, plots.case_title(mathtext(train), kmh, irr) + f", axle {wheel}", wheel=wheel,
+        case, plots.case_title(train, kmh, irr) + f", axle {wheel}", wheel=wheel,
         q0=q0,
         min_position=pos if np.isfinite(pos) else None, bridge_length=length,
         speed=float(speed))
@@ -229,13 +193,8 @@ def _figures(ds: xr.Dataset, results: dict, runner: CaseRunner | None = None,
     made, notes = [], []
     histories = ds if histories is None else histories
 
-    names = [str(t) for t in ds["train"].values]
-    cf = results.get("comfort")
-    if isinstance(cf, xr.Dataset):
-        names += [str(cf.attrs.get(k, "")) for k in ("governing_vehicle", "car_end_vehicle")]
-
     def put(fig, name, caption):
-        made.append(Figure(literal_names(fig, names), name, caption))
+        made.append(Figure(fig, name, caption))
 
     acc = results.get("deck_acceleration")
     if not isinstance(acc, str):

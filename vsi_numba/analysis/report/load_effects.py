@@ -30,7 +30,7 @@ from vsi_numba.analysis.report.document import (
     Table,
     section_markdown,
 )
-from vsi_numba.analysis.report.safe import mathtext, natural_key
+from vsi_numba.analysis.report.safe import natural_key
 from vsi_numba.analysis.report.text import fixed_against
 from vsi_numba.en1990 import END_ROTATION_CLAUSE
 from vsi_numba.en1991 import ALPHA_CLAUSE, LM71_CLAUSE, PHI_CLAUSE
@@ -289,7 +289,7 @@ def _figure(c: LoadEffectChecks):
         d = c.deck[e]
         f, label = _UNITS["N m" if e == "moment" else "N"]
         ax.plot(x, d["dyn_max"] * f, color="C0",
-                label=f"dynamic, {mathtext(d['train'])} (max/min)")
+                label=f"dynamic, {d['train']} (max/min)")
         ax.plot(x, d["dyn_min"] * f, color="C0")
         ax.plot(x, d["lm71_max"] * f, "--", color="C3",
                 label=f"{c.factors['phi_name']} × α × LM71")

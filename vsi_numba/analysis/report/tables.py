@@ -28,7 +28,7 @@ from vsi_numba.analysis.checks import applicable_trains, prescribed_wheels
 from vsi_numba.analysis.checks.wheels import TRANSITION_ZONE
 from vsi_numba.analysis.dataset import nanargmax_case, nanmax
 from vsi_numba.analysis.report.atomic import checkpoint
-from vsi_numba.analysis.report.safe import clean
+from vsi_numba.analysis.report.safe import sheet_frame, write_csv
 
 #: Tolerance (m) of "on the deck" at the deck ends (a wheel exactly over a support).
 END_TOLERANCE = 1e-6
@@ -290,7 +290,7 @@ def write_tables(tables: dict[str, tuple[pd.DataFrame, str]], extra: dict[str, p
     written = []
     for name, (frame, _) in tables.items():
         path = folder / f"{name}.csv"
-        frame.to_csv(path, index=False, float_format="%.6g")
+        write_csv(frame, path, float_format="%.6g")
         checkpoint()
         written.append(path)
     xlsx = outdir / "tables.xlsx"
@@ -298,11 +298,12 @@ def write_tables(tables: dict[str, tuple[pd.DataFrame, str]], extra: dict[str, p
         index = pd.DataFrame({"sheet": list(extra) + list(tables),
                               "content": [""] * len(extra)
                               + [d for _, d in tables.values()]})
-        index.to_excel(writer, sheet_name="contents", index=False)
+        # text cells through the CSV/XLSX sanitiser: no formula, no control character
+        sheet_frame(index).to_excel(writer, sheet_name="contents", index=False)
         for name, frame in extra.items():
-            _xlsx_text(frame).to_excel(writer, sheet_name=name[:31], index=False)
+            sheet_frame(frame).to_excel(writer, sheet_name=name[:31], index=False)
         for name, (frame, _) in tables.items():
-            _xlsx_text(frame).to_excel(writer, sheet_name=name[:31], index=False)
+            sheet_frame(frame).to_excel(writer, sheet_name=name[:31], index=False)
         for sheet in writer.sheets.values():
             for col in sheet.columns:
                 width = max(len(str(c.value)) if c.value is not None else 0 for c in col)
@@ -313,21 +314,6 @@ def write_tables(tables: dict[str, tuple[pd.DataFrame, str]], extra: dict[str, p
     checkpoint()
     written.append(xlsx)
     return written
-
-
-def _xlsx_text(frame: pd.DataFrame) -> pd.DataFrame:
-    """``frame`` with the control characters a spreadsheet cannot hold (all but tab, line
-    feed and carriage return) shown as their control pictures, in cells and headers."""
-    from openpyxl.cell.cell import ILLEGAL_CHARACTERS_RE
-
-    def fix(v):
-        return clean(v) if isinstance(v, str) and ILLEGAL_CHARACTERS_RE.search(v) else v
-
-    out = frame.rename(columns=fix)
-    for col in out.columns:
-        if out[col].dtype == object:
-            out[col] = out[col].map(fix)
-    return out
 
 
 #: The date written into the spreadsheets' properties and zip entries: a report of the

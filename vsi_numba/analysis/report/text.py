@@ -351,10 +351,10 @@ def _summary(results: dict, table: pd.DataFrame, pts: np.ndarray,
         if acc_note and r["check"] == "Peak deck acceleration":
             verdict += f" ({acc_note})"
         rows.append([
-            r["check"], fmt_against(r["value"], r["limit"], units), _fmt(r["limit"], units),
+            md(r["check"]), fmt_against(r["value"], r["limit"], units), _fmt(r["limit"], units),
             _fmt(r["margin"], units), fmt_percent_against(util),
             verdict, md(r["governing_train"]) if r["governing_train"] else "–",
-            _fmt(r["governing_speed_kmh"]), r["clause"],
+            _fmt(r["governing_speed_kmh"]), md(r["clause"]),
         ])
     out += _table(["Check", "Value", "Limit", "Margin (limit − value)", "Utilisation",
                    "Result", "Governing train", "Speed [km/h]", "Clause"], rows)

@@ -44,7 +44,7 @@ def twist_section(env, config_dir=None, source_path=None,
     res = twist_checks(env, base_dir=config_dir, source_path=source_path)
     if isinstance(res, str):
         missing.append(f"deck twist ({TWIST_CLAUSE}): {res}")
-        return Section.from_markdown(["## Deck twist and tracks", "", f"Not checked: {res}."])
+        return Section.from_markdown(["## Deck twist and tracks", "", f"Not checked: {md(res)}."])
     if not res.static:
         missing.append(f"static deck twist under LM71 × Φ × α ({TWIST_CLAUSE}): "
                        f"{res.static_note or 'not computed'}")
@@ -53,7 +53,7 @@ def twist_section(env, config_dir=None, source_path=None,
     names = [str(v) for v in env["track_line"].values] if "track_line" in env else None
     rails = ("the rails of a track are 1.435 m apart unless the configuration says "
              "otherwise" if names is None else "the rails of a track are the lines "
-             "<track>/left and <track>/right of the imported deck")
+             "`<track>/left` and `<track>/right` of the imported deck")
     lines = ["## Deck twist and tracks", "",
              f"Deck twist over 3 m ({TWIST_CLAUSE}): limit {_mm(res.limit)} for the line "
              f"speed {fmt_number(res.line_speed_kmh, 'km/h')} (from the code profile "

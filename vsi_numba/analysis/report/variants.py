@@ -27,8 +27,8 @@ from vsi_numba.analysis.report.document import (
     write_markdown,
 )
 from vsi_numba.analysis.report.echo import fmt_number, input_echo, title_block
-from vsi_numba.analysis.report.safe import clean, code, md
-from vsi_numba.analysis.report.tables import _xlsx_text, fix_xlsx_dates, reproducible_zip
+from vsi_numba.analysis.report.safe import clean, code, md, sheet_frame, write_csv
+from vsi_numba.analysis.report.tables import fix_xlsx_dates, reproducible_zip
 from vsi_numba.analysis.report.text import _version, _warnings_block, stored_warnings
 
 #: Units of the columns of :func:`vsi_numba.analysis.variants.variant_table` (CSV/XLSX
@@ -106,10 +106,10 @@ def _write_variants(ds: xr.Dataset, outdir: Path, report_dir: Path, source_path=
 
     table = var.variant_table(ds)
     units_table = _with_units(ds, table)
-    units_table.to_csv(outdir / "variants.csv", index=False, float_format="%.6g")
+    write_csv(units_table, outdir / "variants.csv", float_format="%.6g")
     checkpoint()
     with pd.ExcelWriter(outdir / "tables.xlsx", engine="openpyxl") as writer:
-        _xlsx_text(units_table).to_excel(writer, sheet_name="variants", index=False)
+        sheet_frame(units_table).to_excel(writer, sheet_name="variants", index=False)
         writer.sheets["variants"].freeze_panes = "B2"
         fix_xlsx_dates(writer)
     reproducible_zip(outdir / "tables.xlsx")

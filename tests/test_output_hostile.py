@@ -1,6 +1,6 @@
 """Text from inputs is data in every output format: one set of hostile strings through every
 free-text key of a configuration that reaches an output, config -> ``vsi sweep --report``
--> every file of the report.
+-> every file of the report (and the terminal).
 
 The strings (:data:`LEADS` + :data:`BODY`): a Markdown image and link to a remote host,
 raw HTML (``<script>``, ``<img onerror>``), spreadsheet formulas (``=HYPERLINK(...)``,
@@ -12,7 +12,8 @@ a ``[[fatigue.traffic]]`` train), an imported deck's track (``bridge.tracks[].li
 ``line`` column of its modes table), ``[report]``, ``[code_profile] name`` and an
 override's ``clause``, ``[[fatigue.sections]] name``, ``[compatibility] train``, with
 ``train.other_trains`` on a second track; the resolved configuration stored in the
-results file carries them all (the report's input echo shows it).  Each case gives every
+results file carries them all (the report's input echo shows it; a re-run that fails
+quotes it).  Each case gives every
 key another of the leading strings, so that over the cases every key starts with every
 one of them.
 
@@ -148,7 +149,7 @@ def _modes_config(d, s: dict) -> str:
         for x in np.linspace(0.0, length, 41):
             w.writerow([1, f, m * length / 2, s["bridge.tracks[0].line"], x,
                         np.sin(np.pi * x / length)])
-    (d / "axles.csv").write_text("position,load\n0,100\n3,100\n")
+    (d / f"{FILE_NAME}.csv").write_text("position,load\n0,100\n3,100\n")
     return f"""title = {_q(s['title'])}
 [bridge]
 kind = "modes_file"
@@ -156,7 +157,7 @@ file = "modes.csv"
 tracks = [{{ line = {_q(s['bridge.tracks[0].line'])} }}]
 output_points = [5.0]
 [train]
-axles = {{ file = "axles.csv", name = {_q(s['train.axles.name'])} }}
+axles = {{ file = {_q(FILE_NAME + '.csv')}, name = {_q(s['train.axles.name'])} }}
 [solver]
 dt = 2e-3
 free_vibration = 0.1
@@ -303,7 +304,17 @@ def _run(tmp_path, monkeypatch, text):
                                    "--report", str(rep)])
     assert res.exit_code == 0, res.output + repr(res.exception)
     assert "Traceback" not in res.output
+    # the terminal is an output too: no escape sequence, carriage return or NUL
+    assert not re.search(r"[\x00-\x08\x0b-\x1f\x7f]", res.output), res.output
     return rep, drawn
+
+
+def _check_all(rep, drawn, failing: bool):
+    _check_markdown(rep)
+    _check_html(rep)
+    _check_csv(rep, failing)
+    _check_xlsx(rep, failing)
+    _check_figures(rep, drawn)
 
 
 @pytest.mark.parametrize("case", [
@@ -317,8 +328,15 @@ def test_output_hostile__every_key_into_every_format(tmp_path, monkeypatch, case
     strings = _strings(keys, k, long)
     text = (_beam_config if kind == "beam" else _modes_config)(tmp_path, strings)
     rep, drawn = _run(tmp_path, monkeypatch, text)
-    _check_markdown(rep)
-    _check_html(rep)
-    _check_csv(rep, failing=kind == "beam")
-    _check_xlsx(rep, failing=kind == "beam")
-    _check_figures(rep, drawn)
+    _check_all(rep, drawn, failing=kind == "beam")
+    if kind == "modes":
+        # the results moved without their axle file: the report's re-runs fail with a
+        # message quoting the stored configuration (the file's hostile name)
+        (tmp_path / f"{FILE_NAME}.csv").unlink()
+        drawn.texts.clear()
+        again = tmp_path / "again"
+        res = CliRunner().invoke(app, ["report", str(tmp_path / "out.nc"), "-o", str(again)])
+        assert res.exit_code == 0, res.output + repr(res.exception)
+        assert not re.search(r"[\x00-\x08\x0b-\x1f\x7f]", res.output), res.output
+        assert "cannot be re-run" in (again / "report.md").read_text(encoding="utf-8")
+        _check_all(again, drawn, failing=False)

@@ -2,9 +2,9 @@
 
 Output of a command goes through :class:`Printer`: tables and results to stdout,
 errors, warnings and progress lines to stderr.  Text that comes from the user or from a
-file (paths, messages) is always printed literally (no rich markup, no emoji codes) and
-without hard line breaks (``soft_wrap``), so that a message greps as one line whatever the
-terminal width.
+file (paths, messages) is always printed literally (no rich markup, no emoji codes, no
+control character: :func:`terminal`) and without hard line breaks (``soft_wrap``), so
+that a message greps as one line whatever the terminal width.
 
 :func:`load_config` is the one way a command reads its TOML file: a configuration error
 is printed as ``error: PATH: invalid configuration`` followed by every message, and the
@@ -18,6 +18,25 @@ from pathlib import Path
 #: Exit code of a command that cannot run as asked (bad configuration, bad options, an
 #: output that cannot be written); see the commands' docstrings for the others.
 EXIT_USAGE = 2
+
+
+def terminal(text) -> str:
+    """``text`` as a terminal may show it: control characters other than line feed and tab
+    (an escape sequence would recolour the terminal, retitle it or make a hyperlink; a
+    carriage return would overwrite the line) shown as their Unicode control pictures
+    (``␛``, ``␍``, ``␀``), C1 controls and bidirectional overrides as ``⟨U+202E⟩``: the
+    terminal's sanitiser (those of the files are :mod:`vsi_numba.analysis.sanitize`)."""
+    import unicodedata
+
+    out = []
+    for ch in str(text):
+        if ch in "\n\t" or unicodedata.category(ch) not in ("Cc", "Cf"):
+            out.append(ch)
+        elif ord(ch) < 0x20:
+            out.append(chr(0x2400 + ord(ch)))
+        else:
+            out.append("␡" if ch == "\x7f" else f"⟨U+{ord(ch):04X}⟩")
+    return "".join(out)
 
 
 class Printer:
@@ -37,20 +56,20 @@ class Printer:
     def line(self, text, *, stderr: bool = False) -> None:
         """Print ``text`` literally (no markup, highlighting or emoji) as one line."""
         (self.err if stderr else self.out).print(
-            str(text), markup=False, highlight=False, emoji=False, soft_wrap=True)
+            terminal(text), markup=False, highlight=False, emoji=False, soft_wrap=True)
 
     def error(self, text) -> None:
         """``error: TEXT`` on stderr (``error`` in bold red on a terminal)."""
         from rich.markup import escape
 
-        self.err.print(f"[bold red]error[/]: {escape(str(text))}", highlight=False,
+        self.err.print(f"[bold red]error[/]: {escape(terminal(text))}", highlight=False,
                        emoji=False, soft_wrap=True)
 
     def warning(self, text) -> None:
         """``warning: TEXT`` on stderr (``warning`` in yellow on a terminal)."""
         from rich.markup import escape
 
-        self.err.print(f"[yellow]warning[/]: {escape(str(text))}", highlight=False,
+        self.err.print(f"[yellow]warning[/]: {escape(terminal(text))}", highlight=False,
                        emoji=False, soft_wrap=True)
 
     def config_error(self, path, exc) -> None:

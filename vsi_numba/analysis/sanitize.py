@@ -29,6 +29,7 @@ HSLM-A10).
 
 from __future__ import annotations
 
+import functools
 import re
 import unicodedata
 
@@ -126,6 +127,7 @@ def local_link(url: str) -> bool:
     return not (url.startswith(("//", "\\\\")) or re.match(r"^[A-Za-z][A-Za-z0-9+.-]*:", url))
 
 
+@functools.cache
 def _markdown_parser():
     from markdown_it import MarkdownIt
 
@@ -304,17 +306,21 @@ def plot_labels(fig):
     from matplotlib.text import Text
     from matplotlib.ticker import FixedFormatter
 
-    numbers = set()
-    for axis in fig.findobj(Axis):
-        numbers.add(id(axis.offsetText))
-        for tick in axis.majorTicks + axis.minorTicks:
-            numbers.update((id(tick.label1), id(tick.label2)))
-        for fmt in (axis.get_major_formatter(), axis.get_minor_formatter()):
-            if isinstance(fmt, FixedFormatter) and not getattr(fmt, "_vsi_literal", False):
-                fmt.seq = [mathtext(s) for s in fmt.seq]  # tick labels keep math text on
-                fmt._vsi_literal = True
-    for text in fig.findobj(Text):
-        if id(text) in numbers or text.get_gid() == MATH_GID:
+    def texts(artist):
+        if isinstance(artist, Axis):  # its label; number ticks are left as they are
+            for fmt in (artist.get_major_formatter(), artist.get_minor_formatter()):
+                if isinstance(fmt, FixedFormatter) and not getattr(fmt, "_vsi_literal", 0):
+                    fmt.seq = [mathtext(s) for s in fmt.seq]  # tick labels keep math text
+                    fmt._vsi_literal = True
+            yield artist.label
+            return
+        if isinstance(artist, Text):
+            yield artist
+        for child in artist.get_children():
+            yield from texts(child)
+
+    for text in texts(fig):
+        if text.get_gid() == MATH_GID:
             continue
         text.set_parse_math(False)
         old = text.get_text()

@@ -14,9 +14,9 @@ a ``[[fatigue.traffic]]`` train), an imported deck's track (``bridge.tracks[].li
 override's ``clause``, ``[[fatigue.sections]] name``, ``[compatibility] train``, with
 ``train.other_trains`` on a second track; the resolved configuration stored in the
 results file carries them all (the report's input echo shows it; a re-run that fails
-quotes it).  Each case gives every
-key another of the leading strings, so that over the cases every key starts with every
-one of them.
+quotes it).  Each case gives every key another of the leading strings, so that over the
+cases every kind of text (the train's name, a clause, a section name, a vehicle, a
+[report] field, the title) starts with every one of them.
 
 Every output is checked as a reader would open it: ``report.md`` parsed by markdown-it
 with raw HTML on (no raw HTML, no link but anchors and the report's files, no image but
@@ -54,19 +54,20 @@ FORMULA = ("=", "+", "-", "@", "\t", "\r")
 SHOWN = ("$\\frac{$", "<script>alert(1)</script>", "<img src=x onerror=alert(1)>")
 #: Keys of the configuration of a beam deck (case "beam") and of an imported deck ("modes").
 BEAM_KEYS = ("title", "train.name", "train.vehicles[0].name", "train.vehicles[1].name",
-             "report.project", "report.checked_by", "code_profile.name",
-             "code_profile.overrides.clause", "fatigue.sections[0].name",
-             "fatigue.sections[1].name")
+             "report.project", "report.checked_by", "code_profile.overrides.clause",
+             "code_profile.overrides.clause (2)", "fatigue.sections[0].name",
+             "fatigue.sections[1].name", "code_profile.name")
 MODES_KEYS = ("title", "train.axles.name", "bridge.tracks[0].line", "report.client",
               "irregularity.x_column", "irregularity.r_column")
 #: A file name holds no "/" and no NUL: the axle file named by the strings that can be.
 FILE_NAME = "=1+2 $\\frac{$ <img src=x onerror=alert(1)> ![i](x.png) \x1b"
 
 
-def _strings(keys, case: int, long: bool) -> dict[str, str]:
+def _strings(keys, shift: int, long: bool) -> dict[str, str]:
+    """Key ``i`` gets the leading string ``LEADS[(i + shift) % 6]``."""
     out = {}
     for i, key in enumerate(keys):
-        text = f"{LEADS[(i + case) % len(LEADS)]} {key} {BODY}"
+        text = f"{LEADS[(i + shift) % len(LEADS)]} {key} {BODY}"
         if long:
             text += " " + "long " * 1000
         if key.startswith("report."):  # [report] fields hold one line of <= 200 characters
@@ -118,8 +119,11 @@ checked_by = {_q(s['report.checked_by'])}
 [code_profile]
 name = {_q(s['code_profile.name'])}
 # a limit below the response: the check fails and its margin is negative
-overrides = {{ deck_acceleration_limit_ballasted = {{ value = 0.05, clause = {
-    _q(s['code_profile.overrides.clause'])} }} }}
+[code_profile.overrides]
+deck_acceleration_limit_ballasted = {{ value = 0.05, clause = {
+    _q(s['code_profile.overrides.clause'])} }}
+deck_acceleration_limit_direct_fastening = {{ value = 5.0, clause = {
+    _q(s['code_profile.overrides.clause (2)'])} }}
 [fatigue]
 [[fatigue.sections]]
 x = 5.0
@@ -329,14 +333,20 @@ def _check_all(rep, drawn, failing: bool):
     _check_figures(rep, drawn)
 
 
+# Three runs of each deck: key i of the beam deck starts with LEADS[(i + 2k) % 6], key i of
+# the imported deck with LEADS[(i + 2k + 1) % 6].  A key given twice (vehicles, [report]
+# fields, override clauses, fatigue sections) at an even and an odd index, and a key of
+# both decks (title, [report], the train's name: train.name at index 1 of the beam deck,
+# train.axles.name at index 1 of the imported one), gets all six; the last beam run has
+# the long strings.
 @pytest.mark.parametrize("case", [
-    *[("beam", k, k == len(LEADS) - 1) for k in range(len(LEADS))],  # the last one long
-    *[("modes", k, False) for k in range(0, len(LEADS), 2)],
+    *[("beam", 2 * k, k == 2) for k in range(3)],
+    *[("modes", 2 * k + 1, False) for k in range(3)],
 ], ids=lambda c: f"{c[0]}-{c[1]}{'-long' if c[2] else ''}")
 def test_output_hostile__every_key_into_every_format(tmp_path, monkeypatch, case):
-    kind, k, long = case
+    kind, shift, long = case
     keys = BEAM_KEYS if kind == "beam" else MODES_KEYS
-    strings = _strings(keys, k, long)
+    strings = _strings(keys, shift, long)
     text = (_beam_config if kind == "beam" else _modes_config)(tmp_path, strings)
     rep, drawn = _run(tmp_path, monkeypatch, text)
     _check_all(rep, drawn, failing=kind == "beam")

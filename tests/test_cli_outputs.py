@@ -3,15 +3,13 @@ counts as integers, ``vsi check``'s modes, damping and speed grid."""
 
 from __future__ import annotations
 
-import os
 import re
-import subprocess
-import sys
 import textwrap
 from pathlib import Path
 
 import numpy as np
 from typer.testing import CliRunner
+from userpath import vsi
 
 from vsi_numba.cli import app
 
@@ -20,13 +18,6 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def invoke(*args):
     return CliRunner().invoke(app, [str(a) for a in args])
-
-
-def vsi(*args) -> subprocess.CompletedProcess:
-    """``python -m vsi_numba.cli ARGS`` as a user runs it (stdout and stderr apart)."""
-    return subprocess.run([sys.executable, "-m", "vsi_numba.cli", *map(str, args)],
-                          capture_output=True, text=True, timeout=600,
-                          env={**os.environ, "PYTHONPATH": str(ROOT)})
 
 
 def warned_config(directory: Path) -> Path:

@@ -267,6 +267,33 @@ def test_static_wheel_loads__sum_to_the_weight():
     np.testing.assert_allclose(Q.sum(), total, rtol=1e-12)  # statics, round-off only
 
 
+def test_kkt__a_kept_solution_is_the_solve_bit_for_bit_and_the_callers_own():
+    """The static solves are kept by a digest of their inputs: a repeated system gives
+    the solve's own bits (checked against numpy's solve of the same scaled system, which
+    the kept entry never saw), the caller may change what it got, and a changed input
+    is solved anew."""
+    rng = np.random.default_rng(7)
+    n, m = 30, 4
+    a = rng.standard_normal((n, n))
+    A = a @ a.T + n * np.eye(n)  # symmetric positive definite, like a vehicle's K
+    G = np.zeros((m, n))
+    G[np.arange(m), [3, 9, 17, 25]] = 1.0
+    top, bottom = rng.standard_normal(n), rng.standard_normal(m)
+    s = float(np.max(np.abs(A)))
+    kkt = np.block([[A, s * G.T], [s * G, np.zeros((m, m))]])
+    ref = np.linalg.solve(kkt, np.concatenate([top, s * bottom]))
+    for _ in range(2):  # solved, then kept
+        x, y = sp._kkt(A, G, top, bottom)
+        assert np.array_equal(x, ref[:n]) and np.array_equal(y, s * ref[n:])
+        x[:] = np.nan  # the caller's own arrays: the kept solution is not touched
+        y[:] = np.nan
+    bottom2 = bottom.copy()
+    bottom2[0] += 1e-3
+    x2, _ = sp._kkt(A, G, top, bottom2)
+    ref2 = np.linalg.solve(kkt, np.concatenate([top, s * bottom2]))
+    assert np.array_equal(x2, ref2[:n])
+
+
 def test_simulate__moving_force_train_has_loads_as_contact_forces():
     train = vh.Train("f", (vh.point_loads([0.0, 3.0], [1e5, 2e5]),), (0.0,))
     ds = sm.simulate(br.simply_supported(10.0, 1e9, 5e3, n_modes=2), train, 20.0,

@@ -10,13 +10,12 @@ written here), the phi'dyn of the deflection by numpy from the results file.
 from __future__ import annotations
 
 import re
-import subprocess
-import sys
 
 import numpy as np
 import pandas as pd
 import pytest
 import xarray as xr
+from userpath import vsi
 
 L, EI = 15.0, 2.0e10  # m, N m2: a stiff deck, LM71 x Phi governs at these speeds
 CONFIG = f"""title = "summary"
@@ -43,9 +42,7 @@ NATURAL = ["HSLM-A1", "HSLM-A2", "HSLM-A10"]
 def report(tmp_path_factory):
     d = tmp_path_factory.mktemp("summary")
     (d / "s.toml").write_text(CONFIG)
-    res = subprocess.run([sys.executable, "-m", "vsi_numba.cli", "sweep", "s.toml", "-q",
-                          "--report", "rep"], cwd=d, capture_output=True, text=True,
-                         timeout=900, check=False)
+    res = vsi("sweep", "s.toml", "-q", "--report", "rep", cwd=d)
     assert res.returncode == 0, res.stderr[-3000:]
     return d
 

@@ -27,6 +27,7 @@ from pathlib import Path
 import pytest
 import xarray as xr
 from study_trains import TRAINS_TOML
+from userpath import vsi
 
 from vsi_numba.cli.sweep import sweep_command
 from vsi_numba.config import load_config
@@ -176,12 +177,12 @@ def test_resume__interrupt_and_kill_then_rerun_equals_uninterrupted(tmp_path, re
     assert n_stored(out) == total and not out.exists()
     assert [p for p in store_path(out).iterdir() if p.name.endswith(".tmp")]
 
-    # 4. re-run the same command: nothing left to run; the stale temp file is removed and
+    # 4. re-run the same command (in this process: what is tested is the store the
+    #    killed process left): nothing left to run; the stale temp file is removed and
     #    the file equals the uninterrupted run's
-    proc = start_sweep(config, out)
-    _, err = proc.communicate(timeout=900)
-    assert proc.returncode == 0, err
-    assert f"{total} runs: all done earlier" in err
+    done = vsi("sweep", config, "-o", out)
+    assert done.returncode == 0, done.stderr
+    assert f"{total} runs: all done earlier" in done.stderr
     assert not store_path(out).exists()
     assert not [p for p in out.parent.iterdir() if p.name.endswith(".tmp")]
     with open_results(out) as ds:
@@ -200,10 +201,9 @@ def test_resume__kill_after_batches_then_rerun_runs_the_rest(tmp_path, reference
     proc.communicate(timeout=120)
     k = n_stored(out)
     assert len(batch_files(out)) == 3 and k < 48 and not out.exists()
-    proc = start_sweep(config, out)
-    _, err = proc.communicate(timeout=900)
-    assert proc.returncode == 0, err
-    assert f"{k} done earlier, {48 - k} to run" in err
+    done = vsi("sweep", config, "-o", out)  # in this process: the store is the subject
+    assert done.returncode == 0, done.stderr
+    assert f"{k} done earlier, {48 - k} to run" in done.stderr
     with open_results(out) as ds:
         xr.testing.assert_identical(without_history_line(ds.load()),
                                     without_history_line(reference.load()))
@@ -306,11 +306,11 @@ def test_resume__full_disk_clear_error_cases_kept(tmp_path):
     assert proc.returncode == 1, err
     assert "cannot write" in err and "batch_t" in err and "re-run the same command" in err
     assert "Traceback" not in err and n_stored(other) == 0
-    # 3. with room again the same command completes from the stored cases
-    proc = start_sweep(config, out)
-    _, err = proc.communicate(timeout=900)
-    assert proc.returncode == 0, err
-    assert "all done earlier" in err and out.exists()
+    # 3. with room again the same command (in this process) completes from the stored
+    #    cases
+    done = vsi("sweep", config, "-o", out)
+    assert done.returncode == 0, done.stderr
+    assert "all done earlier" in done.stderr and out.exists()
 
 
 def test_store__final_write_reads_batches_of_this_process_from_memory(tmp_path):

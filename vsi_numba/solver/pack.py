@@ -4,7 +4,10 @@ equilibrium the runs start from."""
 
 from __future__ import annotations
 
+import hashlib
 import math
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -289,13 +292,43 @@ def _dense(veh: ek.VehicleArrays, A: np.ndarray) -> np.ndarray:
     return out
 
 
+#: Solutions of :func:`_kkt` by a digest of its inputs: the same dense system is solved
+#: again for every batch of a train (its static loads, its start at a speed) and by the
+#: report's re-runs; a solution found here is the one the solve gave, bit for bit.
+_KKT_SOLVED: OrderedDict = OrderedDict()
+_KKT_KEEP = 512
+_KKT_LOCK = threading.Lock()
+
+
 def _kkt(A, G, rhs_top, rhs_bottom, compliance=None):
     """Solve [A G^T; G -C] [x; y] = [rhs_top; rhs_bottom] (C = 0 without ``compliance``).
 
     The constraint rows are scaled to the size of ``A`` first: unscaled, a stiffness of
     1e7 N/m next to unit constraint rows makes the system so badly conditioned that the
-    constraints are lost to round-off.
+    constraints are lost to round-off.  The last :data:`_KKT_KEEP` solutions are kept
+    (by a digest of every input); the arrays returned are the caller's own.
     """
+    h = hashlib.blake2b(digest_size=20)
+    for a in (A, G, rhs_top, rhs_bottom, compliance):
+        a = np.ascontiguousarray(a if a is not None else (), dtype=float)
+        h.update(str(a.shape).encode())
+        h.update(a.data)
+    key = h.digest()
+    with _KKT_LOCK:
+        got = _KKT_SOLVED.get(key)
+        if got is not None:
+            _KKT_SOLVED.move_to_end(key)
+    if got is None:
+        got = _kkt_solve(A, G, rhs_top, rhs_bottom, compliance)
+        with _KKT_LOCK:
+            _KKT_SOLVED[key] = got
+            while len(_KKT_SOLVED) > _KKT_KEEP:
+                _KKT_SOLVED.popitem(last=False)
+    return got[0].copy(), got[1].copy()
+
+
+def _kkt_solve(A, G, rhs_top, rhs_bottom, compliance):
+    """:func:`_kkt` without the memo."""
     n, m = A.shape[0], G.shape[0]
     s = max(float(np.max(np.abs(A), initial=0.0)), 1e-300)
     kkt = np.zeros((n + m, n + m))

@@ -158,7 +158,9 @@ TABLE: tuple[Entry, ...] = (
           "admissible wheel unloading dQ/Q0"),
     # ------------------------------------------------------------------ EN 1991-2 damping
     Entry("damping_steel_composite", 0.5, "%", _T66,
-          "lower-bound damping, steel and composite decks, L >= 20 m", recalled=False,
+          "lower-bound damping, steel and composite decks, L >= 20 m (L of every Table "
+          "6.6 entry and of the additional damping: the span of a simply supported deck, "
+          "the mean span of a continuous deck [R], DAMPING_SPAN_RULE)", recalled=False,
           applies="input"),
     Entry("damping_steel_composite_slope", 0.125, "% per m", _T66,
           "increase per metre below L = 20 m, steel and composite", recalled=False,

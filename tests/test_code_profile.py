@@ -170,8 +170,8 @@ def test_code_profile__override_changes_the_verdict_not_the_runs(studies):
     assert default["clause"] == "EN 1990 A2.4.4.2.1(4)P"
     assert client["limit"] == 5.0 and client["result"] == "pass"
     assert client["clause"] == "client rule R-12 (override)"
-    assert client["value"] == pytest.approx(peak, rel=1e-9)
-    assert client["utilisation"] == pytest.approx(peak / 5.0, rel=1e-9)
+    assert client["value"] == pytest.approx(peak, rel=1e-6)  # summary.csv: 7 digits
+    assert client["utilisation"] == pytest.approx(peak / 5.0, rel=1e-6)  # summary.csv: 7 digits
     assert "FAIL (limit 3.50 m/s2)" in studies["default"]["sweep"]
     assert "pass (limit 5.00 m/s2)" in studies["client"]["sweep"]
 

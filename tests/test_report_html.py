@@ -297,7 +297,7 @@ def test_write_report__csv_and_xlsx_with_units_in_every_header(tmp_path):
             f"{t} [{frame.columns[1].rsplit('[', 1)[1]}" for t in ds["train"].values)]
     disp = pd.read_csv(folder / "deck_displacement.csv")
     ref = 1e3 * ds["max_deck_displacement"].max(["point", "irregularity"])
-    # written with 6 significant digits
+    # written with 7 significant digits
     np.testing.assert_allclose(disp["ICE3 [mm]"], ref.sel(train="ICE3").values, rtol=5e-6)
     np.testing.assert_allclose(disp["speed [km/h]"], [250, 300, 325, 350])
     book = openpyxl.load_workbook(tmp_path / "rep" / "tables.xlsx", read_only=True)
@@ -308,9 +308,10 @@ def test_write_report__csv_and_xlsx_with_units_in_every_header(tmp_path):
         assert all(unit.match(str(c)) for c in header), (name, header)
     acc = pd.read_excel(tmp_path / "rep" / "tables.xlsx", sheet_name="deck_acceleration")
     check = run_checks(envelopes(ds), n_boot=0)["deck_acceleration"]["value"]
-    # the sheet holds the check's values (XLSX keeps numbers as decimal text: 1 ulp)
+    # the sheet holds the check's values to 7 significant digits (a rounding of at most
+    # 5e-7 relative; the last digits are noise between machines)
     np.testing.assert_allclose(acc["HSLM-A1 [m/s2]"], check.sel(train="HSLM-A1").values,
-                               rtol=1e-15)
+                               rtol=1e-6)
 
 
 # --------------------------------------------------------------------------------------

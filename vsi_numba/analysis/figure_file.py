@@ -2,6 +2,10 @@
 --plot``, ``vsi trains --signature --plot``): the path is checked before anything is
 drawn, and the file is written whole or not at all.
 
+Every figure the package writes, here or in a report, goes through :func:`savefig`: the
+same figure gives the same bytes on every machine (no metadata, no path simplification,
+:data:`METADATA`, :data:`RC`).
+
 The format is the file name's suffix (``.png``, ``.pdf``, ``.svg``, ... as matplotlib
 writes them); a name without one, or with one matplotlib cannot write, is refused rather
 than given another name.  Missing directories are created.  The file goes through
@@ -12,6 +16,35 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+
+#: Metadata of every written figure: none.  matplotlib writes its version as the PNG's
+#: ``Software`` and a date into SVG and PDF; another version or day would change the file.
+METADATA = {"png": {"Software": None},
+            "svg": {"Date": None, "Creator": None},
+            "pdf": {"CreationDate": None, "ModDate": None, "Creator": None,
+                    "Producer": None}}
+#: matplotlib settings while a figure is written: SVG ids from a fixed salt, and no path
+#: simplification (matplotlib drops the vertices of a line that move it by less than 1/9
+#: pixel; the decision is discontinuous, so a last-digit difference of the data between
+#: two machines could keep a vertex on one and drop it on the other).  The pixels then
+#: depend on the versions of matplotlib (and its FreeType) only, the PNG compression on
+#: Pillow's.
+RC = {"svg.hashsalt": "vsi_numba", "path.simplify": False}
+
+
+def savefig(fig, target, *, format: str = "png", **options):
+    """``fig.savefig(target, format=format, **options)`` with :data:`METADATA` and
+    :data:`RC`: the same figure gives the same bytes.  ``target`` is a path or a binary
+    file object."""
+    import matplotlib
+    from matplotlib.lines import Line2D
+
+    for line in fig.findobj(Line2D):  # paths made before the rc context: not simplified
+        line.get_path().should_simplify = False
+    with matplotlib.rc_context(RC):
+        fig.savefig(target, format=format, metadata=METADATA.get(format, {}), **options)
+    return target
+
 
 #: Suffixes matplotlib writes (lower case, without the dot): its Agg canvas's list.
 FORMATS = ("png", "pdf", "svg", "svgz", "eps", "ps", "jpg", "jpeg", "tif", "tiff", "webp")
@@ -56,5 +89,5 @@ def save_figure(fig, path, **options) -> Path:
     if problem is not None:
         raise ValueError(problem)
     fmt = Path(path).suffix.lower().lstrip(".")
-    return write_atomic(os.fspath(path), lambda tmp: fig.savefig(tmp, format=fmt, **options),
+    return write_atomic(os.fspath(path), lambda tmp: savefig(fig, tmp, format=fmt, **options),
                         parents=True)

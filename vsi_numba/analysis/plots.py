@@ -23,6 +23,7 @@ from matplotlib.transforms import blended_transform_factory
 
 from vsi_numba.analysis.checks import profile_of, resonance_speeds
 from vsi_numba.analysis.dataset import bridge_frequencies, prepare
+from vsi_numba.analysis.figure_file import savefig
 from vsi_numba.analysis.sanitize import MATH_GID, plot_labels
 from vsi_numba.en1990 import comfort_levels
 
@@ -34,7 +35,7 @@ LIMIT_COLOR = "#c0392b"
 
 def save(fig: Figure, path: Path) -> Path:
     """Write ``fig`` as PNG at :data:`DPI` and return the path."""
-    plot_labels(fig).savefig(path, dpi=DPI)
+    savefig(plot_labels(fig), path, dpi=DPI)
     return Path(path)
 
 

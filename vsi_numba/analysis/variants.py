@@ -384,7 +384,9 @@ def design_charts(ds: xr.Dataset, path, x_key: str | None = None):
     import matplotlib.pyplot as plt
 
     fig, caption = design_chart_figure(ds, x_key)
-    plot_labels(fig).savefig(path, dpi=110)
+    from vsi_numba.analysis.figure_file import savefig
+
+    savefig(plot_labels(fig), path, dpi=110)
     plt.close(fig)
     return caption
 
@@ -423,7 +425,9 @@ def _write_variants_files(ds: xr.Dataset, outdir, source_path=None, **kwargs):
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     table = variant_table(ds)
-    write_csv(table, outdir / "variants.csv", float_format="%.10g")
+    from vsi_numba.analysis.report.tables import CSV_FLOAT_FORMAT
+
+    write_csv(table, outdir / "variants.csv", float_format=CSV_FLOAT_FORMAT)
     gov = governing_variant(ds)
     sub = write_report(variant_view(ds, gov), outdir / "governing_variant",
                        source_path=source_path, **kwargs)

@@ -193,7 +193,8 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
     results file is named relative to it."""
     report_dir = Path(outdir if report_dir is None else report_dir)
     outdir = Path(outdir)
-    env = envelopes(full)
+    # the results to 12 digits: the last digits differ between machines (tables.denoised)
+    env = tbl.denoised(envelopes(full))
     # trains in natural order (HSLM-A2 before HSLM-A10) in every table and figure
     order = natural_order(env["train"].values)
     if order != list(range(env.sizes["train"])):
@@ -217,9 +218,9 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
     table = pd.concat([table, pd.DataFrame(deflection_rows(deflection))], ignore_index=True)
     if has_fatigue(full):  # Miner's damage per section (a [fatigue] study)
         table = pd.concat([table, pd.DataFrame(fatigue_rows(full))], ignore_index=True)
-    # 10 significant digits: the same results give the same file (the last bits of a
-    # float may differ between machines and thread schedules)
-    write_csv(table, outdir / "summary.csv", float_format="%.10g")
+    # 7 significant digits (tables.SIGNIFICANT): the same results give the same file (the
+    # last digits of a float may differ between machines and thread schedules)
+    write_csv(table, outdir / "summary.csv", float_format=tbl.CSV_FLOAT_FORMAT)
     checkpoint()
     runner = (CaseRunner(env, base_dir=config_dir, source_path=source_path) if recompute
               else None)

@@ -278,6 +278,51 @@ def speed_train_tables(ds: xr.Dataset, results: dict,
     return out
 
 
+#: Significant digits of the numbers in the CSV and XLSX files: the results carry more,
+#: but the last ones are noise of the arithmetic (another machine, another order of
+#: the sums changes the 13th-15th digit); written to 7, the same results give the same
+#: files.
+SIGNIFICANT = 7
+#: ``float_format`` of the CSV files (:data:`SIGNIFICANT` digits).
+CSV_FLOAT_FORMAT = f"%.{SIGNIFICANT}g"
+#: Significant digits the report keeps of the results it reads (:func:`denoised`).
+RESULT_DIGITS = 12
+
+
+def significant(frame: pd.DataFrame, digits: int = SIGNIFICANT) -> pd.DataFrame:
+    """``frame`` with every float cell rounded to ``digits`` significant digits (the
+    decimal text of the value read back: what the CSV files hold)."""
+    out = frame.copy()
+    for j in range(out.shape[1]):
+        col = out.iloc[:, j]
+        if pd.api.types.is_float_dtype(col.dtype):
+            vals = col.to_numpy(dtype=float)
+            out.isetitem(j, np.array([float(f"{v:.{digits}g}") if np.isfinite(v) else v
+                                      for v in vals.tolist()], dtype=float))
+    return out
+
+
+def denoised(ds: xr.Dataset, digits: int = RESULT_DIGITS) -> xr.Dataset:
+    """``ds`` with every float64 data variable rounded to ``digits`` significant digits
+    (its decimal text read back, the same on every machine).
+
+    The results of the same study differ between machines in the last digits (the order
+    of the floating-point sums); a value that lies on a rounding boundary of the report
+    (an axle position of 25.125 m, shown to 4 digits) would then print differently.
+    Rounded to 12 digits first, both read the same, and every table, sentence and figure
+    of the report follows.  Coordinates are left as they are (they select the time
+    histories in the file).
+    """
+    out = ds.copy()
+    for name, v in ds.data_vars.items():
+        if v.dtype != np.float64:
+            continue
+        a = np.asarray(v.values)
+        flat = [float(f"{x:.{digits}g}") for x in a.ravel().tolist()]
+        out[name] = v.copy(data=np.asarray(flat, float).reshape(a.shape))
+    return out
+
+
 def write_tables(tables: dict[str, tuple[pd.DataFrame, str]], extra: dict[str, pd.DataFrame],
                  outdir: Path) -> list[Path]:
     """Write every speed x train table as ``tables/<name>.csv`` and all of them (plus
@@ -290,7 +335,7 @@ def write_tables(tables: dict[str, tuple[pd.DataFrame, str]], extra: dict[str, p
     written = []
     for name, (frame, _) in tables.items():
         path = folder / f"{name}.csv"
-        write_csv(frame, path, float_format="%.6g")
+        write_csv(frame, path, float_format=CSV_FLOAT_FORMAT)
         checkpoint()
         written.append(path)
     xlsx = outdir / "tables.xlsx"
@@ -299,11 +344,14 @@ def write_tables(tables: dict[str, tuple[pd.DataFrame, str]], extra: dict[str, p
                               "content": [""] * len(extra)
                               + [d for _, d in tables.values()]})
         # text cells through the CSV/XLSX sanitiser: no formula, no control character
+        # and the numbers to SIGNIFICANT digits, as in the CSV files
         sheet_frame(index).to_excel(writer, sheet_name="contents", index=False)
         for name, frame in extra.items():
-            sheet_frame(frame).to_excel(writer, sheet_name=name[:31], index=False)
+            sheet_frame(significant(frame)).to_excel(writer, sheet_name=name[:31],
+                                                     index=False)
         for name, (frame, _) in tables.items():
-            sheet_frame(frame).to_excel(writer, sheet_name=name[:31], index=False)
+            sheet_frame(significant(frame)).to_excel(writer, sheet_name=name[:31],
+                                                     index=False)
         for sheet in writer.sheets.values():
             for col in sheet.columns:
                 width = max(len(str(c.value)) if c.value is not None else 0 for c in col)

@@ -28,7 +28,12 @@ from vsi_numba.analysis.report.document import (
 )
 from vsi_numba.analysis.report.echo import fmt_number, input_echo, title_block
 from vsi_numba.analysis.report.safe import clean, code, md, sheet_frame, write_csv
-from vsi_numba.analysis.report.tables import fix_xlsx_dates, reproducible_zip
+from vsi_numba.analysis.report.tables import (
+    CSV_FLOAT_FORMAT,
+    fix_xlsx_dates,
+    reproducible_zip,
+    significant,
+)
 from vsi_numba.analysis.report.text import _version, _warnings_block, stored_warnings
 
 #: Units of the columns of :func:`vsi_numba.analysis.variants.variant_table` (CSV/XLSX
@@ -106,10 +111,11 @@ def _write_variants(ds: xr.Dataset, outdir: Path, report_dir: Path, source_path=
 
     table = var.variant_table(ds)
     units_table = _with_units(ds, table)
-    write_csv(units_table, outdir / "variants.csv", float_format="%.6g")
+    write_csv(units_table, outdir / "variants.csv", float_format=CSV_FLOAT_FORMAT)
     checkpoint()
     with pd.ExcelWriter(outdir / "tables.xlsx", engine="openpyxl") as writer:
-        sheet_frame(units_table).to_excel(writer, sheet_name="variants", index=False)
+        sheet_frame(significant(units_table)).to_excel(writer, sheet_name="variants",
+                                                       index=False)
         writer.sheets["variants"].freeze_panes = "B2"
         fix_xlsx_dates(writer)
     reproducible_zip(outdir / "tables.xlsx")

@@ -166,6 +166,21 @@ def test_writes__sweep_into_the_report_directory_while_it_is_built(tmp_path, cap
     assert names(tmp_path) == ["r.nc", "ref", "rep", "study.toml"]
 
 
+def test_writes__two_reports_into_one_directory(tmp_path, capsys, during_report):
+    """A second ``vsi report -o DIR`` while the first is being built: refused (exit 2,
+    naming the first's process), not a second exit 0 whose report the first replaces."""
+    results = results_file(tmp_path / "r.nc")
+    rep = tmp_path / "rep"
+    seen = []
+    during_report(lambda: seen or seen.append(report_command(results, rep)))
+    assert report_command(results, rep) == 0
+    err = one_line(capsys.readouterr().err)
+    assert seen == [2], err
+    assert f"the directory {rep} is in use: another process is writing into it (pid " \
+           f"{os.getpid()}" in err, err
+    assert names(tmp_path) == ["r.nc", "rep"] and (rep / "report.md").is_file()
+
+
 def test_writes__a_file_dropped_into_the_report_directory_meanwhile_is_kept(tmp_path,
                                                                            during_report):
     """A program that knows nothing of the lock drops files into DIR while the report is
@@ -457,20 +472,26 @@ def full_disk(tmp_path):
                        check=False)
 
 
-@pytest.mark.parametrize("command", ["init", "schema", "sweep", "run", "signature"])
+@pytest.mark.parametrize("command", ["init", "schema", "sweep", "run", "signature", "report",
+                                     "verify"])
 def test_writes__real_full_disk_leaves_nothing(full_disk, tmp_path, command):
     """The same on a real full disk (ENOSPC from the writes themselves): no empty config
     that blocks the next ``vsi init``, no truncated schema, no ``.vsi-write-test.PID``
-    probe of ``vsi sweep`` / ``vsi run``; exit code != 0 and a message, no traceback."""
+    probe of ``vsi sweep`` / ``vsi run`` / ``vsi verify``, no part of a report; exit code
+    != 0 and a message, no traceback."""
     config = write_config(tmp_path)
     target = full_disk / {"init": "c.toml", "schema": "s.json", "sweep": "o.nc",
-                          "run": "o.nc", "signature": "sig.png"}[command]
+                          "run": "o.nc", "signature": "sig.png", "report": "rep",
+                          "verify": "manual"}[command]
     args = {"init": ["init", target], "schema": ["schema", "-o", target],
             "sweep": ["sweep", config, "-o", target, "-q"],
             "run": ["run", config, "-o", target, "-q"],
-            "signature": ["trains", "ICE3", "--signature", "--plot", target]}[command]
+            "signature": ["trains", "ICE3", "--signature", "--plot", target],
+            "report": ["report", results_file(tmp_path / "r.nc"), "-o", target],
+            "verify": ["verify", "--quick", "-o", target]}[command]
     res = invoke(*args)
     msg = one_line(res.output)
+    print(msg)
     assert res.exit_code != 0, msg
     assert "No space left on device" in msg and "Traceback" not in msg, msg
     assert not isinstance(res.exception, OSError)

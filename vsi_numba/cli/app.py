@@ -143,7 +143,8 @@ def trains(
     damping: float | None = typer.Option(None, "--damping",
                                          help="damping ratio of the signature in % "
                                               "(default: the code profile's, 1 %)"),
-    plot: Path | None = typer.Option(None, "--plot", help="draw the signature into this PNG"),
+    plot: Path | None = typer.Option(None, "--plot", help="draw the signature into this "
+                                     "file (the format from its suffix: .png, .pdf, .svg)"),
 ):
     """List the train library, or print one train's axles (or its dynamic signature)."""
     if signature or plot is not None:
@@ -159,7 +160,8 @@ def trains(
 def modes(
     config: Path = typer.Argument(..., metavar="CONFIG", help="TOML configuration file"),
     output: Path | None = typer.Option(None, "-o", "--output",
-                                       help="plot the mode shapes to this PNG"),
+                                       help="plot the mode shapes to this file (the format "
+                                            "from its suffix: .png, .pdf, .svg)"),
 ):
     """Print the bridge's retained modes (and effective masses) and plot their shapes."""
     from vsi_numba.cli.model import modes_command
@@ -192,7 +194,8 @@ def report(
 @app.command()
 def profile(
     config: Path = typer.Argument(..., metavar="CONFIG", help="TOML configuration file"),
-    plot: Path | None = typer.Option(None, "--plot", help="draw the profiles into this PNG"),
+    plot: Path | None = typer.Option(None, "--plot", help="draw the profiles into this "
+                                     "file (the format from its suffix: .png, .pdf, .svg)"),
 ):
     """Show the track irregularity profiles a configuration would use."""
     from vsi_numba.cli.model import profile_command

@@ -101,7 +101,10 @@ def report_command(results: Path, outdir: Path | None = None) -> int:
             error(f"cannot write the report: {exc}")
             return EXIT_USAGE
         except OSError as exc:
-            error(f"cannot write the report to '{outdir}': {exc}")
+            from vsi_numba.io.atomic import describe
+
+            error(f"cannot write the report to '{outdir}': {describe(exc)}; nothing was "
+                  "written (an earlier report there is kept)")
             return 1
     pr.line(f"report written to {path.with_suffix('.html')} (and {path.name}, "
             f"{'variants.csv' if path.parent.joinpath('variants.csv').is_file() else 'tables/'}"

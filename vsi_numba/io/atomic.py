@@ -58,6 +58,8 @@ KILL_ENV = "VSI_REPORT_KILL_AT"
 TMP_MARK = ".vsi-tmp-"
 OLD_MARK = ".vsi-old-"
 _checkpoints = [0]
+#: The directories beside their targets that writers of this process are using.
+_active: set[str] = set()
 
 
 class DirectoryBusyError(OSError):
@@ -159,8 +161,8 @@ def _lock_dir(path: Path, exclusive: bool) -> int | None:
             if exclusive:
                 raise DirectoryBusyError(
                     f"the directory {path} is in use: another process is writing into it"
-                    f"{_writers(path)}; wait for it to finish or choose another "
-                    "directory") from None
+                    f"{_writers(path) or _replacer(path)}; wait for it to finish or choose "
+                    "another directory") from None
             raise DirectoryBusyError(
                 f"the directory {path} is being replaced by another process"
                 f"{_replacer(path)}; wait for it to finish or write elsewhere") from None
@@ -454,7 +456,7 @@ def tidy(target, owns: Owns) -> None:
     (what ``owns`` does not claim into ``target``)."""
     target = Path(target)
     for path, kind, pid in sorted(leftovers(target), key=lambda t: t[1] != OLD_MARK):
-        if pid != os.getpid() and _pid_alive(pid):
+        if (pid != os.getpid() and _pid_alive(pid)) or str(path) in _active:
             continue  # another writer into the same place is running
         if kind == OLD_MARK and not os.path.lexists(target):
             os.rename(path, target)
@@ -577,12 +579,17 @@ def replace_directory(outdir, owns: Owns, check: Callable[[Path], None] | None =
                         f"holds files that could not be put back into {target}: move them "
                         "away, then run the command again", str(tmp))
                 tmp.mkdir()
+                busy = {str(tmp), str(target.with_name(f".{target.name}{OLD_MARK}"
+                                                       f"{os.getpid()}"))}
+                _active.update(busy)
                 try:
                     yield tmp
                     _swap(tmp, target, owns, step)
                 except BaseException:
-                    dispose(tmp, None, owns)
+                    dispose(tmp, None, _everything)  # the new directory, never swapped in
                     raise
+                finally:
+                    _active.difference_update(busy)
         except BaseException:
             if created:
                 with contextlib.suppress(OSError):

@@ -138,17 +138,18 @@ def held_or_ended(proc: subprocess.Popen, marker: Path, timeout: float = 600.0) 
 # --------------------------------------------------------------- report and sweep
 
 
+@pytest.mark.parametrize("name", ["x.nc", "sub/x.nc"])
 def test_writes__sweep_into_the_report_directory_while_it_is_built(tmp_path, capsys,
-                                                                   during_report):
+                                                                   during_report, name):
     """``vsi sweep -o DIR/x.nc`` run (and finished) while ``vsi report -o DIR`` is built:
     the sweep is refused at once (exit 2, naming DIR and the report's process), so no
     exit 0 is followed by a results file that the report's swap deletes; the report is
-    whole and nothing of the sweep is left in DIR."""
+    whole and nothing of the sweep is left in DIR (into ``DIR/sub/``: not even ``sub``)."""
     results = results_file(tmp_path / "r.nc")
     config = write_config(tmp_path)
     assert report_command(results, tmp_path / "ref") == 0  # the undisturbed report
     rep = tmp_path / "rep"
-    out = rep / "x.nc"
+    out = rep / name
     seen = {}
     during_report(lambda: seen.setdefault("sweep", invoke("sweep", config, "-o", out, "-q")))
     assert report_command(results, rep) == 0
@@ -159,7 +160,7 @@ def test_writes__sweep_into_the_report_directory_while_it_is_built(tmp_path, cap
         assert out.is_file(), f"the sweep said it wrote {out}; the report deleted it"
     assert res.exit_code == 2, msg
     assert f"the directory {rep} is being replaced by another process (pid {os.getpid()}" \
-        in msg, msg
+        in msg, msg  # a subdirectory of DIR: refused before it is made
     assert "Traceback" not in msg
     assert names(rep) == names(tmp_path / "ref")  # the report, whole, and nothing else
     assert not out.exists() and not store_path(out).exists() and not lock_path(out).exists()

@@ -28,29 +28,17 @@ def verify(
 
 def verify_command(quick: bool, output: Path) -> int:
     """``vsi verify``: returns the exit code (see the module docstring)."""
-    import contextlib
     import os
 
     from vsi_numba.io.atomic import describe
+    from vsi_numba.study.store import OutputNotWritableError, check_writable
 
     pr = Printer()
     output = Path(output)
-    # the manual is built beside its directory: prove that place writable first
-    parent = Path(os.path.abspath(output)).parent
-    probe = parent / f".vsi-write-test.{os.getpid()}"
-    try:
-        parent.mkdir(parents=True, exist_ok=True)
-        try:
-            with open(probe, "wb") as f:
-                f.write(b"x")
-                f.flush()
-                os.fsync(f.fileno())
-        finally:
-            with contextlib.suppress(OSError):
-                probe.unlink()
-    except OSError as exc:
-        pr.error(f"--output {output}: cannot write the verification manual there "
-                 f"({describe(exc)}); choose a writable directory")
+    try:  # the manual is built beside its directory: prove that place writable first
+        check_writable(Path(os.path.abspath(output)).parent, "verification manual")
+    except OutputNotWritableError as exc:
+        pr.error(f"--output {output}: {exc}")
         return EXIT_USAGE
     from vsi_numba.verification.manual import ManualDirectoryError, run_verification
 

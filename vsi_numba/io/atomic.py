@@ -292,9 +292,8 @@ def write_atomic(path, write: Callable[[Path], object], *, exclusive: bool = Fal
     """
     path = Path(path)
     parent = path.parent if str(path.parent) else Path(".")
-    if parents:
-        parent.mkdir(parents=True, exist_ok=True)
-    with DirectoryLocks(shared=parent):
+    with DirectoryLocks(shared=parent), DirectoryLocks(shared=make_parents(parent)
+                                                       if parents else parent):
         tmp = temp_path(path)
         try:
             write(tmp)
@@ -311,6 +310,14 @@ def write_atomic(path, write: Callable[[Path], object], *, exclusive: bool = Fal
             raise
         fsync_dir(parent)
     return path
+
+
+def make_parents(directory) -> Path:
+    """Create ``directory`` and the missing ones above it, and return it; call it with the
+    existing ones locked (:class:`DirectoryLocks`), so that nothing is created inside a
+    directory another process is replacing."""
+    Path(directory).mkdir(parents=True, exist_ok=True)
+    return Path(directory)
 
 
 def write_bytes_atomic(path, data: bytes, **options) -> Path:
@@ -559,9 +566,9 @@ def replace_directory(outdir, owns: Owns, check: Callable[[Path], None] | None =
     target = Path(os.path.abspath(outdir))
     if target.is_symlink():
         target = target.resolve()
-    target.parent.mkdir(parents=True, exist_ok=True)
     created = False
-    with DirectoryLocks(shared=target.parent):
+    with DirectoryLocks(shared=target.parent), \
+            DirectoryLocks(shared=make_parents(target.parent)):
         tidy(target, owns)
         if not os.path.lexists(target):
             with contextlib.suppress(FileExistsError):

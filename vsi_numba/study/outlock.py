@@ -27,7 +27,7 @@ import os
 from datetime import UTC, datetime
 from pathlib import Path
 
-from vsi_numba.io.atomic import DirectoryBusyError, DirectoryLocks
+from vsi_numba.io.atomic import DirectoryBusyError, DirectoryLocks, make_parents
 from vsi_numba.io.paths import fitting_name, name_max
 from vsi_numba.study.store import StoreBusyError
 
@@ -82,13 +82,17 @@ class OutputLock:
         except ImportError:  # pragma: no cover - Windows: no advisory lock
             return self
         parent = self.output.parent if str(self.output.parent) else Path(".")
-        with contextlib.suppress(OSError):  # else the writability check says why
-            parent.mkdir(parents=True, exist_ok=True)
-        dirs = DirectoryLocks(shared=parent)
+        # the existing directories first, then the ones made for the output
+        first, dirs = DirectoryLocks(shared=parent), DirectoryLocks(shared=parent)
         try:
+            first.acquire()
+            with contextlib.suppress(OSError):  # else the writability check says why
+                make_parents(parent)
             dirs.acquire()
         except DirectoryBusyError as exc:
             raise OutputBusyError(f"cannot write the output {self.output}: {exc}") from None
+        finally:
+            first.release()
         try:
             self._take(fcntl)
         except BaseException:

@@ -48,7 +48,14 @@ from pathlib import Path
 
 import numpy as np
 
-from vsi_numba.io.atomic import describe, write_atomic, write_bytes_atomic
+from vsi_numba.io.atomic import (
+    DirectoryBusyError,
+    DirectoryLocks,
+    describe,
+    make_parents,
+    write_atomic,
+    write_bytes_atomic,
+)
 from vsi_numba.io.atomic import fsync_dir as _fsync_dir
 from vsi_numba.io.netcdf import package_version
 from vsi_numba.io.paths import fitting_name, name_max
@@ -145,16 +152,18 @@ def check_writable(directory: Path, what: str) -> None:
     Raises :class:`OutputNotWritableError` with the reason (read-only, permissions).
     """
     probe = directory / f".vsi-write-test.{os.getpid()}"
-    try:
-        directory.mkdir(parents=True, exist_ok=True)
-        try:
-            with open(probe, "wb") as f:
-                f.write(b"x")
-                f.flush()
-                os.fsync(f.fileno())
-        finally:  # a full disk fails the write or the flush: the probe goes either way
-            with contextlib.suppress(OSError):
-                probe.unlink()
+    try:  # nothing is made inside a directory another process is replacing
+        with DirectoryLocks(shared=directory), DirectoryLocks(shared=make_parents(directory)):
+            try:
+                with open(probe, "wb") as f:
+                    f.write(b"x")
+                    f.flush()
+                    os.fsync(f.fileno())
+            finally:  # a full disk fails the write or the flush: the probe goes either way
+                with contextlib.suppress(OSError):
+                    probe.unlink()
+    except DirectoryBusyError as exc:
+        raise OutputNotWritableError(f"cannot write the {what} in {directory}: {exc}") from exc
     except OSError as exc:
         full = exc.errno in (errno.ENOSPC, errno.EDQUOT)
         raise OutputNotWritableError(

@@ -34,9 +34,10 @@ LIMIT_COLOR = "#c0392b"
 
 
 def save(fig: Figure, path: Path) -> Path:
-    """Write ``fig`` as PNG at :data:`DPI` and return the path."""
-    savefig(plot_labels(fig), path, dpi=DPI)
-    return Path(path)
+    """Write ``fig`` as PNG at :data:`DPI` (whole or not at all) and return the path."""
+    from vsi_numba.io.atomic import write_atomic
+
+    return write_atomic(path, lambda tmp: savefig(plot_labels(fig), tmp, dpi=DPI))
 
 
 def train_colors(trains) -> dict:

@@ -11,6 +11,7 @@ a study without variants, so every check of :mod:`vsi_numba.analysis.checks` app
 from __future__ import annotations
 
 import json
+import os
 
 import numpy as np
 import pandas as pd
@@ -385,9 +386,15 @@ def design_charts(ds: xr.Dataset, path, x_key: str | None = None):
 
     fig, caption = design_chart_figure(ds, x_key)
     from vsi_numba.analysis.figure_file import savefig
+    from vsi_numba.io.atomic import write_atomic
 
-    savefig(plot_labels(fig), path, dpi=110)
-    plt.close(fig)
+    try:
+        if isinstance(path, str | os.PathLike):  # a file: whole or not at all
+            write_atomic(path, lambda tmp: savefig(plot_labels(fig), tmp, dpi=110))
+        else:  # a binary file object
+            savefig(plot_labels(fig), path, dpi=110)
+    finally:
+        plt.close(fig)
     return caption
 
 

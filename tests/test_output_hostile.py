@@ -57,6 +57,8 @@ BEAM_KEYS = ("title", "train.name", "train.vehicles[0].name", "train.vehicles[1]
              "report.project", "report.checked_by", "code_profile.overrides.clause",
              "code_profile.overrides.clause (2)", "fatigue.sections[0].name",
              "fatigue.sections[1].name", "code_profile.name")
+VARIANTS_KEYS = ("title", "train.name", "study.vary_together.label[0]",
+                 "study.vary_together.label[1]")
 MODES_KEYS = ("title", "train.axles.name", "bridge.tracks[0].line", "report.client",
               "irregularity.x_column", "irregularity.r_column")
 #: A file name holds no "/" and no NUL: the axle file named by the strings that can be.
@@ -145,6 +147,33 @@ line_speed_kmh = 100.0
 """
 
 
+def _variants_config(d, s: dict) -> str:
+    """Two variants of the beam deck, named by ``vary_together``'s label."""
+    return f"""title = {_q(s['title'])}
+[bridge]
+kind = "simply_supported"
+spans = [10.0]
+EI = 5e9
+mass_per_length = 5000.0
+n_modes = 1
+output_points = [5.0]
+[train]
+name = {_q(s['train.name'])}
+[[train.vehicles]]
+kind = "force"
+load = 1e5
+[solver]
+dt = 2e-3
+free_vibration = 0.1
+approach = 1.0
+[study]
+speeds_kmh = [110.0]
+output = "out.nc"
+vary_together = [{{ label = [{_q(s['study.vary_together.label[0]'])}, {
+    _q(s['study.vary_together.label[1]'])}], "bridge.EI" = [5e9, 6e9] }}]
+"""
+
+
 def _modes_config(d, s: dict) -> str:
     """An imported deck: a modes table of one sine mode on the line of the track, and a
     moving-force train from an axle file."""
@@ -217,38 +246,51 @@ class _Html(HTMLParser):
                 self.refs.append((tag, name, value or ""))
 
 
+def _own_link(page, href: str) -> bool:
+    """An anchor, or a file of the report (the governing variant's report)."""
+    return href.startswith("#") or (
+        "://" not in href and not href.startswith(("/", "\\")) and ".." not in href
+        and (page.parent / href).is_file())
+
+
 def _check_markdown(rep):
-    text = (rep / "report.md").read_text(encoding="utf-8")
     parser = MarkdownIt("commonmark", {"html": True}).enable("table")
     parser.validateLink = lambda url: True  # as permissive as a renderer may be
-    figures = {p.name for p in rep.glob("*.png")}
-    for tok in parser.parse(text):
-        assert tok.type != "html_block", tok.content
-        for t in tok.children or []:
-            assert t.type != "html_inline", ("report.md: raw HTML", t.content)
-            if t.type == "link_open":
-                assert t.attrs["href"].startswith("#"), ("report.md: link", t.attrs)
-            elif t.type == "image":
-                assert t.attrs["src"] in figures, ("report.md: image", t.attrs)
-    assert not re.search(r"[\x00-\x08\x0b-\x1f\x7f]", text), "report.md: control character"
-    shown = re.sub(r"\\(.)", r"\1", text)
-    for part in SHOWN:
-        assert part in shown, ("report.md does not show", part)
+    pages = sorted(rep.rglob("report.md"))
+    assert pages
+    for page in pages:
+        text = page.read_text(encoding="utf-8")
+        figures = {p.name for p in page.parent.glob("*.png")}
+        for tok in parser.parse(text):
+            assert tok.type != "html_block", (page, tok.content)
+            for t in tok.children or []:
+                assert t.type != "html_inline", (page, "raw HTML", t.content)
+                if t.type == "link_open":
+                    assert _own_link(page, t.attrs["href"]), (page, "link", t.attrs)
+                elif t.type == "image":
+                    assert t.attrs["src"] in figures, (page, "image", t.attrs)
+        assert not re.search(r"[\x00-\x08\x0b-\x1f\x7f]", text), (page, "control character")
+        shown = re.sub(r"\\(.)", r"\1", text)
+        for part in SHOWN:
+            assert part in shown, (page, "does not show", part)
 
 
 def _check_html(rep):
-    page = (rep / "report.html").read_text(encoding="utf-8")
-    p = _Html()
-    p.feed(page)
-    assert p.tags.count("script") == 1, "report.html: a script besides the page's own"
-    for tag, name, value in p.refs:
-        assert not name.startswith("on"), ("report.html: event handler", tag, name, value)
-        if tag == "img":
-            assert value.startswith("data:image/png;base64,"), ("report.html", value[:80])
-        else:
-            assert name == "href" and value.startswith("#"), ("report.html", tag, name, value)
-    assert not re.search(r"[\x00-\x08\x0b-\x1f\x7f]", page), "report.html: control character"
-    assert "&lt;script&gt;alert(1)&lt;/script&gt;" in page
+    pages = sorted(rep.rglob("report.html"))
+    assert pages
+    for path in pages:
+        page = path.read_text(encoding="utf-8")
+        p = _Html()
+        p.feed(page)
+        assert p.tags.count("script") == 1, (path, "a script besides the page's own")
+        for tag, name, value in p.refs:
+            assert not name.startswith("on"), (path, "event handler", tag, name, value)
+            if tag == "img":
+                assert value.startswith("data:image/png;base64,"), (path, value[:80])
+            else:
+                assert name == "href" and _own_link(path, value), (path, tag, name, value)
+        assert not re.search(r"[\x00-\x08\x0b-\x1f\x7f]", page), (path, "control character")
+        assert "&lt;script&gt;alert(1)&lt;/script&gt;" in page
 
 
 def _is_number(text: str) -> bool:
@@ -260,7 +302,7 @@ def _is_number(text: str) -> bool:
 
 
 def _check_csv(rep, failing: bool):
-    files = [rep / "summary.csv", *sorted((rep / "tables").glob("*.csv"))]
+    files = sorted(rep.rglob("*.csv"))
     assert len(files) > 2
     for path in files:
         with open(path, newline="", encoding="utf-8") as fh:
@@ -279,20 +321,22 @@ def _check_csv(rep, failing: bool):
 
 
 def _check_xlsx(rep, failing: bool):
-    book = openpyxl.load_workbook(rep / "tables.xlsx")
+    books = sorted(rep.rglob("*.xlsx"))
+    assert books
     n_text = 0
-    for sheet in book.worksheets:
-        for row in sheet.iter_rows():
-            for c in row:
-                assert c.data_type != "f", (sheet.title, c.coordinate, c.value)
-                if c.data_type == "s":
-                    n_text += 1
-                    assert not str(c.value).startswith(FORMULA), (sheet.title, c.coordinate,
-                                                                  str(c.value)[:80])
+    for path in books:
+        for sheet in openpyxl.load_workbook(path).worksheets:
+            for row in sheet.iter_rows():
+                for c in row:
+                    assert c.data_type != "f", (path.name, sheet.title, c.coordinate, c.value)
+                    if c.data_type == "s":
+                        n_text += 1
+                        assert not str(c.value).startswith(FORMULA), (
+                            path.name, sheet.title, c.coordinate, str(c.value)[:80])
     assert n_text > 50
     if not failing:
         return
-    summary = book["summary"]
+    summary = openpyxl.load_workbook(rep / "tables.xlsx")["summary"]
     head = [c.value for c in summary[1]]
     margins = [r[head.index("margin")] for r in summary.iter_rows(min_row=2)]
     acc = next(r for r in summary.iter_rows(min_row=2)
@@ -302,7 +346,7 @@ def _check_xlsx(rep, failing: bool):
 
 
 def _check_figures(rep, drawn: _Drawn):
-    assert len(list(rep.glob("*.png"))) >= 3
+    assert len(list(rep.rglob("*.png"))) >= 3
     hostile = [(s, math) for s, math, gid in drawn.texts if "onerror" in s or "frac" in s]
     assert hostile, "no figure shows a hostile string"
     for s, math, _ in drawn.texts:
@@ -339,15 +383,18 @@ def _check_all(rep, drawn, failing: bool):
 # both decks (title, [report], the train's name: train.name at index 1 of the beam deck,
 # train.axles.name at index 1 of the imported one), gets all six; the last beam run has
 # the long strings.
+# A study of variants (its own report, variants.csv and design chart, and the governing
+# variant's report) once, its labels given the leading strings of three runs.
 @pytest.mark.parametrize("case", [
     *[("beam", 2 * k, k == 2) for k in range(3)],
     *[("modes", 2 * k + 1, False) for k in range(3)],
+    ("variants", 3, False),
 ], ids=lambda c: f"{c[0]}-{c[1]}{'-long' if c[2] else ''}")
 def test_output_hostile__every_key_into_every_format(tmp_path, monkeypatch, case):
     kind, shift, long = case
-    keys = BEAM_KEYS if kind == "beam" else MODES_KEYS
-    strings = _strings(keys, shift, long)
-    text = (_beam_config if kind == "beam" else _modes_config)(tmp_path, strings)
+    keys, config = {"beam": (BEAM_KEYS, _beam_config), "modes": (MODES_KEYS, _modes_config),
+                    "variants": (VARIANTS_KEYS, _variants_config)}[kind]
+    text = config(tmp_path, _strings(keys, shift, long))
     rep, drawn = _run(tmp_path, monkeypatch, text)
     _check_all(rep, drawn, failing=kind == "beam")
     if kind == "modes":

@@ -287,6 +287,10 @@ def write_csv(frame, path, **kwargs):
 #: in a legend) are cut and end in "…", so that they cannot squeeze the axes away.
 MAX_LABEL = 80
 
+#: Longest text tick label (characters), cut the same way: a tick label sits beside the
+#: others along its axis.
+MAX_TICK = 30
+
 #: The ``gid`` of a text of a figure that is math text written by the program (a label
 #: such as ``$b_v$``): :func:`plot_labels` leaves it as it is.
 MATH_GID = "vsi-math"
@@ -294,24 +298,42 @@ MATH_GID = "vsi-math"
 
 def plot_labels(fig):
     """``fig`` with every text shown literally, before it is saved: titles, axis labels,
-    legends, annotations and the labels of categorical ticks get their control characters
-    shown as escapes (:func:`printable`; line breaks kept), lines longer than
-    :data:`MAX_LABEL` cut, and are not parsed as math text (a ``$\\frac{$`` in a train
-    name is shown, where it would stop the drawing).  The
-    program's own math labels (``gid`` :data:`MATH_GID`) and the number tick labels (log
-    axes write ``$10^{4}$``) keep their math text.  Returns ``fig``."""
+    legends, annotations and text tick labels (``set_xticks(x, labels)``) get their
+    control characters shown as escapes (:func:`printable`; a label's line breaks kept),
+    lines longer than :data:`MAX_LABEL` (tick labels :data:`MAX_TICK`) cut with "…", and
+    are not parsed as math text (a ``$\\frac{$`` in a train name is shown, where it would
+    stop the drawing).  The program's own math labels (``gid`` :data:`MATH_GID`) and the
+    number tick labels (log axes write ``$10^{4}$``) keep their math text.  Applying it
+    twice changes nothing more.  Returns ``fig``."""
     if fig is None:
         return fig
     from matplotlib.axis import Axis
     from matplotlib.text import Text
-    from matplotlib.ticker import FixedFormatter
+    from matplotlib.ticker import FixedFormatter, Formatter, FuncFormatter
+
+    class Literal(Formatter):
+        """Tick labels given as text (``set_xticks(x, labels)``), shown literally (the
+        tick labels keep math text on for the number formatters)."""
+
+        def __init__(self, inner):
+            self.inner = inner
+
+        def __call__(self, x, pos=None):
+            text = printable(self.inner(x, pos), keep="")
+            if len(text) > MAX_TICK:
+                text = text[:MAX_TICK - 1] + "…"
+            return text.replace("$", r"\$")
+
+        def set_locs(self, locs):
+            super().set_locs(locs)
+            self.inner.set_locs(locs)
 
     def texts(artist):
         if isinstance(artist, Axis):  # its label; number ticks are left as they are
-            for fmt in (artist.get_major_formatter(), artist.get_minor_formatter()):
-                if isinstance(fmt, FixedFormatter) and not getattr(fmt, "_vsi_literal", 0):
-                    fmt.seq = [mathtext(s) for s in fmt.seq]  # tick labels keep math text
-                    fmt._vsi_literal = True
+            if isinstance(artist.get_major_formatter(), FixedFormatter | FuncFormatter):
+                artist.set_major_formatter(Literal(artist.get_major_formatter()))
+            if isinstance(artist.get_minor_formatter(), FixedFormatter | FuncFormatter):
+                artist.set_minor_formatter(Literal(artist.get_minor_formatter()))
             yield artist.label
             return
         if isinstance(artist, Text):

@@ -4,7 +4,8 @@ drawn, and the file is written whole or not at all.
 
 Every figure the package writes, here or in a report, goes through :func:`savefig`: the
 same figure gives the same bytes on every machine (no metadata, no path simplification,
-:data:`METADATA`, :data:`RC`).
+:data:`METADATA`, :data:`RC`), and text from inputs in it is drawn literally
+(:func:`vsi_numba.analysis.sanitize.plot_labels`).
 
 The format is the file name's suffix (``.png``, ``.pdf``, ``.svg``, ... as matplotlib
 writes them); a name without one, or with one matplotlib cannot write, is refused rather
@@ -34,10 +35,15 @@ RC = {"svg.hashsalt": "vsi_numba", "path.simplify": False}
 
 def savefig(fig, target, *, format: str = "png", **options):
     """``fig.savefig(target, format=format, **options)`` with :data:`METADATA` and
-    :data:`RC`: the same figure gives the same bytes.  ``target`` is a path or a binary
-    file object."""
+    :data:`RC`: the same figure gives the same bytes; every text of the figure drawn
+    literally (:func:`~vsi_numba.analysis.sanitize.plot_labels`).  ``target`` is a path
+    or a binary file object."""
     import matplotlib
     from matplotlib.lines import Line2D
+
+    from vsi_numba.analysis.sanitize import plot_labels
+
+    plot_labels(fig)  # text from inputs: no math text, no control character
 
     for line in fig.findobj(Line2D):  # paths made before the rc context: not simplified
         line.get_path().should_simplify = False
@@ -72,7 +78,6 @@ def figure_problem(path, what: str = "figure") -> str | None:
 def save_figure(fig, path, **options) -> Path:
     """Write the matplotlib figure ``fig`` to ``path`` in the format of its suffix
     (``options`` go to ``savefig``), whole or not at all; create missing directories.
-    Its texts are drawn literally (:func:`vsi_numba.analysis.sanitize.plot_labels`).
 
     Raises
     ------
@@ -81,10 +86,8 @@ def save_figure(fig, path, **options) -> Path:
     OSError
         If the file cannot be written (a full disk, permissions); nothing is left.
     """
-    from vsi_numba.analysis.sanitize import plot_labels
     from vsi_numba.io.atomic import write_atomic
 
-    plot_labels(fig)  # text from inputs drawn literally
     problem = figure_problem(path)
     if problem is not None:
         raise ValueError(problem)

@@ -24,7 +24,7 @@ from matplotlib.transforms import blended_transform_factory
 from vsi_numba.analysis.checks import profile_of, resonance_speeds
 from vsi_numba.analysis.dataset import bridge_frequencies, prepare
 from vsi_numba.analysis.figure_file import savefig
-from vsi_numba.analysis.sanitize import MATH_GID, plot_labels
+from vsi_numba.analysis.sanitize import MATH_GID
 from vsi_numba.en1990 import comfort_levels
 
 WIDTH = 6.5  # in, text width of an A4 report
@@ -37,7 +37,7 @@ def save(fig: Figure, path: Path) -> Path:
     """Write ``fig`` as PNG at :data:`DPI` (whole or not at all) and return the path."""
     from vsi_numba.io.atomic import write_atomic
 
-    return write_atomic(path, lambda tmp: savefig(plot_labels(fig), tmp, dpi=DPI))
+    return write_atomic(path, lambda tmp: savefig(fig, tmp, dpi=DPI))
 
 
 def train_colors(trains) -> dict:

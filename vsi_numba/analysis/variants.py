@@ -20,7 +20,7 @@ import xarray as xr
 from vsi_numba.analysis import checks as chk
 from vsi_numba.analysis.dataset import ResultsError, track_type
 from vsi_numba.analysis.report.text import NOT_RELIABLE, stored_warnings
-from vsi_numba.analysis.sanitize import markdown_document, plot_labels, write_csv
+from vsi_numba.analysis.sanitize import markdown_document, write_csv
 from vsi_numba.en1990 import deck_acceleration_limits
 
 #: Per-variant variables that become attributes of a variant's view.
@@ -390,9 +390,9 @@ def design_charts(ds: xr.Dataset, path, x_key: str | None = None):
 
     try:
         if isinstance(path, str | os.PathLike):  # a file: whole or not at all
-            write_atomic(path, lambda tmp: savefig(plot_labels(fig), tmp, dpi=110))
+            write_atomic(path, lambda tmp: savefig(fig, tmp, dpi=110))
         else:  # a binary file object
-            savefig(plot_labels(fig), path, dpi=110)
+            savefig(fig, path, dpi=110)
     finally:
         plt.close(fig)
     return caption

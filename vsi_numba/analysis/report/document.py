@@ -33,7 +33,7 @@ import pandas as pd
 
 from vsi_numba.analysis.figure_file import savefig
 from vsi_numba.analysis.report.atomic import checkpoint
-from vsi_numba.analysis.report.safe import clean, local_link, markdown_document, md, plot_labels
+from vsi_numba.analysis.report.safe import clean, local_link, markdown_document, md
 
 #: Resolution of the embedded and written PNGs (dots per inch).
 DPI = 150
@@ -94,7 +94,7 @@ class Figure:
                 self._png = bytes(self.figure)
             else:
                 buf = io.BytesIO()
-                savefig(plot_labels(self.figure), buf, format="png", dpi=DPI)
+                savefig(self.figure, buf, format="png", dpi=DPI)
                 self._png = buf.getvalue()
                 self.figure = None  # let matplotlib free it
         return self._png

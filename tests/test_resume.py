@@ -345,3 +345,41 @@ def test_store__final_write_reads_batches_of_this_process_from_memory(tmp_path):
         np.testing.assert_array_equal(store.load("t000_i001_s0000-0002")["hist_runs"], [0])
     finally:
         store.close()
+
+
+def test_rerun__a_written_study_is_not_recomputed_unless_fresh_or_changed(tmp_path,
+                                                                          monkeypatch):
+    """The same ``vsi sweep`` on a study it wrote leaves the file as it is and says so
+    (the governing results still printed); ``--fresh`` recomputes it, and so does a
+    change the configuration's text does not show (the trains file it names) or another
+    version of the code."""
+    config = write_study(tmp_path, speeds=SPEEDS[:2], seeds=(1,), one_train=True)
+    out = tmp_path / "study.nc"
+
+    def sweep(*extra):
+        done = vsi("sweep", config, "-o", out, *extra)
+        assert done.returncode == 0, done.stderr
+        with open_results(out) as ds:
+            return done, ds.attrs["history"]
+
+    first, history = sweep()
+    assert "2 to run" in first.stderr
+    data = out.read_bytes()
+    again, same = sweep()
+    assert "nothing recomputed (--fresh recomputes them)" in again.stderr
+    assert "to run" not in again.stderr and same == history and out.read_bytes() == data
+    assert again.stdout == first.stdout and "governing results" in again.stdout
+    fresh, new = sweep("--fresh")
+    assert "2 to run" in fresh.stderr and new != history
+    # the trains file changes, the configuration's text does not: recomputed
+    trains = tmp_path / "trains.toml"
+    trains.write_text(trains.read_text().replace("body_mass = 30000.0", "body_mass = 31000.0"))
+    changed, _ = sweep()
+    assert "2 to run" in changed.stderr
+    # another version of the code (its sources' hash): recomputed
+    import vsi_numba._jit as jit
+
+    monkeypatch.setattr(jit, "package_hash", lambda directory: "0" * 64)
+    other, _ = sweep()
+    assert "2 to run" in other.stderr
+    assert "nothing recomputed" in sweep()[0].stderr

@@ -68,7 +68,9 @@ def sweep(
                                help="no progress bar, summary lines or config warnings "
                                     "(errors and the governing results are still printed)"),
     fresh: bool = typer.Option(
-        False, "--fresh", help="discard finished cases stored by an earlier run and start over"
+        False, "--fresh", help="discard finished cases stored by an earlier run and start "
+        "over; recompute a results file this study wrote (unchanged configuration, model "
+        "and code), which is otherwise left as it is"
     ),
     report_dir: Path | None = typer.Option(
         None, "--report", help="then write the report of the results into this directory"

@@ -330,7 +330,10 @@ def run_study(
     output : path, optional
         netCDF file to write (default: ``study.output`` of the configuration).  Finished
         batches are kept in ``<output>.cases/`` until the file is written; running the
-        same study again resumes from there.
+        same study again resumes from there.  A file this very study wrote (the same
+        configuration, model, plan and code: its ``config_sha256``, ``model_sha256``,
+        ``plan_sha256`` and ``engine_sha256`` attributes) is left as it is: nothing is
+        recomputed unless ``fresh``.
     workers : int, optional
         With no ``backend``: a Dask ``LocalCluster`` of this many workers (threads of
         this process: the kernels release the GIL).  With ``backend="threads"`` or
@@ -345,7 +348,7 @@ def run_study(
         batch is left or a single core is available).
     fresh : bool
         Discard the store of a previous run of this output, even if it belongs to another
-        configuration.
+        configuration, and recompute a results file this study wrote.
     keep_cases : bool
         Keep the store after the file is written.
     quiet : bool
@@ -445,8 +448,16 @@ def _execute_locked(cfg, spec, output, workers, scheduler, progress, backend, fr
     store_existed = spath.exists()
     model_sha = (model_fingerprint(model) if not variants else hashlib.sha256(
         "".join(model_fingerprint(m) for m in models).encode()).hexdigest())
+    plan_sha = plan_fingerprint(plan)
+    if not fresh and not store_existed:
+        n_failed = _finished_earlier(output, sha, model_sha, plan_sha)
+        if n_failed is not None:  # the same study, written: nothing to recompute
+            n_runs = len(grid.cases) * len(models)
+            _say(quiet, f"{n_runs} runs: {output} holds them, written for this configuration, "
+                        "model and code; nothing recomputed (--fresh recomputes them)")
+            return StudyOutcome(output, n_runs, n_failed, len(plan))
     store = CaseStore(spath, sha, config_json, fresh=fresh,
-                      model_sha256=model_sha, plan_sha256=plan_fingerprint(plan))
+                      model_sha256=model_sha, plan_sha256=plan_sha)
     study = _Study(cfg, specs, models, grid, plan, [lab for lab, _ in variants] or None,
                    config_json, sha, command)
     try:
@@ -458,6 +469,40 @@ def _execute_locked(cfg, spec, output, workers, scheduler, progress, backend, fr
         if not store_existed and store.path.is_dir() and not store.done():
             store.remove()
         raise
+
+
+def _identity(model_sha: str, plan_sha: str) -> dict[str, str]:
+    """The attributes that tie a results file to the study that wrote it: the model's
+    and the plan's fingerprints (:func:`model_fingerprint`, :func:`plan_fingerprint`)
+    and the hash of the package's sources (``engine_sha256``: an edit of the code or
+    another version makes the file a different study's)."""
+    from vsi_numba._jit import package_hash
+
+    return {"model_sha256": model_sha, "plan_sha256": plan_sha,
+            "engine_sha256": package_hash(Path(__file__).resolve().parents[1])}
+
+
+def _finished_earlier(output: Path, sha: str, model_sha: str, plan_sha: str) -> int | None:
+    """The failed-run count of ``output`` when it is the results file of this very study
+    (the configuration's hash, the model's and the plan's fingerprints and the code's hash
+    all equal the file's, see :func:`_identity`), else None (no file, another study's,
+    one written before these attributes, or a file that cannot be read)."""
+    if not output.is_file():
+        return None
+    try:
+        import netCDF4
+
+        with netCDF4.Dataset(output) as nc:
+            attrs = {k: nc.getncattr(k) for k in nc.ncattrs()}
+    except (OSError, RuntimeError, ValueError):
+        return None
+    want = {"config_sha256": sha, **_identity(model_sha, plan_sha)}
+    if any(str(attrs.get(k, "")) != v for k, v in want.items()):
+        return None
+    try:
+        return int(attrs.get("n_failed_cases", 0))
+    except (TypeError, ValueError):
+        return None
 
 
 def _execute(store, study: _Study, output, backend, workers, scheduler, progress,
@@ -580,6 +625,8 @@ def _write_results(output: Path, store: CaseStore, study: _Study,
                     "this model computes; this is a defect of vsi_numba (the finished runs "
                     "are kept), please report it with the configuration")
             attrs["not_computed"] = not_computed_attr(omit)
+            # what a re-run compares to leave a file of the same study as it is
+            attrs.update(_identity(store.model_sha256, store.plan_sha256))
             f.close(attrs)
             if "fatigue" in study.config.resolved():  # the traffic's runs, counted
                 from vsi_numba.study import fatigue

@@ -138,8 +138,12 @@ def wait_until_held(proc: subprocess.Popen, output: Path, timeout=600.0) -> None
 
 
 def without_history_line(ds: xr.Dataset) -> xr.Dataset:
+    """``ds`` without the attributes of the run rather than of its results: the command
+    line and time (``history``) and the directory the configuration was read from
+    (``config_directory``: the reference study's config is in a directory of its own)."""
     ds = ds.copy()
     ds.attrs.pop("history")
+    ds.attrs.pop("config_directory", None)
     return ds
 
 

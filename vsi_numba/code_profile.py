@@ -41,6 +41,48 @@ RECALLED_MEANING = ("recalled from the standard and not re-read against the prim
 
 
 @dataclass(frozen=True)
+class Limits:
+    """The values an entry may take (an override outside them is refused): strict or
+    inclusive bounds, None for none.  The keys of a configuration that stand for an
+    entry (``fatigue.sections[].gamma_Mf`` for ``fatigue_gamma_Mf``) share them
+    (:func:`limits_of`)."""
+
+    gt: float | None = 0.0
+    ge: float | None = None
+    lt: float | None = None
+    le: float | None = None
+
+    def as_dict(self) -> dict:
+        """``{gt, ge, lt, le}`` (the keywords of a declared number)."""
+        return {"gt": self.gt, "ge": self.ge, "lt": self.lt, "le": self.le}
+
+    def __contains__(self, x) -> bool:
+        return not ((self.gt is not None and not x > self.gt)
+                    or (self.ge is not None and not x >= self.ge)
+                    or (self.lt is not None and not x < self.lt)
+                    or (self.le is not None and not x <= self.le))
+
+    def text(self, unit: str = "") -> str:
+        """The bounds in words: "> 0", ">= 1 and <= 10"."""
+        parts = [f"{op} {v:g}" for op, v in ((">", self.gt), (">=", self.ge),
+                                              ("<", self.lt), ("<=", self.le))
+                 if v is not None]
+        return " and ".join(parts) + (f" {unit}" if unit and parts else "")
+
+
+#: The limits of most entries: a positive number.
+POSITIVE = Limits()
+#: A fraction of something (a ratio strictly between 0 and 1).
+FRACTION = Limits(gt=0.0, lt=1.0)
+#: A partial factor (EN 1990 6.3: never below 1; 10 is no factor of a standard).
+PARTIAL_FACTOR = Limits(gt=None, ge=1.0, le=10.0)
+#: A dynamic factor or an upper bound of one (never below 1).
+AT_LEAST_ONE = Limits(gt=None, ge=1.0)
+#: A percentage of critical damping (Table 6.6), below 100 %.
+PERCENT = Limits(gt=0.0, lt=100.0)
+
+
+@dataclass(frozen=True)
 class Entry:
     """One clause value of the code profile.
 
@@ -64,6 +106,8 @@ class Entry:
         A whole number (counts).
     note : str
         For a fixed entry, what to set instead.
+    limits : Limits
+        The values it may take (an override outside them is refused).
     overridden : bool
         Set by the configuration.
     default : float
@@ -81,6 +125,7 @@ class Entry:
     applies: str = "checks"
     integer: bool = False
     note: str = ""
+    limits: Limits = POSITIVE
     overridden: bool = False
     default: float = math.nan
     default_clause: str = ""
@@ -155,25 +200,25 @@ TABLE: tuple[Entry, ...] = (
           "Fig. A2.3 is valid for spans up to this length (longer: special analysis)"),
     # ------------------------------------------------------------------ wheel unloading
     Entry("wheel_unloading_limit", 0.6, "1", "EN 14363 / UIC practice",
-          "admissible wheel unloading dQ/Q0"),
+          "admissible wheel unloading dQ/Q0", limits=Limits(gt=0.0, le=1.0)),
     # ------------------------------------------------------------------ EN 1991-2 damping
     Entry("damping_steel_composite", 0.5, "%", _T66,
           "lower-bound damping, steel and composite decks, L >= 20 m (L of every Table "
           "6.6 entry and of the additional damping: the span of a simply supported deck, "
           "the mean span of a continuous deck [R], DAMPING_SPAN_RULE)", recalled=False,
-          applies="input"),
+          applies="input", limits=PERCENT),
     Entry("damping_steel_composite_slope", 0.125, "% per m", _T66,
           "increase per metre below L = 20 m, steel and composite", recalled=False,
           applies="input"),
     Entry("damping_prestressed_concrete", 1.0, "%", _T66,
           "lower-bound damping, prestressed concrete, L >= 20 m", recalled=False,
-          applies="input"),
+          applies="input", limits=PERCENT),
     Entry("damping_prestressed_concrete_slope", 0.07, "% per m", _T66,
           "increase per metre below L = 20 m, prestressed concrete", recalled=False,
           applies="input"),
     Entry("damping_filler_beam_reinforced_concrete", 1.5, "%", _T66,
           "lower-bound damping, filler beam and reinforced concrete, L >= 20 m",
-          recalled=False, applies="input"),
+          recalled=False, applies="input", limits=PERCENT),
     Entry("damping_filler_beam_reinforced_concrete_slope", 0.07, "% per m", _T66,
           "increase per metre below L = 20 m, filler beam and reinforced concrete",
           recalled=False, applies="input"),
@@ -182,21 +227,21 @@ TABLE: tuple[Entry, ...] = (
           applies="input"),
     # -------------------------------------------------------- L_Phi, Phi_2 / Phi_3, phi''
     Entry("determinant_length_k2", 1.2, "1", _T62,
-          "L_Phi = k L_m of a continuous deck of 2 spans"),
+          "L_Phi = k L_m of a continuous deck of 2 spans", limits=AT_LEAST_ONE),
     Entry("determinant_length_k3", 1.3, "1", _T62,
-          "L_Phi = k L_m of a continuous deck of 3 spans"),
+          "L_Phi = k L_m of a continuous deck of 3 spans", limits=AT_LEAST_ONE),
     Entry("determinant_length_k4", 1.4, "1", _T62,
-          "L_Phi = k L_m of a continuous deck of 4 spans"),
+          "L_Phi = k L_m of a continuous deck of 4 spans", limits=AT_LEAST_ONE),
     Entry("determinant_length_k5", 1.5, "1", _T62,
-          "L_Phi = k L_m of a continuous deck of 5 or more spans"),
+          "L_Phi = k L_m of a continuous deck of 5 or more spans", limits=AT_LEAST_ONE),
     Entry("phi2_a", 1.44, "m^0.5", _PHI,
           "Phi_2 = a / (sqrt(L_Phi) - 0.2) + b (carefully maintained track): a"),
     Entry("phi2_b", 0.82, "1", _PHI, "Phi_2: b"),
-    Entry("phi2_max", 1.67, "1", _PHI, "Phi_2 upper bound (lower bound 1.00)"),
+    Entry("phi2_max", 1.67, "1", _PHI, "Phi_2 upper bound (lower bound 1.00)", limits=AT_LEAST_ONE),
     Entry("phi3_a", 2.16, "m^0.5", _PHI,
           "Phi_3 = a / (sqrt(L_Phi) - 0.2) + b (standard maintenance): a"),
     Entry("phi3_b", 0.73, "1", _PHI, "Phi_3: b"),
-    Entry("phi3_max", 2.00, "1", _PHI, "Phi_3 upper bound (lower bound 1.00)"),
+    Entry("phi3_max", 2.00, "1", _PHI, "Phi_3 upper bound (lower bound 1.00)", limits=AT_LEAST_ONE),
     Entry("irregularity_allowance_speed", 22.0, "m s-1", _ANNEX_C,
           "phi'' = a [c1 exp(-(L/10)^2) + c2 (n0 L / 80 - 1) exp(-(L/20)^2)], "
           "a = min(v / this speed, 1)"),
@@ -210,21 +255,22 @@ TABLE: tuple[Entry, ...] = (
           "LM71: distributed load q_vk outside the zone, where unfavourable"),
     Entry("lm71_factor_several_tracks", 1.0, "1", "EN 1991-2 6.8.1, Table 6.11",
           "LM71 (x alpha) on each loaded track when several tracks are loaded (the study's "
-          "trains on other tracks, train.other_trains): full value on two tracks"),
+          "trains on other tracks, train.other_trains): full value on two tracks",
+          limits=Limits(gt=0.0, le=1.0)),
     Entry("classification_factor_min", 0.75, "1", "EN 1991-2 6.3.2(3)",
           "smallest load classification factor alpha (study.classification_factor)",
-          applies="input"),
+          applies="input", limits=Limits(gt=0.0, le=2.0)),
     Entry("classification_factor_max", 1.46, "1", "EN 1991-2 6.3.2(3)",
           "largest load classification factor alpha (study.classification_factor)",
-          applies="input"),
+          applies="input", limits=Limits(gt=0.0, le=2.0)),
     # ---------------------------------------------------------------- HSLM applicability
     Entry("hslm_b_max_span", 7.0, "m", _HSLM,
           "HSLM-B for simply supported spans below this; HSLM-A at and above it and for "
           "continuous decks", applies="input"),
     Entry("hslm_b_N_min", 10, "1", _FIG613, "HSLM-B: fewest point forces N", applies="input",
-          integer=True),
+          integer=True, limits=Limits(gt=None, ge=1)),
     Entry("hslm_b_N_max", 20, "1", _FIG613, "HSLM-B: most point forces N", applies="input",
-          integer=True),
+          integer=True, limits=Limits(gt=None, ge=1)),
     Entry("hslm_b_d_min", 2.5, "m", _FIG613, "HSLM-B: smallest spacing d", applies="input"),
     Entry("hslm_b_d_max", 3.5, "m", _FIG613, "HSLM-B: largest spacing d", applies="input"),
     Entry("hslm_b_load", 170e3, "N", _FIG613, "HSLM-B: each point force", applies="fixed",
@@ -236,15 +282,18 @@ TABLE: tuple[Entry, ...] = (
     Entry("signature_wavelength_max", 20.0, "m", _SIGNATURE,
           "longest wavelength of the comparison with the HSLM-A envelope"),
     Entry("signature_damping", 0.01, "1", _SIGNATURE,
-          "damping ratio of the signatures when none is given (vsi trains --signature)"),
+          "damping ratio of the signatures when none is given (vsi trains --signature)",
+          limits=FRACTION),
     Entry("signature_ratio_limit", 1.0, "1", _SIGNATURE,
           "a train is covered by HSLM-A when its DER signature stays below this times "
-          "the HSLM-A envelope at every wavelength of the range"),
+          "the HSLM-A envelope at every wavelength of the range", limits=POSITIVE),
     # ------------------------------------------------------------- fatigue (steel)
     Entry("fatigue_slope_m1", 3.0, "1", _SN,
-          "slope m of the S-N curve up to the constant-amplitude fatigue limit"),
+          "slope m of the S-N curve up to the constant-amplitude fatigue limit",
+          limits=Limits(gt=None, ge=1.0, le=20.0)),
     Entry("fatigue_slope_m2", 5.0, "1", _SN,
-          "slope m between the constant-amplitude fatigue limit and the cut-off limit"),
+          "slope m between the constant-amplitude fatigue limit and the cut-off limit",
+          limits=Limits(gt=None, ge=1.0, le=20.0)),
     Entry("fatigue_reference_cycles", 2e6, "1", _SN,
           "N_C: cycles of the detail category Delta sigma_C"),
     Entry("fatigue_constant_amplitude_cycles", 5e6, "1", _SN,
@@ -253,10 +302,10 @@ TABLE: tuple[Entry, ...] = (
           "N_L: cycles of the cut-off limit Delta sigma_L (smaller ranges do no damage)"),
     Entry("fatigue_gamma_Ff", 1.0, "1", "EN 1993-2 9.3(1)",
           "partial factor of the fatigue loads gamma_Ff (default of "
-          "fatigue.sections.gamma_Ff)", applies="input"),
+          "fatigue.sections.gamma_Ff)", applies="input", limits=PARTIAL_FACTOR),
     Entry("fatigue_gamma_Mf", 1.35, "1", "EN 1993-1-9 3(7), Table 3.1",
           "partial factor of the fatigue strength gamma_Mf (safe life, high consequence; "
-          "default of fatigue.sections.gamma_Mf)", applies="input"),
+          "default of fatigue.sections.gamma_Mf)", applies="input", limits=PARTIAL_FACTOR),
     Entry("fatigue_lambda_1", 0.65, "1", _LAMBDA + ", Table 9.3",
           "lambda_1 (span and traffic mix): about 0.65 for a 20 m simply supported span "
           "under the standard mix; read Table 9.3 for the span and override"),
@@ -266,20 +315,31 @@ TABLE: tuple[Entry, ...] = (
     Entry("fatigue_lambda_4", 1.0, "1", _LAMBDA + "(7)",
           "lambda_4: more than one track loaded (1.0 for a single track)"),
     Entry("fatigue_lambda_max", 1.4, "1", _LAMBDA + "(2)",
-          "upper bound lambda_max of lambda = lambda_1 lambda_2 lambda_3 lambda_4"),
+          "upper bound lambda_max of lambda = lambda_1 lambda_2 lambda_3 lambda_4",
+          limits=AT_LEAST_ONE),
     Entry("fatigue_lambda_volume", 25e6, "t", _LAMBDA + "(5)",
           "lambda_2 = (traffic per track / this volume per year)^(1/5)"),
     Entry("compatibility_speed_factor", 1.1, "1",
           "TSI INF 4.2.8.1.3 / IG02042 practice; EN 1991-2 6.4.6.2",
           "a real train on an existing bridge is checked up to this times the line speed "
-          "(new designs: 1.2 x the line speed, EN 1991-2 6.4.6.2(1))", applies="input"),
+          "(new designs: 1.2 x the line speed, EN 1991-2 6.4.6.2(1))", applies="input",
+          limits=Limits(gt=None, ge=1.0, le=2.0)),
     Entry("fatigue_free_vibration_decay", 0.01, "1", "EN 1991-2 6.4.6.6(2)",
           "free vibration after each train is simulated until its amplitude has decayed "
-          "to this fraction of the amplitude at the exit of the last axle"),
+          "to this fraction of the amplitude at the exit of the last axle", limits=FRACTION),
 )
 
 #: Keys of :data:`TABLE`, in table order.
 KEYS = tuple(e.key for e in TABLE)
+
+
+def limits_of(key: str) -> Limits:
+    """The limits of entry ``key`` (those of the keys of a configuration that stand for
+    it, e.g. ``fatigue.sections[].gamma_Mf`` for ``fatigue_gamma_Mf``)."""
+    for e in TABLE:
+        if e.key == key:
+            return e.limits
+    raise KeyError(f"code profile has no entry {key!r}")
 #: Pairs (lower, upper) of entries that must stay ordered.
 ORDERED = (
     ("comfort_very_good", "comfort_good"),

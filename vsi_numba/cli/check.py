@@ -51,6 +51,21 @@ KERNEL_FACTOR = 1.3
 #: Kernel seconds per moving load (axle) and time step (a 2,000-axle list: 150,876 steps
 #: in ~0.9 s of CPU, measured under load).
 MOVING_LOAD_SECONDS = 3e-9
+#: Kernel seconds per mode, time step and deck row beyond the output points (the
+#: per-track and twist rows of a deck in space, reduced every step for displacement and
+#: acceleration): 0.24 ns, measured on configs/double_track_viaduct.toml with one track
+#: loaded (3.8 us per step against 1.4 us without the rows).
+SPACE_ROW_SECONDS = 0.24e-9
+#: Runs with trains on other tracks (``train.other_trains``) sum the trains' histories
+#: and reduce them again in numpy (:mod:`vsi_numba.solver.superpose`): seconds per time
+#: step, mode and deck row (displacement, acceleration and whole-deck grid rows) ...
+SUPERPOSE_ROW_SECONDS = 0.8e-9
+#: ... and per time step, train, axle and load-effect section (the static part of each
+#: train's load-effect histories).  Both set on configs/double_track_viaduct.toml (two
+#: trains meeting, 12 modes, 822 deck rows, 97 grid points and sections, 50 axles):
+#: ``vsi sweep`` measured 19.4 s of CPU (13.8 s with study.load_effects = false) under
+#: load, estimated 23.8 s (17.8 s); the constants of the plan alone gave 5.1 s.
+SUPERPOSE_EFFECT_SECONDS = 0.7e-9
 #: Seconds per MB of results written (netCDF, compression of the histories).
 WRITE_SECONDS_PER_MB = 0.05
 #: Resident memory of a sweep without its batches (MB): Python, numpy, numba, xarray,
@@ -141,6 +156,7 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
     first_model = None
     specs, models = [], []
     plan, steps, hist_runs, raw_hist, hist_written, load_seconds = [], 0, 0, 0.0, 0.0, 0.0
+    transient = 0.0
     grid = None
     for k, c in enumerate(vcfgs):
         spec = study_spec(c)
@@ -156,7 +172,12 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
         packed = _packed_trains(spec, model)
         speeds = np.asarray(grid.speeds_kmh, float) / 3.6
         n_i = len(grid.irregularities)
+        n_trains = 1 + len(getattr(c, "other_trains", []) or [])
+        rows = _deck_rows(model)
         for p in packed:
+            per_step = _extra_step_seconds(p, rows, n_trains)
+            transient = max(transient, _superpose_bytes(p, rows, n_trains,
+                                                        p.n_steps(speeds.min())))
             for i_s, v in enumerate(speeds):
                 n = p.n_steps(v)
                 steps += n * n_i
@@ -164,6 +185,9 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
                 # step cost, calibrated on trains of up to ~50 axles, leaves out the rest
                 load_seconds += (MOVING_LOAD_SECONDS * max(p.load_positions.size - 50, 0)
                                  * n * n_i)
+                # the deck-in-space rows and the superposition of other trains, which
+                # the batch plan's step cost leaves out
+                load_seconds += per_step * n * n_i
                 if grid.history_speeds[i_s]:
                     hist_runs += n_i
                     # the values a history run writes (its own train's wheels and
@@ -174,9 +198,11 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
                         model.output_points.size, p.vehicles.wheel_dof.size,
                         p.vehicles.body_dof.size,
                         np.asarray(model.bridge.supports).size)
+        # the raw histories a batch keeps: those asked for, and with trains on other
+        # tracks every run's of every train (they are summed after the kernels)
         raw_hist = max([raw_hist] + [sum(history_bytes(packed[b.i_train], int(
-            packed[b.i_train].n_steps(speeds[s]))) for s, h in zip(b.speeds, b.histories,
-                                                                     strict=True) if h)
+            packed[b.i_train].n_steps(speeds[s]))) * n_trains for s, h in zip(
+                b.speeds, b.histories, strict=True) if h or n_trains > 1)
             for b in batches])
     n_s, n_t, n_i = grid.shape
     n_runs = n_s * n_t * n_i * len(vcfgs)
@@ -199,7 +225,8 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
     kernel = KERNEL_FACTOR * (sum(b.cost for b in plan) + load_seconds)
     fixed = STARTUP_SECONDS + WRITE_SECONDS_PER_MB * disk / _MB
     seconds, cpu_seconds = fixed + kernel / n_workers, fixed + kernel
-    memory = BASE_MEMORY_MB * _MB + 2 * n_workers * raw_hist
+    # (the superposition's temporaries are short-lived: one worker's at a time)
+    memory = BASE_MEMORY_MB * _MB + 2 * n_workers * raw_hist + transient
     return StudyEstimate(
         n_variants=len(vcfgs), n_speeds=n_s, n_trains=n_t, n_realisations=n_i,
         n_runs=n_runs, n_batches=len(plan), n_history_runs=hist_runs, n_steps=int(steps),
@@ -211,6 +238,43 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
         additional_damping=float(getattr(first_model.config, "additional_damping", 0.0)
                                  or 0.0),
         speeds_kmh=tuple(float(v) for v in grid.speeds_kmh))
+
+
+def _deck_rows(model) -> tuple[int, int, int, int]:
+    """(output points, deck rows reduced every step (displacement and acceleration),
+    whole-deck grid points, load-effect sections) of a study model."""
+    deck = model.deck
+    n_p = int(np.asarray(model.output_points).size)
+    n_rows = int(np.shape(deck[0])[0] + np.shape(deck[1])[0])
+    n_grid = int(np.size(deck[3])) if len(deck) > 3 else 0
+    eff = deck[5] if len(deck) > 5 else None
+    n_sec = int(np.size(eff.sections)) if eff is not None else 0
+    return n_p, n_rows, n_grid, n_sec
+
+
+def _extra_step_seconds(packed, rows, n_trains: int) -> float:
+    """Kernel and numpy seconds per time step of a run that the batch plan's step cost
+    leaves out: the deck-in-space rows (:data:`SPACE_ROW_SECONDS`, each train's kernel)
+    and, with trains on other tracks, the superposition (:data:`SUPERPOSE_ROW_SECONDS`,
+    :data:`SUPERPOSE_EFFECT_SECONDS`)."""
+    n_p, n_rows, n_grid, n_sec = rows
+    n_m = int(packed.bridge.omega.size)
+    out = SPACE_ROW_SECONDS * n_m * max(n_rows - 2 * n_p, 0) * n_trains
+    if n_trains > 1:
+        out += SUPERPOSE_ROW_SECONDS * n_m * (n_rows + n_grid)
+        out += SUPERPOSE_EFFECT_SECONDS * n_trains * int(packed.load_positions.size) * n_sec
+    return out
+
+
+def _superpose_bytes(packed, rows, n_trains: int, n_steps: int) -> float:
+    """Peak temporaries (bytes) of the superposition of a run's trains: the summed
+    response at every deck row and its absolute value over the run's steps (float64;
+    measured: 596 MB peak RSS for configs/double_track_viaduct.toml without load
+    effects, 689 MB with them; estimated 632 MB); 0 for one train per run."""
+    if n_trains <= 1:
+        return 0.0
+    _, n_rows, n_grid, _ = rows
+    return 8.0 * (n_steps + 1) * 2 * (n_rows + n_grid)
 
 
 def _size(n_bytes: float) -> str:

@@ -119,6 +119,9 @@ class _Checker:
         self.errors: list[str] = []
         self.warnings: list[str] = []
         self.records: list[dict] = []  # one per warning: message, kind, keys
+        #: values outside the plausible range of their key (refused unless
+        #: solver.allow_implausible: :func:`vsi_numba.config.physics._refuse`)
+        self.implausible: list[str] = []
 
     # -- reporting
     def error(self, path: str, value, expected: str) -> _Sentinel:
@@ -203,7 +206,12 @@ class _Checker:
         declaration per key) is reported missing.  Returns key -> value or ``_BAD``."""
         from pydantic import ValidationError
 
-        from vsi_numba.config.schema._fields import adapter, choices_of, expected_of
+        from vsi_numba.config.schema._fields import (
+            adapter,
+            choices_of,
+            expected_of,
+            implausible,
+        )
 
         out = {}
         for key in (keys if keys is not None else model.model_fields):
@@ -223,6 +231,7 @@ class _Checker:
             v = tbl[key]
             try:
                 out[key] = adapter(model, key).validate_python(v)
+                self.implausible += implausible(model, key, p, out[key])
             except ValidationError:
                 hint = ""
                 if choices is not None and isinstance(v, str):

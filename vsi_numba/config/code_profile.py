@@ -78,9 +78,11 @@ def _code_profile_section(chk, d):
             raw_value = raw
         unit = "" if e.unit == "1" else f" {e.unit}"
         kind = "a whole number" if e.integer else "a number"
+        lim = e.limits  # the bounds of the entry (and of the keys that stand for it)
         value = chk.number(raw_value, vp, _Num(
-            f"{kind} > 0{unit} ({e.description}; recommended {e.value:g}{unit}, {e.clause}), "
-            "or a table {value = ..., clause = \"...\"}", gt=0, integer=e.integer))
+            f"{kind} {lim.text()}{unit} ({e.description}; recommended {e.value:g}{unit}, "
+            f"{e.clause}), or a table {{value = ..., clause = \"...\"}}", integer=e.integer,
+            **lim.as_dict()))
         if value is _BAD or clause is _BAD:
             continue
         values[key] = value

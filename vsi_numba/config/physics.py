@@ -802,11 +802,15 @@ def _plausibility(chk, bridge, train, irr, solver, study, contact):
     # the last axle's distance behind the train's reference (the first vehicle's offset
     # included): the run lasts until it leaves the bridge
     length = max(train_extent(t) for t in trains)
+    others = train.resolved.get("other_trains") or []
+    # with trains on other tracks the run lasts until the last of them has left the deck
+    later = max((float(o["offset"]) for o in others), default=0.0)
     vmin = min(study["speeds_kmh"]) / 3.6
-    steps = ((solver["approach"] + model.length + length) / vmin
+    steps = ((solver["approach"] + model.length + length + later) / vmin
              + solver["free_vibration"]) / dt
     keys = ("solver.dt, study.speeds_kmh (slowest), solver.free_vibration, "
-            "solver.approach, the train length (vehicle offsets)")
+            "solver.approach, the train length (vehicle offsets)"
+            + (", train.other_trains[].offset" if others else ""))
     if not steps <= HARD_MAX_STEPS:
         chk.errors.append(f"the slowest run needs {steps:.3g} time steps, more than the hard "
                           f"budget of {HARD_MAX_STEPS:.3g} that no machine runs (solver."
@@ -815,12 +819,20 @@ def _plausibility(chk, bridge, train, irr, solver, study, contact):
         _refuse(chk, solver, "allow_large_problem",
                 f"the slowest run needs {steps:.3g} time steps, more than the budget of "
                 f"{MAX_STEPS:.3g}; check {keys}")
-    elif study["save_time_histories"]:
+    elif study["save_time_histories"] or others:
         n_w = max(t.n_wheels + t.n_loads for t in trains)
         n_b = max(len(t.vehicles) for t in trains)
         n_p = len(bridge.resolved.get("output_points") or []) or 1
         nbytes = steps * 8.0 * (2 * model.n_modes + 2 * n_w + n_b + 2 * n_p)
-        if nbytes > MAX_HISTORY_BYTES:
+        if others:  # every train's modal histories are kept and summed (superposition)
+            nbytes = max(nbytes, steps * 8.0 * 2 * model.n_modes * (1 + len(others)))
+        if nbytes > MAX_HISTORY_BYTES and others:
+            _refuse(chk, solver, "allow_large_problem",
+                    f"the time histories of the slowest run need about {nbytes / 2**30:.3g} "
+                    f"GiB in memory ({steps:.3g} steps; with train.other_trains every "
+                    "train's histories are kept to be summed), more than the budget of "
+                    f"{MAX_HISTORY_BYTES / 2**30:g} GiB; check {keys}")
+        elif nbytes > MAX_HISTORY_BYTES:
             _refuse(chk, solver, "allow_large_problem",
                     f"the time histories of the slowest run need about {nbytes / 2**30:.3g} "
                     f"GiB in memory ({steps:.3g} steps), more than the budget of "

@@ -124,8 +124,8 @@ class StaticDeck:
         """The load effects this deck gives."""
         if self.kind == "matrices" and self.rotation_dofs is None:
             return ("deflection", "reaction")
-        if self.section_forces is not None:
-            return ("moment", "shear")
+        if self.section_forces is not None:  # the file's: moments, and shears if given
+            return self.section_forces.effects
         return SUPPORTED[self.kind]
 
 

@@ -100,14 +100,18 @@ def not_offered(models, packed) -> dict[str, str]:
         out.update(dict.fromkeys(load_effect_variables(), why))
     else:
         computed = {c for m in models if m.deck[5] is not None for c in m.deck[5].channels}
-        for effect, name, history in (("reaction", "support_reaction", "support_reaction"),
+        for effect, name, history in (("shear", "shear_force", "shear_force"),
+                                      ("reaction", "support_reaction", "support_reaction"),
                                       ("rotation", "end_rotation", "rotation")):
             if effect not in computed:
                 why = ("the imported deck's section forces are the bending moment and "
                        "shear force only (its modes table gives no support reactions or "
-                       "rotations)")
+                       "rotations)") if effect != "shear" else (
+                    "the imported deck's modes table gives bending moments only (no "
+                    "section_shear and influence_shear)")
+                names = [name] + ([f"{name}_whole_deck"] if effect == "shear" else [])
                 out.update(dict.fromkeys(
-                    [f"{pre}{ext}_{name}" for ext in ("max", "min")
+                    [f"{pre}{ext}_{n}" for ext in ("max", "min") for n in names
                      for pre in ("", "time_of_")] + [history], why))
     if all(np.asarray(m.deck[3]).size == 0 for m in models):
         b = models[0].bridge

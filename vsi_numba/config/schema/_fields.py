@@ -52,8 +52,23 @@ Text = Annotated[str, Field(min_length=1)]
 REQUIRED: Any = PydanticUndefined
 
 
+#: The unit slips named when a value is outside its plausible range: unit of the key ->
+#: (the unit it looks like, the factor from a value in that unit to the key's unit).
+SLIPS: dict[str, tuple[tuple[str, float], ...]] = {
+    "m": (("mm", 1e-3),),
+    "m^3": (("cm^3", 1e-6), ("mm^3", 1e-9)),
+    "kg/m": (("t/m", 1e3),),
+    "kg": (("t", 1e3),),
+    "N": (("kN", 1e3),),
+    "N m^2": (("kN m^2", 1e3), ("MN m^2", 1e6)),
+    "kg m^2/m": (("t m^2/m", 1e3),),
+    "km/h": (("m/s", 3.6),),
+}
+
+
 def key(default: Any = None, *, doc: str, unit: str = "", expected: str = "",
-        default_text: str = "", required: bool = False, example: Any = None):
+        default_text: str = "", required: bool = False, example: Any = None,
+        plausible: tuple[float, float] | None = None, typical: str = ""):
     """Declare a configuration key.
 
     Parameters
@@ -74,8 +89,18 @@ def key(default: Any = None, *, doc: str, unit: str = "", expected: str = "",
         The key must be given (missing-key error).
     example : object
         A value for the ``vsi init`` template and the documentation (optional).
+    plausible : (float, float), optional
+        The range (inclusive) of the values a railway bridge or train has: a value within
+        the bounds but outside this range is refused unless ``solver.allow_implausible``
+        (the message names the unit slip it looks like, :data:`SLIPS`).
+    typical : str
+        A typical value in words, for that message ("1.435 m, standard gauge").
     """
     extra = {"unit": unit}
+    if plausible is not None:
+        extra["plausible"] = [float(plausible[0]), float(plausible[1])]
+    if typical:
+        extra["typical"] = typical
     if expected:
         extra["expected"] = expected
     if default_text:
@@ -153,3 +178,33 @@ def expected_of(model: type[BaseModel], name: str) -> str:
     if tp is bool:
         return "true or false"
     return model.model_fields[name].description or name
+
+
+def implausible(model: type[BaseModel], name: str, path: str, value) -> list[str]:
+    """Messages for the numbers of ``value`` (a number or a list of them, validated by
+    the declaration of key ``name`` of ``model``) outside the key's plausible range,
+    each naming the key path, the value, the unit slip it looks like (:data:`SLIPS`) and
+    the range; [] when the key declares none or every value is within it."""
+    e = extras(model, name)
+    rng = e.get("plausible")
+    if rng is None:
+        return []
+    lo, hi = rng
+    unit = e.get("unit", "")
+    values = [(path, value)] if not isinstance(value, list) else [
+        (f"{path}[{i}]", v) for i, v in enumerate(value)]
+    out = []
+    for p, v in values:
+        if isinstance(v, bool) or not isinstance(v, int | float) or lo <= v <= hi:
+            continue
+        u = f" {unit}" if unit else ""
+        looks = ""
+        for slip, factor in SLIPS.get(unit, ()):
+            if lo <= v * factor <= hi:
+                looks = (f" looks like {slip} ({v:g} {slip} = {v * factor:.6g}{u})")
+                break
+        typical = f"; {e['typical']}" if e.get("typical") else ""
+        what = model.model_fields[name].description or name
+        out.append(f"{p} = {v:g}{u}{looks}: expected {lo:g} .. {hi:g}{u} for the {what} "
+                   f"of a railway bridge or train{typical}")
+    return out

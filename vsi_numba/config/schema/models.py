@@ -17,7 +17,7 @@ from typing import Annotated, Any, Literal, Union
 from pydantic import Discriminator, Field, Tag
 
 from vsi_numba import en1990, en1991
-from vsi_numba.code_profile import ANNEX_D_MIXES, DEFAULT_NAME, TABLE
+from vsi_numba.code_profile import ANNEX_D_MIXES, DEFAULT_NAME, TABLE, limits_of
 from vsi_numba.config.limits import MAX_ELEMENTS, MAX_MODES, MAX_OUTPUT_POINTS, MAX_SPEEDS
 from vsi_numba.config.schema._fields import Int, Num, Section, Text, key
 from vsi_numba.model import distribution as _dist
@@ -394,6 +394,9 @@ class Axles(Section):
                      expected="a train name (string)")
 
 
+#: Largest start offset of a train on another track (m): 10 km behind the run's train
+#: (the runs last offset / v longer; a meeting on the deck needs at most a train length).
+MAX_OTHER_OFFSET = 10_000.0
 #: Directions of travel of a train on another track (``train.other_trains``).
 DIRECTIONS = ("same", "opposite")
 
@@ -409,10 +412,11 @@ class OtherTrain(Section):
     direction: one_of(DIRECTIONS) = key(
         "same", doc="direction of travel: 'same' as the run's train (+x) or 'opposite' "
                     "(-x: it enters at the far end of the deck; trains meeting)")
-    offset: Num(ge=0) = key(0.0, unit="m", doc="how far behind the run's train it starts: "
-                                                "it enters its end of the deck offset / v "
-                                                "after the run's train enters its own",
-                            expected="a distance >= 0 m")
+    offset: Num(ge=0, le=MAX_OTHER_OFFSET) = key(
+        0.0, unit="m", doc="how far behind the run's train it starts: it enters its end of "
+                           "the deck offset / v after the run's train enters its own",
+        expected=f"a distance >= 0 m (at most {MAX_OTHER_OFFSET:g} m; the runs last until "
+                 "the last train has left the deck)")
 
 
 class Train(Section):
@@ -738,7 +742,8 @@ def _override_fields():
         if e.applies == "fixed":
             continue
         unit = "" if e.unit == "1" else e.unit
-        tp = (int if e.integer else float) | SourcedValue
+        number = (Int if e.integer else Num)(**e.limits.as_dict())
+        tp = number | SourcedValue
         out[e.key] = (tp, key(None, unit=unit, default_text=f"{e.value:g}",
                               doc=f"{e.description} ({e.clause})"))
     return out
@@ -772,7 +777,7 @@ class CodeProfile(Section):
 
 #: The models of a train in ``[[fatigue.traffic]]``.
 FATIGUE_MODELS = ("moving_force", "interaction")
-_GAMMA_EXPECTED = "a partial factor >= 1"
+_GAMMA_EXPECTED = f"a partial factor {limits_of('fatigue_gamma_Mf').text()}"
 
 
 class FatigueSection(Section):
@@ -790,11 +795,11 @@ class FatigueSection(Section):
         required=True, unit="MPa", doc="EN 1993-1-9 detail category Delta sigma_C (Tables "
                                        "8.1-8.10 [R]: 36 to 160)",
         expected="a detail category > 0 MPa (EN 1993-1-9: 36 to 160)", example=71)
-    gamma_Ff: Num(ge=1.0, le=10.0) = key(
+    gamma_Ff: Num(**limits_of("fatigue_gamma_Ff").as_dict()) = key(
         None, default_text="code profile fatigue_gamma_Ff",
         doc="partial factor on the fatigue stress ranges (EN 1993-2 9.3 [R])",
         expected=_GAMMA_EXPECTED)
-    gamma_Mf: Num(ge=1.0, le=10.0) = key(
+    gamma_Mf: Num(**limits_of("fatigue_gamma_Mf").as_dict()) = key(
         None, default_text="code profile fatigue_gamma_Mf",
         doc="partial factor on the fatigue strength (EN 1993-1-9 Table 3.1 [R])",
         expected=_GAMMA_EXPECTED)
@@ -853,10 +858,11 @@ class Compatibility(Section):
     line_speed_kmh: Num(gt=0, le=600) = key(
         required=True, unit="km/h", doc="maximum line speed at the bridge",
         expected="a line speed > 0 km/h (at most 600)", example=300.0)
-    speed_factor: Num(ge=1.0, le=2.0) = key(
+    speed_factor: Num(**limits_of("compatibility_speed_factor").as_dict()) = key(
         None, default_text="code profile compatibility_speed_factor",
         doc="checked up to this factor x the line speed ([R] practice for existing lines)",
-        expected="a factor >= 1 on the line speed (at most 2)")
+        expected=f"a factor {limits_of('compatibility_speed_factor').text()} on the line "
+                 "speed")
 
 
 # ------------------------------------------------------------------------------- a file

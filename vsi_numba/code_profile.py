@@ -268,9 +268,9 @@ TABLE: tuple[Entry, ...] = (
           "HSLM-B for simply supported spans below this; HSLM-A at and above it and for "
           "continuous decks", applies="input"),
     Entry("hslm_b_N_min", 10, "1", _FIG613, "HSLM-B: fewest point forces N", applies="input",
-          integer=True, limits=Limits(gt=None, ge=1)),
+          integer=True),
     Entry("hslm_b_N_max", 20, "1", _FIG613, "HSLM-B: most point forces N", applies="input",
-          integer=True, limits=Limits(gt=None, ge=1)),
+          integer=True),
     Entry("hslm_b_d_min", 2.5, "m", _FIG613, "HSLM-B: smallest spacing d", applies="input"),
     Entry("hslm_b_d_max", 3.5, "m", _FIG613, "HSLM-B: largest spacing d", applies="input"),
     Entry("hslm_b_load", 170e3, "N", _FIG613, "HSLM-B: each point force", applies="fixed",
@@ -442,8 +442,8 @@ def profile_from(section) -> CodeProfile:
     """The profile of a ``code_profile`` section (as stored: ``name``, ``overrides``).
 
     The section has been validated when the configuration was read
-    (:mod:`vsi_numba.config.code_profile`); here unknown keys, fixed entries and
-    non-numbers are skipped, so a damaged stored configuration gives the recommended
+    (:mod:`vsi_numba.config.code_profile`); here unknown keys, fixed entries,
+    non-numbers and values outside an entry's :attr:`Entry.limits` are skipped, so a damaged stored configuration gives the recommended
     value of those entries rather than an error.  None or an empty section: the default.
     """
     if not isinstance(section, Mapping) or not section:
@@ -456,7 +456,7 @@ def profile_from(section) -> CodeProfile:
     for e in _with_defaults():
         if e.key in overrides and e.applies != "fixed":
             value, clause = override_value(overrides[e.key])
-            if value is not None:
+            if value is not None and value in e.limits:  # else: a damaged entry
                 source = clause or (name if name != DEFAULT_NAME else "configuration")
                 e = replace(e, value=int(value) if e.integer else value, overridden=True,
                             recalled=False, clause=source)

@@ -167,6 +167,15 @@ def validate(ds: xr.Dataset) -> None:
     if alpha is not None and not (number(alpha) and alpha > 0):
         raise ResultsError(f"the stored configuration (attribute config_json) has "
                            f"study.classification_factor = {alpha!r}; expected a number > 0")
+    maintenance = study.get("track_maintenance")
+    if maintenance is not None:
+        from vsi_numba.en1991 import TRACK_MAINTENANCE
+
+        if not isinstance(maintenance, str) or maintenance not in TRACK_MAINTENANCE:
+            raise ResultsError(
+                "the stored configuration (attribute config_json) has "
+                f"study.track_maintenance = {maintenance!r}; expected one of "
+                + ", ".join(f"'{k}'" for k in TRACK_MAINTENANCE))
     spans = bridge.get("spans")
     if spans is not None and not all(number(x) and x > 0 for x in np.ravel(
             np.asarray(spans, dtype=object))):

@@ -158,9 +158,14 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
     plan, steps, hist_runs, raw_hist, hist_written, load_seconds = [], 0, 0, 0.0, 0.0, 0.0
     transient = 0.0
     grid = None
+    placeholders = []
     for k, c in enumerate(vcfgs):
         spec = study_spec(c)
-        model = _build_model(c)
+        model = _planning_model(c, _build_model)
+        if model is None:
+            model = _build_model(c)
+        else:  # not the study's model: forgotten once planned (a sweep rebuilds it)
+            placeholders.append(spec)
         _remember(spec, model)
         specs.append(spec)
         models.append(model)
@@ -227,6 +232,10 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
     seconds, cpu_seconds = fixed + kernel / n_workers, fixed + kernel
     # (the superposition's temporaries are short-lived: one worker's at a time)
     memory = BASE_MEMORY_MB * _MB + 2 * n_workers * raw_hist + transient
+    from vsi_numba.study.spec import _MODELS
+
+    for spec in placeholders:
+        _MODELS.pop(spec, None)
     return StudyEstimate(
         n_variants=len(vcfgs), n_speeds=n_s, n_trains=n_t, n_realisations=n_i,
         n_runs=n_runs, n_batches=len(plan), n_history_runs=hist_runs, n_steps=int(steps),
@@ -238,6 +247,25 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
         additional_damping=float(getattr(first_model.config, "additional_damping", 0.0)
                                  or 0.0),
         speeds_kmh=tuple(float(v) for v in grid.speeds_kmh))
+
+
+def _planning_model(cfg, build):
+    """The study model of ``cfg`` for planning only, or None: with several random track
+    realisations, the profile of the first stands for every one (the plan and the
+    costs depend on their number, not on their values), so ``vsi check`` of 10,000
+    seeds generates one profile instead of 10,000."""
+    import dataclasses
+
+    from vsi_numba.study.spec import _first_realisation
+
+    first = _first_realisation(cfg)
+    if first is cfg:
+        return None
+    model = build(first)
+    (profile,) = model.profiles.values()
+    seeds = cfg._resolved["irregularity"]["seeds"]
+    return dataclasses.replace(model, config=cfg,
+                               profiles={int(s): profile for s in seeds})
 
 
 def _deck_rows(model) -> tuple[int, int, int, int]:

@@ -38,7 +38,7 @@ from vsi_numba.config.limits import (
     MAX_OUTPUT_POINTS,
 )
 from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import keys_of, kinds_of
+from vsi_numba.config.schema._fields import implausible, keys_of, kinds_of
 from vsi_numba.model import bridge as _bridge
 
 BRIDGE_KINDS = ("simply_supported", "continuous", "rigid", "modes_file", "matrices")
@@ -88,8 +88,9 @@ class _BridgeSpec:
 _POS = _Num("a value > 0", gt=0)
 
 
-def _per_span(chk, tbl, path, key, expected, n_spans):
-    """EI / mass_per_length: a number > 0 or one per span."""
+def _per_span(chk, tbl, path, key, expected, n_spans, model=None):
+    """EI / mass_per_length: a number > 0 or one per span (outside the plausible range
+    that ``model`` declares for ``key``: :attr:`_Checker.implausible`)."""
     p = _join(path, key)
     if key not in tbl:
         return chk.error(p, _MISSING, f"{expected} (a number, or one per span)")
@@ -103,6 +104,8 @@ def _per_span(chk, tbl, path, key, expected, n_spans):
             p, tbl[key],
             f"one value per span ({n_spans} span{'s' if n_spans != 1 else ''}) or a single number",
         )
+    if model is not None and v is not _BAD:
+        chk.implausible += implausible(model, key, p, v)
     return v
 
 
@@ -330,7 +333,7 @@ def _space_keys(chk, d, n_spans, res):
             v = chk.fields(t, p, _m.Torsion, ["damping_ratio", "n_modes"])
             for key, what in (("GJ", "a torsional stiffness GJ > 0 N m^2"),
                               ("polar_mass", "a polar mass moment per length > 0 kg m^2/m")):
-                v[key] = _per_span(chk, t, p, key, what, n_spans)
+                v[key] = _per_span(chk, t, p, key, what, n_spans, _m.Torsion)
             torsion = _drop_none(v) if _ok(*v.values()) else _BAD
         if _ok(torsion):
             res["torsion"] = torsion

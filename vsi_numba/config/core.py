@@ -34,7 +34,7 @@ from vsi_numba.config.code_profile import (
     profile_of_section,
 )
 from vsi_numba.config.compatibility import _compatibility_section
-from vsi_numba.config.fatigue import _fatigue_section
+from vsi_numba.config.fatigue import _fatigue_section, fatigue_budget
 from vsi_numba.config.irregularity import (
     _check_file_coverage,
     _defect_profile,
@@ -628,6 +628,8 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
 
     if _ok(bridge, solver, irr) and irr.file_profile is not None:
         _check_file_coverage(chk, irr, -solver["approach"], bridge.length)
+    for message in chk.implausible:  # outside a key's plausible range: a unit slip
+        _refuse(chk, solver if _ok(solver) else {}, "allow_implausible", message)
     if chk.errors:
         # report in the order of the file's sections (validation order differs)
         order = {k: i for i, k in enumerate(data) if isinstance(k, str)}
@@ -655,6 +657,8 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     _plausibility(chk, bridge, train, irr, solver, study.resolved, contact)
     _track_plausibility(chk, train, solver, track, bridge)
     _hslm_applicability(chk, bridge, train, solver, profile, _refuse)
+    if fatigue:
+        fatigue_budget(chk, fatigue, bridge, solver, profile, base, _refuse)
     if chk.errors:  # checks of the whole model (time step, budget, plausibility)
         raise ConfigError(chk.errors, source=source)
     stored_bridge, derived = _stored_bridge(bridge.resolved)

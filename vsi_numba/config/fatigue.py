@@ -134,10 +134,6 @@ def _sections(chk, v, profile, bridge):
             chk.warn(f"{p}.detail_category = {r['detail_category']:g} MPa is not a detail "
                      "category of EN 1993-1-9 (" + ", ".join(map(str, DETAIL_CATEGORIES))
                      + "): used as given", kind="plausibility", keys=[f"{p}.detail_category"])
-        if not 1e-4 <= r["section_modulus"] <= 10.0:
-            chk.warn(f"{p}.section_modulus = {r['section_modulus']:g} m^3 looks implausible "
-                     "for a railway deck (expected about 0.001 to 5 m^3; the unit is m^3, "
-                     "not cm^3 or mm^3)", kind="plausibility", keys=[f"{p}.section_modulus"])
         out.append(r)
     return _BAD if any(o is _BAD for o in out) else out
 
@@ -173,13 +169,25 @@ def _traffic(chk, v, has_mix: bool, base=None):
 
             from vsi_numba.model.library.extra import AxleFileError, axle_list_train
 
+            import numpy as np
+
+            from vsi_numba.config.limits import MIN_RAILWAY_AXLE_LOAD
+
             path = (Path(base or ".") / name.strip()).expanduser()
             try:
-                axle_list_train(path)
+                axles = axle_list_train(path)
             except AxleFileError as exc:
                 chk.error(f"{p}.train", name, f"a readable axle-load CSV file ({exc})")
                 out.append(_BAD)
                 continue
+            loads = np.concatenate([np.asarray(v.loads, float) for v in axles.vehicles])
+            if loads.size and float(np.mean(loads)) < MIN_RAILWAY_AXLE_LOAD:
+                t = float(np.mean(loads)) / 1e3
+                chk.implausible.append(
+                    f"{p}.train = {name!r}: the mean axle load of the file is {t:.4g} kN (a "
+                    f"{float(np.sum(loads)) / 1e3:.4g} kN train); looks like tonnes ({t:.4g} "
+                    f"t = {t * 9.81:.4g} kN per axle): the load column is in kN (expected "
+                    "50-250 kN per axle)")
             if model == "interaction":
                 chk.error(f"{p}.model", model, "'moving_force' for an axle-load list")
                 out.append(_BAD)
@@ -206,6 +214,83 @@ def _traffic(chk, v, has_mix: bool, base=None):
         out.append({"train": name, "speed_kmh": r["speed_kmh"], "per_day": r["per_day"],
                     "model": model})
     return _BAD if any(o is _BAD for o in out) else out
+
+
+def fatigue_train(row: dict, base_dir):
+    """The train of one row of the fatigue traffic (:func:`traffic_of`): an axle-load
+    CSV (relative to ``base_dir``), an Annex D type or a library train."""
+    from pathlib import Path
+
+    from vsi_numba.model.library import annex_d, get_train
+    from vsi_numba.model.library.extra import axle_list_train
+
+    name = row["train"].strip()
+    if name.lower().endswith(".csv"):
+        return axle_list_train(Path(base_dir or ".") / name, name=name)
+    if annex_d.type_of(name) is not None:
+        return annex_d.annex_d_train(name)
+    return get_train(name, row["model"])
+
+
+def fatigue_budget(chk, section: dict, bridge, solver: dict, profile, base_dir,
+                   refuse) -> None:
+    """The fatigue runs against the run budget, before anything runs: each train of the
+    traffic runs once at its speed, over the approach, the deck and its own length, then
+    until the free vibration has decayed to ``fatigue_free_vibration_decay`` (at most
+    :data:`~vsi_numba.config.limits.MAX_FATIGUE_FREE_VIBRATION`), keeping its modal and
+    moment histories: its time steps against
+    :data:`~vsi_numba.config.limits.MAX_STEPS` (``solver.allow_large_problem``) and
+    :data:`~vsi_numba.config.limits.HARD_MAX_STEPS`, its histories against
+    :data:`~vsi_numba.config.limits.MAX_HISTORY_BYTES`.  The free vibration is taken
+    without the additional damping of moving-force runs (the longer one)."""
+    from vsi_numba.config.limits import (
+        HARD_MAX_STEPS,
+        MAX_FATIGUE_FREE_VIBRATION,
+        MAX_HISTORY_BYTES,
+        MAX_STEPS,
+    )
+    from vsi_numba.config.physics import train_extent
+    from vsi_numba.model import fatigue as fat
+
+    model = bridge.model
+    if not model.n_modes:
+        return
+    free = min(fat.decay_time(model.omega, model.damping,
+                              profile["fatigue_free_vibration_decay"]),
+               MAX_FATIGUE_FREE_VIBRATION)
+    dt = solver["dt"]
+    n_sec = len(section["sections"])
+    n_mix = len(traffic_of({"mix": section["mix"]})) if section.get("mix") else 0
+    for i, row in enumerate(traffic_of(section)):
+        try:
+            train = fatigue_train(row, base_dir)
+        except (ValueError, OSError):
+            continue  # reported by the section reader
+        v = row["speed_kmh"] / 3.6
+        steps = ((solver["approach"] + float(bridge.length) + train_extent(train)) / v
+                 + free) / dt
+        key = (f"fatigue.mix = '{section['mix']}'" if i < n_mix
+               else f"fatigue.traffic[{i - n_mix}]")
+        where = f"{key}: the fatigue run of {row['train']} at {row['speed_kmh']:g} km/h"
+        keys = ("check its speed_kmh, solver.dt, solver.approach and the free vibration "
+                f"({free:.3g} s: code profile fatigue_free_vibration_decay)")
+        if not steps <= HARD_MAX_STEPS:
+            chk.errors.append(f"{where} needs {steps:.3g} time steps, more than the hard "
+                              f"budget of {HARD_MAX_STEPS:.3g} that no machine runs "
+                              "(solver.allow_large_problem does not lift it); " + keys)
+            continue
+        if steps > MAX_STEPS:
+            refuse(chk, solver, "allow_large_problem",
+                   f"{where} needs {steps:.3g} time steps, more than the budget of "
+                   f"{MAX_STEPS:.3g}; {keys}")
+            continue
+        n_w = int(train.n_wheels + train.n_loads)
+        nbytes = steps * 8.0 * (2 * model.n_modes + 2 * n_w + len(train.vehicles) + n_sec)
+        if nbytes > MAX_HISTORY_BYTES:
+            refuse(chk, solver, "allow_large_problem",
+                   f"{where} keeps about {nbytes / 2**30:.3g} GiB of time histories "
+                   f"({steps:.3g} steps), more than the budget of "
+                   f"{MAX_HISTORY_BYTES / 2**30:g} GiB; {keys}")
 
 
 def traffic_of(section: dict) -> list[dict]:

@@ -19,6 +19,8 @@ DT_ERROR = 0.25  # dt * f above this (fewer than 4 steps per period): error
 MAX_STEPS = 50_000_000  # time steps of the slowest run: above this the run is refused
 #: time steps of the slowest run beyond which no override runs it (no machine could)
 HARD_MAX_STEPS = 100_000_000_000
+#: Longest free vibration of a fatigue run (s): an undamped deck never decays
+MAX_FATIGUE_FREE_VIBRATION = 120.0
 MAX_OUTPUT_POINTS = 5000  # cap on bridge.output_points
 MAX_HISTORY_BYTES = 2 * 1024**3  # time histories of one run kept in memory: at most 2 GiB
 MAX_PROFILE_SAMPLES = MAX_SAMPLES  # samples of one irregularity profile (its FFT included)
@@ -48,6 +50,9 @@ DECK_FREQUENCY_FACTOR = 2.0
 #: Mean static axle load (N) of a train below this: lighter than ~100 kg per axle, kN
 #: or tonnes typed as N or kg (railway axles carry 50-250 kN)
 MIN_AXLE_LOAD = 1.0e3
+#: Mean axle load (N) of an axle-load list in kN below this (3 t per axle; an empty
+#: freight wagon's axle carries about 5 t): tonnes typed as kN
+MIN_RAILWAY_AXLE_LOAD = 30.0e3
 #: Mean static axle load (N) above this (100 t per axle; the heaviest freight axles
 #: carry 35-40 t): N typed as kN
 MAX_AXLE_LOAD = 1.0e6

@@ -30,6 +30,7 @@ from vsi_numba.config.limits import (
     MAX_TRACK_STIFFNESS,
     MIN_AXLE_LOAD,
     MIN_DECK_MASS,
+    MIN_RAILWAY_AXLE_LOAD,
     MIN_STUDY_SPEED_KMH,
     STEPS_PER_WAVELENGTH,
     TRACK_RANGES,
@@ -289,12 +290,28 @@ def _rigid_massive_warning(chk, train, alpha):
                 return
 
 
+def first_bending_frequency(bridge) -> float:
+    """f1 (Hz) of the deck's bending: its first mode that is not mostly torsion (a deck
+    in space also has torsional modes, :attr:`~vsi_numba.model.deck3d.SpaceDeck.
+    torsional_share`)."""
+    freqs = np.asarray(bridge.model.frequencies, float)
+    space = getattr(bridge, "space", None)
+    share = getattr(space, "torsional_share", None) if space is not None else None
+    if share is not None and np.size(share) == freqs.size:
+        bending = freqs[np.asarray(share, float) < 0.5]
+        if bending.size:
+            return float(bending[0])
+    return float(freqs[0])
+
+
 def _deck_mass_slip(chk, bridge, solver) -> bool:
-    """``bridge.mass_per_length`` below :data:`MIN_DECK_MASS` (kg/m): t/m typed as kg/m.
-    Refused when the deck's f1 is also above :data:`DECK_FREQUENCY_FACTOR` x the upper
-    limit of EN 1991-2 Fig. 6.10 [R] (the time-step messages it would cause are then
-    left out: the mass is their cause); a warning otherwise.  True when refused;
-    ``chk = None`` only answers."""
+    """``bridge.mass_per_length`` below :data:`MIN_DECK_MASS` (kg/m): t/m typed as kg/m,
+    refused (unless ``solver.allow_implausible``: every result would be meaningless).
+    The message quotes the deck's first bending frequency f1 with the mass as given and
+    with the kg/m it looks like, against EN 1991-2 Fig. 6.10 [R]; the time-step messages
+    the mass would cause are left out (the mass is their cause), and so is a deck whose
+    f1 is implausible in t/m too (:data:`DECK_FREQUENCY_FACTOR` x the upper limit of Fig.
+    6.10: left to the other checks).  True when refused; ``chk = None`` only answers."""
     res, model = bridge.resolved, bridge.model
     if bridge.kind not in ("simply_supported", "continuous") or not model.n_modes:
         return False
@@ -307,25 +324,23 @@ def _deck_mass_slip(chk, bridge, solver) -> bool:
     hi = 94.76 * span ** -0.748  # Fig. 6.10's upper limit (extrapolated off 4-100 m)
     if 4.0 <= span <= 100.0:
         hi = frequency_band(span)[1]
-    f1 = float(model.frequencies[0])
+    f1 = first_bending_frequency(bridge)
     if f1 / math.sqrt(1e3) > DECK_FREQUENCY_FACTOR * hi:
         return False  # not a deck in t/m either: left to the other checks
     key = "bridge.mass_per_length"
     shown = f"{m:g}" if masses.size == 1 else f"{m:g} (span {int(np.argmin(masses)) + 1})"
     text = (f"{key} = {shown} kg/m looks like t/m ({m:g} t/m = {m * 1e3:g} kg/m): "
             f"lighter than any railway deck (expected >= {MIN_DECK_MASS:g} kg/m)")
-    if f1 > DECK_FREQUENCY_FACTOR * hi:
-        if chk is None:
-            return not solver.get("allow_implausible")
-        _refuse(chk, solver, "allow_implausible",
-                f"{text}; with bridge.EI it gives f1 = {f1:.4g} Hz on the {span:g} m span, "
-                f"far above the {hi:.3g} Hz upper limit of EN 1991-2 Fig. 6.10 [R] (with "
-                f"{m * 1e3:g} kg/m: f1 = {f1 / math.sqrt(1e3):.3g} Hz); give the mass in "
-                "kg/m")
+    if chk is None:
         return not solver.get("allow_implausible")
-    if chk is not None:
-        chk.warn(f"{text}; f1 = {f1:.4g} Hz", "plausibility", [key])
-    return False
+    where = (f"far above the {hi:.3g} Hz upper limit of EN 1991-2 Fig. 6.10 [R]"
+             if f1 > DECK_FREQUENCY_FACTOR * hi else
+             f"against the {hi:.3g} Hz upper limit of EN 1991-2 Fig. 6.10 [R]")
+    _refuse(chk, solver, "allow_implausible",
+            f"{text}; with bridge.EI it gives f1 = {f1:.4g} Hz (first bending mode) on the "
+            f"{span:g} m span, {where} (with {m * 1e3:g} kg/m: f1 = "
+            f"{f1 / math.sqrt(1e3):.3g} Hz); give the mass in kg/m")
+    return not solver.get("allow_implausible")
 
 
 def _vehicle_unit_slips(train) -> list[str]:
@@ -347,6 +362,8 @@ def _vehicle_unit_slips(train) -> list[str]:
                        f"N (a {float(np.sum(loads)) / 1e3:.4g} kN train); looks like kN "
                        f"({mean:.4g} kN = {mean * 1e3:.0f} N per axle): set load_unit = "
                        '"kN" (expected 50-250 kN per axle)')
+        elif n and mean < MIN_RAILWAY_AXLE_LOAD and unit == "kN":
+            out.append(axle_tonnes_slip(key, "train.axles.file", mean, loads))
         elif n and mean > MAX_AXLE_LOAD and unit == "kN":
             out.append(f'{key} = "kN": the mean axle load of train.axles.file is '
                        f"{mean / 1e3:.4g} kN ({mean / 9.81e3:.4g} t per axle); looks like N "
@@ -392,6 +409,16 @@ def _vehicle_unit_slips(train) -> list[str]:
     return out
 
 
+def axle_tonnes_slip(key: str, where: str, mean: float, loads) -> str:
+    """The message of an axle-load list in kN whose mean axle load (N) is below
+    :data:`MIN_RAILWAY_AXLE_LOAD`: tonnes typed as kN."""
+    t = mean / 1e3
+    return (f'{key} = "kN": the mean axle load of {where} is {t:.4g} kN (a '
+            f"{float(np.sum(loads)) / 1e3:.4g} kN train); looks like tonnes ({t:.4g} t = "
+            f"{t * 9.81:.4g} kN per axle): give the loads in kN (expected 50-250 kN per "
+            "axle)")
+
+
 def _unit_slips(bridge, train, solver) -> bool:
     """True when a unit slip is refused (no override): the checks that its consequences
     would trip (time step, static deflections) are then left out."""
@@ -407,10 +434,22 @@ MIN_BODY_MASS = 1000.0
 EN_SPEED_FACTOR = 1.2
 
 
-def _speed_slips(chk, study):
+#: HSLM trains are the load models of lines above this speed (km/h; EN 1991-2
+#: 6.4.6.1.1 [R]) ...
+HSLM_MIN_SPEED_KMH = 200.0
+#: ... so a list of speeds for them that stops at or below this (km/h) while 3.6 x the
+#: fastest is above :data:`HSLM_MIN_SPEED_KMH` looks like m/s (120 m/s = 432 km/h).
+HSLM_MS_SLIP_KMH = 120.0
+
+
+def _speed_slips(chk, study, train=None):
     """A line speed, or a study whose fastest speed is, below
-    :data:`MIN_STUDY_SPEED_KMH` while 3.6 x it is a railway speed: m/s typed as km/h;
-    speeds given next to a line speed that stop short of :data:`EN_SPEED_FACTOR` x it."""
+    :data:`MIN_STUDY_SPEED_KMH` while 3.6 x it is a railway speed, or HSLM trains whose
+    fastest speed is at most :data:`HSLM_MS_SLIP_KMH` while 3.6 x it is a high speed:
+    m/s typed as km/h; speeds given next to a line speed that stop short of
+    :data:`EN_SPEED_FACTOR` x it."""
+    names = [str(t.name) for t in getattr(train, "trains", [])] if train else []
+    hslm = [n for n in names if n.casefold().startswith("hslm")]
     line = study.get("line_speed_kmh")
     if line is not None and line < MIN_STUDY_SPEED_KMH:
         chk.warn(f"study.line_speed_kmh = {line:g} km/h looks like m/s ({line:g} m/s = "
@@ -425,10 +464,18 @@ def _speed_slips(chk, study):
                  f"{EN_SPEED_FACTOR * line:.4g} km/h (EN 1991-2 6.4.6.2 [R]): the speeds "
                  "between are not checked", "input",
                  ["study.speeds_kmh", "study.line_speed_kmh"])
-    if line is None and top < MIN_STUDY_SPEED_KMH and top * 3.6 >= MIN_STUDY_SPEED_KMH:
+    if top < MIN_STUDY_SPEED_KMH and top * 3.6 >= MIN_STUDY_SPEED_KMH:
         chk.warn(f"study.speeds_kmh: the fastest speed is {top:g} km/h, which looks like "
                  f"m/s ({top:g} m/s = {top * 3.6:.4g} km/h); the key is in km/h",
                  "plausibility", ["study.speeds_kmh"])
+    elif (hslm and len(study["speeds_kmh"]) > 1 and top <= HSLM_MS_SLIP_KMH
+          and top * 3.6 > HSLM_MIN_SPEED_KMH):  # a list of speeds, not one crawl speed
+        chk.warn(f"study.speeds_kmh: the fastest speed is {top:g} km/h with the HSLM "
+                 f"trains ({', '.join(hslm[:3])}{' ...' if len(hslm) > 3 else ''}), the "
+                 f"load models of lines above {HSLM_MIN_SPEED_KMH:g} km/h (EN 1991-2 "
+                 f"6.4.6.1.1 [R]); the speeds look like m/s ({top:g} m/s = "
+                 f"{top * 3.6:.4g} km/h); the key is in km/h", "plausibility",
+                 ["study.speeds_kmh"])
 
 
 def _checked_frequency(model, solver) -> tuple[float, float]:
@@ -466,7 +513,7 @@ def _default_time_step(solver, given, bridge) -> None:
 
 
 def _physics_warnings(chk, bridge, train, irr, solver, study, contact, track):
-    _speed_slips(chk, study)
+    _speed_slips(chk, study, train)
     for msg in _vehicle_unit_slips(train):
         _refuse(chk, solver, "allow_implausible", msg)
     if _deck_mass_slip(chk, bridge, solver) or _unit_slips(bridge, train, solver):
@@ -711,6 +758,37 @@ def _track_plausibility(chk, train, solver, track, bridge=None):
                 "and N m^2)")
 
 
+def _static_deflection_refusal(chk, solver, bridge, too_soft, limit) -> None:
+    """One refusal for the trains whose static deflection of the deck exceeds
+    :data:`MAX_STATIC_DEFLECTION` x span (``too_soft``: (train name, deflection m)),
+    naming the bending stiffness in kN m^2 when 1000 x it would carry them all."""
+    span = f"span/{1 / MAX_STATIC_DEFLECTION:.0f} = {limit:.3g} m"
+    ws = np.array([w for _, w in too_soft], float)
+    ei = np.atleast_1d(np.asarray(bridge.resolved.get("EI", []), float))
+    slip = ""
+    if ei.size and np.all(np.isfinite(ws)) and ws.max() / 1e3 <= limit:
+        shown = f"{ei[0]:g}" if ei.size == 1 else _show_list(ei)
+        slip = (f"; bridge.EI = {shown} N m^2 looks like kN m^2 ({ei.min():g} kN m^2 = "
+                f"{ei.min() * 1e3:g} N m^2: the deflections would be {ws.max() / 1e3:.3g} m "
+                "at most)")
+    if len(too_soft) == 1:
+        name, w = too_soft[0]
+        head = f"train '{name}' on the deck: static deflection {w:.3g} m > {span}"
+    else:
+        i = int(np.nanargmax(np.where(np.isfinite(ws), ws, np.inf)))
+        names = ", ".join(f"'{n}'" for n, _ in too_soft[:4]) + (
+            f" and {len(too_soft) - 4} more" if len(too_soft) > 4 else "")
+        head = (f"{len(too_soft)} trains on the deck ({names}): static deflections up to "
+                f"{ws[i]:.3g} m (train '{too_soft[i][0]}') > {span}")
+    _refuse(chk, solver, "allow_implausible",
+            f"{head} (check bridge.EI, bridge.mass_per_length, bridge.spans and the "
+            f"train's loads/masses: units N, kg, N m^2?){slip}")
+
+
+def _show_list(values) -> str:
+    return "[" + ", ".join(f"{v:g}" for v in values) + "]"
+
+
 def _plausibility(chk, bridge, train, irr, solver, study, contact):
     """Errors for input that cannot be meant (each names its keys and the override key)
     and for runs beyond the memory/time budget; warnings for the unusual."""
@@ -731,6 +809,7 @@ def _plausibility(chk, bridge, train, irr, solver, study, contact):
         # the limit (the bound is cheap; the exact pass costs ~50 ms per train)
         with np.errstate(all="ignore"):
             flex = float(np.max(np.sum(model.shapes(pts) ** 2 / model.omega**2, axis=1)))
+        too_soft = []
         for tr in trains:
             x, q = _train_loads(tr)
             if not x.size:
@@ -754,11 +833,9 @@ def _plausibility(chk, bridge, train, irr, solver, study, contact):
                 modal = np.einsum("fkj,k->fj", phi_k, q) / model.omega**2
                 w = float(np.max(np.abs(modal @ phi_p.T))) if modal.size else 0.0
             if not np.isfinite(w) or w > limit:
-                _refuse(chk, solver, "allow_implausible",
-                        f"train '{tr.name}' on the deck: static deflection {w:.3g} m > "
-                        f"span/{1 / MAX_STATIC_DEFLECTION:.0f} = {limit:.3g} m (check "
-                        "bridge.EI, bridge.mass_per_length, bridge.spans and the train's "
-                        "loads/masses: units N, kg, N m^2?)")
+                too_soft.append((tr.name, w))
+        if too_soft:  # one cause (the deck, or its units): one message for every train
+            _static_deflection_refusal(chk, solver, bridge, too_soft, limit)
     # -- Hertz static penetration
     if contact["model"] != "rigid":
         g = contact["hertz_coefficient"]

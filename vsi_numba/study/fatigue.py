@@ -30,10 +30,11 @@ import time as _time
 
 import numpy as np
 
+from vsi_numba.config.limits import MAX_FATIGUE_FREE_VIBRATION
 from vsi_numba.model import fatigue as fat
 
 #: Longest free vibration of a fatigue run (s).
-MAX_FREE_VIBRATION = 120.0
+MAX_FREE_VIBRATION = MAX_FATIGUE_FREE_VIBRATION
 #: Gravity used to turn the trains' loads into tonnes (lambda_2).
 G = 9.81
 
@@ -43,14 +44,9 @@ class FatigueError(RuntimeError):
 
 
 def _train(row, base_dir):
-    from vsi_numba.model.library import annex_d, get_train
-    from vsi_numba.model.library.extra import axle_list_train
+    from vsi_numba.config.fatigue import fatigue_train
 
-    if row["train"].strip().lower().endswith(".csv"):
-        return axle_list_train(base_dir / row["train"].strip(), name=row["train"].strip())
-    if annex_d.type_of(row["train"]) is not None:
-        return annex_d.annex_d_train(row["train"])
-    return get_train(row["train"], row["model"])
+    return fatigue_train(row, base_dir)
 
 
 def fatigue_runs(cfg, progress=None) -> dict:

@@ -203,8 +203,7 @@ def implausible(model: type[BaseModel], name: str, path: str, value) -> list[str
             if lo <= v * factor <= hi:
                 looks = (f" looks like {slip} ({v:g} {slip} = {v * factor:.6g}{u})")
                 break
-        typical = f"; {e['typical']}" if e.get("typical") else ""
-        what = model.model_fields[name].description or name
-        out.append(f"{p} = {v:g}{u}{looks}: expected {lo:g} .. {hi:g}{u} for the {what} "
-                   f"of a railway bridge or train{typical}")
+        typical = f" ({e['typical']})" if e.get("typical") else ""
+        out.append(f"{p} = {v:g}{u}{looks}: expected {lo:g} .. {hi:g}{u} on a railway "
+                   f"bridge{typical}")
     return out

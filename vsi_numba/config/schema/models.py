@@ -111,10 +111,14 @@ class TrackLine(Section):
     eccentricity: float = key(
         0.0, unit="m", doc="y of the track centre line from the deck's reference axis "
                            "(positive to the left looking in +x)",
-        expected="a transverse distance y of the track centre line (m)")
+        expected="a transverse distance y of the track centre line (m)",
+        plausible=(-50.0, 50.0), typical="the outer tracks of a four-track deck stand "
+                                         "about 7 m off its axis")
     gauge: PosNum = key(1.435, unit="m", doc="distance between the rail centres (the "
                                              "wheel-rail contact points are taken there)",
-                        expected="a gauge > 0 m (1.435 standard gauge)")
+                        expected="a gauge > 0 m (1.435 standard gauge)",
+                        plausible=(0.6, 2.0), typical="1.435 m standard gauge, 0.6 to "
+                                                      "1.676 m in service")
 
 
 class Torsion(Section):
@@ -122,11 +126,15 @@ class Torsion(Section):
     deck (fork supports: torsion restrained at every support)."""
 
     GJ: PerSpan = key(required=True, unit="N m^2", doc="torsional stiffness, a number or "
-                      "one per span", expected="a torsional stiffness GJ > 0 N m^2")
+                      "one per span", expected="a torsional stiffness GJ > 0 N m^2",
+                      plausible=(1e7, 1e14), typical="about 1e9 for a slab, 1e11 for a "
+                                                     "double-track box girder")
     polar_mass: PerSpan = key(required=True, unit="kg m^2/m",
                               doc="polar mass moment of inertia per length about the "
                                   "reference axis, a number or one per span",
-                              expected="a polar mass moment per length > 0 kg m^2/m")
+                              expected="a polar mass moment per length > 0 kg m^2/m",
+                              plausible=(1e2, 1e8), typical="about 4e5 for a double-track "
+                                                            "box girder")
     damping_ratio: Num(ge=0, lt=1) = key(0.0, doc="damping ratio of the torsional modes",
                                          expected="a damping ratio 0 <= zeta < 1")
     n_modes: Int(ge=1, le=MAX_MODES) = key(
@@ -787,10 +795,11 @@ class FatigueSection(Section):
     x: Num(ge=0) = key(required=True, unit="m", doc="position of the section from the left "
                        "end of the deck", expected="a position >= 0 m along the deck",
                        example=10.0)
-    section_modulus: PosNum = key(required=True, unit="m^3",
+    section_modulus: Num(ge=1e-9) = key(required=True, unit="m^3",
                                   doc="section modulus W at the detail: stress = M / W",
-                                  expected="a section modulus > 0 m^3 (stress = M / W)",
-                                  example=0.045)
+                                  expected="a section modulus >= 1e-9 m^3 (stress = M / W)",
+                                  example=0.045, plausible=(1e-4, 10.0),
+                                  typical="about 0.001 to 5 m^3")
     detail_category: Num(gt=0, le=1000) = key(
         required=True, unit="MPa", doc="EN 1993-1-9 detail category Delta sigma_C (Tables "
                                        "8.1-8.10 [R]: 36 to 160)",

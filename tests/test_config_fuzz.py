@@ -62,15 +62,27 @@ POSITIVE = {
     "speeds_kmh", "start", "stop", "step", "wavelength", "wavelength_min", "wavelength_max",
     "length", "n_modes", "max_frequency", "elements_per_span", "max_iterations",
     "line_speed_kmh", "history_speeds_kmh",
+    # decks in space, trains on other tracks, fatigue, compatibility, code profile
+    "gauge", "GJ", "polar_mass", "track", "section_modulus", "detail_category", "gamma_Ff",
+    "gamma_Mf", "speed_kmh", "per_day", "design_life_years", "speed_factor",
+    "deck_acceleration_limit_ballasted", "wheel_unloading_limit", "value",
 }
 # must be >= 0 (negative values are invalid)
 NON_NEGATIVE = {
     "damping", "wheel_mass", "offset", "approach", "free_vibration", "primary_damping",
-    "secondary_damping", "seeds", "damping_ratio", "max_subdivisions",
+    "secondary_damping", "seeds", "damping_ratio", "max_subdivisions", "x",
 }
 # strings from a closed set (or a file that must exist): garbage is invalid
-CHOICE_KEYS = {"kind", "spectrum", "model", "preset", "output", "path", "r_unit", "shape"}
+CHOICE_KEYS = {"kind", "spectrum", "model", "preset", "output", "path", "r_unit", "shape",
+               "direction", "train", "line", "file", "deck_type", "track_type"}
 
+#: A modes table of a 20 m span with two tracks, each by its rails ("up/left", ...):
+#: three sine modes, the same shape on every line (no torsion).
+TRACK_MODES = "mode,frequency,modal_mass,line,x,shape\n" + "".join(
+    f"{j},{j * j * 5.6:.3f},{1.2e5:.1f},{t}/{side},{x:g},"
+    f"{math.sin(j * math.pi * x / 20):.8f}\n"
+    for j in (1, 2, 3) for t in ("up", "down") for side in ("left", "right")
+    for x in np.linspace(0.0, 20.0, 41))
 PROFILE = "x,r\n" + "\n".join(f"{x:.2f},{1e-3 * math.sin(x):.6e}"
                               for x in np.arange(-40.0, 60.01, 0.25)) + "\n"
 
@@ -128,7 +140,44 @@ def _bases() -> list[tuple[str, dict]]:
         "train": {"preset": ["HSLM-A1", "ICE3"], "model": "moving_force"},
         "study": {"speeds_kmh": [200.0, 250.0], "output": "out/presets.nc"},
     }
-    return [("sprung", sprung), ("cars", cars), ("user", user), ("presets", presets)]
+    space = {
+        "title": "space",
+        "bridge": {"kind": "simply_supported", "spans": [20.0], "EI": 1.5e10,
+                   "mass_per_length": 1.0e4, "n_modes": 3, "damping_ratio": 0.01,
+                   "tracks": [{"eccentricity": 2.0, "gauge": 1.435}, {"eccentricity": -2.0}],
+                   "torsion": {"GJ": 1.0e10, "polar_mass": 4.0e4, "damping_ratio": 0.01,
+                               "n_modes": 2}},
+        "train": {"preset": "HSLM-A1", "model": "moving_force", "track": 1,
+                  "other_trains": [{"track": 2, "direction": "opposite", "offset": 10.0}]},
+        "study": {"speeds_kmh": [200.0, 250.0]},
+    }
+    checks = {
+        "title": "checks",
+        "bridge": {"kind": "simply_supported", "spans": [20.0], "EI": 2.2e10,
+                   "mass_per_length": 1.1e4, "n_modes": 3, "damping_ratio": "EN1991-2",
+                   "deck_type": "steel_composite", "track_type": "ballasted"},
+        "train": {"preset": ["HSLM-A1", "ICE3"], "model": "moving_force"},
+        "study": {"speeds_kmh": [200.0, 230.0]},
+        "code_profile": {"name": "client rule", "overrides": {
+            "deck_acceleration_limit_ballasted": 3.0,
+            "wheel_unloading_limit": {"value": 0.5, "clause": "R-12"}}},
+        "fatigue": {"design_life_years": 100.0,
+                    "sections": [{"x": 10.0, "section_modulus": 0.11, "detail_category": 71,
+                                  "gamma_Ff": 1.0, "gamma_Mf": 1.35, "name": "flange"}],
+                    "traffic": [{"train": "ICE3", "speed_kmh": 200.0, "per_day": 20,
+                                 "model": "moving_force"}]},
+        "compatibility": {"train": "ICE3", "line_speed_kmh": 200.0, "speed_factor": 1.1},
+    }
+    imported = {
+        "title": "imported",
+        "bridge": {"kind": "modes_file", "file": "tracks_modes.csv", "spans": [20.0],
+                   "damping_ratio": 0.01,
+                   "tracks": [{"line": "up", "eccentricity": 2.0}, {"line": "down"}]},
+        "train": {"preset": "HSLM-A1", "model": "moving_force", "track": 2},
+        "study": {"speeds_kmh": [200.0]},
+    }
+    return [("sprung", sprung), ("cars", cars), ("user", user), ("presets", presets),
+            ("space", space), ("checks", checks), ("imported", imported)]
 
 
 # ------------------------------------------------------------------------ TOML writer
@@ -415,6 +464,7 @@ def expect_config_error(arg, label: str, **kw) -> tuple[list[str], float]:
 def workdir(tmp_path_factory):
     d = tmp_path_factory.mktemp("fuzz")
     (d / "profile.csv").write_text(PROFILE)
+    (d / "tracks_modes.csv").write_text(TRACK_MODES)
     return d
 
 

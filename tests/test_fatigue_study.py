@@ -279,9 +279,12 @@ def test_fatigue_config__implausible_values_warn_and_the_mix_expands(tmp_path):
     text = cfg.read_text().replace("design_life_years = 100", 'design_life_years = 100\n'
                                    'mix = "heavy"')
     cfg.write_text(text)
+    with pytest.raises(ConfigError, match=r"section_modulus = 50 m\^3: expected 0.0001 \.\. "
+                                          r"10 m\^3 on a railway bridge"):
+        load_config(cfg)  # outside the plausible range of the key: refused
+    cfg.write_text(text.replace("section_modulus = 50.0", "section_modulus = 0.05"))
     c = load_config(cfg)
     warnings = " ".join(c.warnings)
-    assert "section_modulus = 50 m^3 looks implausible" in warnings
     assert "detail_category = 73 MPa is not a detail category" in warnings
     from vsi_numba.config.fatigue import traffic_of
 

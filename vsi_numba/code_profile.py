@@ -443,8 +443,9 @@ def profile_from(section) -> CodeProfile:
 
     The section has been validated when the configuration was read
     (:mod:`vsi_numba.config.code_profile`); here unknown keys, fixed entries,
-    non-numbers and values outside an entry's :attr:`Entry.limits` are skipped, so a damaged stored configuration gives the recommended
-    value of those entries rather than an error.  None or an empty section: the default.
+    non-numbers and values outside an entry's :attr:`Entry.limits` are skipped, so a
+    damaged stored configuration gives the recommended value of those entries rather
+    than an error.  None or an empty section: the default.
     """
     if not isinstance(section, Mapping) or not section:
         return default_profile()

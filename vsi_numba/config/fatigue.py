@@ -167,11 +167,10 @@ def _traffic(chk, v, has_mix: bool, base=None):
         if name.strip().lower().endswith(".csv"):  # the operator's axle-load list
             from pathlib import Path
 
-            from vsi_numba.model.library.extra import AxleFileError, axle_list_train
-
             import numpy as np
 
             from vsi_numba.config.limits import MIN_RAILWAY_AXLE_LOAD
+            from vsi_numba.model.library.extra import AxleFileError, axle_list_train
 
             path = (Path(base or ".") / name.strip()).expanduser()
             try:

@@ -797,7 +797,8 @@ class FatigueSection(Section):
                        example=10.0)
     section_modulus: Num(ge=1e-9) = key(required=True, unit="m^3",
                                   doc="section modulus W at the detail: stress = M / W",
-                                  expected="a section modulus >= 1e-9 m^3 (stress = M / W)",
+                                  expected="a section modulus > 0 m^3 (stress = M / W; at "
+                                           "least 1e-9 m^3)",
                                   example=0.045, plausible=(1e-4, 10.0),
                                   typical="about 0.001 to 5 m^3")
     detail_category: Num(gt=0, le=1000) = key(

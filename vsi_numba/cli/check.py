@@ -14,9 +14,15 @@ vibration.  From there:
   and output point for moving forces, ~0.5 + 0.4 per wheel + 0.05 per vehicle DOF + 0.02
   per mode and point us for interaction models) x their time steps, shared by the
   workers (one per core, at most one per batch) + :data:`WRITE_SECONDS_PER_MB` per MB
-  written.  A first run compiles the kernels (one to three minutes) on top of that.
+  written.  A deck in space adds :data:`SPACE_ROW_SECONDS` per mode, step and deck row
+  beyond the output points (its per-track and twist rows); trains on other tracks
+  (``train.other_trains``) run once each and their histories are summed and reduced in
+  numpy (:data:`SUPERPOSE_ROW_SECONDS`, :data:`SUPERPOSE_EFFECT_SECONDS`).  A first run
+  compiles the kernels (one to three minutes) on top of that.
 * **memory** (peak RSS) = :data:`BASE_MEMORY_MB` (the imported libraries and the
-  kernels) + the raw time histories of the batches in flight (two per worker); the
+  kernels) + the raw time histories of the batches in flight (two per worker; with
+  trains on other tracks every run's, of every train) + the superposition's
+  temporaries of one run; the
   results file is written one stored batch at a time, so the study's size does not
   count.
 * **results file** = the sweep's own disk model (:func:`vsi_numba.study.store.study_need`:

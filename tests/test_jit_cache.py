@@ -81,3 +81,29 @@ def test_jit_cache__an_edited_callee_in_another_file(tmp_path, flavour):
     else:
         # plain numba stamps the caller with its own file only: the old callee, loaded
         assert _run(tmp_path, pkg) == (2.0, 1)
+
+
+def test_jit_cache__a_kernel_that_cannot_be_cached_warns_and_runs(tmp_path, monkeypatch):
+    """A kernel numba cannot cache (it uses dynamic globals: here a large global array,
+    as every kernel has with ``NUMBA_OPT=0``) gets numba's own "Cannot cache" warning
+    and runs; the package's cache locator gave an AttributeError (``_py_file``)."""
+    import importlib
+
+    import numba
+    from numba.core.errors import NumbaWarning
+
+    pkg = tmp_path / "pkg_uncachable"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "kernel.py").write_text(
+        "import numpy as np\n"
+        "from vsi_numba._jit import njit\n"
+        "BIG = np.arange(2_000_000, dtype=np.float64)\n\n\n"
+        "@njit\n"
+        "def value(i):\n"
+        "    return BIG[i] + 1.0\n")
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    kernel = importlib.import_module("pkg_uncachable.kernel")
+    with pytest.warns(NumbaWarning, match="Cannot cache compiled function"):
+        assert kernel.value(41) == 42.0

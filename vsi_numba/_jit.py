@@ -118,6 +118,9 @@ class PackageSourceLocator(caching._CacheLocator):
     def __init__(self, inner, py_file: str):
         self._inner = inner
         self._package = _package_dir(py_file)
+        # numba's cache reads the locator's file where it warns that a kernel cannot be
+        # cached (dynamic globals, e.g. with NUMBA_OPT=0): the kernel's own file
+        self._py_file = py_file
 
     def ensure_cache_path(self):
         self._inner.ensure_cache_path()

@@ -90,8 +90,9 @@ class _Deck(Section):
 class _Modal(_Deck):
     damping_ratio: Damping = key(
         0.0, doc="damping ratio (fraction of critical): a number, one per mode, or "
-                 "\"EN1991-2\" (the EN 1991-2 Table 6.6 lower bound for the span and "
-                 "deck_type, from the code profile)",
+                 "\"EN1991-2\" (the EN 1991-2 Table 6.6 lower bound for the span L and "
+                 "deck_type, from the code profile; L of a continuous deck: its mean "
+                 "span, the profile's DAMPING_SPAN_RULE)",
         expected="a damping ratio 0 <= zeta < 1, a list with one per mode, or 'EN1991-2' "
                  "(Table 6.6 with bridge.deck_type)")
     n_modes: Int(ge=1, le=MAX_MODES) = key(

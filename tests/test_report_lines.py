@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 import xarray as xr
 from typer.testing import CliRunner
 
@@ -326,3 +327,110 @@ def test_report__elsewhere_finds_the_configurations_files_or_says_what_is_missin
     assert "- convergence of the governing cases (time step, resonance speeds between " \
            "the grid speeds): the governing cases cannot be re-run" in summary
     assert "axles.csv" in summary
+
+
+# ------------------------------------------------ every bundled config: signable lines
+
+#: Results of a summary row that are verdicts (info and n/a rows are not).
+VERDICTS = ("pass", "**FAIL**", "**not reliable**", "**FAIL (not reliable)**",
+            "**not determined**")
+
+
+def _toml(data: dict, prefix: str = "") -> str:
+    """A TOML text of ``data`` (tables, arrays of tables, strings, numbers, booleans,
+    arrays): enough for the bundled configurations."""
+    def value(v):
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, str):
+            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        if isinstance(v, (int, float)):
+            return repr(v)
+        if isinstance(v, dict):
+            return "{ " + ", ".join(f"{k} = {value(x)}" for k, x in v.items()) + " }"
+        return "[" + ", ".join(value(x) for x in v) + "]"
+
+    lines, tables = [], []
+    for k, v in data.items():
+        if isinstance(v, dict):
+            tables.append((k, v))
+        else:
+            lines.append(f"{k} = {value(v)}")
+    out = "\n".join(lines) + "\n"
+    for k, v in tables:
+        name = f"{prefix}{k}"
+        out += f"\n[{name}]\n" + _toml(v, f"{name}.")
+    return out
+
+
+def reduced(config: Path) -> dict:
+    """The bundled configuration ``config`` at one speed, with its first train and
+    first realisation and a short free vibration (the same checks, a fraction of the
+    runs)."""
+    import tomllib
+
+    data = tomllib.loads(config.read_text())
+    study = data["study"]
+    speeds = study.get("speeds_kmh")
+    if isinstance(speeds, dict):
+        speed = float(speeds["start"])
+    elif speeds:
+        speed = float(list(speeds)[-1])
+    else:
+        speed = float(study["line_speed_kmh"])
+    study["speeds_kmh"] = [speed]
+    study.pop("history_speeds_kmh", None)
+    study["output"] = "out.nc"
+    train = data.get("train", {})
+    if isinstance(train.get("preset"), list):
+        train["preset"] = train["preset"][:1]
+    irr = data.get("irregularity", {})
+    if isinstance(irr.get("seeds"), list):
+        irr["seeds"] = irr["seeds"][:1]
+    solver = data.setdefault("solver", {})
+    solver["free_vibration"] = min(float(solver.get("free_vibration", 1.0)), 0.2)
+    return data
+
+
+def summary_rows(text: str) -> list[dict]:
+    """The summary table's rows as {header: cell}."""
+    summary = section(text, "Summary of checks")
+    header = [c.strip() for c in summary.splitlines()[2].strip().strip("|").split("|")]
+    return [dict(zip(header, r, strict=True)) for r in table_rows(summary, "Check")]
+
+
+PLACE = re.compile(r"x = -?[\d.]+ ?m|\bspan \d|\bsection\b|\btrack \d|\baxle \d|vehicle")
+
+
+@pytest.mark.slow  # ten sweeps and reports (about 70 s on one core)
+def test_report__every_bundled_config_states_each_verdicts_quantity_place_and_limit(
+        tmp_path):
+    configs = sorted((ROOT / "configs").glob("*.toml"))
+    assert len(configs) >= 10
+    shutil.copytree(ROOT / "configs" / "data", tmp_path / "data")
+    for cfg in configs:
+        text, rep = sweep_report(tmp_path, _toml(reduced(cfg)), cfg.stem)
+        verdicts = [r for r in summary_rows(text) if r["Result"] in VERDICTS
+                    or r["Result"].endswith(("govern", "governs"))]
+        assert verdicts, cfg.name
+        for r in verdicts:
+            where = f"{cfg.name}: {r['Check']}"
+            assert r["Value"] not in ("", "–"), where  # the quantity's value
+            assert r["Limit"] not in ("", "–"), where  # what the verdict is against
+            assert r["Where"] != "–" or PLACE.search(r["Check"]), where  # the place
+            assert PLACE.search(r["Where"]) or PLACE.search(r["Check"]) or \
+                r["Where"].startswith("the deck"), where
+        # the convergence rows name quantity and place; a check not made is listed
+        conv = section(text, "Convergence of the governing cases")
+        for row in (table_rows(conv, "Quantity and place")
+                    if "| Quantity and place |" in conv else []):
+            assert "," in row[0] and row[7] in ("converged", "**FLAG**",
+                                                "converged in dt; resonance not checked"), \
+                (cfg.name, row)
+        if "Not checked" in conv:
+            assert "- convergence of the governing cases" in section(
+                text, "Summary of checks"), cfg.name
+        if "Every governing result is converged" in conv:
+            assert "Not checked" not in conv, cfg.name
+        shutil.rmtree(rep)
+        (tmp_path / "out.nc").unlink()

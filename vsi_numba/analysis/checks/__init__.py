@@ -113,7 +113,50 @@ __all__ = [
 
 
 SUMMARY_COLUMNS = ["check", "value", "units", "limit", "margin", "utilisation", "result",
-                   "governing_train", "governing_speed_kmh", "clause"]
+                   "governing_train", "governing_speed_kmh", "where", "clause"]
+
+
+def _num(v) -> float:
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
+def where_of(name: str, check: xr.Dataset) -> str:
+    """Where the governing value of a check lies, in words (the summary's column
+    ``where``): the deck abscissa and line, the axle and its position, the vehicle.
+    "" when the check has no governing case."""
+    a = check.attrs
+    if not a.get("governing_train"):
+        return ""
+    if name == "deck_acceleration":
+        x = _num(a.get("governing_point"))
+        line = (f"the deck and the line of track {int(a['loaded_track'])}"
+                if a.get("loaded_track") is not None else "the deck")
+        grid = "whole-deck grid" if a.get("whole_deck") else "output points"
+        return (f"x = {x:g} m" if np.isfinite(x) else "") + f" (largest over {line}, {grid})"
+    if name == "deck_displacement":
+        x = _num(a.get("governing_point"))
+        return (f"x = {x:g} m" if np.isfinite(x) else "the deck") \
+            + " (largest over the output points)"
+    if name == "dynamic_amplification":
+        return "the deck (largest displacement over the output points, dynamic over static)"
+    if name == "wheel_unloading":
+        x = _num(a.get("governing_x"))
+        w = int(a.get("governing_wheel", -1))
+        return ("upper bound from " if a.get("value_is_upper_bound") else "") + (
+            f"axle {w}" if w >= 0 else "an axle") + (
+            f", minimum contact force at x = {x:.4g} m" if np.isfinite(x) else "") + (
+            " (off the bridge)" if a.get("value_is_upper_bound") else "")
+    if name == "comfort":
+        d = _num(a.get("governing_position"))
+        v = a.get("governing_vehicle", "")
+        return (f"vehicle {v}" if v != "" else "a vehicle") + (
+            f", {abs(d):g} m {'ahead of' if d > 0 else 'behind'} its centre of gravity"
+            if np.isfinite(d) and abs(d) > 1e-9 else ", at its centre of gravity"
+            if np.isfinite(d) else "")
+    return ""
 
 
 def run_checks(ds: xr.Dataset, q: float = DEFAULT_Q, comfort_level_required: str = "very good",
@@ -168,10 +211,11 @@ def summary_table(checks: dict) -> pd.DataFrame:
         Columns :data:`SUMMARY_COLUMNS`; SI values; ``result`` in pass / FAIL / info / n/a.
     """
     rows = []
-    for check in checks.values():
+    for name, check in checks.items():
         if isinstance(check, str):
             continue
-        rows.append({c: check.attrs.get(c, np.nan) for c in SUMMARY_COLUMNS})
+        rows.append({c: check.attrs.get(c, np.nan) for c in SUMMARY_COLUMNS}
+                    | {"where": where_of(name, check)})
         if "approach_value" in check.attrs:  # wheel unloading off the bridge's zone
             a = check.attrs
             rows.append({
@@ -181,7 +225,9 @@ def summary_table(checks: dict) -> pd.DataFrame:
                 "value": a["approach_value"], "units": "1", "limit": np.nan,
                 "margin": np.nan, "utilisation": np.nan, "result": "info",
                 "governing_train": a["approach_train"],
-                "governing_speed_kmh": a["approach_speed_kmh"], "clause": "information"})
+                "governing_speed_kmh": a["approach_speed_kmh"],
+                "where": f"axle {a['approach_wheel']}, minimum contact force at "
+                         f"x = {a['approach_x']:.4g} m", "clause": "information"})
         if "design_factor" in check:
             a = check.attrs
             gov = _governing(check["design_factor"])
@@ -193,6 +239,7 @@ def summary_table(checks: dict) -> pd.DataFrame:
                 "governing_train": "" if gov is None else str(gov["train"]),
                 "governing_speed_kmh": np.nan if gov is None else float(
                     check["speed_kmh"].sel(speed=gov["speed"])),
+                "where": where_of(name, check) if gov is not None else "",
                 "clause": "EN 1991-2 6.4.6.5(3), Annex C",
             })
     return pd.DataFrame(rows, columns=SUMMARY_COLUMNS)

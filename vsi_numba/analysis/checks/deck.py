@@ -304,5 +304,11 @@ def max_deck_displacement(ds: xr.Dataset, q: float = DEFAULT_Q) -> xr.Dataset:
     require(ds, ["max_deck_displacement"], "the deck displacement summary")
     out = design_value(nanmax(ds["max_deck_displacement"], "point"), q=q, n_boot=0)
     out["value"].attrs.update(units="m", long_name="maximum vertical deck displacement")
-    return _summarise(out, "Max deck displacement", "information", "m", None,
-                      extra={"basis": out.attrs["basis"]})
+    out = _summarise(out, "Max deck displacement", "information", "m", None,
+                     extra={"basis": out.attrs["basis"]})
+    if out.attrs["governing_train"]:  # the output point of the governing case's maximum
+        t, v = out.attrs["governing_train"], out.attrs["governing_speed"]
+        case = nanmax(ds["max_deck_displacement"].sel(train=t, speed=v), "irregularity")
+        if bool(case.notnull().any()):
+            out.attrs["governing_point"] = float(case.fillna(-np.inf).idxmax("point"))
+    return out

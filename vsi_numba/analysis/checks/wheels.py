@@ -127,6 +127,7 @@ def wheel_unloading(
                 "speed", "train", "irregularity", "wheel").values
             approach = {"approach_value": float(a[i]),
                         "approach_train": str(ds["train"].values[i[1]]),
+                        "approach_speed": float(ds["speed"].values[i[0]]),
                         "approach_speed_kmh": float(ds["speed_kmh"].values[i[0]])
                         if "speed_kmh" in ds.coords else float(ds["speed"].values[i[0]] * 3.6),
                         "approach_wheel": int(ds["wheel"].values[i[3]]),
@@ -215,8 +216,16 @@ def wheel_unloading(
         w = nanargmax_case(out["wheel_unloading"].sel(train=t, speed=v))
         out.attrs["governing_wheel"] = -1 if w is None else int(w["wheel"])
         out.attrs["governing_irregularity"] = _case_realisation(nanmax(dq, "wheel"), t, v)
+        if w is not None and "position_of_min_contact_force" in ds:
+            x = ds["position_of_min_contact_force"].sel(
+                train=t, speed=v, irregularity=out.attrs["governing_irregularity"],
+                wheel=w["wheel"])
+            out.attrs["governing_x"] = float(x)
     else:
         out.attrs["governing_wheel"] = -1
+    if out.attrs.get("value_is_upper_bound"):  # the bound's axle (off the bridge)
+        out.attrs.update(governing_wheel=out.attrs["approach_wheel"],
+                         governing_x=out.attrs["approach_x"])
     return out
 
 
@@ -242,7 +251,7 @@ def _bound_by_approach(out: xr.Dataset, limit: float) -> None:
     a["bridge_upper"] = up
     if not np.isfinite(v):
         a.update(value=up, value_is_upper_bound=1, governing_train=a["approach_train"],
-                 governing_speed=a["approach_speed_kmh"] / 3.6,
+                 governing_speed=a["approach_speed"],
                  governing_speed_kmh=a["approach_speed_kmh"],
                  margin=float(limit - up), utilisation=float(up / limit) if limit else np.nan)
     if up <= limit:

@@ -432,7 +432,7 @@ def summary_with_load_effects(table: pd.DataFrame, c, c_all=None) -> pd.DataFram
             "utilisation": np.nan, "result": f"{r.governs} govern"
                                              + ("" if r.governs.endswith("s") else "s"),
             "governing_train": str(r.train), "governing_speed_kmh": float(r.speed_kmh),
-            "clause": "EN 1991-2 6.4.6.5(3)"})
+            "where": _where(r.effect, r.location), "clause": "EN 1991-2 6.4.6.5(3)"})
     if not c.rotation.empty:
         w = c.rotation.loc[c.rotation["utilisation"].idxmax()]
         e = c.envelopes[(c.envelopes["effect"] == "rotation")
@@ -447,6 +447,7 @@ def summary_with_load_effects(table: pd.DataFrame, c, c_all=None) -> pd.DataFram
                                 else f"{ph} × α × LM71"),
             "governing_speed_kmh": (float(e["real_speed_kmh"].iloc[0])
                                     if real and not e.empty else np.nan),
+            "where": f"deck end x = {w['support']:g} m",
             "clause": c.factors.get("rotation_clause", END_ROTATION_CLAUSE)})
     if not rows:
         return table

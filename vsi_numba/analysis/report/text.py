@@ -309,6 +309,12 @@ def _bridge(ds: xr.Dataset, lphi: chk.DeterminantLength | None = None) -> list[s
     return out + [""]
 
 
+def _where_cell(row) -> str:
+    """The summary's "Where" cell: the row's ``where``, "–" when it has none."""
+    w = row.get("where", "") if hasattr(row, "get") else ""
+    return md(w) if isinstance(w, str) and w else "–"
+
+
 def _modes_left_out_note(ds: xr.Dataset, f: np.ndarray, cut: float) -> list[str]:
     """The note on modes up to the acceleration cut-off that the model left out: from the
     file's record of them (``modes_left_out_below_cutoff``); a file without that record
@@ -354,10 +360,10 @@ def _summary(results: dict, table: pd.DataFrame, pts: np.ndarray,
             md(r["check"]), fmt_against(r["value"], r["limit"], units), _fmt(r["limit"], units),
             _fmt(r["margin"], units), fmt_percent_against(util),
             verdict, md(r["governing_train"]) if r["governing_train"] else "–",
-            _fmt(r["governing_speed_kmh"]), md(r["clause"]),
+            _fmt(r["governing_speed_kmh"]), _where_cell(r), md(r["clause"]),
         ])
     out += _table(["Check", "Value", "Limit", "Margin (limit − value)", "Utilisation",
-                   "Result", "Governing train", "Speed [km/h]", "Clause"], rows)
+                   "Result", "Governing train", "Speed [km/h]", "Where", "Clause"], rows)
     out.append("")
     if not isinstance(acc, str) and acc is not None:
         a = acc.attrs
@@ -446,7 +452,7 @@ def _wheel_unloading_line(a: dict) -> str:
     if a.get("zone"):
         txt += f" ({md(a['zone'])})"
     txt += f": governing axle {a['governing_wheel']}"
-    if "min_contact_force" in a:
+    if "min_contact_force" in a and np.isfinite(float(a["min_contact_force"])):
         txt += f"; smallest contact force {_fmt(a['min_contact_force'], 'N')}"
     total = a.get("max_time_separated")
     if total is not None and np.isfinite(total) and total == 0:

@@ -586,6 +586,12 @@ REGULAR_WAVELENGTHS = (2.0, 40.0)
 #: Coherence |sum P_k exp(2 pi i x_k / lambda)| / sum P_k of the axle loads above which a
 #: wavelength is a regular one (1: every axle in phase).
 REGULAR_COHERENCE = 0.5
+#: Length (m) of the front of a train whose axles give its regular length (a passenger
+#: train is at most about 400 m long; a longer list is judged by its first 400 m, so the
+#: cost stays bounded: a few thousand wavenumbers times the axles there).
+REGULAR_WINDOW = 400.0
+#: Most axles of that window taken.
+REGULAR_MAX_AXLES = 2000
 
 
 def regular_length(positions, loads, wavelengths=REGULAR_WAVELENGTHS,
@@ -614,7 +620,8 @@ def regular_length(positions, loads, wavelengths=REGULAR_WAVELENGTHS,
     -------
     float
         D (m), 0.0 when the axles have no regular wavelength (fewer than 4 axles, or no
-        peak of A >= ``coherence``).
+        peak of A >= ``coherence``). A train longer than :data:`REGULAR_WINDOW` is
+        judged by the axles of its first :data:`REGULAR_WINDOW` metres.
     """
     x = np.asarray(positions, float).ravel()
     p = np.abs(np.asarray(loads, float).ravel())
@@ -623,6 +630,11 @@ def regular_length(positions, loads, wavelengths=REGULAR_WAVELENGTHS,
     if x.size < 4:
         return 0.0
     x = x - x.min()
+    keep = np.argsort(x, kind="stable")[:REGULAR_MAX_AXLES]
+    keep = keep[x[keep] <= REGULAR_WINDOW]
+    x, p = x[keep], p[keep]
+    if x.size < 4:
+        return 0.0
     span = max(float(x.max()), 1e-9)
     lo, hi = 1.0 / wavelengths[1], 1.0 / wavelengths[0]
     # wavenumbers 1/lambda: a step of a fraction of the peaks' width 1 / (train length)

@@ -175,8 +175,8 @@ def test_report__viaduct_no_missing_modes_note_and_one_acceleration(tmp_path):
     with xr.open_dataset(tmp_path / "viaduct.nc") as ds:
         along = float(ds["max_track_acceleration_whole_deck"].sel(track=1).max())
         axis = float(ds["max_deck_acceleration_whole_deck"].max())
-    # summary.csv keeps 10 significant digits
-    assert math.isclose(value, max(along, axis), rel_tol=1e-9) and along > 1.2 * axis
+    # summary.csv keeps 7 significant digits
+    assert math.isclose(value, max(along, axis), rel_tol=1e-6) and along > 1.2 * axis
 
 
 def test_report__modes_left_out_below_the_cutoff_are_named(tmp_path):
@@ -236,13 +236,13 @@ def test_wheel_unloading__the_bridge_check_takes_the_deck_and_its_transitions(tm
     assert approach > 5 * bridge and approach < 0.6
     summary = pd.read_csv(rep / "summary.csv").set_index("check")
     row = summary.loc["Wheel unloading ΔQ/Q₀"]
-    # summary.csv keeps 10 significant digits
-    assert math.isclose(float(row["value"]), bridge, rel_tol=1e-9)
+    # summary.csv keeps 7 significant digits
+    assert math.isclose(float(row["value"]), bridge, rel_tol=1e-6)
     # the exit-track records bound their axles' unloading on the bridge by 0.44 < 0.6
     assert row["result"] == "pass"
     info = [c for c in summary.index if c.startswith("Wheel unloading ΔQ/Q₀ on the approach")]
     assert len(info) == 1 and summary.loc[info[0], "result"] == "info"
-    assert math.isclose(float(summary.loc[info[0], "value"]), approach, rel_tol=1e-9)
+    assert math.isclose(float(summary.loc[info[0], "value"]), approach, rel_tol=1e-6)
     lines = section(text, "Summary of checks").splitlines()
     # the headline bullet: the bridge's value in bold, the approach's labelled information
     line = [ln for ln in lines if ln.startswith("- Wheel unloading by where")][0]

@@ -131,6 +131,7 @@ def wheel_unloading(
                         "approach_speed_kmh": float(ds["speed_kmh"].values[i[0]])
                         if "speed_kmh" in ds.coords else float(ds["speed"].values[i[0]] * 3.6),
                         "approach_wheel": int(ds["wheel"].values[i[3]]),
+                        "approach_irregularity": int(ds["irregularity"].values[i[2]]),
                         "approach_x": float(xs[i]),
                         "approach_records": int(off.notnull().sum())}
         dq = dq.where(zone)
@@ -225,7 +226,8 @@ def wheel_unloading(
         out.attrs["governing_wheel"] = -1
     if out.attrs.get("value_is_upper_bound"):  # the bound's axle (off the bridge)
         out.attrs.update(governing_wheel=out.attrs["approach_wheel"],
-                         governing_x=out.attrs["approach_x"])
+                         governing_x=out.attrs["approach_x"],
+                         governing_irregularity=out.attrs["approach_irregularity"])
     return out
 
 

@@ -222,6 +222,35 @@ def test_other_trains__offset_is_in_the_step_and_memory_budget(tmp_path):
 TRAFFIC = '[[fatigue.traffic]]\ntrain = "ICE3"\nspeed_kmh = {v}\nper_day = 10\n'
 
 
+def test_other_trains__superposition_is_in_the_memory_budget(tmp_path):
+    """The double-track viaduct with the other train 10 km behind at 140 km/h and
+    dt = 1 ms: the trains' responses are summed at its 919 deck rows over 270,128 steps
+    (3.7 GiB), refused by ``vsi check`` and ``vsi sweep`` before anything runs."""
+    text = (ROOT / "configs" / "double_track_viaduct.toml").read_text()
+    text = (text.replace("offset = 0.0 }]", "offset = 10000.0 }]")
+            .replace("dt = 2e-3", "dt = 1e-3")
+            .replace("line_speed_kmh = 300.0", "speeds_kmh = [140.0]"))
+    for command in ("check", "sweep"):
+        code, out = run(tmp_path, text, command)
+        assert code == 2, out
+        steps = float(re.search(r"summed over ([\d,]+) time steps", out).group(1)
+                      .replace(",", ""))
+        assert steps > 10000.0 / (140 / 3.6) / 1e-3  # the offset alone
+        assert "more than the budget of 2 GiB" in out and \
+            "train.other_trains[].offset (largest 10000 m)" in out, out
+        assert not (tmp_path / "results" / "double_track_viaduct.nc").exists()
+
+
+def test_torsion__modes_that_cannot_be_computed_are_refused_whatever_the_overrides(tmp_path):
+    torsion = f"torsion = {{ GJ = 1e-300, polar_mass = {IP} }}"
+    code, out = run(tmp_path, deck(torsion=torsion, solver="allow_implausible = true"))
+    assert code == 2, out  # was: the runs ended in "a defect of vsi_numba"
+    f = 1 / (2 * L) * math.sqrt(1e-300 / IP)  # first torsional mode of a fork-supported span
+    got = float(re.search(r"the lowest torsional mode has f = ([\d.e+-]+) Hz", out).group(1))
+    assert got == pytest.approx(f, rel=2e-3), out  # 3 digits printed
+    assert "bridge.torsion.GJ = 1e-300" in out
+
+
 def test_fatigue__runs_are_in_the_budget_and_their_values_bounded(tmp_path):
     traffic = TRAFFIC
     code, out = run(tmp_path, deck(extra=FATIGUE + traffic.format(v=1e-9)))

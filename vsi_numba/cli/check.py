@@ -150,7 +150,14 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
     from vsi_numba.io.schema import HISTORIES
     from vsi_numba.io.space import NC_VARIABLE_OVERHEAD, history_row_bytes
     from vsi_numba.study.backends import available_cores
-    from vsi_numba.study.batches import _packed_trains, history_bytes, study_plan
+    from vsi_numba.study.batches import (
+        _packed_trains,
+        deck_rows,
+        history_bytes,
+        study_plan,
+        superpose_bytes,
+        superpose_refusal,
+    )
     from vsi_numba.study.spec import (
         _build_model,
         _remember,
@@ -177,6 +184,11 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
         models.append(model)
         first_model = first_model or model
         grid = grid or study_grid(model)
+        refusal = superpose_refusal(spec, model)
+        if refusal is not None:
+            from vsi_numba.config import ConfigError
+
+            raise ConfigError([refusal], source=str(cfg.path or "<mapping>"))
         batches = study_plan(spec, model, grid, variant=k if cfg.variants else None,
                              start=len(plan))
         plan += batches
@@ -184,11 +196,11 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
         speeds = np.asarray(grid.speeds_kmh, float) / 3.6
         n_i = len(grid.irregularities)
         n_trains = 1 + len(getattr(c, "other_trains", []) or [])
-        rows = _deck_rows(model)
+        rows = deck_rows(model)
         for p in packed:
             per_step = _extra_step_seconds(p, rows, n_trains)
-            transient = max(transient, _superpose_bytes(p, rows, n_trains,
-                                                        p.n_steps(speeds.min())))
+            transient = max(transient, superpose_bytes(rows, n_trains,
+                                                       p.n_steps(speeds.min())))
             for i_s, v in enumerate(speeds):
                 n = p.n_steps(v)
                 steps += n * n_i
@@ -274,18 +286,6 @@ def _planning_model(cfg, build):
                                profiles={int(s): profile for s in seeds})
 
 
-def _deck_rows(model) -> tuple[int, int, int, int]:
-    """(output points, deck rows reduced every step (displacement and acceleration),
-    whole-deck grid points, load-effect sections) of a study model."""
-    deck = model.deck
-    n_p = int(np.asarray(model.output_points).size)
-    n_rows = int(np.shape(deck[0])[0] + np.shape(deck[1])[0])
-    n_grid = int(np.size(deck[3])) if len(deck) > 3 else 0
-    eff = deck[5] if len(deck) > 5 else None
-    n_sec = int(np.size(eff.sections)) if eff is not None else 0
-    return n_p, n_rows, n_grid, n_sec
-
-
 def _extra_step_seconds(packed, rows, n_trains: int) -> float:
     """Kernel and numpy seconds per time step of a run that the batch plan's step cost
     leaves out: the deck-in-space rows (:data:`SPACE_ROW_SECONDS`, each train's kernel)
@@ -298,17 +298,6 @@ def _extra_step_seconds(packed, rows, n_trains: int) -> float:
         out += SUPERPOSE_ROW_SECONDS * n_m * (n_rows + n_grid)
         out += SUPERPOSE_EFFECT_SECONDS * n_trains * int(packed.load_positions.size) * n_sec
     return out
-
-
-def _superpose_bytes(packed, rows, n_trains: int, n_steps: int) -> float:
-    """Peak temporaries (bytes) of the superposition of a run's trains: the summed
-    response at every deck row and its absolute value over the run's steps (float64;
-    measured: 596 MB peak RSS for configs/double_track_viaduct.toml without load
-    effects, 689 MB with them; estimated 632 MB); 0 for one train per run."""
-    if n_trains <= 1:
-        return 0.0
-    _, n_rows, n_grid, _ = rows
-    return 8.0 * (n_steps + 1) * 2 * (n_rows + n_grid)
 
 
 def _size(n_bytes: float) -> str:
@@ -371,8 +360,13 @@ def check_command(config: Path, workers: int | None = None) -> int:
         return EXIT_USAGE
     for w in cfg.warnings:
         pr.warning(w)
+    from vsi_numba.config import ConfigError
+
     try:
         est = estimate_study(cfg, workers)
+    except ConfigError as exc:  # over the budget of the runs (the study's own checks)
+        pr.config_error(config, exc)
+        return EXIT_USAGE
     except (ValueError, OSError) as exc:  # e.g. a model that cannot be built
         pr.error(f"{config}: the study cannot be planned: {exc}")
         return EXIT_USAGE

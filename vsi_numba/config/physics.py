@@ -786,7 +786,47 @@ def _static_deflection_refusal(chk, solver, bridge, too_soft, limit) -> None:
 
 
 def _show_list(values) -> str:
+    """One number as itself, several as a list ("1e-300", "[1e+10, 2e+10]")."""
+    values = list(values)
+    if len(values) == 1:
+        return f"{values[0]:g}"
     return "[" + ", ".join(f"{v:g}" for v in values) + "]"
+
+
+#: A built-in deck's modes below this frequency (Hz) cannot be computed: the modal
+#: solution divides by omega^2 (1e-154 Hz from GJ = 1e-300 overflows it); no override.
+MIN_MODE_FREQUENCY = 1e-3
+
+
+def _uncomputable_modes(chk, bridge) -> bool:
+    """A beam deck whose lowest bending or torsional mode is below
+    :data:`MIN_MODE_FREQUENCY` (or not finite): refused, whatever the overrides, naming
+    the keys that set it.  True when refused."""
+    if bridge.kind not in ("simply_supported", "continuous") or not bridge.model.n_modes:
+        return False
+    freqs = np.asarray(bridge.model.frequencies, float)
+    space = getattr(bridge, "space", None)
+    share = getattr(space, "torsional_share", None) if space is not None else None
+    tors = (np.asarray(share, float) > 0.5 if share is not None and np.size(share) ==
+            freqs.size else np.zeros(freqs.size, bool))
+    bad = ~np.isfinite(freqs) | (freqs < MIN_MODE_FREQUENCY)
+    if not bad.any():
+        return False
+    j = int(np.flatnonzero(bad)[0])
+    r = bridge.resolved
+    if tors[j]:
+        keys = (f"bridge.torsion.GJ = {_show_list(np.atleast_1d(r['torsion']['GJ']))}, "
+                f"bridge.torsion.polar_mass = "
+                f"{_show_list(np.atleast_1d(r['torsion']['polar_mass']))}")
+        what = "torsional"
+    else:
+        keys = (f"bridge.EI = {_show_list(np.atleast_1d(r['EI']))}, bridge.mass_per_length = "
+                f"{_show_list(np.atleast_1d(r['mass_per_length']))}")
+        what = "bending"
+    chk.errors.append(f"{keys}: the lowest {what} mode has f = {freqs[j]:.3g} Hz; expected "
+                      f"modes above {MIN_MODE_FREQUENCY:g} Hz (the modal solution divides by "
+                      "omega^2), the values of a railway deck in N m^2 and kg m^2/m or kg/m")
+    return True
 
 
 def _plausibility(chk, bridge, train, irr, solver, study, contact):
@@ -794,6 +834,8 @@ def _plausibility(chk, bridge, train, irr, solver, study, contact):
     and for runs beyond the memory/time budget; warnings for the unusual."""
     if _unit_slips(bridge, train, solver):
         return  # refused for its units: the deflections etc. would only repeat it
+    if _uncomputable_modes(chk, bridge):
+        return
     model = bridge.model
     spans = np.atleast_1d(np.asarray(bridge.resolved.get("spans", [bridge.length or 0.0]),
                                      float))

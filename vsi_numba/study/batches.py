@@ -276,6 +276,56 @@ def _packed_trains(spec, model) -> list:
     return [_packed_train(spec, i) for i in range(len(model.trains))]
 
 
+def deck_rows(model) -> tuple[int, int, int, int]:
+    """(output points, deck rows reduced every step (displacement and acceleration),
+    whole-deck grid points, load-effect sections) of a study model."""
+    deck = model.deck
+    n_p = int(np.asarray(model.output_points).size)
+    n_rows = int(np.shape(deck[0])[0] + np.shape(deck[1])[0])
+    n_grid = int(np.size(deck[3])) if len(deck) > 3 else 0
+    eff = deck[5] if len(deck) > 5 else None
+    n_sec = int(np.size(eff.sections)) if eff is not None else 0
+    return n_p, n_rows, n_grid, n_sec
+
+
+def superpose_bytes(rows, n_trains: int, n_steps: int) -> float:
+    """Peak temporaries (bytes) of the superposition of a run's trains
+    (:mod:`vsi_numba.solver.superpose`): the summed response at every deck row
+    (:func:`deck_rows`) and its absolute value over the run's steps (float64; measured:
+    596 MB peak RSS for configs/double_track_viaduct.toml without load effects, 689 MB
+    with them; 632 MB estimated with the batches' histories); 0 for one train per run."""
+    if n_trains <= 1:
+        return 0.0
+    _, n_rows, n_grid, _ = rows
+    return 8.0 * (n_steps + 1) * 2 * (n_rows + n_grid)
+
+
+def superpose_refusal(spec, model) -> str | None:
+    """Why the study of ``model`` is refused before anything runs: the superposition of
+    its slowest run with trains on other tracks (``train.other_trains``) needs more
+    temporaries than :data:`~vsi_numba.config.limits.MAX_HISTORY_BYTES` (unless
+    ``solver.allow_large_problem``); None when it fits."""
+    from vsi_numba.config.limits import MAX_HISTORY_BYTES
+
+    cfg = model.config
+    others = list(getattr(cfg, "other_trains", []) or [])
+    if not others or cfg.resolved()["solver"].get("allow_large_problem"):
+        return None
+    rows = deck_rows(model)
+    vmin = float(np.min(model.speeds_kmh)) / 3.6
+    steps = max(p.n_steps(vmin) for p in _packed_trains(spec, model))
+    need = superpose_bytes(rows, 1 + len(others), steps)
+    if need <= MAX_HISTORY_BYTES:
+        return None
+    largest = max(float(o["offset"]) for o in others)
+    return (f"train.other_trains: the trains of the slowest run are summed over {steps:,} "
+            f"time steps at {rows[1] + rows[2]:,} deck rows, about {need / 2**30:.3g} GiB "
+            f"of temporaries, more than the budget of {MAX_HISTORY_BYTES / 2**30:g} GiB; "
+            f"check train.other_trains[].offset (largest {largest:g} m), study.speeds_kmh "
+            "(slowest), solver.dt, bridge.output_points; set solver.allow_large_problem = "
+            "true to run it anyway")
+
+
 def study_plan(spec, model, grid, variant: int | None = None, start: int = 0) -> list[Batch]:
     """The batch plan of a study (deterministic, see :func:`plan_batches`)."""
     return plan_batches(grid, _packed_trains(spec, model), model.output_points.size,

@@ -63,6 +63,7 @@ from vsi_numba.study.batches import (
     plan_fingerprint,
     run_batch_task,
     study_plan,
+    superpose_refusal,
 )
 from vsi_numba.study.grid import Case, StudyGrid
 from vsi_numba.study.offers import no_values, not_computed_attr, not_offered
@@ -441,6 +442,12 @@ def _execute_locked(cfg, spec, output, workers, scheduler, progress, backend, fr
                              "or vehicle data, not the study's axes")
     plan: list[Batch] = []
     for k, (sp, m) in enumerate(zip(specs, models, strict=True)):
+        refusal = superpose_refusal(sp, m)  # the run budget the model alone tells
+        if refusal is not None:
+            from vsi_numba.config import ConfigError
+
+            raise ConfigError([refusal], source=str(getattr(cfg, "path", None)
+                                                    or "<mapping>"))
         plan += study_plan(sp, m, grid, variant=k if variants else None, start=len(plan))
 
     check_writable(output.parent if str(output.parent) else Path("."), "results file")

@@ -127,6 +127,10 @@ def record_modes(red, q, qdd, f, r, n, t, nl, out, h, iters):
                   red.le_lx, red.le_lp, red.le_ls, nl)
         le_finish(red.le_E, red.le_w2inv, red.le_val, q, f, red.le_max, red.le_max_t,
                   red.le_min, red.le_min_t, r, n, t)
+        if red.cb_Eq.shape[1] > 0:
+            cb_static(red.le_sup, red.le_Linv, red.cb_X, red.cb_sec0, red.cb_ss,
+                      red.le_lx, red.le_lp, nl)
+            cb_finish(red, q, f, r, t)
     if h >= 0:
         for j in range(n_m):
             out.q[h, n, j] = q[j]
@@ -333,3 +337,72 @@ def le_finish(E, w2inv, val, q, f, mx, mxt, mn, mnt, r, n, t):
             if v < mn[r, c]:
                 mn[r, c] = v
                 mnt[r, c] = t
+
+
+@njit(inline="always")
+def cb_static(sup, Linv, X, sec0, ss, lx, lp, nl):
+    """Span-wise simply supported moment and shear of the ``nl`` loads ``lx`` (m,
+    ascending) of forces ``lp`` (N) at the sections ``X`` (m from their span's left
+    support, ascending in each span ``sec0[s] .. sec0[s + 1] - 1``) into ``ss`` (moments
+    first, then shears; the shear just right of a load): the static torsion of a deck
+    whose torsion is restrained at every support, each span on its own.  A load on an
+    interior support belongs to the span on its right (it loads neither)."""
+    n_span = sec0.shape[0] - 1
+    n_s = X.shape[0]
+    kk = 0
+    for sp in range(n_span):
+        x0 = sup[sp]
+        x1 = sup[sp + 1]
+        last = sp == n_span - 1
+        k1 = kk
+        ra = 0.0
+        while k1 < nl and (lx[k1] < x1 or last):
+            ra += lp[k1] * (x1 - lx[k1]) * Linv[sp]
+            k1 += 1
+        s0 = 0.0
+        s1 = 0.0
+        m = kk
+        for q in range(sec0[sp], sec0[sp + 1]):
+            Xq = X[q]
+            while m < k1 and lx[m] - x0 <= Xq:
+                s0 += lp[m]
+                s1 += lp[m] * (lx[m] - x0)
+                m += 1
+            v = ra - s0
+            ss[q] = Xq * v + s1
+            ss[n_s + q] = v
+        kk = k1
+
+
+@njit(inline="always")
+def cb_finish(red, q, f, r, t):
+    """The deck-in-space channels of the step (see ``Reduce.cb_*``) from the static
+    values ``red.cb_ss``, folded into their envelopes of run ``r`` (time ``t``)."""
+    val = red.cb_val
+    Eq = red.cb_Eq
+    Ef = red.cb_Ef
+    n_cb = val.shape[0]
+    for c in range(n_cb):
+        s = 0.0
+        for k in range(red.cb_ptr[c], red.cb_ptr[c + 1]):
+            s += red.cb_coef[k] * red.cb_ss[red.cb_idx[k]]
+        val[c] = s
+    for j in range(q.shape[0]):
+        fj = f[j]
+        for c in range(n_cb):
+            val[c] -= Ef[j, c] * fj
+    for c in range(n_cb):
+        val[c] *= red.cb_D[r, c]
+    for j in range(q.shape[0]):
+        qj = q[j]
+        for c in range(n_cb):
+            val[c] += Eq[j, c] * qj
+    mx, mn = red.cb_max, red.cb_min
+    for c in range(n_cb):
+        v = val[c]
+        if v > mx[r, c]:
+            mx[r, c] = v
+            red.cb_max_t[r, c] = t
+        if v < mn[r, c]:
+            mn[r, c] = v
+            red.cb_min_t[r, c] = t

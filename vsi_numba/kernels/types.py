@@ -336,6 +336,27 @@ class Reduce(NamedTuple):
     le_max_t: np.ndarray = np.zeros((0, 0))  # (n_runs, n_c) s
     le_min: np.ndarray = np.zeros((0, 0))  # (n_runs, n_c) minimum over time (from +inf)
     le_min_t: np.ndarray = np.zeros((0, 0))  # (n_runs, n_c) s
+    # Deck-in-space channels by the mode-acceleration method (cb_static, cb_finish), with
+    # the load effects on: the twist, the displacement along a track and the torque of a
+    # deck whose torsion is restrained at every support (each span a fork-supported span).
+    # The static part is a combination of the span-wise simply supported moment and shear
+    # of the loads at the n_cs sections ``cb_X`` (cb_ss: M at 0..n_cs-1, V at n_cs..):
+    # value = D (sum_k coef_k ss[idx_k] - sum_j Ef[j, c] F_j) + sum_j Eq[j, c] q_j,
+    # D = cb_D[r, c] the speed factor of the static part.  n_cb = 0: off.
+    cb_X: np.ndarray = np.zeros(0)  # (n_cs,) section abscissa in its span, m
+    cb_sec0: np.ndarray = np.zeros(1, np.int64)  # (n_span + 1,) first section of a span
+    cb_ss: np.ndarray = np.zeros(0)  # (2 n_cs,) scratch: span-wise M (N m) and V (N)
+    cb_ptr: np.ndarray = np.zeros(1, np.int64)  # (n_cb + 1,) terms of channel c
+    cb_idx: np.ndarray = np.zeros(0, np.int64)  # (n_nz,) index into cb_ss of each term
+    cb_coef: np.ndarray = np.zeros(0)  # (n_nz,) coefficient of each term
+    cb_Eq: np.ndarray = np.zeros((0, 0))  # (n_m, n_cb) channel of q_j = 1
+    cb_Ef: np.ndarray = np.zeros((0, 0))  # (n_m, n_cb) its static part of F_j = 1
+    cb_D: np.ndarray = np.zeros((0, 0))  # (n_runs, n_cb) speed factor of the static part
+    cb_val: np.ndarray = np.zeros(0)  # (n_cb,) scratch: channels of the step
+    cb_max: np.ndarray = np.zeros((0, 0))  # (n_runs, n_cb) maximum over time (from -inf)
+    cb_max_t: np.ndarray = np.zeros((0, 0))  # (n_runs, n_cb) s
+    cb_min: np.ndarray = np.zeros((0, 0))  # (n_runs, n_cb) minimum over time (from +inf)
+    cb_min_t: np.ndarray = np.zeros((0, 0))  # (n_runs, n_cb) s
 
 
 class Initial(NamedTuple):

@@ -267,6 +267,8 @@ class BeamDeck3D:
     torsional_share : ndarray, shape (n_modes,)
         Share of each mode's kinetic energy (modal mass) in torsion (0 bending, 1
         torsion).
+    polar_mass : ndarray or None
+        Polar mass moment of inertia per length per span (kg m^2/m); None: no torsion.
     """
 
     bending: _br.ModalBridge
@@ -276,6 +278,7 @@ class BeamDeck3D:
     supports: np.ndarray
     GJ: np.ndarray | None = None
     torsional_share: np.ndarray | None = None
+    polar_mass: np.ndarray | None = None
 
     @property
     def n_modes(self) -> int:
@@ -470,7 +473,7 @@ def simply_supported(
         static=beam_deck([L], EI, mass_per_length))
     theta = Table(nodes, th, dth)
     return BeamDeck3D(bending, theta, theta, tracks, planar.supports,
-                      GJ=np.array([gj]), torsional_share=share)
+                      GJ=np.array([gj]), torsional_share=share, polar_mass=np.array([ip]))
 
 
 def beam_torsion_matrices(spans, EI, mass_per_length, torsion: Torsion,
@@ -560,7 +563,7 @@ def continuous(
     zeta_b[share <= 0.5] = zb
     zeta_b[share > 0.5] = zb[-1] if np.ndim(damping_ratio) else float(zb[0])
     zeta = (1.0 - share) * zeta_b + share * float(torsion.damping_ratio)
-    gj, _ = torsion.per_span(np.atleast_1d(spans).size)
+    gj, ip = torsion.per_span(np.atleast_1d(spans).size)
     # the kernels' table: nodal slopes of theta = mean of the adjacent element slopes
     g = np.diff(th, axis=0) / np.diff(nodes)[:, None]
     dth = np.zeros_like(th)
@@ -576,7 +579,7 @@ def continuous(
         static=beam_deck(spans, EI, mass_per_length))
     return BeamDeck3D(bending, Table(nodes, np.ascontiguousarray(th), dth, linear=True),
                       Table(nodes, np.ascontiguousarray(th), dth), tracks, supports,
-                      GJ=gj, torsional_share=share)
+                      GJ=gj, torsional_share=share, polar_mass=ip)
 
 
 @dataclass(frozen=True)

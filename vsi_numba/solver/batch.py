@@ -168,10 +168,17 @@ class SpaceLayout:
     torque_scale: float = 0.0  # N m per channel unit: the loaded track's eccentricity
     torque_reason: str = ""  # why the torsional moment is not computed ("" if it is)
     whole_from_deck: bool = False  # the tracks' whole-deck acceleration is the deck's
+    channels: object | None = None  # space_effects.SpaceChannels (mode-acceleration)
 
     @property
     def n_tracks(self) -> int:
         return int(self.eccentricity.size)
+
+    @property
+    def has_torque(self) -> bool:
+        """Whether the torsional moment at the output points is computed."""
+        return self.torque_channel is not None or (
+            self.channels is not None and bool(np.any(self.channels.torque >= 0)))
 
     def split(self, a: np.ndarray) -> dict[str, np.ndarray]:
         """Columns of ``a`` (n_runs, n_rows): ``deck`` (n_runs, n_p), ``track`` and
@@ -284,13 +291,26 @@ def space_operators(space, points, deck: tuple, loaded: int = 0) -> tuple:
     extra_a = np.concatenate([np.where(keep[None, :], disp, 0.0),
                               np.zeros((twist_p.shape[0] + twist_g.shape[0], n_m)), whole])
     effects = deck[5] if len(deck) > 5 else None
-    effects, channel, scale, reason = torsional_moment_tables(space, points, effects, loaded)
+    from vsi_numba.solver.space_effects import space_channels
+
+    channels = (space_channels(space, points, starts, effects.w2inv, loaded)
+                if effects is not None and isinstance(space, deck3d.BeamDeck3D) else None)
+    if channels is not None:  # twist, track displacement and torque by mode acceleration
+        reason = "" if np.any(channels.torque >= 0) else (
+            "the loaded track is on the deck's axis: the train does not twist the deck"
+            if channels.y_load == 0.0 else "continuous deck: the torsional moment is "
+            "verified on simply supported decks only")
+        channel, scale = None, 0.0
+    else:
+        effects, channel, scale, reason = torsional_moment_tables(space, points, effects,
+                                                                  loaded)
     ecc = getattr(space, "eccentricities", None)
     if ecc is None:
         ecc = np.array([t.eccentricity for t in space.tracks], float)
     layout = SpaceLayout(points.size, np.asarray(ecc, float), grid, has_twist, grid_x,
                          tuple(t.line for t in space.tracks if t.line),
-                         getattr(space, "no_twist", ""), channel, scale, reason, from_deck)
+                         getattr(space, "no_twist", ""), channel, scale, reason, from_deck,
+                         channels)
     return (np.ascontiguousarray(np.vstack([phi_d, extra])),
             np.ascontiguousarray(np.vstack([phi_a, extra_a])), *deck[2:5], effects, layout)
 
@@ -421,7 +441,30 @@ class BatchResult:
                         "time_of_max_track_acceleration_whole_deck":
                         np.take_along_axis(gt, i, 2)[..., 0].copy(),
                         "position_of_max_track_acceleration_whole_deck": sp.grid_x[i[..., 0]]})
-        if sp.torque_channel is not None:
+        ch = sp.channels
+        if ch is not None and red.cb_max.shape[1] > 0:  # mode acceleration (cb_ channels)
+            def absmax(idx):
+                hi, lo = red.cb_max[:, idx], red.cb_min[:, idx]
+                up = hi >= -lo
+                return (np.where(up, hi, -lo),
+                        np.where(up, red.cb_max_t[:, idx], red.cb_min_t[:, idx]))
+
+            out["max_track_displacement"], out["time_of_max_track_displacement"] = absmax(
+                ch.track)
+            if sp.has_twist:
+                n_p = sp.n_points
+                v, t = absmax(ch.twist)
+                out.update({"max_deck_twist": v[..., :n_p],
+                            "time_of_max_deck_twist": t[..., :n_p],
+                            "max_deck_twist_whole_deck": v[..., n_p:],
+                            "time_of_max_deck_twist_whole_deck": t[..., n_p:]})
+            if np.any(ch.torque >= 0):
+                c = ch.torque
+                out.update({"max_torsional_moment": red.cb_max[:, c],
+                            "time_of_max_torsional_moment": red.cb_max_t[:, c],
+                            "min_torsional_moment": red.cb_min[:, c],
+                            "time_of_min_torsional_moment": red.cb_min_t[:, c]})
+        elif sp.torque_channel is not None:
             e, c = sp.torque_scale, sp.torque_channel
             hi, lo = ((red.le_max, red.le_max_t), (red.le_min, red.le_min_t))[::int(
                 np.sign(e))]
@@ -489,7 +532,10 @@ class BatchResult:
         out = effect_series(e, self.static_deck if static is None else static, x, force, c,
                             chan)
         sp = self.space
-        if sp is not None and sp.torque_channel is not None and "shear_force" in out:
+        if sp is not None and sp.channels is not None and np.any(sp.channels.torque >= 0):
+            if mirror is None:  # the run's own train (not offered for the others)
+                out["torsional_moment"] = self.space_series(r)[:, sp.channels.torque]
+        elif sp is not None and sp.torque_channel is not None and "shear_force" in out:
             # the torque channel: the same static shear (simply supported span), its own
             # modal part
             out["torsional_moment"] = sp.torque_scale * (
@@ -536,7 +582,7 @@ class BatchResult:
                            axis=1)
         contact = np.concatenate([self.out.contact[h, :n], np.ones((n, n_l), np.int8)], axis=1)
         body = self.out.body_acc[h, :n].copy()
-        space = self._space_histories(q, qdd)
+        space = self._space_histories(q, qdd, r)
         if self.status[r] != ek.OK:
             for a in (disp, acc, X, body, *space.values()):
                 a[...] = np.nan
@@ -544,7 +590,31 @@ class BatchResult:
                 "in_contact": contact, "carbody_acceleration": body,
                 **self.effect_histories(r), **space}
 
-    def _space_histories(self, q: np.ndarray, qdd: np.ndarray) -> dict[str, np.ndarray]:
+    def space_series(self, r: int, mirror: float | None = None,
+                     y_load: float | None = None) -> np.ndarray:
+        """The deck-in-space channels of run ``r`` (which must have a slot) by the
+        kernels' mode-acceleration formula (:mod:`vsi_numba.solver.space_effects`), from
+        the stored modal coordinates, modal forces and contact forces: (time, channel).
+        ``mirror``: the run went over the deck seen from its far end (its loads stand
+        at ``mirror - x``); ``y_load``: the eccentricity of its track (default the
+        loaded track's)."""
+        ch = self.space.channels
+        h = int(self.slots[r])
+        pk = self.packed
+        n = int(self.n_steps[r]) + 1
+        t = np.arange(n) * pk.params.dt
+        veh = pk.kernel_vehicles
+        x0 = np.concatenate([veh.wheel_x0, veh.load_x0])
+        force = np.concatenate([self.out.X[h, :n],
+                                np.broadcast_to(veh.load_p, (n, veh.load_p.size))], axis=1)
+        x = x0[None, :] + self.speeds[r] * t[:, None]
+        if mirror is not None:
+            x = mirror - x
+        return ch.series(self.out.q[h, :n], self.out.fq[h, :n], x, force,
+                         float(self.speeds[r]), y_load)
+
+    def _space_histories(self, q: np.ndarray, qdd: np.ndarray,
+                         r: int | None = None) -> dict[str, np.ndarray]:
         """Histories along the tracks (:data:`vsi_numba.io.schema.SPACE_HISTORIES`) from
         the modal coordinates ``q`` and accelerations ``qdd`` (time, mode) and the rows
         of :func:`space_operators`; none for a planar deck."""
@@ -557,6 +627,12 @@ class BatchResult:
                "track_acceleration": np.einsum("tm,mkp->tkp", qdd, a["track"])}
         if sp.has_twist:
             out["deck_twist"] = np.einsum("tm,mkp->tkp", q, d["twist"])
+        ch = sp.channels
+        if ch is not None and r is not None and self.out.fq.shape[0] > 0:
+            c = self.space_series(r)
+            out["track_displacement"] = c[:, ch.track]
+            if sp.has_twist:
+                out["deck_twist"] = c[:, ch.twist[:, :sp.n_points]]
         return {k: v.reshape(n, sp.n_tracks, sp.n_points) for k, v in out.items()}
 
 
@@ -655,6 +731,7 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
         gacc=z(n_r), gacc_t=z(n_r), gacc_i=z(n_r, np.int64),
         gwork=z(grid_x.size),
         **_effect_fields(eff, packed, n_r),
+        **_space_fields(deck, eff, speeds, n_r),
     )
     init = initial_states(packed, profile, speeds)
     st = ek.State(*(np.empty_like(a[0]) for a in init))
@@ -677,6 +754,17 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
                        phi_a, cutoff, elapsed, np.asarray(grid_x, float), eff,
                        bridge.static if eff is not None else None,
                        deck[6] if len(deck) > 6 else None)
+
+
+def _space_fields(deck: tuple, eff, speeds, n_r: int) -> dict:
+    """The deck-in-space fields of :class:`~vsi_numba.kernels.types.Reduce` (the
+    ``SpaceLayout``'s channels, with the load effects on; none: off)."""
+    from vsi_numba.solver.space_effects import kernel_fields
+
+    layout = deck[6] if len(deck) > 6 else None
+    if eff is None or layout is None:
+        return {}
+    return kernel_fields(layout.channels, speeds, n_r)
 
 
 def _effect_fields(eff: LoadEffectTables | None, packed: Packed, n_r: int) -> dict:

@@ -34,6 +34,7 @@ class OtherTrain:
     packed: Packed
     reversed: bool  # runs in -x: its loads stand at length - x
     length: float  # m, the deck's length (the mirror of a reversed run)
+    track: int = -1  # 0-based index of its track in bridge.tracks (-1: not known)
 
 
 def shifted(packed: Packed, offset: float) -> Packed:
@@ -106,6 +107,7 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
     rows_d, rows_dt, rows_a, rows_at = [], [], [], []
     gacc, gacc_t, gacc_x = np.full(n_r, np.nan), np.full(n_r, np.nan), np.full(n_r, np.nan)
     effects: dict[str, list] = {}
+    chan: list[tuple] = []  # the deck-in-space channels' |max| and its time, per run
     # the load effects every train adds to (the torsional moment is the run's train's)
     names = {"bending_moment": "bending_moment", "shear_force": "shear_force",
              "support_reaction": "support_reaction", "rotation": "end_rotation"}
@@ -140,6 +142,15 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
                 effects.setdefault(name, []).append(
                     (v.max(axis=0), t[np.argmax(v, axis=0)], v.min(axis=0),
                      t[np.argmin(v, axis=0)]))
+        ch = space.channels if space is not None else None
+        if ch is not None:  # twist and track displacement by mode acceleration, summed
+            c = main.space_series(r)
+            for res, o in others:
+                y = float(space.eccentricity[o.track])
+                c = c + res.space_series(r, mirror=o.length if o.reversed else None,
+                                         y_load=y)
+            b, bt = _first_max(c, t)
+            chan.append((b, bt))
     stack = np.array
     out = {"max_deck_displacement": stack(rows_d)[:, :n_p],
            "time_of_max_deck_displacement": stack(rows_dt)[:, :n_p],
@@ -160,6 +171,16 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
             out.update({"max_deck_twist": d["twist"], "time_of_max_deck_twist": dtime["twist"],
                         "max_deck_twist_whole_deck": d["twist_whole"],
                         "time_of_max_deck_twist_whole_deck": dtime["twist_whole"]})
+        if chan:
+            ch, n_p = space.channels, space.n_points
+            b, bt = stack([c[0] for c in chan]), stack([c[1] for c in chan])
+            out.update({"max_track_displacement": b[:, ch.track],
+                        "time_of_max_track_displacement": bt[:, ch.track]})
+            if space.has_twist:
+                out.update({"max_deck_twist": b[:, ch.twist[:, :n_p]],
+                            "time_of_max_deck_twist": bt[:, ch.twist[:, :n_p]],
+                            "max_deck_twist_whole_deck": b[:, ch.twist[:, n_p:]],
+                            "time_of_max_deck_twist_whole_deck": bt[:, ch.twist[:, n_p:]]})
         if space.grid_x.size and space.whole_from_deck:  # every track line is the axis
             out.update({f"{pre}max_track_acceleration_whole_deck": np.repeat(
                 v[:, None], space.n_tracks, axis=1) for pre, v in (

@@ -185,7 +185,7 @@ def _other_trains(spec, i_train: int) -> tuple:
         bridge = cfg.bridge_on_track(train, int(o["track"]), o["direction"])
         p = pack(bridge, train, 1.0, no_irregularity(), model.settings)
         out.append(OtherTrain(shifted(p, float(o["offset"])), o["direction"] == "opposite",
-                              float(bridge.length)))
+                              float(bridge.length), int(o["track"]) - 1))
     return tuple(out)
 
 

@@ -135,7 +135,7 @@ def not_offered(models, packed) -> dict[str, str]:
             out.update(dict.fromkeys(
                 TRACK_WHOLE_DECK_ACCELERATION, "no mode of the deck up to the EN 1990 A2 "
                 f"acceleration cut-off ({models[0].deck[2]:.4g} Hz)"))
-        if not any(x is not None and x.torque_channel is not None for x in layouts):
+        if not any(x is not None and x.has_torque for x in layouts):
             why = next(x.torque_reason for x in layouts if x is not None)
             out.update(dict.fromkeys(TORSIONAL_MOMENT, why))
     trains = [p for per in packed for p in per]

@@ -253,6 +253,11 @@ def _global_attrs(model: StudyModel, config_json: str, sha: str, grid: StudyGrid
     attrs["warnings_json"] = json.dumps(records, ensure_ascii=False)
     if getattr(cfg, "deck_in_space", None) is not None:
         attrs["loaded_track"] = int(cfg.train_track)  # 1-based, as train.track
+        layout = model.deck[6] if len(model.deck) > 6 else None
+        if layout is not None and layout.channels is not None:
+            from vsi_numba.solver.space_effects import METHOD
+
+            attrs["deck_twist_method"] = METHOD  # the twist and track displacements
     others = getattr(cfg, "other_trains", [])
     if others:  # the ..._all_tracks variables: every train of a run loaded
         attrs["other_trains"] = json.dumps(others)

@@ -768,6 +768,19 @@ _SPACE_IVP = ("solve_ivp (DOP853, rtol 1e-10) of the closed-form bending and St-
               "vsi_numba.verification.reference.deck_in_space_forces")
 
 
+_SPACE_CONVERGED = (_SPACE_IVP + " for the bending; the torsion converged: 400 "
+                    "torsional modes' exact responses, the twist and rotation by the "
+                    "mode-acceleration formula with the closed-form static rotation, "
+                    "vsi_numba.verification.reference.fork_torsion_moving_forces")
+_TRUNCATED = ("the torsional modes above those kept: at a torsional resonance every "
+              "torsional mode is resonant too (f_j = j f_t1), which no static correction "
+              "carries; measured ")
+#: V16's tolerances (relative) and measured errors (the plain modal sum: -3.8e-2 and
+#: -5.4e-3 against the same reference)
+V16_TOL = (8e-2, 1e-2)
+V16_MEASURED = ("+5.3e-2 (safe side; the plain modal sum before: +9.5e-2)", "-4.0e-3")
+
+
 def v16_torsion(workdir: Path) -> list[Row]:
     p = _SPACE
     L, ecc, n_b, n_t = p["L"], 2.5, 3, 4
@@ -781,8 +794,13 @@ def v16_torsion(workdir: Path) -> list[Row]:
     freq = np.asarray(ds["frequency"].values, float).ravel()
     forces = [(P, ecc, -k * d, v) for k in range(n_f)]
     res = _space_reference(forces, n_b, n_t, (L + (n_f - 1) * d) / v + free, dt)
-    twist = float(np.abs(ref.deck_in_space_twist(res, [x_twist])).max())
-    w, a = ref.deck_in_space_line(res, [x_line], ecc)
+    # the converged torsion (400 modes, mode acceleration) with the bending of the ivp
+    tor = ref.fork_torsion_moving_forces([k * d for k in range(n_f)], P, ecc, L, p["GJ"],
+                                         p["Ip"], p["zeta_t"], v, res["t"])
+    th, tw, _ = ref.fork_torsion_channels(tor, [x_twist, x_line])
+    twist = float(np.abs(tw[:, 0]).max())
+    w = ref.deck_in_space_line(res, [x_line], 0.0)[0].ravel() + ecc * th[:, 1]
+    a = ref.deck_in_space_line(res, [x_line], ecc)[1]
     title = (f"Torsion of a {L:g} m fork-supported span with a track at {ecc:g} m: "
              f"{n_f} forces of {P / 1e3:g} kN at d = {d:g} m, v = f_t1 d = "
              f"{v * 3.6:.1f} km/h")
@@ -802,14 +820,14 @@ def v16_torsion(workdir: Path) -> list[Row]:
                         "Hz", float(f_t[j]), float(got), 1e-12, reason_f))
     dsel = ds.sel(track=1)
     rows += [
-        Row("V16-twist", title, _SPACE_IVP, model, f"max deck twist over 3 m from x = "
-            f"{x_twist:g} m", "m", twist,
-            float(dsel["max_deck_twist"].sel(point=x_twist).values), 3e-4,
-            reason + "9.6e-5"),
-        Row("V16-w", title, _SPACE_IVP, model, f"max displacement of the track line at x = "
-            f"{x_line:g} m", "m", float(np.abs(w).max()),
-            float(dsel["max_track_displacement"].sel(point=x_line).values), 2e-4,
-            reason + "5.7e-5"),
+        Row("V16-twist", title, _SPACE_CONVERGED, model, f"max deck twist over 3 m from "
+            f"x = {x_twist:g} m", "m", twist,
+            float(dsel["max_deck_twist"].sel(point=x_twist).values), V16_TOL[0],
+            _TRUNCATED + V16_MEASURED[0]),
+        Row("V16-w", title, _SPACE_CONVERGED, model, f"max displacement of the track line "
+            f"at x = {x_line:g} m", "m", float(np.abs(w).max()),
+            float(dsel["max_track_displacement"].sel(point=x_line).values), V16_TOL[1],
+            _TRUNCATED + V16_MEASURED[1]),
         Row("V16-a", title, _SPACE_IVP, model, f"max |acceleration| of the track line at "
             f"x = {x_line:g} m (every mode below the 30 Hz cut-off)", "m/s2",
             float(np.abs(a).max()),
@@ -836,24 +854,25 @@ def v17_crawl_twist(workdir: Path) -> list[Row]:
     src_n = (f"the sine series of the same rotation truncated to the {n_t} torsional "
              "modes kept, the torque moved in 1 mm steps, "
              "vsi_numba.verification.reference.point_torque_twist")
-    measured = {4.0: ("6.2e-3", "7e-5"), 10.5: ("9.7e-3", "5e-5")}
+    del src_n
+    measured = {4.0: "-7.9e-5", 10.5: "+5.5e-5"}
     rows = []
     for i, x in enumerate(points):
         closed = ref.point_torque_twist(P * ecc, p["GJ"], L, x)
         series = ref.point_torque_twist(P * ecc, p["GJ"], L, x, n_modes=n_t)
         got = float(ds["max_deck_twist"].sel(track=1, point=x).values)
         what = f"max deck twist over 3 m from x = {x:g} m"
-        rows += [
-            Row(f"V17-twist-{i + 1}", title, src, model, what, "m", closed, got, 2e-2,
-                f"modal truncation: the series of the {n_t} torsional modes kept is "
-                f"{series / closed - 1:+.1e} off the closed form (the rotation has a kink "
-                f"under the torque, its series converges as 1/n); measured "
-                f"{measured[x][0]}"),
-            Row(f"V17-twist-{i + 1}-series", title, src_n, model, what, "m", series, got,
-                2e-4, "the same modes: the dynamic part at 3 km/h and the torque's "
-                f"positions sampled at v dt = 0.83 mm; measured {measured[x][1]}"),
-        ]
+        rows.append(
+            Row(f"V17-twist-{i + 1}", title, src, model, what, "m", closed, got, 3e-4,
+                "mode acceleration: the static rotation is the closed form, the modes "
+                "add the dynamic part at 3 km/h, the torque's positions sampled at "
+                f"v dt = 0.83 mm (the plain series of the {n_t} modes kept is "
+                f"{series / closed - 1:+.1e} off); measured {measured[x]}"))
     return rows
+
+
+_TRUNCATED_V18 = ("the converged torsion (400 modes) against the 4 kept with the "
+                  "static correction: the truncated modes' dynamic part; measured ")
 
 
 def v18_trains_meeting(workdir: Path) -> list[Row]:
@@ -869,9 +888,16 @@ def v18_trains_meeting(workdir: Path) -> list[Row]:
     forces = ([(P, ecc, -k * d, v) for k in range(n_f)]
               + [(P, -ecc, L + off + k * d, -v) for k in range(n_f)])
     res = _space_reference(forces, n_b, n_t, (L + (n_f - 1) * d + off) / v + free, dt)
-    w1, _ = ref.deck_in_space_line(res, [x], ecc)
-    w2, _ = ref.deck_in_space_line(res, [x], -ecc)
     w0, _ = ref.deck_in_space_line(res, [x], 0.0)
+    # the converged torsion of each train (the one in -x mirrored: x' = L - x)
+    fwd = ref.fork_torsion_moving_forces([k * d for k in range(n_f)], P, ecc, L, p["GJ"],
+                                         p["Ip"], p["zeta_t"], v, res["t"])
+    rev = ref.fork_torsion_moving_forces([off + k * d for k in range(n_f)], P, -ecc, L,
+                                         p["GJ"], p["Ip"], p["zeta_t"], v, res["t"])
+    th = (ref.fork_torsion_channels(fwd, [x])[0][:, 0]
+          + ref.fork_torsion_channels(rev, [L - x])[0][:, 0])
+    w1 = w0.ravel() + ecc * th
+    w2 = w0.ravel() - ecc * th
     moment = ref.deck_in_space_moment(res, x)
     title = (f"Trains meeting on a twisting {L:g} m deck: {n_f} forces of {P / 1e3:g} kN at "
              f"d = {d:g} m on each track (+-{ecc:g} m), the second in -x {off:g} m behind, "
@@ -890,12 +916,12 @@ def v18_trains_meeting(workdir: Path) -> list[Row]:
             reason + "1.1e-5"),
         Row("V18-w-track1", title, src, model, f"max displacement of track 1 at x = {x:g} m,"
             " both trains", "m", float(np.abs(w1).max()),
-            float(ds["max_track_displacement_all_tracks"].sel(track=1, **at).values), 3e-6,
-            reason + "1.1e-6"),
+            float(ds["max_track_displacement_all_tracks"].sel(track=1, **at).values), 3e-3,
+            _TRUNCATED_V18 + "1.3e-3 (the plain modal sum before: 5.6e-3)"),
         Row("V18-w-track2", title, src, model, f"max displacement of track 2 at x = {x:g} m,"
             " both trains", "m", float(np.abs(w2).max()),
-            float(ds["max_track_displacement_all_tracks"].sel(track=2, **at).values), 1e-5,
-            reason + "4.1e-6"),
+            float(ds["max_track_displacement_all_tracks"].sel(track=2, **at).values), 1.5e-3,
+            _TRUNCATED_V18 + "5.8e-4 (the plain modal sum before: 1.2e-3)"),
         Row("V18-M", title, src, model, f"max bending moment at x = {x:g} m, both trains",
             "N m", float(moment.max()),
             float(ds["max_bending_moment_all_tracks"].sel(**at).values), 4e-6,

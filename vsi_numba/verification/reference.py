@@ -622,3 +622,80 @@ def point_torque_twist(T, GJ, L, x, gauge=1.435, base=3.0, n_modes=None):
         return (np.sin(np.outer(a, k)) * coef) @ np.sin(k * s) if 0.0 <= s <= L else 0.0 * a
 
     return float(np.abs(gauge * (theta(x) - theta(x + base))).max())
+
+
+def fork_torsion_moving_forces(offsets, P, y, L, GJ, Ip, zeta_t, v, t, n_modes=400):
+    """Torsion of a fork-supported span under moving forces ``P`` (N, down) at ``y`` (m)
+    ``offsets`` (m) behind a first one that enters at t = 0, each mode's exact response
+    (:func:`_sdof_sine_from_rest`, :func:`_sdof_free`) superposed over the forces, with
+    ``n_modes`` modes ``theta_j = sqrt(2/(Ip L)) sin(j pi x/L)``,
+    ``omega_j = (j pi/L) sqrt(GJ/Ip)``: a converged reference of the quantities that
+    converge slowly in modes, by the mode-acceleration formula of
+    :func:`fork_torsion_channels`.
+
+    Returns a dict: ``q`` (nt, n_modes) and ``force`` (nt, n_modes) the modal forces,
+    ``k`` the wave numbers, ``omega``, the inputs.
+    """
+    t = np.atleast_1d(np.asarray(t, float))
+    offsets = np.atleast_1d(np.asarray(offsets, float))
+    k = np.pi * np.arange(1, n_modes + 1) / L
+    om = k * np.sqrt(GJ / Ip)
+    a = np.sqrt(2.0 / (Ip * L))
+    F = np.full(n_modes, P * y * a)
+    Om = k * v
+    T = L / v
+    q = np.zeros((t.size, n_modes))
+    force = np.zeros_like(q)
+    for d in offsets:
+        tau = t - d / v
+        on = (tau >= 0.0) & (tau <= T)
+        after = tau > T
+        if np.any(on):
+            q[on] += _sdof_sine_from_rest(F, Om, om, zeta_t, tau[on])[0]
+            force[on] += F * np.sin(np.outer(tau[on], Om))
+        if np.any(after):
+            qT, qdT = _sdof_sine_from_rest(F, Om, om, zeta_t, [T])
+            q[after] += _sdof_free(qT[0], qdT[0], om, zeta_t, tau[after] - T)[0]
+    return dict(t=t, q=q, force=force, k=k, omega=om, a=a, offsets=offsets, P=P, y=y, L=L,
+                GJ=GJ, v=v)
+
+
+def fork_torsion_channels(res, x, gauge=1.435, base=3.0, speed_factor=1.0):
+    """Histories (nt, len(x)) of the rotation ``theta(x)``, the twist over ``base`` from
+    ``x`` (``gauge (theta(x) - theta(x + base))``, zero off the span) and the St-Venant
+    torque ``T(x) = GJ theta'(x)`` (the value just right of a load) of
+    :func:`fork_torsion_moving_forces`: the closed-form static rotation and torque of
+    the point torques ``P y`` on the span plus ``sum_j (q_j - F_j / omega_j^2)`` of the
+    modes (mode acceleration); ``speed_factor`` D multiplies the static part and the
+    modes' ``F_j / omega_j^2`` (1: the classical formula).  Returns (theta, twist,
+    torque)."""
+    x = np.atleast_1d(np.asarray(x, float))
+    L, GJ, v, t = res["L"], res["GJ"], res["v"], res["t"]
+    D = float(speed_factor)
+    c = res["q"] - D * res["force"] / res["omega"] ** 2
+    pos = v * t[:, None] - res["offsets"][None, :]  # (nt, n_forces)
+    on = (pos >= 0.0) & (pos <= L)
+    Pe = D * res["P"] * res["y"]
+
+    def static(at):
+        X = np.asarray(at, float)[None, None, :]
+        a = pos[:, :, None]
+        th = np.where(X <= a, X * (L - a), a * (L - X)) / (GJ * L)
+        tq = np.where(a <= X, -a, L - a) / L
+        inside = ((X >= 0.0) & (X <= L)) & on[:, :, None]
+        return (Pe * np.where(inside, th, 0.0).sum(axis=1),
+                Pe * np.where(inside, tq, 0.0).sum(axis=1))
+
+    def modal(at):
+        at = np.asarray(at, float)
+        s = res["a"] * np.sin(np.outer(at, res["k"]))
+        s[(at < 0.0) | (at > L)] = 0.0
+        ds = GJ * res["a"] * res["k"] * np.cos(np.outer(at, res["k"]))
+        return c @ s.T, c @ ds.T
+
+    th0, tq0 = static(x)
+    th1, tq1 = modal(x)
+    thb0 = static(x + base)[0]
+    thb1 = modal(x + base)[0]
+    theta = th0 + th1
+    return theta, gauge * (theta - thb0 - thb1), tq0 + tq1

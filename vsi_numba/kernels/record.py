@@ -406,3 +406,31 @@ def cb_finish(red, q, f, r, t):
         if v < mn[r, c]:
             mn[r, c] = v
             red.cb_min_t[r, c] = t
+
+
+@njit
+def cb_history(sup, Linv, X, sec0, ptr, idx, coef, x, force, lx, lp, ss, out):
+    """The static part of the deck-in-space channels (D = 1; ``Reduce.cb_*`` with
+    ``coef`` per unit of the loads' eccentricity) of the forces ``force`` (N) at ``x``
+    (m), both (n, n_load), step by step as the kernels' :func:`cb_static`, into ``out``
+    (n, n_cb); ``lx``, ``lp`` (n_load,) and ``ss`` (2 n_cs,) are scratch."""
+    n, n_load = x.shape
+    n_cb = ptr.shape[0] - 1
+    lo = sup[0]
+    hi = sup[sup.shape[0] - 1]
+    for i in range(n):
+        nl = 0
+        for k in range(n_load):
+            xk = x[i, k]
+            if force[i, k] != 0.0 and xk >= lo and xk <= hi:
+                lx[nl] = xk
+                lp[nl] = force[i, k]
+                nl += 1
+        le_sort(lx, lp, nl)
+        cb_static(sup, Linv, X, sec0, ss, lx, lp, nl)
+        for c in range(n_cb):
+            s = 0.0
+            for k in range(ptr[c], ptr[c + 1]):
+                s += coef[k] * ss[idx[k]]
+            out[i, c] = s
+    return out

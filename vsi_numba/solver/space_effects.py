@@ -95,19 +95,18 @@ class SpaceChannels:
 
     def static_unit(self, x, force) -> np.ndarray:
         """Static channels (D = 1, without the modal part) of forces ``force`` (n, n_load)
-        at ``x`` (n, n_load) on a track at ``y_load``: (n, n_cb), per unit of y_load."""
-        n = x.shape[0]
-        sup = self.supports
-        step, load = np.nonzero((x >= sup[0]) & (x <= sup[-1]) & (force != 0.0))
-        xs, fs = x[step, load], force[step, load]
-        m, v = span_moment_shear(sup, self.sections, xs)  # (n_cs, pairs)
-        ss = np.concatenate([m, v]) * fs  # (2 n_cs, pairs)
-        terms = np.zeros((self.idx.size, n))
-        for i, row in enumerate(ss[self.idx]):
-            terms[i] = np.bincount(step, weights=row, minlength=n)
-        out = np.zeros((n, self.n_channels))
-        owner = np.repeat(np.arange(self.n_channels), np.diff(self.ptr))
-        np.add.at(out.T, owner, self.coef[:, None] * terms)
+        at ``x`` (n, n_load) on a track at ``y_load``: (n, n_cb), per unit of y_load
+        (:func:`~vsi_numba.kernels.record.cb_history`, the kernels' formula)."""
+        from vsi_numba.kernels.record import cb_history
+
+        sup = np.ascontiguousarray(self.supports, np.float64)
+        f64 = np.float64
+        out = np.zeros((x.shape[0], self.n_channels))
+        cb_history(sup, 1.0 / np.diff(sup), np.ascontiguousarray(self.X, f64), self.sec0,
+                   self.ptr, self.idx, np.ascontiguousarray(self.coef, f64),
+                   np.ascontiguousarray(x, f64), np.ascontiguousarray(force, f64),
+                   np.zeros(x.shape[1]), np.zeros(x.shape[1]),
+                   np.zeros(2 * self.sections.size), out)
         return out
 
     def series(self, q, fq, x, force, speed, y_load=None) -> np.ndarray:

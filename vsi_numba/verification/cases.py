@@ -929,6 +929,149 @@ def v18_trains_meeting(workdir: Path) -> list[Row]:
     ]
 
 
+# ------------------------------------------------------------------ V19-V20 mode acceleration
+#: V19-V20 measured errors and tolerances (relative), against the converged references.
+V19_MEASURED = {"crawl": "3.3e-4 (the plain modal sum before: -1.5e-2 .. -1.0e-1)",
+                "res": "+5.3e-2 .. +6.7e-2, safe side (the plain modal sum before: "
+                       "-1.2e-1 .. +9.9e-2)"}
+
+
+def _space_continuous(points, ecc, n_bending, n_torsion, spans):
+    p = _SPACE
+    torsion = (f"{{ GJ = {p['GJ']!r}, polar_mass = {p['Ip']!r}, "
+               f"damping_ratio = {p['zeta_t']!r}, n_modes = {n_torsion} }}")
+    return f"""
+        [bridge]
+        kind = "continuous"
+        spans = {list(spans)!r}
+        EI = {p['EI']!r}
+        mass_per_length = {p['m']!r}
+        damping_ratio = {p['zeta']!r}
+        n_modes = {n_bending}
+        elements_per_span = 40
+        output_points = {list(points)!r}
+        tracks = [{{ eccentricity = {ecc!r} }}]
+        torsion = {torsion}
+        """
+
+
+def v19_continuous_twist(workdir: Path) -> list[Row]:
+    p = _SPACE
+    spans, ecc, n_b, n_t = (24.0, 24.0), 2.5, 4, 8
+    points = [4.0, 10.5, 34.5]
+    P = 2.0e5
+    title_c = (f"A {P / 1e3:g} kN force crawling (3 km/h) on a track at {ecc:g} m of a "
+               "24 + 24 m continuous deck, torsion restrained at the supports")
+    model = (f"moving forces on track 1, {n_b} bending + {n_t} torsional modes (1 %), FE "
+             "40 elements a span, mode acceleration, HHT alpha = 0")
+    text = (_space_continuous(points, ecc, n_b, n_t, spans) + "[train]\ntrack = 1\n"
+            + _forces([0.0], P) + _space_run(2e-3, 3.0, 0.0))
+    ds = sweep(workdir, "v19_crawl", text).isel(speed=0, train=0, irregularity=0)
+    src_c = ("St-Venant rotation of a point torque P e on each fork-supported span, the "
+             "force moved in 1 mm steps, "
+             "vsi_numba.verification.reference.fork_spans_crawl_twist")
+    closed = ref.fork_spans_crawl_twist(spans, P, ecc, p["GJ"], points)
+    grid = np.asarray(ds["twist_x"].values, float)
+    closed_g = ref.fork_spans_crawl_twist(spans, P, ecc, p["GJ"], grid).max()
+    rows = [Row(f"V19-crawl-{i + 1}", title_c, src_c, model + ", dt 2 ms",
+                f"max deck twist over 3 m from x = {x:g} m", "m", float(closed[i]),
+                float(ds["max_deck_twist"].sel(track=1, point=x).values), 1e-3,
+                "the dynamic part at 3 km/h and the FE torsion field (linear elements) "
+                "between nodes; measured " + V19_MEASURED["crawl"])
+            for i, x in enumerate(points)]
+    rows.append(Row("V19-crawl-whole", title_c, src_c, model + ", dt 2 ms",
+                    "max deck twist over 3 m, whole-deck grid", "m", float(closed_g),
+                    float(ds["max_deck_twist_whole_deck"].sel(track=1).max().values), 1e-3,
+                    "as above; measured " + V19_MEASURED["crawl"]))
+    # the first torsional resonance: eight forces d = 12 m apart at v = f_t1 d
+    n_f, d, dt, free = 8, 12.0, 2.5e-4, 0.3
+    f_t1 = float(ref.fork_torsion_frequencies(spans[0], p["GJ"], p["Ip"], 1)[0])
+    v = f_t1 * d
+    text = (_space_continuous(points, ecc, n_b, n_t, spans) + "[train]\ntrack = 1\n"
+            + _forces([k * d for k in range(n_f)], 1.5e5) + _space_run(dt, v * 3.6, free))
+    ds = sweep(workdir, "v19_resonance", text).isel(speed=0, train=0, irregularity=0)
+    t = np.arange(0.0, (sum(spans) + (n_f - 1) * d) / v + free, dt / 2)
+    tw = ref.fork_spans_twist(spans, [k * d for k in range(n_f)], 1.5e5, ecc, p["GJ"],
+                              p["Ip"], p["zeta_t"], v, t, points)
+    title_r = (f"{n_f} forces of 150 kN at d = {d:g} m at the first torsional resonance "
+               f"(v = f_t1 d = {v * 3.6:.1f} km/h) on the continuous deck of V19")
+    src_r = ("each span a fork-supported span: 400 torsional modes' exact responses, the "
+             "twist by the mode-acceleration formula with the closed-form static rotation, "
+             "vsi_numba.verification.reference.fork_spans_twist")
+    for i, x in enumerate(points):
+        rows.append(Row(f"V19-res-{i + 1}", title_r, src_r, model + f", dt {dt * 1e3:g} ms",
+                        f"max deck twist over 3 m from x = {x:g} m", "m",
+                        float(np.abs(tw[:, i]).max()),
+                        float(ds["max_deck_twist"].sel(track=1, point=x).values),
+                        V19_RES_TOL, _TRUNCATED + V19_MEASURED["res"]))
+    return rows
+
+
+V19_RES_TOL = 0.1
+
+
+def v20_torque(workdir: Path) -> list[Row]:
+    p = _SPACE
+    L, ecc, n_b, n_t = p["L"], 2.5, 3, 6
+    points = [3.0, 6.0, 12.0]
+    P = 2.0e5
+    model = (f"moving forces on track 1, {n_b} bending + {n_t} torsional modes (1 %), "
+             "mode acceleration with the speed factor 1 / (1 - (v/c)^2), HHT alpha = 0")
+    text = (_space_bridge(points, [ecc], n_b, n_t) + "[train]\ntrack = 1\n"
+            + _forces([0.0], P) + _space_run(2e-3, 3.0, 0.0))
+    ds = sweep(workdir, "v20_crawl", text).isel(speed=0, train=0, irregularity=0)
+    title_c = (f"A {P / 1e3:g} kN force crawling (3 km/h) on a track at {ecc:g} m of the "
+               f"{L:g} m fork-supported span of V16: the St-Venant torsional moment")
+    src_c = ("static St-Venant torque of a point torque P e on a fork-supported span: "
+             "P e (1 - a/L) left of it, -P e a/L right of it; largest P e (1 - x/L), "
+             "smallest -P e x/L")
+    Pe = P * ecc
+    rows = []
+    for i, x in enumerate(points):
+        rows += [
+            Row(f"V20-crawl-max-{i + 1}", title_c, src_c, model + ", dt 2 ms",
+                f"max torsional moment at x = {x:g} m", "N m", Pe * (1 - x / L),
+                float(ds["max_torsional_moment"].sel(point=x).values), 1e-3,
+                "the dynamic part at 3 km/h and the load's positions sampled at v dt; "
+                "measured " + V20_MEASURED["crawl"]),
+            Row(f"V20-crawl-min-{i + 1}", title_c, src_c, model + ", dt 2 ms",
+                f"min torsional moment at x = {x:g} m", "N m", -Pe * x / L,
+                float(ds["min_torsional_moment"].sel(point=x).values), 5e-3,
+                "as above; measured " + V20_MEASURED["crawl"])]
+    # at speed: eight forces d = 12 m apart at 200 km/h (v/c = 0.18)
+    n_f, d, dt, free, kmh = 8, 12.0, 2.5e-4, 0.3, 200.0
+    v = kmh / 3.6
+    text = (_space_bridge(points, [ecc], n_b, n_t) + "[train]\ntrack = 1\n"
+            + _forces([k * d for k in range(n_f)], P) + _space_run(dt, kmh, free))
+    ds = sweep(workdir, "v20_speed", text).isel(speed=0, train=0, irregularity=0)
+    t = np.arange(0.0, (L + (n_f - 1) * d) / v + free, dt / 2)
+    res = ref.fork_torsion_moving_forces([k * d for k in range(n_f)], P, ecc, L, p["GJ"],
+                                         p["Ip"], p["zeta_t"], v, t)
+    tq = ref.fork_torsion_channels(res, points)[2]
+    title_s = (f"{n_f} forces of {P / 1e3:g} kN at d = {d:g} m at {kmh:g} km/h on the span "
+               "of V16: the St-Venant torsional moment")
+    src_s = ("400 torsional modes' exact responses, the torque by the mode-acceleration "
+             "formula with the closed-form static torque, "
+             "vsi_numba.verification.reference.fork_torsion_moving_forces")
+    for i, x in enumerate(points):
+        for ext, fn in (("max", np.max), ("min", np.min)):
+            rows.append(Row(f"V20-speed-{ext}-{i + 1}", title_s, src_s,
+                            model + f", dt {dt * 1e3:g} ms",
+                            f"{ext} torsional moment at x = {x:g} m", "N m",
+                            float(fn(tq[:, i])),
+                            float(ds[f"{ext}_torsional_moment"].sel(point=x).values),
+                            V20_SPEED_TOL, "the torque fronts a force sends off along the "
+                            "span when it enters or leaves it, carried by the kept modes "
+                            "only; measured " + V20_MEASURED["speed"]))
+    return rows
+
+
+V20_MEASURED = {"crawl": "2.4e-4 (max), 2.1e-3 (min at x = 3 m: 2.6e-4 of P e)",
+                "speed": "-6.5e-2 .. +2.2e-2, at most 1.4e-2 of P e (without the speed "
+                         "factor before: -8.9e-2 .. +1.7e-2)"}
+V20_SPEED_TOL = 0.1
+
+
 CASES: tuple[Case, ...] = (
     Case("V01", "Moving force on a simply supported beam (Frýba)", True, v01_fryba),
     Case("V02", "Sprung mass on a simply supported beam (Yang & Wu)", True, v02_yang_wu),
@@ -959,4 +1102,7 @@ CASES: tuple[Case, ...] = (
          v16_torsion),
     Case("V17", "Crawl twist of a point torque", True, v17_crawl_twist),
     Case("V18", "Trains meeting on a twisting deck", True, v18_trains_meeting),
+    Case("V19", "Twist of a continuous deck at crawl speed and at a torsional resonance",
+         False, v19_continuous_twist),
+    Case("V20", "Torsional moment at crawl speed and at speed", False, v20_torque),
 )

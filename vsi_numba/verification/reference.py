@@ -699,3 +699,49 @@ def fork_torsion_channels(res, x, gauge=1.435, base=3.0, speed_factor=1.0):
     thb1 = modal(x + base)[0]
     theta = th0 + th1
     return theta, gauge * (theta - thb0 - thb1), tq0 + tq1
+
+
+def fork_spans_twist(spans, offsets, P, y, GJ, Ip, zeta_t, v, t, x, gauge=1.435, base=3.0,
+                     n_modes=400):
+    """Twist histories (nt, len(x)) over ``base`` from ``x`` of a deck on point supports
+    whose torsion is restrained at every support: each span is a fork-supported span of
+    its own (:func:`fork_torsion_moving_forces`, :func:`fork_torsion_channels`), loaded by
+    the forces while they cross it; zero rotation off the deck."""
+    x = np.atleast_1d(np.asarray(x, float))
+    sup = np.concatenate([[0.0], np.cumsum(np.asarray(spans, float))])
+    offsets = np.atleast_1d(np.asarray(offsets, float))
+
+    def theta(at):
+        out = np.zeros((np.size(t), at.size))
+        for s, L in enumerate(np.diff(sup)):
+            inside = (at >= sup[s]) & (at <= sup[s + 1])
+            if not inside.any():
+                continue
+            res = fork_torsion_moving_forces(offsets + sup[s], P, y, L, GJ, Ip, zeta_t, v,
+                                             t, n_modes)
+            out[:, inside] += fork_torsion_channels(res, at[inside] - sup[s])[0]
+        return out
+
+    return gauge * (theta(x) - theta(x + base))
+
+
+def fork_spans_crawl_twist(spans, P, y, GJ, x, gauge=1.435, base=3.0, step=1e-3):
+    """Largest |twist| over ``base`` from each ``x`` of a force ``P`` at ``y`` crawling
+    over a deck whose torsion is restrained at every support (each span fork-supported):
+    the closed-form St-Venant rotation ``theta(X) = P y X (L - a) / (GJ L)`` (X <= a) of
+    the span holding the load, the load moved in ``step`` m steps."""
+    x = np.atleast_1d(np.asarray(x, float))
+    sup = np.concatenate([[0.0], np.cumsum(np.asarray(spans, float))])
+    a = np.arange(0.0, sup[-1] + step / 2, step)
+
+    def theta(at):
+        out = np.zeros((at.size, a.size))
+        for s, L in enumerate(np.diff(sup)):
+            X = (at - sup[s])[:, None]
+            b = (a - sup[s])[None, :]
+            g = np.where(X <= b, X * (L - b), b * (L - X)) / (GJ * L)
+            on = ((X >= 0) & (X <= L)) & ((b >= 0) & (b <= L))
+            out += np.where(on, g, 0.0)
+        return P * y * out
+
+    return np.abs(gauge * (theta(x) - theta(x + base))).max(axis=1)

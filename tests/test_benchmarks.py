@@ -12,6 +12,7 @@ different HHT constant, a step-count or position offset of one step shows up at 
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -347,3 +348,33 @@ def test_space_smoke(tmp_path):
     assert "## Decks in space" in text and "| b1 |" in text and "| c1 |" in text
     SP.write_section(report, SP.markdown(res))  # replaced in place, not appended
     assert report.read_text().count("## Decks in space") == 1
+
+
+# ------------------------------------------------------ the main job (benchmarks/main_job.py)
+
+
+def test_main_job_section__medians_ratios_and_replaced_in_place(tmp_path):
+    """The main job's section: medians of the rounds per checkout, this checkout's over
+    the baseline's as the ratio, the re-run's own line quoted; written in place of an
+    earlier one, the rest of the report kept."""
+    from benchmarks import main_job as MJ
+
+    res = MJ.Result({"this checkout": Path("."), "baseline": Path("/b")}, rounds=3,
+                    date="2026-12-01T00:00:00+00:00", load=(1.0, 1.5))
+    for wall, cpu in ((2.0, 3.0), (2.2, 3.3), (9.0, 9.9)):  # median 2.2 s, 3.3 s
+        res.add("this checkout", "rerun", wall, cpu)
+    for wall, cpu in ((4.4, 6.6), (4.0, 6.0), (5.0, 7.0)):  # median 4.4 s, 6.6 s
+        res.add("baseline", "rerun", wall, cpu)
+    res.notes["this checkout"] = "627 runs: results.nc holds them"
+    text = MJ.markdown(res)
+    row = next(ln for ln in text.splitlines() if ln.startswith("| main job re-run"))
+    assert row.split(" | ")[1:5] == ["2.20 s", "3.30 s", "4.40 s", "6.60 s"]
+    assert row.endswith("| 0.50 | 0.50 |")
+    assert "`627 runs: results.nc holds them`" in text
+    report = tmp_path / "bench.md"
+    report.write_text("# report\n\n" + MJ.markdown(MJ.Result({"this checkout": Path(".")}))
+                      + "\n## Later\n")
+    MJ.write_section(report, text)
+    out = report.read_text()
+    assert out.count(MJ.BEGIN) == 1 and "| 0.50 | 0.50 |" in out
+    assert out.startswith("# report") and out.rstrip().endswith("## Later")

@@ -71,12 +71,19 @@ def _width(dims: tuple, sizes: dict) -> int:
 
 
 def envelope_row_bytes(n_point: int, n_wheel: int, n_vehicle: int, n_deck_x: int = 0,
-                       n_support: int = 0) -> int:
+                       n_support: int = 0, n_track: int = 0, n_twist: int = 0,
+                       all_tracks: bool = False) -> int:
     """float64 bytes of every envelope of one run (``n_deck_x``, ``n_support``: the
-    load-effect grid and supports, 0 without load effects)."""
+    load-effect grid and supports, 0 without load effects; ``n_track``, ``n_twist``: the
+    tracks and twist windows of a deck in space, 0 for a planar deck; ``all_tracks``:
+    the every-train-loaded twins of ``train.other_trains``)."""
+    from vsi_numba.io.schema import ALL_TRACKS, SPACE_ENVELOPES
+
     sizes = {"point": n_point, "wheel": n_wheel, "vehicle": n_vehicle, "deck_x": n_deck_x,
-             "support": n_support}
-    return 8 * sum(_width(dims, sizes) for dims, *_ in ENVELOPES.values())
+             "support": n_support, "track": n_track, "twist_x": n_twist}
+    tables = [ENVELOPES] + ([SPACE_ENVELOPES] if n_track else []) + (
+        [ALL_TRACKS] if all_tracks else [])
+    return 8 * sum(_width(dims, sizes) for t in tables for dims, *_ in t.values())
 
 
 def history_row_bytes(n_point: int, n_wheel_dynamic: int, n_vehicle: int,
@@ -91,11 +98,13 @@ def history_row_bytes(n_point: int, n_wheel_dynamic: int, n_vehicle: int,
 
 def batch_bytes(n_runs: int, hist_steps: list[int], n_point: int, n_wheel: int,
                 n_wheel_dynamic: int, n_vehicle: int, n_deck_x: int = 0,
-                n_support: int = 0, n_track: int = 0) -> int:
+                n_support: int = 0, n_track: int = 0, n_twist: int = 0,
+                all_tracks: bool = False) -> int:
     """Size of one stored batch (bytes): ``n_runs`` runs, of which those in
     ``hist_steps`` (time steps + 1 each) keep their histories, NaN-padded to the
     longest (:func:`vsi_numba.study.batches.run_batch_task`)."""
-    size = n_runs * (envelope_row_bytes(n_point, n_wheel, n_vehicle, n_deck_x, n_support)
+    size = n_runs * (envelope_row_bytes(n_point, n_wheel, n_vehicle, n_deck_x, n_support,
+                                        n_track, n_twist, all_tracks)
                      + 4 * len(DIAGNOSTICS) + 4 * MESSAGE_CHARS)
     n_arrays = len(ENVELOPES) + len(DIAGNOSTICS) + 3
     if hist_steps:

@@ -489,6 +489,10 @@ def study_need(study, pending):
     # a deck in space: the histories along its tracks
     n_k = max(m.deck[6].n_tracks if len(m.deck) > 6 and m.deck[6] is not None else 0
               for m in study.models)
+    n_tw = max(np.size(m.deck[6].twist_x) if len(m.deck) > 6 and m.deck[6] is not None
+               else 0 for m in study.models)
+    # trains on other tracks: the every-train-loaded envelopes (..._all_tracks) too
+    all_tracks = any(getattr(m.config, "other_trains", []) for m in study.models)
     packed = [_packed_trains(sp, m) for sp, m in zip(study.specs, study.models, strict=True)]
     speeds = [float(v) / 3.6 for v in grid.speeds_kmh]
 
@@ -503,13 +507,15 @@ def study_need(study, pending):
         n_p, n_w, n_wd, n_v, p = dims(b)
         steps = [p.n_steps(speeds[s]) + 1
                  for s, h in zip(b.speeds, b.histories, strict=True) if h]
-        store += batch_bytes(b.n_runs, steps, n_p, n_w, n_wd, n_v, n_x, n_s, n_k)
+        store += batch_bytes(b.n_runs, steps, n_p, n_w, n_wd, n_v, n_x, n_s, n_k, n_tw,
+                             all_tracks)
     n_p = max(m.output_points.size for m in study.models)
     shapes = [dims(b)[1:4] for b in study.plan]
     n_w = max((d[0] for d in shapes), default=0)  # the file's wheel dim: all the wheels
     n_v = max((d[2] for d in shapes), default=0)
     n_runs = study.n_runs
-    final_min = NC_OVERHEAD + n_runs * (envelope_row_bytes(n_p, n_w, n_v, n_x, n_s)
+    final_min = NC_OVERHEAD + n_runs * (envelope_row_bytes(n_p, n_w, n_v, n_x, n_s, n_k,
+                                                           n_tw, all_tracks)
                                         + 4 * len(DIAGNOSTICS))
     hist = [dims(b)[4].n_steps(speeds[s]) + 1 for b in study.plan
             for s, h in zip(b.speeds, b.histories, strict=True) if h]

@@ -87,6 +87,22 @@ def test_track_eccentricity_in_mm_and_torsion_out_of_range(tmp_path):
         "t m^2/m = 40000 kg m^2/m)" in out, out
 
 
+CAR = ('[[train.vehicles]]\nkind = "car"\nbody_mass = 4.0e4\nbody_pitch_inertia = 2.0e6\n'
+       "bogie_mass = 3.0e3\nbogie_pitch_inertia = 2.0e3\nwheelset_mass = 1.8e3\n"
+       "bogie_spacing = {s}\nwheelbase = {w}\nprimary_stiffness = 2.4e6\n"
+       "primary_damping = 2.0e4\nsecondary_stiffness = 7.0e5\nsecondary_damping = 4.0e4\n")
+
+
+def test_car_geometry_in_mm(tmp_path):
+    code, out = run(tmp_path, deck(tracks="", torsion="", train=CAR.format(s=17500, w=2500)))
+    assert code == 2, out
+    assert ("train.vehicles[0].bogie_spacing = 17500 m looks like mm (17500 mm = 17.5 m): "
+            "expected 1.5 .. 40 m") in out, out
+    assert "train.vehicles[0].wheelbase = 2500 m looks like mm (2500 mm = 2.5 m)" in out
+    code, out = run(tmp_path, deck(tracks="", torsion="", train=CAR.format(s=17.5, w=2.5)))
+    assert "looks like mm" not in out, out
+
+
 AXLES = "position,load\n0,{q}\n3,{q}\n11,{q}\n14,{q}\n"
 
 

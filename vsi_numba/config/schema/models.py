@@ -325,8 +325,9 @@ class SprungMassVehicle(_Vehicle):
     damper_blowoff: DamperBlowoff = key(None, doc="a blow-off of the suspension damper")
 
 
-def _car_key(unit, doc, expected, required=True, default=None):
-    return key(default, required=required, unit=unit, doc=doc, expected=expected)
+def _car_key(unit, doc, expected, required=True, default=None, **plausible):
+    return key(default, required=required, unit=unit, doc=doc, expected=expected,
+               **plausible)
 
 
 class CarVehicle(_Vehicle):
@@ -341,9 +342,13 @@ class CarVehicle(_Vehicle):
                                            "a pitch inertia > 0 kg m^2")
     wheelset_mass: PosNum = _car_key("kg", "wheelset mass", "a mass > 0 kg")
     bogie_spacing: PosNum = _car_key("m", "distance between bogie centres",
-                                     "a distance between bogie centres > 0 m")
+                                     "a distance between bogie centres > 0 m",
+                                     plausible=(1.5, 40.0),
+                                     typical="about 17.5 m for a coach, 11.5 m for a "
+                                             "locomotive")
     wheelbase: PosNum = _car_key("m", "axle distance within a bogie",
-                                 "an axle distance within a bogie > 0 m")
+                                 "an axle distance within a bogie > 0 m",
+                                 plausible=(1.0, 6.0), typical="2.5 m usual")
     primary_stiffness: PosNum = _car_key("N/m", "primary suspension stiffness per wheelset",
                                          "a stiffness > 0 N/m (per wheelset)")
     primary_damping: Num(ge=0) = _car_key("N s/m", "primary damping per wheelset",

@@ -834,13 +834,12 @@ def _plausibility(chk, bridge, train, irr, solver, study, contact):
     and for runs beyond the memory/time budget; warnings for the unusual."""
     if _unit_slips(bridge, train, solver):
         return  # refused for its units: the deflections etc. would only repeat it
-    if _uncomputable_modes(chk, bridge):
-        return
     model = bridge.model
     spans = np.atleast_1d(np.asarray(bridge.resolved.get("spans", [bridge.length or 0.0]),
                                      float))
     dt = solver["dt"]
     trains = list(train.trains)
+    before = len(chk.errors)
     # -- static deflection of the deck under each train
     if model.n_modes and trains and spans.size and spans.max() > 0:
         limit = MAX_STATIC_DEFLECTION * float(spans.max())
@@ -878,6 +877,10 @@ def _plausibility(chk, bridge, train, irr, solver, study, contact):
                 too_soft.append((tr.name, w))
         if too_soft:  # one cause (the deck, or its units): one message for every train
             _static_deflection_refusal(chk, solver, bridge, too_soft, limit)
+    n_errors = len(chk.errors)
+    if (n_errors == before or solver.get("allow_implausible")) and \
+            _uncomputable_modes(chk, bridge):
+        return  # (after the deflection, which names a deck too soft for its trains)
     # -- Hertz static penetration
     if contact["model"] != "rigid":
         g = contact["hertz_coefficient"]

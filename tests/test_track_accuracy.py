@@ -94,25 +94,26 @@ def _reference(x, r, speed_kmh, rail_mass):
 
 
 @pytest.mark.parametrize("seed, speed_kmh, rail_mass", [
-    (2, 400.0, 0.0), pytest.param(3, 400.0, 120.0, marks=pytest.mark.slow)])
+    (2, 400.0, 0.0), (3, 400.0, 120.0), pytest.param(1, 250.0, 120.0, marks=pytest.mark.slow)])
 def test_track_accuracy__ice3_car_on_rough_track_against_the_continuous_rail(
         tmp_path, monkeypatch, seed, speed_kmh, rail_mass):
     """Massless rail (the default), seed 2 at 400 km/h, the worst dQ/Q0 of the grid in
     docs/track_accuracy.md: measured dQ/Q0 -0.017 and the deck acceleration +0.8 % (the
     first-order element: -0.057, -3.5 %); bounds 0.035 and 3 % (2x the measured dQ error,
     and the accuracy aimed at; the first-order element fails both).  120 kg/m, seed 3 at
-    400 km/h, the worst deck acceleration of the grid: measured -6.6 % (unsafe side, what
-    TRACK_ACCURACY_NOTE says: the rail's inertia in the deck load is left out) and dQ/Q0
-    -0.007; bounds -10 % .. +3 % and 0.035.  The reference at dt = 0.2 ms and 0.4 m
+    400 km/h, the lowest deck acceleration of the grid, and seed 1 at 250 km/h, the
+    highest: measured -1.6 % and +2.7 % with the rail's inertia in the deck load (-6.6 %
+    and -2.3 % without it), dQ/Q0 -0.007 and -0.005; bounds +-3 % (the accuracy aimed at)
+    and 0.035.  The reference at dt = 0.2 ms and 0.4 m
     rail wavelengths: 0.1 ms and 0.2 m move its dQ/Q0 by ~1e-3 and its acceleration by
     < 0.1 % (measured), well inside the bounds."""
     x, r = _profile(seed)
     dq_ref, acc_ref = _reference(x, r, speed_kmh, rail_mass)
-    assert dq_ref > 0.5 and acc_ref > 4.0  # rough track: a real excitation
+    assert dq_ref > 0.2 and acc_ref > 2.0  # rough track: a real excitation
     dq, acc = _vsi(tmp_path, monkeypatch, x, r, speed_kmh, rail_mass)
     assert abs(dq - dq_ref) < 0.035
     if rail_mass == 0.0:
         assert abs(acc / acc_ref - 1) < 0.03
     else:
-        assert -0.10 < acc / acc_ref - 1 < 0.03
-        assert "7 % LOW" in TRACK_ACCURACY_NOTE
+        assert abs(acc / acc_ref - 1) < 0.03
+        assert "-1.6 .. +2.7 %" in TRACK_ACCURACY_NOTE

@@ -89,6 +89,12 @@ def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
     # 0. where the wheels and the loads are at t_{n+1}
     contact_search(br, veh, pr, t1, speed, wk)
     assemble_loads(br, veh, t1, speed, wk.fq, wk.phil, wk.hq, wk.rq)
+    if veh.track_kappa > 0.0:  # the rail's inertia in the deck load (lagged one step)
+        for i in range(n_w):
+            if wk.onb[i] == 1 and wk.was_active[i] == 1:
+                f = -veh.track_kappa * wk.trk[i, 2]
+                for j in range(n_m):
+                    wk.fq[j] += f * wk.phi[i, j]
 
     # 1. predictor y = K^-1 R0: the increment of the HHT equilibrium (Eq. (3)) with all
     #    contact forces at t_{n+1} zero; modes (diagonal K^), then the vehicle blocks

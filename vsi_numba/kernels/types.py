@@ -90,6 +90,11 @@ class VehicleArrays(NamedTuple):
     track_kt: float = 0.0
     track_ct: float = 0.0
     track_mt: float = 0.0
+    # the rail's inertia in the deck load: wheel i loads the deck with
+    # X_i - track_kappa z''_i (z'' of its element at the start of the step; kg,
+    # = (m' / k) track_kt: the transmissibility 1 / (1 - w^2 m' / k) of the rail on its
+    # foundation to first order); 0: the deck load is X_i
+    track_kappa: float = 0.0
     # (n_w,) the elements' static state z = X_static / track_kt, m (the static contact
     # forces of the start; the start's X holds the forces with the rail's accelerations)
     track_z0: np.ndarray = np.zeros(0)

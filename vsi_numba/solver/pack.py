@@ -56,6 +56,10 @@ class Packed:
         return int(math.ceil((t_exit + self.free_vibration) / self.params.dt - 1e-9))
 
 
+#: Load the deck with the rail's inertia (VehicleArrays.track_kappa).
+RAIL_INERTIA_IN_DECK_LOAD = True
+
+
 def _pack_bridge(bridge: ModalBridge, wheels: bool = True) -> ek.BridgeArrays:
     """Kernel arrays of the bridge; its track's filtered shapes only when there are
     ``wheels`` (prescribed moving forces load the deck line directly)."""
@@ -240,8 +244,12 @@ def pack(
     if bridge.track is not None and len(wdof):
         k_t, c_t, m_t = bridge.track.wheel_element
         if c_t > 0.0 or m_t > 0.0:  # damped or massive: the element under each wheel
+            tr = bridge.track
+            kappa = (float(getattr(tr, "rail_mass", 0.0)) / float(tr.foundation_stiffness)
+                     * float(k_t)) if RAIL_INERTIA_IN_DECK_LOAD else 0.0
             veh = veh._replace(track_kt=float(k_t), track_ct=float(c_t), track_mt=float(m_t),
-                               track_z0=np.zeros(len(wdof)))  # set by initial_states
+                               track_z0=np.zeros(len(wdof)),  # set by initial_states
+                               track_kappa=kappa)
     veh = driver.with_patterns(veh)
     # the moving forces the kernels run: each axle spread by the track (outputs per axle)
     dist, distributed = bridge.load_distribution, None

@@ -251,6 +251,12 @@ def _global_attrs(model: StudyModel, config_json: str, sha: str, grid: StudyGrid
     if warnings:
         attrs["config_warnings"] = "\n".join(str(w) for w in warnings)
     attrs["warnings_json"] = json.dumps(records, ensure_ascii=False)
+    track = getattr(model.bridge, "track", None)
+    if track is not None and float(getattr(track, "rail_mass", 0.0)) > 0.0:
+        from vsi_numba.solver.pack import RAIL_INERTIA_IN_DECK_LOAD
+
+        # the deck load holds the rail's inertia (VehicleArrays.track_kappa)
+        attrs["rail_inertia_in_deck_load"] = int(RAIL_INERTIA_IN_DECK_LOAD)
     if getattr(cfg, "deck_in_space", None) is not None:
         attrs["loaded_track"] = int(cfg.train_track)  # 1-based, as train.track
         layout = model.deck[6] if len(model.deck) > 6 else None

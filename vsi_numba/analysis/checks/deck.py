@@ -197,7 +197,8 @@ def rail_mass_note(ds: xr.Dataset) -> str:
         has = np.isfinite(np.asarray(ds["static_wheel_load"].values, float))
         if has.shape == pres.shape and bool(pres[has].all()):
             return ""  # moving forces only: the track element is not used
-    return rail_mass_acceleration_note(mass)
+    return rail_mass_acceleration_note(
+        mass, bool(int(ds.attrs.get("rail_inertia_in_deck_load", 0))))
 
 
 def dynamic_amplification(

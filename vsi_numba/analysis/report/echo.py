@@ -22,7 +22,7 @@ from vsi_numba.analysis.report.document import Markdown, Section, Table
 from vsi_numba.analysis.report.safe import cell, code
 from vsi_numba.analysis.report.text import sha256_text
 from vsi_numba.model.distribution import describe_config
-from vsi_numba.model.track import TRACK_ACCURACY_NOTE
+from vsi_numba.model.track import TRACK_ACCURACY_NOTE, TRACK_ACCURACY_NOTE_BEFORE
 
 
 def fmt_number(value, unit: str = "", digits: int = 4) -> str:
@@ -230,7 +230,10 @@ def input_echo(ds: xr.Dataset, variant_note: str = "") -> Section:
                          f"rails), foundation k = {fmt_number(k, 'N/m²')}, "
                          f"{fmt_number(2 * k / beta / 1e6, 'kN/mm')} under one axle"))
             if not _moving_forces_only(ds):
-                rows.append(("Track model accuracy", TRACK_ACCURACY_NOTE))
+                new = (float(track.get("rail_mass", 0.0) or 0.0) == 0.0
+                       or int(ds.attrs.get("rail_inertia_in_deck_load", 0)))
+                rows.append(("Track model accuracy", TRACK_ACCURACY_NOTE if new
+                             else TRACK_ACCURACY_NOTE_BEFORE))
         else:
             rows.append(("Track model", "rigid-track idealisation (kink at the deck ends)"))
     if cfg and _has_moving_forces(ds):

@@ -172,6 +172,32 @@ def modes(
 
 
 @app.command()
+def calibrate(
+    config: Path = typer.Argument(..., metavar="CONFIG",
+                                  help="TOML configuration with a [calibration] section"),
+    output: Path = typer.Option(..., "-o", "--output", help="netCDF posterior file"),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress or warnings"),
+):
+    """Bayesian updating of configuration keys from measured records (emcee)."""
+    from vsi_numba.cli.existing import calibrate_command
+
+    raise typer.Exit(calibrate_command(config, output, quiet))
+
+
+@app.command()
+def reliability(
+    config: Path = typer.Argument(..., metavar="CONFIG",
+                                  help="TOML configuration with a [reliability] section"),
+    output: Path = typer.Option(..., "-o", "--output", help="netCDF reliability file"),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress or warnings"),
+):
+    """Probability that a check is exceeded and reliability index (subset simulation)."""
+    from vsi_numba.cli.existing import reliability_command
+
+    raise typer.Exit(reliability_command(config, output, quiet))
+
+
+@app.command()
 def report(
     results: Path = typer.Argument(..., metavar="RESULTS",
                                    help="netCDF results of `vsi run` or `vsi sweep`"),

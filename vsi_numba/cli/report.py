@@ -58,6 +58,12 @@ def report_command(results: Path, outdir: Path | None = None) -> int:
               f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})")
         return EXIT_USAGE
     with ds:
+        from vsi_numba.existing.report import kind_of
+
+        if kind_of(ds) is not None:  # a posterior (vsi calibrate) or reliability file
+            from vsi_numba.cli.existing import existing_report
+
+            return existing_report(ds, results, outdir, pr)
         # ds stays lazy: the report loads the envelopes and reads the time histories one
         # case at a time (memory independent of the study's size)
         if "variant" in ds.dims:  # a parametric study: the report over the variants

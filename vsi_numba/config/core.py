@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from vsi_numba.config import existing as _existing
 from vsi_numba.config._check import (
     _BAD,
     _MISSING,
@@ -625,6 +626,11 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
                                study.axes if _ok(study) else (), base)
     compat = _compatibility_section(chk, data.get("compatibility", _MISSING), profile, study,
                                     train)
+    rest_ok = not chk.errors
+    calib = _existing._calibration_section(chk, data.get("calibration", _MISSING), data, base,
+                                           rest_ok, _validate)
+    relia = _existing._reliability_section(chk, data.get("reliability", _MISSING), data, base,
+                                           rest_ok, _validate)
 
     if _ok(bridge, solver, irr) and irr.file_profile is not None:
         _check_file_coverage(chk, irr, -solver["approach"], bridge.length)
@@ -686,6 +692,8 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
         **({"code_profile": code_profile} if code_profile else {}),
         **({"fatigue": fatigue} if fatigue else {}),
         **({"compatibility": compat} if compat else {}),
+        **({"calibration": calib} if calib else {}),
+        **({"reliability": relia} if relia else {}),
     }
     cfg = Config(
         title=resolved["title"], path=path, base_dir=base, resolved=resolved, bridge=bridge,

@@ -745,3 +745,58 @@ def fork_spans_crawl_twist(spans, P, y, GJ, x, gauge=1.435, base=3.0, step=1e-3)
         return P * y * out
 
     return np.abs(gauge * (theta(x) - theta(x + base))).max(axis=1)
+
+
+# ----------------------------------------------------------- existing bridges (synthetic)
+def moving_forces_ivp(positions, loads, L, EI, m, zeta, n_modes, v, x, t, x_start=0.0,
+                      rtol=1e-9, atol=1e-12):
+    """Deflection and acceleration of forces crossing a simply supported beam, by
+    ``solve_ivp`` of the modal equations (independent of the closed form of
+    :func:`train_of_forces`).
+
+    ``q_j'' + 2 zeta w_j q_j' + w_j^2 q_j = sum_k P_k phi_j(x_k(t))`` with force ``k`` at
+    ``x_k = x_start - positions[k] + v t`` while ``0 <= x_k <= L``; the state starts at
+    rest.  The integration restarts at every time a force enters or leaves the span (the
+    load is discontinuous in its derivative there), DOP853 between them.
+
+    Returns
+    -------
+    w, a : ndarray, shape (len(t), len(x))
+        Deflection (m) and acceleration (m s-2), positive down, at the times ``t``.
+    """
+    positions = np.asarray(positions, float)
+    loads = np.asarray(loads, float)
+    t = np.asarray(t, float)
+    om = ss_omega(L, EI, m, n_modes)
+    j = np.arange(1, n_modes + 1)
+    amp = np.sqrt(2.0 / (m * L))
+
+    def force(tt):
+        xk = x_start - positions + v * tt
+        on = (xk >= 0.0) & (xk <= L)
+        return amp * (np.sin(np.outer(j, xk[on]) * np.pi / L) @ loads[on])
+
+    def rhs(tt, y):
+        q, qd = y[:n_modes], y[n_modes:]
+        return np.concatenate([qd, force(tt) - 2 * zeta * om * qd - om**2 * q])
+
+    events = np.concatenate([(positions - x_start) / v, (positions - x_start + L) / v])
+    events = np.unique(events[(events > t[0]) & (events < t[-1])])
+    edges = np.concatenate([[min(t[0], 0.0)], events, [t[-1]]])
+    y = np.zeros(2 * n_modes)
+    q = np.zeros((t.size, n_modes))
+    qd = np.zeros_like(q)
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        if b <= a:
+            continue
+        inside = (t >= a) & (t < b) if b < t[-1] else (t >= a) & (t <= b)
+        te = np.unique(np.concatenate([t[inside], [b]]))
+        sol = scipy.integrate.solve_ivp(rhs, (a, b), y, method="DOP853", rtol=rtol,
+                                        atol=atol, t_eval=te)
+        n_in = int(inside.sum())
+        q[inside] = sol.y[:n_modes, :n_in].T
+        qd[inside] = sol.y[n_modes:, :n_in].T
+        y = sol.y[:, -1]
+    qdd = np.array([force(tt) for tt in t]) - 2 * zeta * om * qd - om**2 * q
+    phi = ss_shapes(L, m, n_modes, x)
+    return q @ phi.T, qdd @ phi.T

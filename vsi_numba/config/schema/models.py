@@ -881,6 +881,142 @@ class Compatibility(Section):
                  "speed")
 
 
+
+# ------------------------------------------------- existing bridges: [calibration], [reliability]
+
+#: Prior and input distributions of [calibration] and [reliability].
+DISTRIBUTIONS = ("uniform", "normal", "lognormal")
+#: Quantities a measured record may hold.
+RECORD_QUANTITIES = ("deck_acceleration", "deck_displacement")
+#: Checks whose probability of exceedance [reliability] estimates.
+RELIABILITY_CHECKS = ("deck_acceleration", "deck_displacement")
+#: Estimators of [reliability].
+RELIABILITY_METHODS = ("subset", "monte_carlo")
+#: ``key`` is a field name of the tables below: the declaration under another name.
+_declare = key
+KeyPath = Annotated[str, Field(min_length=3, pattern=r"^[A-Za-z_]\w*(\[\d+\])?"
+                               r"(\.[A-Za-z_]\w*(\[\d+\])?)+$")]
+
+
+class _Distribution(Section):
+    """The parameters of a distribution (which are needed depends on its kind)."""
+
+    median: PosNum = _declare(None, doc="median (lognormal)", expected="a median > 0")
+    cov: Num(gt=0, le=3) = _declare(None, doc="coefficient of variation (lognormal)",
+                               expected="a coefficient of variation > 0 (at most 3)")
+    mean: Num() = _declare(None, doc="mean (normal)", expected="a mean (a number)")
+    std: PosNum = _declare(None, doc="standard deviation (normal)",
+                      expected="a standard deviation > 0")
+    lower: Num() = _declare(None, doc="lower bound (uniform)", expected="a lower bound")
+    upper: Num() = _declare(None, doc="upper bound (uniform)", expected="an upper bound > lower")
+
+
+class CalibrationParameter(_Distribution):
+    """``calibration.parameters[i]``: a numeric configuration key and its prior."""
+
+    key: KeyPath = _declare(required=True, doc="the dotted key path of a numeric configuration "
+                                          "key, e.g. bridge.EI or bridge.damping_ratio[0]",
+                       expected="a dotted key path of a numeric key, e.g. \"bridge.EI\"",
+                       example="bridge.EI")
+    prior: one_of(DISTRIBUTIONS) = _declare(required=True, doc="prior distribution")
+
+
+class CalibrationRecord(Section):
+    """``[[calibration.records]]``: one measured passage."""
+
+    file: Text = _declare(required=True, doc="CSV file with columns t (s) and value ('#' "
+                                        "comments), relative to the configuration",
+                     expected="a CSV file with columns t, value", example="passage_01.csv")
+    quantity: one_of(RECORD_QUANTITIES) = _declare(required=True, doc="what the record measures "
+                                                                 "(m s-2 or m, positive down)")
+    point: Num(ge=0) = _declare(required=True, unit="m", doc="abscissa along the deck",
+                           expected="a deck abscissa >= 0 m")
+    track: Int(ge=1) = _declare(None, default_text="the train's track",
+                           doc="track of the point (decks in space)",
+                           expected="a track number >= 1")
+    train: Text = _declare(required=True, doc="a library train (vsi trains) or an axle CSV file",
+                      expected="a train name (vsi trains) or an axle CSV file",
+                      example="HSLM-A1")
+    speed_kmh: Speed = _declare(required=True, unit="km/h", doc="train speed of the passage",
+                           expected=f"a speed > 0 km/h (at most {SPEED_BOUND_KMH:g})")
+
+
+class Calibration(Section):
+    """``[calibration]``: Bayesian updating of configuration keys from measured records
+    (``vsi calibrate``)."""
+
+    parameters: list[CalibrationParameter] = _declare(
+        required=True, doc="the keys to update, each with its prior",
+        expected="a list of tables {key, prior, ...}")
+    records: list[CalibrationRecord] = _declare(required=True, doc="the measured passages",
+                                           expected="[[calibration.records]] tables")
+    noise_std: PosNum = _declare(None, default_text="a parameter of the calibration",
+                            doc="standard deviation of the records' measurement noise (unit "
+                                "of the records); absent: estimated with the parameters",
+                            expected="a noise standard deviation > 0 (unit of the records)")
+    sampler: one_of(("emcee",)) = _declare("emcee", doc="MCMC sampler (emcee: affine-invariant "
+                                                   "ensemble)")
+    n_samples: Int(ge=16, le=1_000_000) = _declare(
+        4000, doc="posterior samples kept (walkers x steps after the burn-in)",
+        expected="an integer number of samples, 16 .. 1e6")
+    n_walkers: Int(ge=4, le=1000) = _declare(None, default_text="max(16, 4 x parameters)",
+                                        doc="ensemble size (even, >= 2 x parameters)",
+                                        expected="an even number of walkers, 4 .. 1000")
+    burn_in: Int(ge=0, le=1_000_000) = _declare(None, default_text="as many steps as kept",
+                                           doc="steps per walker discarded first",
+                                           expected="an integer number of steps >= 0")
+    seed: Int(ge=0) = _declare(0, doc="seed of the sampler (same seed, same posterior)",
+                          expected="an integer seed >= 0")
+    max_lag_s: PosNum = _declare(2.0, unit="s", doc="largest time shift of a record against the "
+                                               "model searched for the alignment",
+                            expected="a time shift > 0 s")
+    line_speed_kmh: Speed = _declare(None, default_text="study.line_speed_kmh, else the fastest "
+                                                   "record",
+                                unit="km/h", doc="line speed of the deck-acceleration check "
+                                                 "with the calibrated model (+10 %, +20 %)",
+                                expected=f"a line speed > 0 km/h (at most "
+                                         f"{SPEED_BOUND_KMH:g})")
+    check_samples: Int(ge=10, le=100_000) = _declare(
+        200, doc="posterior samples run for the check and the predictive records",
+        expected="an integer number of samples, 10 .. 100000")
+
+
+class ReliabilityVariable(_Distribution):
+    """``reliability.variables[i]``: a numeric configuration key as a random variable."""
+
+    key: KeyPath = _declare(required=True, doc="the dotted key path of a numeric configuration "
+                                          "key, e.g. bridge.damping_ratio",
+                       expected="a dotted key path of a numeric key, e.g. "
+                                "\"bridge.damping_ratio\"", example="bridge.damping_ratio")
+    distribution: one_of(DISTRIBUTIONS) = _declare(required=True, doc="its distribution")
+
+
+class Reliability(Section):
+    """``[reliability]``: the probability that a check is exceeded (``vsi reliability``)."""
+
+    check: one_of(RELIABILITY_CHECKS) = _declare("deck_acceleration",
+                                            doc="the check (its limit from the code profile "
+                                                "or reliability.limit)")
+    method: one_of(RELIABILITY_METHODS) = _declare("subset", doc="subset simulation (OpenTURNS) "
+                                                           "or crude Monte Carlo")
+    target_cov: Num(gt=0, lt=1) = _declare(0.1, doc="stop when the estimate's coefficient of "
+                                               "variation is below this",
+                                      expected="a coefficient of variation in (0, 1)")
+    variables: list[ReliabilityVariable] = _declare(required=True, doc="the random inputs",
+                                               expected="a list of tables {key, "
+                                                        "distribution, ...}")
+    limit: PosNum = _declare(None, default_text="the code profile's limit of the check",
+                        doc="limit of the check (m s-2 or m)", expected="a limit > 0")
+    max_runs: Int(ge=100, le=10_000_000) = _declare(
+        100_000, doc="largest number of forward runs per estimate",
+        expected="an integer number of runs, 100 .. 1e7")
+    block_size: Int(ge=10, le=100_000) = _declare(
+        1000, doc="runs per block (Monte Carlo) or per level (subset simulation)",
+        expected="an integer number of runs, 10 .. 100000")
+    seed: Int(ge=0) = _declare(0, doc="seed (same seed, same estimate)",
+                          expected="an integer seed >= 0")
+
+
 # ------------------------------------------------------------------------------- a file
 
 class VsiConfig(Section):
@@ -903,6 +1039,10 @@ class VsiConfig(Section):
     fatigue: Fatigue = key(None, doc="the fatigue check of steel details ([fatigue])")
     compatibility: Compatibility = key(None, doc="the compatibility of a train with the "
                                                  "bridge ([compatibility])")
+    calibration: Calibration = key(None, doc="Bayesian updating from measured records "
+                                             "([calibration], vsi calibrate)")
+    reliability: Reliability = key(None, doc="probability of exceedance of a check "
+                                             "([reliability], vsi reliability)")
 
 
 #: The tables of a file in the order of the key reference: (path, model or union).
@@ -914,4 +1054,7 @@ SECTIONS: tuple[tuple[str, Any], ...] = (
     ("code_profile", CodeProfile), ("code_profile.overrides", Overrides),
     ("fatigue", Fatigue), ("fatigue.sections", FatigueSection),
     ("fatigue.traffic", FatigueTraffic), ("compatibility", Compatibility),
+    ("calibration", Calibration), ("calibration.parameters", CalibrationParameter),
+    ("calibration.records", CalibrationRecord), ("reliability", Reliability),
+    ("reliability.variables", ReliabilityVariable),
 )

@@ -1,0 +1,131 @@
+"""``vsi calibrate`` and ``vsi reliability``: existing bridges (the numerics are in
+:mod:`vsi_numba.existing`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from vsi_numba.cli.common import EXIT_USAGE, Printer, load_config, output_problem
+
+
+def _write(ds, out: Path) -> None:
+    from vsi_numba.io.netcdf import encoding_for, write_atomic
+
+    write_atomic(out, lambda tmp: ds.to_netcdf(tmp, engine="netcdf4",
+                                               encoding=encoding_for(ds)))
+
+
+def _prepare(config: Path, output: Path, section: str, command: str, pr: Printer):
+    cfg = load_config(config, pr)
+    if cfg is None:
+        return None
+    if not cfg.resolved().get(section):
+        pr.error(f"{config}: no [{section}] section: `vsi {command}` needs one (see "
+                 f"docs/manual/{'calibration' if section == 'calibration' else 'reliability'}"
+                 ".md)")
+        return None
+    problem = output_problem(config, Path(output), cfg)
+    if problem is not None:
+        pr.error(problem)
+        return None
+    return cfg
+
+
+def calibrate_command(config: Path, output: Path, quiet: bool) -> int:
+    """Entry of ``vsi calibrate CONFIG -o POSTERIOR.nc``; returns the exit code (0
+    written, 2 the calibration cannot start or be made, 130 interrupted: nothing
+    written)."""
+    from vsi_numba.existing.calibrate import CalibrationError, calibrate
+
+    pr = Printer()
+    cfg = _prepare(config, output, "calibration", "calibrate", pr)
+    if cfg is None:
+        return EXIT_USAGE
+    if not quiet:
+        for w in cfg.warnings:
+            pr.warning(w)
+    last = [-1]
+
+    def progress(done, total):
+        pct = int(100 * done / max(total, 1))
+        if not quiet and pct // 10 != last[0]:
+            last[0] = pct // 10
+            pr.line(f"calibrate: {done} of about {total} forward runs", stderr=True)
+
+    try:
+        ds = calibrate(cfg, progress=progress,
+                       command=f"vsi calibrate {config} -o {output}")
+        _write(ds, Path(output))
+    except CalibrationError as exc:
+        pr.error(exc)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        pr.error("interrupted: nothing written")
+        return 130
+    except OSError as exc:
+        pr.error(f"cannot write {output}: {exc}")
+        return EXIT_USAGE
+    import numpy as np
+
+    x = ds["posterior"].values
+    for i, p in enumerate(ds["parameter"].values):
+        q = np.percentile(x[:, i], [5, 50, 95])
+        pr.line(f"{p}: median {q[1]:.5g} (5 % {q[0]:.5g}, 95 % {q[2]:.5g}), R-hat "
+                f"{float(ds['r_hat'].values[i]):.3f}")
+    pr.line(f"posterior written to {output} ({ds.attrs['n_forward_runs']} forward runs, "
+            f"{ds.attrs['elapsed_s']:.1f} s)")
+    return 0
+
+
+def reliability_command(config: Path, output: Path, quiet: bool) -> int:
+    """Entry of ``vsi reliability CONFIG -o RELIABILITY.nc``; returns the exit code."""
+    from vsi_numba.existing.reliability import ReliabilityError, estimate
+
+    pr = Printer()
+    cfg = _prepare(config, output, "reliability", "reliability", pr)
+    if cfg is None:
+        return EXIT_USAGE
+    if not quiet:
+        for w in cfg.warnings:
+            pr.warning(w)
+    try:
+        ds = estimate(cfg, command=f"vsi reliability {config} -o {output}")
+        _write(ds, Path(output))
+    except ReliabilityError as exc:
+        pr.error(exc)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        pr.error("interrupted: nothing written")
+        return 130
+    except OSError as exc:
+        pr.error(f"cannot write {output}: {exc}")
+        return EXIT_USAGE
+    p = float(ds["probability_of_exceedance_range"].values)
+    b = float(ds["reliability_index_range"].values)
+    pr.line(f"{ds.attrs['check']}: P(exceeded) = {p:.3g} over the speeds (beta = {b:.3f}, "
+            f"cov {float(ds['cov_range'].values):.3f}, {int(ds['runs_range'].values)} runs)")
+    pr.line(f"reliability written to {output}")
+    return 0
+
+
+def existing_report(ds, results: Path, outdir: Path | None, pr: Printer) -> int:
+    """``vsi report`` of a posterior or reliability file."""
+    from vsi_numba.existing.report import write_report
+
+    if outdir is None:
+        outdir = results.with_name(f"{results.stem}_report")
+    try:
+        path = write_report(ds.load(), outdir)
+    except KeyboardInterrupt:
+        pr.line(f"vsi report: interrupted: '{outdir}' holds a whole report or none",
+                stderr=True)
+        return 130
+    except (KeyError, ValueError) as exc:
+        pr.line(f"vsi report: '{results}' is not a usable {ds.attrs.get('vsi_file')} file: "
+                f"{exc}", stderr=True)
+        return EXIT_USAGE
+    except OSError as exc:
+        pr.line(f"vsi report: cannot write the report to '{outdir}': {exc}", stderr=True)
+        return 1
+    pr.line(f"report written to {path}")
+    return 0

@@ -1,0 +1,7 @@
+"""Existing bridges: calibration of a model on measured passages (``vsi calibrate``) and
+the probability that a check is exceeded (``vsi reliability``).
+
+Modules: :mod:`~.distributions` (priors and random inputs), :mod:`~.signal` (the EN
+cut-off low-pass, the records' alignment), :mod:`~.forward` (forward runs of many
+parameter sets), :mod:`~.calibrate`, :mod:`~.reliability`, :mod:`~.report`.
+"""

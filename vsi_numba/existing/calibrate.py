@@ -1,0 +1,457 @@
+"""``vsi calibrate``: Bayesian updating of configuration keys from measured records.
+
+The model
+    Each record ``m(t)`` (a deck acceleration or displacement at a point, for a train at
+    a speed) is compared with the forward run's history ``s(t; theta)`` of the same
+    quantity at the same point, both low-passed at the EN cut-off
+    (:mod:`vsi_numba.existing.signal`) and sampled at the model's time step.  The
+    record's clock is the model's (``t = 0`` when the first axle is ``solver.approach``
+    before the deck) up to a shift, found for every forward run by least squares over
+    ``+- calibration.max_lag_s`` (an FFT cross-correlation, refined below a step): the
+    alignment is a profiled nuisance parameter, not hand-tuned.
+
+The likelihood
+    Independent Gaussian residuals with the standard deviation of the filtered noise,
+    ``noise_std x g`` (``g``: the filter's gain on white noise at the record's sampling),
+    taken every ``1 / (2 f_c)`` seconds: the filtered noise is correlated over about that
+    time, so the samples in between carry no new information and counting them would
+    make the posterior too narrow.  Without ``calibration.noise_std`` the noise of each
+    quantity is a parameter too (``calibration.noise_std.<quantity>``, lognormal prior,
+    median 10 % of the filtered records' RMS, cov 1).
+
+The sampler
+    ``emcee`` (Foreman-Mackey et al. 2013), the affine-invariant ensemble sampler of
+    Goodman & Weare (2010): no tuning of a proposal per parameter, which suits parameters
+    of very different scales (EI in N m2, damping ratios), and every step evaluates all
+    walkers at once (``vectorize=True``), which is the batch the forward runs are made in.
+    It samples in the priors' standard normal space (:mod:`vsi_numba.existing.distributions`).
+    The walkers start in a small ball (1e-4 prior standard deviations) around the
+    maximum a posteriori point: a Nelder-Mead search (scipy) from the best of
+    ``4 x n_walkers`` prior draws.
+
+Diagnostics
+    The acceptance fraction per walker, the integrated autocorrelation time per
+    parameter (emcee's estimator), the effective sample size ``n_samples / tau`` and the
+    Gelman-Rubin R-hat over the walkers' chains (of the kept steps, split in halves).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time as _time
+
+import numpy as np
+
+from vsi_numba.existing.distributions import Marginals, describe
+from vsi_numba.existing.forward import Forward, Group
+from vsi_numba.existing.signal import best_shift, lowpass, noise_gain, resample
+from vsi_numba.io.records import read_record
+
+#: Prior of a noise standard deviation that is a parameter: lognormal, this cov, median
+#: this fraction of the RMS of the filtered records of its quantity.
+NOISE_PRIOR_COV = 1.0
+NOISE_PRIOR_FRACTION = 0.1
+#: Walkers start in a ball of this radius (prior standard deviations) around the
+#: maximum a posteriori point: small, since the ensemble's stretch moves widen a ball
+#: faster than they shrink one (records pin stiffness to 1e-4 of its value, 5e-4 prior
+#: standard deviations of a 20 % prior).
+START_BALL = 1e-4
+#: Evaluations of the Nelder-Mead search of the maximum a posteriori point.
+POLISH_EVALUATIONS = 60
+#: Prior draws searched for the start: this many times the number of walkers.
+START_DRAWS = 4
+
+
+class CalibrationError(ValueError):
+    """A calibration that cannot be made (the message says why)."""
+
+
+class _Prepared:
+    """The records, filtered and on the model's grid, and what the likelihood needs."""
+
+    def __init__(self, cfg):
+        self.cfg = cfg
+        c = cfg.resolved()["calibration"]
+        self.c = c
+        self.records = c["records"]
+        self.keys = [p["key"] for p in c["parameters"]]
+        trains = []
+        for r in self.records:
+            if r["train"] not in trains:
+                trains.append(r["train"])
+        self.groups = []
+        self.where = []  # per record: (group, speed index, point index)
+        for name in trains:
+            rs = [r for r in self.records if r["train"] == name]
+            speeds = sorted({float(r["speed_kmh"]) for r in rs})
+            points = sorted({float(r["point"]) for r in rs})
+            self.groups.append(Group(name, tuple(speeds), tuple(points)))
+        for r in self.records:
+            gi = trains.index(r["train"])
+            g = self.groups[gi]
+            self.where.append((gi, g.speeds_kmh.index(float(r["speed_kmh"])),
+                               g.points.index(float(r["point"]))))
+        self.data = cfg.resolved()
+        self.forward = Forward(self.data, cfg.base_dir, self.keys, self.groups)
+        specs = [dict(p) for p in c["parameters"]]
+        centre = np.array([Marginals([p]).from_u(np.zeros(1))[0] for p in specs])
+        self.dt = float(cfg.solver_settings().dt)
+        probe = self.forward.run_row(centre)
+        bad = [r.error for r in probe if r.error]
+        if bad:
+            raise CalibrationError("the model at the priors' medians cannot be run: "
+                                   + bad[0])
+        self.cutoff = float(probe[0].cutoff)
+        self.frequencies = probe[0].frequencies
+        self.max_lag = int(round(float(c["max_lag_s"]) / self.dt))
+        self.step = max(1, int(math.floor(1.0 / (2.0 * self.cutoff * self.dt))))
+        self.measured = []  # per record: (t on the model grid, filtered values)
+        self.raw = []
+        self.gain = []
+        for r in self.records:
+            rec = read_record(r["path"])
+            fs = 1.0 / rec.dt
+            filt = lowpass(rec.value, fs, self.cutoff)
+            t, m = resample(rec.t, filt, self.dt)
+            self.measured.append((t, m))
+            self.raw.append(rec)
+            self.gain.append(noise_gain(rec.t.size, fs, self.cutoff))
+        self.quantities = sorted({r["quantity"] for r in self.records})
+        self.noise_keys = []
+        self.noise_specs = []
+        if c.get("noise_std") is None:
+            for q in self.quantities:
+                rms = [float(np.sqrt(np.mean(self.measured[i][1] ** 2)))
+                       for i, r in enumerate(self.records) if r["quantity"] == q]
+                med = NOISE_PRIOR_FRACTION * max(float(np.mean(rms)), 1e-300)
+                self.noise_keys.append(f"calibration.noise_std.{q}")
+                self.noise_specs.append({"prior": "lognormal", "median": med,
+                                         "cov": NOISE_PRIOR_COV})
+        self.specs = specs + self.noise_specs
+        self.marginals = Marginals(self.specs)
+        self.parameters = self.keys + self.noise_keys
+
+    def noise(self, row, i_record: int) -> float:
+        """Standard deviation of the raw noise of record ``i_record`` for ``row``."""
+        c = self.c
+        if c.get("noise_std") is not None:
+            return float(c["noise_std"])
+        q = self.records[i_record]["quantity"]
+        return float(row[len(self.keys) + self.quantities.index(q)])
+
+    def history(self, result, i_record: int) -> np.ndarray:
+        """The model's filtered history of record ``i_record`` (model grid from t = 0)."""
+        gi, si, pi = self.where[i_record]
+        rr = result[gi]
+        q = self.records[i_record]["quantity"]
+        h = (rr.acceleration if q == "deck_acceleration" else rr.displacement)[si][:, pi]
+        return lowpass(h, 1.0 / self.dt, self.cutoff)
+
+    def loglike(self, row, result) -> tuple[float, np.ndarray]:
+        """Log-likelihood of one row and the records' shifts (s)."""
+        shifts = np.full(len(self.records), np.nan)
+        if any(r.error for r in result):
+            return -np.inf, shifts
+        total = 0.0
+        for i in range(len(self.records)):
+            t, m = self.measured[i]
+            s = self.history(result, i)
+            lag0 = int(round(t[0] / self.dt))
+            lag, _ = best_shift(m, s, lag0, self.max_lag)
+            shifts[i] = lag * self.dt - t[0]
+            k = np.arange(0, m.size, self.step)
+            ts = (k + lag) * self.dt
+            sm = np.interp(ts, np.arange(s.size) * self.dt, s, left=0.0, right=0.0)
+            sig = self.noise(row, i) * self.gain[i]
+            r = (m[k] - sm) / sig
+            total += -0.5 * float(r @ r) - k.size * (math.log(sig)
+                                                     + 0.5 * math.log(2 * math.pi))
+        return total, shifts
+
+    def evaluate(self, rows) -> tuple[np.ndarray, np.ndarray]:
+        """Log-likelihoods (n,) and shifts (n, n_records) of parameter rows (n, n_par)."""
+        rows = np.atleast_2d(rows)
+        results = self.forward.run(rows[:, : len(self.keys)])
+        out = [self.loglike(r, res) for r, res in zip(rows, results, strict=True)]
+        return np.array([o[0] for o in out]), np.array([o[1] for o in out])
+
+
+def _polish(f, u, n_dim: int) -> np.ndarray:
+    """The maximum a posteriori point near ``u`` (Nelder-Mead, scipy, a few dozen
+    evaluations per parameter)."""
+    import scipy.optimize
+
+    res = scipy.optimize.minimize(lambda x: -f(x), u, method="Nelder-Mead",
+                                  options={"maxfev": POLISH_EVALUATIONS * n_dim,
+                                           "xatol": 1e-6, "fatol": 1e-3,
+                                           "initial_simplex": u + np.vstack(
+                                               [np.zeros(n_dim), 0.1 * np.eye(n_dim)])})
+    return res.x if np.isfinite(res.fun) and res.fun <= -f(u) else np.asarray(u)
+
+
+def _r_hat(chain: np.ndarray) -> np.ndarray:
+    """Split Gelman-Rubin R-hat per parameter of a chain (steps, walkers, n)."""
+    n = chain.shape[0] // 2
+    if n < 2:
+        return np.full(chain.shape[2], np.nan)
+    c = np.concatenate([chain[:n], chain[n: 2 * n]], axis=1)  # (n, 2 walkers, p)
+    w = c.var(axis=0, ddof=1).mean(axis=0)
+    b = n * c.mean(axis=0).var(axis=0, ddof=1)
+    var = (n - 1) / n * w + b / n
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.sqrt(var / w)
+
+
+def calibrate(cfg, progress=None, command: str = "vsi calibrate"):
+    """Run the calibration of a configuration with a ``[calibration]`` section.
+
+    Returns
+    -------
+    xarray.Dataset
+        The posterior file's content (:func:`posterior_dataset`).
+    """
+    import emcee
+
+    t0 = _time.perf_counter()
+    c = cfg.resolved().get("calibration")
+    if not c:
+        raise CalibrationError("the configuration has no [calibration] section")
+    prep = _Prepared(cfg)
+    n_dim = prep.marginals.n
+    n_walkers = int(c.get("n_walkers") or max(16, 4 * n_dim + (4 * n_dim) % 2))
+    n_steps = max(1, int(math.ceil(int(c["n_samples"]) / n_walkers)))
+    burn = int(c["burn_in"]) if c.get("burn_in") is not None else n_steps
+    rng = np.random.default_rng(int(c["seed"]))
+    n_runs = [0]
+
+    def log_prob(u):
+        rows = prep.marginals.from_u(u)
+        ll, shifts = prep.evaluate(rows)
+        n_runs[0] += len(rows)
+        lp = ll - 0.5 * np.sum(np.asarray(u) ** 2, axis=1)
+        if progress is not None:
+            progress(n_runs[0], n_walkers * (burn + n_steps) + START_DRAWS * n_walkers
+                     + POLISH_EVALUATIONS * n_dim)
+        # emcee (vectorize): one row per walker, the log probability then the blobs
+        return np.concatenate([lp[:, None], ll[:, None], shifts], axis=1)
+
+    u0 = rng.standard_normal((START_DRAWS * n_walkers, n_dim))
+    lp0 = log_prob(u0)[:, 0]
+    if not np.isfinite(lp0).any():
+        raise CalibrationError("no prior draw gives a model that runs: check the priors")
+    best = _polish(lambda u: float(log_prob(np.atleast_2d(u))[0, 0]),
+                   u0[int(np.argmax(lp0))], n_dim)
+    start = best + START_BALL * rng.standard_normal((n_walkers, n_dim))
+    sampler = emcee.EnsembleSampler(n_walkers, n_dim, log_prob, vectorize=True)
+    # emcee's own generator: seeded from the configuration's seed (reproducible)
+    sampler.random_state = np.random.RandomState(int(c["seed"])).get_state()
+    sampler.run_mcmc(start, burn + n_steps, progress=False)
+    chain_u = sampler.get_chain()[burn:]  # (steps, walkers, n)
+    blobs = sampler.get_blobs()[burn:]  # (steps, walkers, 1 + n_records)
+    lp = sampler.get_log_prob()[burn:]
+    flat_u = chain_u.reshape(-1, n_dim)
+    post = prep.marginals.from_u(flat_u)
+    tau = sampler.get_autocorr_time(discard=burn, quiet=True, tol=0)
+    ess = flat_u.shape[0] / np.maximum(tau, 1.0)
+    rhat = _r_hat(chain_u)
+    diag = dict(acceptance=np.asarray(sampler.acceptance_fraction, float), tau=tau, ess=ess,
+                rhat=rhat, n_walkers=n_walkers, n_steps=n_steps, burn=burn,
+                n_runs=n_runs[0])
+    pred = _predictive(prep, post, rng, int(c["check_samples"]))
+    check = _check(prep, post, int(c["check_samples"]))
+    elapsed = _time.perf_counter() - t0
+    return posterior_dataset(prep, post, blobs.reshape(-1, blobs.shape[-1]),
+                             lp.reshape(-1), diag, pred, check, elapsed, command)
+
+
+def _draws(post: np.ndarray, n: int) -> np.ndarray:
+    """``n`` posterior samples evenly spread over the kept chain (deterministic)."""
+    idx = np.unique(np.linspace(0, post.shape[0] - 1, min(n, post.shape[0])).astype(int))
+    return post[idx]
+
+
+def _predictive(prep: _Prepared, post, rng, n: int) -> list[dict]:
+    """Posterior-predictive records: the filtered model history of each draw aligned at
+    its best shift, on the record's grid; 5 / 50 / 95 % per time."""
+    rows = _draws(post, n)
+    results = prep.forward.run(rows[:, : len(prep.keys)])
+    out = []
+    for i in range(len(prep.records)):
+        t, m = prep.measured[i]
+        sims = []
+        for res in results:
+            if any(r.error for r in res):
+                continue
+            s = prep.history(res, i)
+            lag, _ = best_shift(m, s, int(round(t[0] / prep.dt)), prep.max_lag)
+            ts = (np.arange(m.size) + lag) * prep.dt
+            sims.append(np.interp(ts, np.arange(s.size) * prep.dt, s, left=0.0, right=0.0))
+        sims = np.array(sims)
+        q = np.percentile(sims, [5, 50, 95], axis=0) if sims.size else np.full(
+            (3, m.size), np.nan)
+        out.append({"t": t, "measured": m, "p05": q[0], "p50": q[1], "p95": q[2]})
+    return out
+
+
+def check_speeds(cfg) -> np.ndarray:
+    """Line speed, +10 % and +20 % (km/h) of the calibrated check."""
+    c = cfg.resolved()["calibration"]
+    line = c.get("line_speed_kmh") or cfg.resolved()["study"].get("line_speed_kmh")
+    if line is None:
+        line = max(float(r["speed_kmh"]) for r in c["records"])
+    return float(line) * np.array([1.0, 1.1, 1.2])
+
+
+def _check(prep: _Prepared, post, n: int) -> dict:
+    """The deck-acceleration check (whole-deck envelope, band-limited) of the train of
+    the configuration at the line speed +10/+20 %, for posterior draws and for the
+    configuration's own values (the code's, where it takes them from the code)."""
+    from vsi_numba.en1990 import deck_acceleration_limits
+
+    cfg = prep.cfg
+    speeds = check_speeds(cfg)
+    names = [t.name for t in cfg.trains()]
+    preset = cfg.resolved()["train"].get("preset")
+    trains = names if preset is not None else [None]
+    groups = [Group(t, tuple(float(v) for v in speeds), (float(cfg.output_points[0]),))
+              for t in trains]
+    fwd = Forward(prep.data, cfg.base_dir, prep.keys, groups, histories=False)
+    rows = _draws(post, n)[:, : len(prep.keys)]
+    res = fwd.run(rows)
+    val = np.full((len(rows), speeds.size), np.nan)
+    for k, r in enumerate(res):
+        if not any(x.error for x in r):
+            val[k] = np.max([x.envelope_acc for x in r], axis=0)
+    base = Forward(prep.data, cfg.base_dir, [], groups, histories=False).run_row([])
+    if any(x.error for x in base):
+        raise CalibrationError("the configuration's own model cannot be run: "
+                               + next(x.error for x in base if x.error))
+    code = np.max([x.envelope_acc for x in base], axis=0)
+    limits = deck_acceleration_limits(cfg.code_profile)
+    limit = float(limits.get(cfg.track_type, limits["ballasted"]))
+    return {"speeds_kmh": speeds, "posterior": val[np.all(np.isfinite(val), axis=1)],
+            "code": code, "limit": limit, "trains": [n for n in names]}
+
+
+def posterior_dataset(prep: _Prepared, post, blobs, logpost, diag, pred, check, elapsed,
+                      command):
+    """The posterior file (netCDF layout; see docs/manual/calibration.md)."""
+    import xarray as xr
+
+    from vsi_numba.io.netcdf import CONVENTIONS, history_line, source_string
+
+    n_rec = len(prep.records)
+    n_t = max(p["t"].size for p in pred)
+
+    def pad(key):
+        a = np.full((n_rec, n_t), np.nan)
+        for i, p in enumerate(pred):
+            a[i, : p[key].size] = p[key]
+        return a
+
+    cfg = prep.cfg
+    recs = prep.records
+    check_v = check["speeds_kmh"] / 3.6
+    ds = xr.Dataset(
+        {
+            "posterior": (("sample", "parameter"), post,
+                          {"long_name": "posterior samples of the parameters",
+                           "units": "1 (each parameter in the unit of its key)"}),
+            "log_likelihood": ("sample", blobs[:, 0],
+                               {"long_name": "log-likelihood of the records", "units": "1"}),
+            "log_posterior": ("sample", logpost,
+                              {"long_name": "log posterior density (standard normal "
+                                            "space of the priors), up to a constant",
+                               "units": "1"}),
+            "record_shift": (("sample", "record"), blobs[:, 1:],
+                             {"long_name": "time shift of the record against the model "
+                                           "(model time = record time + shift)",
+                              "units": "s"}),
+            "prior": ("parameter", [describe(s) for s in prep.specs],
+                      {"long_name": "prior distribution"}),
+            "acceptance_fraction": ("walker", diag["acceptance"],
+                                    {"long_name": "acceptance fraction of each walker",
+                                     "units": "1"}),
+            "autocorrelation_time": ("parameter", diag["tau"],
+                                     {"long_name": "integrated autocorrelation time (emcee)",
+                                      "units": "steps"}),
+            "effective_sample_size": ("parameter", diag["ess"],
+                                      {"long_name": "effective sample size "
+                                                    "(samples / autocorrelation time)",
+                                       "units": "1"}),
+            "r_hat": ("parameter", diag["rhat"],
+                      {"long_name": "split Gelman-Rubin R-hat over the walkers' chains",
+                       "units": "1"}),
+            "record_file": ("record", [str(r["file"]) for r in recs]),
+            "record_quantity": ("record", [str(r["quantity"]) for r in recs]),
+            "record_point": ("record", np.array([float(r["point"]) for r in recs]),
+                             {"long_name": "deck abscissa of the record", "units": "m"}),
+            "record_train": ("record", [str(r["train"]) for r in recs]),
+            "record_speed_kmh": ("record", np.array([float(r["speed_kmh"]) for r in recs]),
+                                 {"long_name": "train speed of the record",
+                                  "units": "km/h"}),
+            "record_length": ("record", np.array([p["t"].size for p in pred], np.int64),
+                              {"long_name": "samples of the record on the model's grid",
+                               "units": "1"}),
+            "record_time": (("record", "record_sample"), pad("t"),
+                            {"long_name": "record time on the model's grid",
+                             "units": "s"}),
+            "record_measured": (("record", "record_sample"), pad("measured"),
+                                {"long_name": "measured record, low-passed at the EN "
+                                              "cut-off", "units": "m s-2 or m (quantity)",
+                                 "positive": "down"}),
+            "record_predictive_p05": (("record", "record_sample"), pad("p05"),
+                                      {"long_name": "posterior-predictive 5 % (aligned)",
+                                       "units": "m s-2 or m (quantity)"}),
+            "record_predictive_p50": (("record", "record_sample"), pad("p50"),
+                                      {"long_name": "posterior-predictive median",
+                                       "units": "m s-2 or m (quantity)"}),
+            "record_predictive_p95": (("record", "record_sample"), pad("p95"),
+                                      {"long_name": "posterior-predictive 95 %",
+                                       "units": "m s-2 or m (quantity)"}),
+            "check_posterior": (("check_sample", "check_speed"), check["posterior"],
+                                {"long_name": "max deck acceleration (whole deck, "
+                                              "band-limited), calibrated model",
+                                 "units": "m s-2"}),
+            "check_code": ("check_speed", check["code"],
+                           {"long_name": "max deck acceleration with the configuration's "
+                                         "values", "units": "m s-2"}),
+        },
+        coords={
+            "parameter": ("parameter", list(prep.parameters)),
+            "sample": ("sample", np.arange(post.shape[0])),
+            "walker": ("walker", np.arange(diag["acceptance"].size)),
+            "record": ("record", np.arange(n_rec)),
+            "check_speed": ("check_speed", check_v, {"units": "m s-1",
+                                                     "long_name": "train speed"}),
+            "check_speed_kmh": ("check_speed", check["speeds_kmh"], {"units": "km/h"}),
+        },
+        attrs={
+            "Conventions": CONVENTIONS,
+            "title": str(cfg.title or "vsi_numba calibration"),
+            "history": history_line(command),
+            "source": source_string(),
+            "vsi_file": "posterior",
+            "config_json": cfg.to_json(),
+            "config_sha256": cfg.sha256,
+            "config_directory": str(cfg.base_dir),
+            "sampler": "emcee EnsembleSampler (stretch move, vectorised)",
+            "n_walkers": int(diag["n_walkers"]), "n_steps": int(diag["n_steps"]),
+            "burn_in": int(diag["burn"]), "n_forward_runs": int(diag["n_runs"]),
+            "n_kernel_runs_per_forward_run": int(sum(len(g.speeds_kmh)
+                                                     for g in prep.groups)),
+            "seed": int(prep.c["seed"]),
+            "acceleration_cutoff_hz": prep.cutoff,
+            "filter": "Butterworth low-pass order 4, forward and backward (sosfiltfilt), "
+                      "at the EN 1990 A2 cut-off of the priors' medians",
+            "likelihood_step_s": prep.step * prep.dt,
+            "noise_gain": json.dumps([float(g) for g in prep.gain]),
+            "check_limit": check["limit"],
+            "check_trains": " ".join(check["trains"]),
+            "frequencies_hz_at_prior_median": " ".join(f"{f:.6g}" for f in
+                                                       prep.frequencies[:6]),
+            "elapsed_s": float(elapsed),
+        },
+    )
+    return ds

@@ -1,0 +1,131 @@
+"""The cases of existing bridges with a known answer: synthetic "measured" records from a
+known truth (an independent integration plus noise) that a calibration must recover,
+and a probability of exceedance in closed form.
+
+The records come from :func:`~vsi_numba.verification.reference.moving_forces_ivp`
+(``solve_ivp`` of the modal equations of the simply supported beam, numpy and scipy
+only), sampled at 500 Hz on a clock of their own (``CLOCK_OFFSET`` ahead of the model's),
+with white Gaussian noise of a known standard deviation.  The train's axles are the
+library's HSLM-A1 (input data, not a result of the engine).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from vsi_numba.verification import reference as ref
+
+#: The truth of the synthetic case.
+TRUTH = {"bridge.EI": 2.2e10, "bridge.damping_ratio": 0.02}
+#: The deck of the synthetic case: span (m), mass (kg/m), modes, output point (m).
+SPAN, MASS, N_MODES, POINT = 20.0, 15000.0, 3, 10.0
+#: Speeds (km/h) of the three passages; the resonance of HSLM-A1 (D = 18 m) with the
+#: truth is at f1 D = 4.76 x 18 m/s = 308 km/h.
+SPEEDS_KMH = (240.0, 280.0, 305.0)
+#: Sampling of the records (Hz), their noise (m s-2), their clock's offset (s: record
+#: time = model time + offset) and the noise's seed.
+RECORD_RATE, NOISE_STD, CLOCK_OFFSET, NOISE_SEED = 500.0, 0.3, 0.137, 2026
+APPROACH, FREE_VIBRATION, DT = 5.0, 2.0, 5e-4
+
+CONFIG = """\
+# Calibration of a 20 m simply supported span on three measured passages of HSLM-A1.
+# The records are synthetic: an independent integration (solve_ivp of the modal
+# equations, vsi_numba.verification.reference.moving_forces_ivp) with the truth
+# EI = 2.2e10 N m2, damping ratio 2 %, plus white noise of 0.3 m s-2 (make_records.py).
+title = "Calibration on three HSLM-A1 passages (synthetic records)"
+
+[bridge]
+kind = "simply_supported"
+spans = [{span!r}]
+EI = 2.0e10                      # N m2: the design value
+mass_per_length = {mass!r}
+damping_ratio = 0.01             # the code's value: EN 1991-2 Table 6.6, prestressed
+                                 # concrete, L >= 20 m
+n_modes = {n_modes}
+output_points = [{point!r}]
+
+[train]
+preset = "HSLM-A1"
+model = "moving_force"
+
+[solver]
+dt = {dt!r}
+hht_alpha = 0.0                  # no numerical damping: the damping is identified
+approach = {approach!r}
+free_vibration = {free!r}
+
+[study]
+line_speed_kmh = 250.0
+output = "results/calibration_synthetic.nc"
+
+[calibration]
+parameters = [
+  {{ key = "bridge.EI", prior = "lognormal", median = 2.0e10, cov = 0.2 }},
+  {{ key = "bridge.damping_ratio", prior = "uniform", lower = 0.005, upper = 0.05 }},
+]
+n_samples = {n_samples}
+{extra}seed = 1
+{records}"""
+
+RECORD = """
+[[calibration.records]]
+file = "{file}"
+quantity = "deck_acceleration"
+point = {point!r}
+train = "HSLM-A1"
+speed_kmh = {speed!r}
+"""
+
+
+def hslm_a1_axles() -> tuple[np.ndarray, np.ndarray]:
+    """Axle positions behind the first (m) and loads (N) of the library's HSLM-A1."""
+    from vsi_numba.model import library
+
+    train = library.get_train("HSLM-A1", model="moving_force")
+    pos, loads = [], []
+    for v, off in zip(train.vehicles, train.offsets, strict=True):
+        pos.extend(np.asarray(v.load_positions, float) + off)
+        loads.extend(np.asarray(v.loads, float))
+    return np.array(pos), np.array(loads)
+
+
+def synthetic_record(speed_kmh: float, truth=None, noise_std: float = NOISE_STD,
+                     seed: int = NOISE_SEED) -> tuple[np.ndarray, np.ndarray]:
+    """A synthetic measured deck acceleration at ``POINT``: (record time, value)."""
+    truth = {**TRUTH, **(truth or {})}
+    pos, loads = hslm_a1_axles()
+    v = speed_kmh / 3.6
+    t_end = (APPROACH + SPAN + pos.max()) / v + FREE_VIBRATION
+    t = np.arange(0.0, t_end, 1.0 / RECORD_RATE)
+    _, a = ref.moving_forces_ivp(pos, loads, SPAN, truth["bridge.EI"], MASS,
+                                 truth["bridge.damping_ratio"], N_MODES, v, [POINT], t,
+                                 x_start=-APPROACH)
+    rng = np.random.default_rng(seed + int(round(speed_kmh * 10)))
+    return t + CLOCK_OFFSET, a[:, 0] + noise_std * rng.standard_normal(t.size)
+
+
+def write_case(directory, speeds=SPEEDS_KMH, n_samples: int = 4000, extra: str = "",
+               name: str = "calibration.toml") -> Path:
+    """Write the records (``passage_NN.csv``) and the configuration into
+    ``directory``; return the configuration's path."""
+    from vsi_numba.io.atomic import write_text_atomic
+
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    blocks = []
+    for i, s in enumerate(speeds, start=1):
+        t, a = synthetic_record(s)
+        f = f"passage_{i:02d}.csv"
+        lines = [f"# synthetic deck acceleration at x = {POINT:g} m, HSLM-A1 at {s:g} km/h,",
+                 f"# m s-2 positive down; truth EI = {TRUTH['bridge.EI']:g} N m2, damping "
+                 f"{TRUTH['bridge.damping_ratio']:g}; noise {NOISE_STD:g} m s-2", "t,value"]
+        lines += [f"{ti:.6f},{ai:.6e}" for ti, ai in zip(t, a, strict=True)]
+        write_text_atomic(d / f, "\n".join(lines) + "\n")
+        blocks.append(RECORD.format(file=f, point=POINT, speed=float(s)))
+    text = CONFIG.format(span=SPAN, mass=MASS, n_modes=N_MODES, point=POINT, dt=DT,
+                         approach=APPROACH, free=FREE_VIBRATION, n_samples=n_samples,
+                         extra=extra, records="".join(blocks))
+    write_text_atomic(d / name, text)
+    return d / name

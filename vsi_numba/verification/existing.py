@@ -50,6 +50,9 @@ output_points = [{point!r}]
 preset = "HSLM-A1"
 model = "moving_force"
 
+[track]
+model = "rigid"                  # point forces on the deck, as the records' integration
+
 [solver]
 dt = {dt!r}
 hht_alpha = 0.0                  # no numerical damping: the damping is identified
@@ -127,5 +130,109 @@ def write_case(directory, speeds=SPEEDS_KMH, n_samples: int = 4000, extra: str =
     text = CONFIG.format(span=SPAN, mass=MASS, n_modes=N_MODES, point=POINT, dt=DT,
                          approach=APPROACH, free=FREE_VIBRATION, n_samples=n_samples,
                          extra=extra, records="".join(blocks))
+    write_text_atomic(d / name, text)
+    return d / name
+
+
+# ------------------------------------------------------------------ reliability
+#: The monotone case: ten equal forces 18 m apart at the resonance speed of a 20 m span
+#: (one mode), the damping ratio lognormal; the peak deck acceleration decreases with the
+#: damping, so P(a > limit) = F(zeta*) with a(zeta*) = limit.
+REL_FORCES, REL_SPACING, REL_LOAD, REL_EI = 10, 18.0, 170e3, 2.0e10
+REL_DAMPING = {"median": 0.015, "cov": 0.3}
+REL_DT = 2e-3
+
+REL_CONFIG = """\
+# Probability that the deck acceleration of a 20 m span exceeds a limit under ten equal
+# forces at resonance, the damping ratio lognormal (a case with a closed-form answer).
+title = "Probability of exceedance, damping ratio lognormal (closed form)"
+
+[bridge]
+kind = "simply_supported"
+spans = [{span!r}]
+EI = {ei!r}
+mass_per_length = {mass!r}
+damping_ratio = 0.015
+n_modes = 1
+output_points = [{point!r}]
+{forces}
+[track]
+model = "rigid"                  # point forces, as the closed form
+
+[solver]
+dt = {dt!r}
+hht_alpha = 0.0
+approach = 0.0
+free_vibration = 0.0
+
+[study]
+speeds_kmh = [{speed!r}]
+
+[reliability]
+check = "deck_acceleration"
+method = "{method}"
+target_cov = {target!r}
+limit = {limit!r}
+block_size = {block}
+max_runs = {max_runs}
+seed = 3
+variables = [
+  {{ key = "bridge.damping_ratio", distribution = "lognormal", median = {med!r}, cov = {cov!r} }},
+]
+"""
+
+
+def rel_speed_kmh() -> float:
+    """The resonance speed f1 D (km/h) of the monotone case."""
+    f1 = ref.ss_omega(SPAN, REL_EI, MASS, 1)[0] / (2 * np.pi)
+    return float(f1 * REL_SPACING * 3.6)
+
+
+def rel_response(zeta: float) -> float:
+    """Peak deck acceleration at mid-span (closed form, :func:`reference.train_of_forces`,
+    the one mode of the model) at the resonance speed."""
+    v = rel_speed_kmh() / 3.6
+    pos = REL_SPACING * np.arange(REL_FORCES)
+    t_end = (SPAN + pos.max()) / v
+    _, _, a = ref.train_of_forces(pos, np.full(REL_FORCES, REL_LOAD), SPAN, REL_EI, MASS,
+                                  zeta, 1, v, [POINT], t_end, nt=200001)
+    return float(np.abs(a).max())
+
+
+def rel_limit(probability: float) -> tuple[float, float]:
+    """The limit whose probability of exceedance is ``probability`` (closed form) and
+    the damping ratio zeta* where the response equals it."""
+    import scipy.stats
+
+    s = np.sqrt(np.log1p(REL_DAMPING["cov"] ** 2))
+    zeta = float(scipy.stats.lognorm(s=s, scale=REL_DAMPING["median"]).ppf(probability))
+    return rel_response(zeta), zeta
+
+
+def rel_probability(limit: float) -> float:
+    """P(a > limit) = F(zeta*), zeta* by a root solve of a(zeta) = limit (brentq)."""
+    import scipy.optimize
+    import scipy.stats
+
+    z = scipy.optimize.brentq(lambda x: rel_response(x) - limit, 1e-4, 0.2, xtol=1e-10)
+    s = np.sqrt(np.log1p(REL_DAMPING["cov"] ** 2))
+    return float(scipy.stats.lognorm(s=s, scale=REL_DAMPING["median"]).cdf(z))
+
+
+def write_reliability_case(directory, limit: float, method: str = "subset",
+                           target: float = 0.1, block: int = 1000,
+                           max_runs: int = 100000, name: str = "reliability.toml") -> Path:
+    """Write the monotone case's configuration; return its path."""
+    from vsi_numba.io.atomic import write_text_atomic
+
+    d = Path(directory)
+    d.mkdir(parents=True, exist_ok=True)
+    forces = "".join(f'\n[[train.vehicles]]\nkind = "force"\noffset = {REL_SPACING * k!r}\n'
+                     f"load = {REL_LOAD!r}\n" for k in range(REL_FORCES))
+    text = REL_CONFIG.format(span=SPAN, ei=REL_EI, mass=MASS, point=POINT, forces=forces,
+                             dt=REL_DT, speed=round(rel_speed_kmh(), 6), method=method,
+                             target=target, limit=float(limit), block=block,
+                             max_runs=max_runs, med=REL_DAMPING["median"],
+                             cov=REL_DAMPING["cov"])
     write_text_atomic(d / name, text)
     return d / name

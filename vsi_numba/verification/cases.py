@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vsi_numba.verification import existing as _existing
 from vsi_numba.verification import reference as ref
 
 
@@ -1105,4 +1106,12 @@ CASES: tuple[Case, ...] = (
     Case("V19", "Twist of a continuous deck at crawl speed and at a torsional resonance",
          False, v19_continuous_twist),
     Case("V20", "Torsional moment at crawl speed and at speed", False, v20_torque),
+    Case("V21", "Calibration on three synthetic passages: the truth recovered", False,
+         _existing.v21_calibration),
+    Case("V21Q", "Calibration on one synthetic passage (short chain)", True,
+         lambda w: _existing.v21_calibration(w, quick=True)),
+    Case("V22", "Probability of exceedance at 1e-3: subset simulation and Monte Carlo "
+         "against the closed form", False, _existing.v22_reliability),
+    Case("V22Q", "Probability of exceedance at 0.03 by Monte Carlo against the closed "
+         "form", True, lambda w: _existing.v22_reliability(w, quick=True)),
 )

@@ -109,3 +109,12 @@ def test_check__calibration_distribution_and_key_path(tmp_path):
     res = _cli("check", cfg)
     assert res.exit_code == 2
     assert 'calibration.parameters[0].key = "bridge.Ei": expected a numeric key' in res.output
+
+
+def test_check__calibration_estimate(tmp_path):
+    cfg = syn.write_case(tmp_path, speeds=(305.0,), n_samples=64, extra=SMALL)
+    res = _cli("check", cfg)
+    assert res.exit_code == 0, res.output
+    # 4 x 8 start draws + 60 x 3 Nelder-Mead + 8 walkers x (4 + 8) steps + 2 x 10
+    line = next(x for x in res.output.splitlines() if x.startswith("calibration:"))
+    assert line.startswith("calibration: 328 forward runs") and "ms a forward run" in line

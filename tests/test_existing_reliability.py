@@ -72,3 +72,11 @@ def test_check__reliability_errors_all_at_once(tmp_path, limit):
     assert "reliability.target_cov = 1.5" in out
     assert "reliability.variables[0].mean: missing" in out
     assert "reliability.variables[0].median = 0.015: expected no median" in out
+
+
+def test_check__reliability_estimate(tmp_path, limit):
+    cfg = syn.write_reliability_case(tmp_path, limit, method="subset", block=500)
+    res = _cli("check", cfg)
+    assert res.exit_code == 0, res.output
+    line = next(x for x in res.output.splitlines() if x.startswith("reliability:"))
+    assert "500 runs per level" in line and "ms a forward run" in line

@@ -397,5 +397,10 @@ def check_command(config: Path, workers: int | None = None) -> int:
             f"({cfg.output_path}), peak disk ~{_size(est.peak_disk_bytes)} (the file and "
             "the case store beside it while it is written); a first run adds 1-3 min of "
             "compilation")
+    if "calibration" in cfg.resolved() or "reliability" in cfg.resolved():
+        from vsi_numba.existing.estimate import lines as existing_lines
+
+        for line in existing_lines(cfg):  # vsi calibrate, vsi reliability
+            pr.line(line)
     pr.line("nothing was run (vsi sweep runs it)")
     return 0

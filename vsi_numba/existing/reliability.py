@@ -264,7 +264,7 @@ def reliability_dataset(cfg, r, speeds, limit, median_value, p, cov, runs, g, el
 
 def reliability_markdown(ds) -> str:
     """The Markdown of a reliability file."""
-    from vsi_numba.existing.report import _md
+    from vsi_numba.existing.text import md as _md
 
     a = ds.attrs
     lim = float(a["limit"])

@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from vsi_numba.existing.text import md as _md
+
 #: Which file a results file is (its ``vsi_file`` attribute).
 POSTERIOR, RELIABILITY = "posterior", "reliability"
 
@@ -24,14 +26,6 @@ def kind_of(ds) -> str | None:
     """``"posterior"``, ``"reliability"`` or None (a study's results)."""
     k = ds.attrs.get("vsi_file")
     return k if k in (POSTERIOR, RELIABILITY) else None
-
-
-def _md(text) -> str:
-    """Text from inputs as Markdown data (no markup, one line)."""
-    s = str(text).replace("\n", " ")
-    for ch in "\\`*_{}[]<>()#+!|":
-        s = s.replace(ch, "\\" + ch)
-    return s
 
 
 def _g(v, digits: int = 4) -> str:

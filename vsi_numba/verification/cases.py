@@ -1107,11 +1107,11 @@ CASES: tuple[Case, ...] = (
          False, v19_continuous_twist),
     Case("V20", "Torsional moment at crawl speed and at speed", False, v20_torque),
     Case("V21", "Calibration on three synthetic passages: the truth recovered", False,
-         _existing.v21_calibration),
+         lambda w: _existing.v21_calibration(w, Row)),
     Case("V21Q", "Calibration on one synthetic passage (short chain)", True,
-         lambda w: _existing.v21_calibration(w, quick=True)),
+         lambda w: _existing.v21_calibration(w, Row, quick=True)),
     Case("V22", "Probability of exceedance at 1e-3: subset simulation and Monte Carlo "
-         "against the closed form", False, _existing.v22_reliability),
+         "against the closed form", False, lambda w: _existing.v22_reliability(w, Row)),
     Case("V22Q", "Probability of exceedance at 0.03 by Monte Carlo against the closed "
-         "form", True, lambda w: _existing.v22_reliability(w, quick=True)),
+         "form", True, lambda w: _existing.v22_reliability(w, Row, quick=True)),
 )

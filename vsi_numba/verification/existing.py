@@ -266,16 +266,15 @@ def _reliability_file(cfg_path: Path, out: Path):
         return back.load()
 
 
-def v21_calibration(workdir: Path, quick: bool = False) -> list:
-    """Calibration on synthetic records: the truth recovered (median, 90 % interval)."""
-    from vsi_numba.verification.cases import Row
-
+def v21_calibration(workdir: Path, Row, quick: bool = False) -> list:  # noqa: N803
+    """Calibration on synthetic records: the truth recovered (median, 90 % interval);
+    ``Row``: the row class of :mod:`vsi_numba.verification.cases`."""
     if quick:
-        cfg = write_case(workdir / "v21", speeds=(305.0,), n_samples=320,
+        cfg = write_case(workdir, speeds=(305.0,), n_samples=320,
                          extra="n_walkers = 8\nburn_in = 40\ncheck_samples = 10\n")
     else:
-        cfg = write_case(workdir / "v21")
-    ds = _calibrate_file(cfg, workdir / "v21" / "posterior.nc")
+        cfg = write_case(workdir)
+    ds = _calibrate_file(cfg, workdir / "posterior.nc")
     title = ("Calibration of EI and damping on synthetic HSLM-A1 records "
              f"({'one passage, short chain' if quick else 'three passages'})")
     src = ("truth of the records: moving_forces_ivp (solve_ivp of the modal equations) "
@@ -299,10 +298,9 @@ def v21_calibration(workdir: Path, quick: bool = False) -> list:
     return rows
 
 
-def v22_reliability(workdir: Path, quick: bool = False) -> list:
-    """Probability of exceedance of a response monotone in the damping (closed form)."""
-    from vsi_numba.verification.cases import Row
-
+def v22_reliability(workdir: Path, Row, quick: bool = False) -> list:  # noqa: N803
+    """Probability of exceedance of a response monotone in the damping (closed form);
+    ``Row``: the row class of :mod:`vsi_numba.verification.cases`."""
     title = "Probability of exceedance of the resonant deck acceleration (damping lognormal)"
     src = ("F(zeta*), zeta* a root of a(zeta) = limit on the closed-form modal response "
            "(train_of_forces)")
@@ -311,10 +309,10 @@ def v22_reliability(workdir: Path, quick: bool = False) -> list:
             [("subset", 1e-3, 0.1, 2000, 40000), ("monte_carlo", 1e-3, 0.2, 5000, 40000)])
     for method, p_exact, target, block, max_runs in runs:
         limit, _ = rel_limit(p_exact)
-        d = workdir / f"v22_{method}_{p_exact:g}"
-        cfg = write_reliability_case(d, limit, method=method, target=target, block=block,
-                                     max_runs=max_runs)
-        ds = _reliability_file(cfg, d / "reliability.nc")
+        cfg = write_reliability_case(workdir, limit, method=method, target=target,
+                                     block=block, max_runs=max_runs,
+                                     name=f"reliability_{method}.toml")
+        ds = _reliability_file(cfg, workdir / f"reliability_{method}.nc")
         p = float(ds["probability_of_exceedance"].values[0])
         cov = float(ds["cov"].values[0])
         tol = 3.0 * cov + 0.05 if np.isfinite(cov) else 1.0

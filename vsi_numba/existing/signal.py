@@ -68,21 +68,18 @@ def best_shift(m: np.ndarray, s: np.ndarray, lag0: int, max_lag: int) -> tuple[f
     m = np.asarray(m, float)
     s = np.asarray(s, float)
     K, J = m.size, s.size
-    # c[L] = sum_k m[k] s[k + L] for L = -(K - 1) .. J - 1
-    c = scipy.signal.correlate(s, m, mode="full", method="fft")
-    lags = np.arange(-(K - 1), J)
-    cs = np.concatenate([[0.0], np.cumsum(s * s)])
-    lo = np.clip(lags, 0, J)
-    hi = np.clip(lags + K, 0, J)
-    energy = cs[hi] - cs[lo]  # sum of s[k + L]^2 over the overlap
-    sse = float(m @ m) - 2.0 * c + energy
-    ok = (lags >= lag0 - max_lag) & (lags <= lag0 + max_lag)
-    if not ok.any():
+    lo, hi = max(lag0 - max_lag, -(K - 1)), min(lag0 + max_lag, J - 1)
+    if lo > hi:
         return float(lag0), float(m @ m)
-    idx = np.flatnonzero(ok)
-    i = int(idx[np.argmin(sse[idx])])
+    # c[L] = sum_k m[k] s[k + L] for L = -(K - 1) .. J - 1; only the window is used
+    c = scipy.signal.correlate(s, m, mode="full", method="fft")[lo + K - 1: hi + K]
+    lags = np.arange(lo, hi + 1)
+    cs = np.concatenate([[0.0], np.cumsum(s * s)])
+    energy = cs[np.clip(lags + K, 0, J)] - cs[np.clip(lags, 0, J)]  # s[k + L]^2, overlap
+    sse = float(m @ m) - 2.0 * c + energy
+    i = int(np.argmin(sse))
     frac = 0.0
-    if idx[0] < i < idx[-1]:
+    if 0 < i < sse.size - 1:
         a, b, d = sse[i - 1], sse[i], sse[i + 1]
         den = a - 2.0 * b + d
         if den > 0:

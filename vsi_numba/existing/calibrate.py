@@ -207,6 +207,16 @@ def _r_hat(chain: np.ndarray) -> np.ndarray:
 
 
 def calibrate(cfg, progress=None, command: str = "vsi calibrate"):
+    """Run the calibration of a configuration with a ``[calibration]`` section
+    (:func:`_calibrate`) with the BLAS pool at one thread: its threads only spin on the
+    small products of the forward runs (1.4 x the CPU time for the same wall time)."""
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _calibrate(cfg, progress=progress, command=command)
+
+
+def _calibrate(cfg, progress=None, command: str = "vsi calibrate"):
     """Run the calibration of a configuration with a ``[calibration]`` section.
 
     Returns

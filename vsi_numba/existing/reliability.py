@@ -153,6 +153,16 @@ def _subset(g1, n_var, limit, target, block, max_runs, seed):
 
 
 def estimate(cfg, command: str = "vsi reliability"):
+    """Estimate the probability of exceedance of the configuration's check
+    (:func:`_estimate`) with the BLAS pool at one thread: its threads only spin on the
+    small products of the forward runs (1.4 x the CPU time for the same wall time)."""
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _estimate(cfg, command=command)
+
+
+def _estimate(cfg, command: str = "vsi reliability"):
     """Estimate the probability of exceedance of the configuration's check.
 
     Returns

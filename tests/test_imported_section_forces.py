@@ -325,10 +325,21 @@ def test_tracks_with_section_forces_against_builtin_torsion(tmp_path):
         f'{IP}, damping_ratio = {ZT}, n_modes = {N_T} }}\n')))
     # the eccentric track's line deflects more than the axis would: torsion is loaded
     assert float(ref["max_deck_twist"].max()) > 0
-    for name in ("max_bending_moment", "min_shear_force", "max_shear_force",
-                 "max_track_displacement", "max_deck_twist"):
+    for name in ("max_bending_moment", "min_shear_force", "max_shear_force"):
         a, b = imp[name].values, ref[name].values
         # the same modes (imported: Hermite cubics between 161 stations with exact
         # slopes; built-in: its own tables of the sines) and the same statics;
-        # measured 8e-10 (shear), 5e-11 (moment), below 1e-15 (track, twist)
+        # measured 8e-10 (shear), 5e-11 (moment)
         np.testing.assert_allclose(a, b, rtol=3e-9, err_msg=name)
+    # the track line and the twist: the built-in deck adds the static correction of the
+    # modes left out (mode-acceleration, verified against converged references in
+    # test_space_accuracy), the imported deck is the plain modal sum of its modes and
+    # says so; measured 1.2 % apart (track displacement) at this resonance, the twist
+    # of the imported deck's few torsional modes 25 % below (the static part of the
+    # torsional modes left out)
+    assert ref.attrs.get("deck_twist_method") == "mode-acceleration"
+    assert "deck_twist_method" not in imp.attrs
+    np.testing.assert_allclose(imp["max_track_displacement"].values,
+                               ref["max_track_displacement"].values, rtol=0.03)
+    assert 0.6 * ref["max_deck_twist"].max() < imp["max_deck_twist"].max() \
+        <= ref["max_deck_twist"].max()

@@ -281,6 +281,22 @@ FEATURES = {
                     {"train": "axles.csv", "speed_kmh": 100.0, "per_day": 2.0}]}),
     "compatibility": feature(study__speeds_kmh=[100.0, 200.0, 220.0], compatibility={
         "train": "feature", "line_speed_kmh": 200.0, "speed_factor": 1.1}),
+    "calibration": feature(calibration={
+        "parameters": [
+            {"key": "bridge.EI", "prior": "lognormal", "median": 2.0e10, "cov": 0.2},
+            {"key": "bridge.damping_ratio", "prior": "uniform", "lower": 0.005,
+             "upper": 0.05},
+            {"key": "bridge.mass_per_length", "prior": "normal", "mean": 12000.0,
+             "std": 600.0}],
+        "records": [{"file": "passage.csv", "quantity": "deck_acceleration",
+                     "point": 10.0, "train": "HSLM-A1", "speed_kmh": 200.0}],
+        "noise_std": 0.1, "sampler": "emcee", "n_samples": 64, "n_walkers": 8,
+        "burn_in": 16, "seed": 3, "max_lag_s": 1.0, "check_samples": 20}),
+    "reliability": feature(reliability={
+        "check": "deck_acceleration", "method": "monte_carlo", "target_cov": 0.2,
+        "limit": 3.5, "max_runs": 1000, "block_size": 100, "seed": 2,
+        "variables": [{"key": "bridge.damping_ratio", "distribution": "lognormal",
+                       "median": 0.015, "cov": 0.3}]}),
     "catalogue_pattern": feature(
         train=HSLM, bridge__damping_ratio="EN1991-2", bridge__deck_type="prestressed_concrete",
         bridge__additional_damping=True, study__refine_resonance=True,
@@ -301,6 +317,9 @@ def files(tmp_path_factory) -> Path:
     np.savetxt(d / "profile.csv", np.c_[x, 0.5 * np.sin(2 * np.pi * x / 7.0)],
                delimiter=",", header="pos,dip", comments="")
     (d / "trains.toml").write_text(TRAIN_FILE)
+    t = np.arange(0.0, 2.0, 0.01)
+    np.savetxt(d / "passage.csv", np.c_[t, 0.1 * np.sin(2 * np.pi * 4.0 * t)],
+               delimiter=",", header="t,value", comments="")
     (d / "axles.csv").write_text("position,load\n0,200\n2.5,200\n17.5,180\n20,180\n")
     # mass-normalised sine modes of a 20 m span (m = 12 t/m): phi = sqrt(2/(mL)) sin(j pi x/L)
     xs = np.linspace(0.0, 20.0, 41)

@@ -144,13 +144,13 @@ def _records(chk, items, base: Path):
         f = Path(r["file"])
         f = f if f.is_absolute() else base / f
         try:
-            rec = read_record(f)
+            read_record(f)
         except RecordError as exc:
             chk.error(f"{p}.file", r["file"], f"a readable record: {exc}")
             out = _BAD
             continue
         if out is not _BAD:
-            out.append({**r, "path": str(f), "n_samples_record": int(rec.t.size)})
+            out.append(dict(r))  # the file as written: resolved against base_dir by its reader
     return out
 
 

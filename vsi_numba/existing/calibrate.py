@@ -43,6 +43,7 @@ from __future__ import annotations
 import json
 import math
 import time as _time
+from pathlib import Path
 
 import numpy as np
 
@@ -113,7 +114,7 @@ class _Prepared:
         self.raw = []
         self.gain = []
         for r in self.records:
-            rec = read_record(r["path"])
+            rec = read_record(_record_path(r["file"], cfg.base_dir))
             fs = 1.0 / rec.dt
             filt = lowpass(rec.value, fs, self.cutoff)
             t, m = resample(rec.t, filt, self.dt)
@@ -471,3 +472,9 @@ def posterior_dataset(prep: _Prepared, post, blobs, logpost, diag, pred, check, 
         },
     )
     return ds
+
+
+def _record_path(file: str, base_dir) -> Path:
+    """A record's file as the configuration names it, relative to its directory."""
+    f = Path(file)
+    return f if f.is_absolute() else Path(base_dir) / f

@@ -52,19 +52,11 @@ def calibrate_command(config: Path, output: Path, quiet: bool) -> int:
             last[0] = pct // 10
             pr.line(f"calibrate: {done} of about {total} forward runs", stderr=True)
 
-    try:
-        ds = calibrate(cfg, progress=progress,
-                       command=f"vsi calibrate {config} -o {output}")
-        _write(ds, Path(output))
-    except CalibrationError as exc:
-        pr.error(exc)
-        return EXIT_USAGE
-    except KeyboardInterrupt:
-        pr.error("interrupted: nothing written")
-        return 130
-    except OSError as exc:
-        pr.error(f"cannot write {output}: {exc}")
-        return EXIT_USAGE
+    ds = _compute_and_write(lambda: calibrate(cfg, progress=progress,
+                                              command=f"vsi calibrate {config} -o {output}"),
+                            CalibrationError, output, pr)
+    if isinstance(ds, int):
+        return ds
     import numpy as np
 
     x = ds["posterior"].values
@@ -88,18 +80,11 @@ def reliability_command(config: Path, output: Path, quiet: bool) -> int:
     if not quiet:
         for w in cfg.warnings:
             pr.warning(w)
-    try:
-        ds = estimate(cfg, command=f"vsi reliability {config} -o {output}")
-        _write(ds, Path(output))
-    except ReliabilityError as exc:
-        pr.error(exc)
-        return EXIT_USAGE
-    except KeyboardInterrupt:
-        pr.error("interrupted: nothing written")
-        return 130
-    except OSError as exc:
-        pr.error(f"cannot write {output}: {exc}")
-        return EXIT_USAGE
+    ds = _compute_and_write(lambda: estimate(cfg, command=f"vsi reliability {config} -o "
+                                                         f"{output}"),
+                            ReliabilityError, output, pr)
+    if isinstance(ds, int):
+        return ds
     p = float(ds["probability_of_exceedance_range"].values)
     b = float(ds["reliability_index_range"].values)
     pr.line(f"{ds.attrs['check']}: P(exceeded) = {p:.3g} over the speeds (beta = {b:.3f}, "
@@ -129,3 +114,21 @@ def existing_report(ds, results: Path, outdir: Path | None, pr: Printer) -> int:
         return 1
     pr.line(f"report written to {path}")
     return 0
+
+
+def _compute_and_write(compute, error_type, output, pr):
+    """``compute()`` and its dataset written to ``output``; the dataset, or the exit code
+    after the message (``error_type``: the command's own refusal)."""
+    try:
+        ds = compute()
+        _write(ds, Path(output))
+    except error_type as exc:
+        pr.error(exc)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        pr.error("interrupted: nothing written")
+        return 130
+    except OSError as exc:
+        pr.error(f"cannot write {output}: {exc}")
+        return EXIT_USAGE
+    return ds

@@ -221,14 +221,13 @@ def _zero_table(length: float, n_m: int) -> Table:
     return Table(np.array([0.0, float(length)]), z, z.copy(), linear=True)
 
 
-def torsion_green(supports, GJ, at, x_load) -> np.ndarray:
-    """St-Venant rotation (rad per N m) at ``at`` of a unit torque at each ``x_load``,
-    torsion restrained at every support (each span a fork-supported span on its own):
-    ``theta = X (L - a) / (GJ L)`` for X <= a, ``a (L - X) / (GJ L)`` for X >= a (X, a
-    from the span's left support); zero in other spans and off the deck.  Shape
-    (len(at), len(x_load))."""
+def span_coordinates(supports, at, x_load):
+    """Where the points ``at`` and the loads ``x_load`` are on a deck of spans between
+    ``supports`` (m): ``(at, x, span_at, span_load, L, X, a)``, with the span index of
+    each (a point on an interior support belongs to the span on its right), L the span
+    of each point, X each point and a each load from the left support of its own span
+    (``L`` and ``X`` of shape (len(at), 1), ``a`` of shape (1, len(x_load)))."""
     sup = np.asarray(supports, float)
-    gj = np.broadcast_to(np.asarray(GJ, float), (sup.size - 1,))
     at = np.atleast_1d(np.asarray(at, float))
     x = np.atleast_1d(np.asarray(x_load, float))
     span = lambda v: np.clip(np.searchsorted(sup, v, side="right") - 1, 0,  # noqa: E731
@@ -237,6 +236,18 @@ def torsion_green(supports, GJ, at, x_load) -> np.ndarray:
     L = (sup[1:] - sup[:-1])[sa][:, None]
     X = (at - sup[sa])[:, None]
     a = (x - sup[sl])[None, :]
+    return at, x, sa, sl, L, X, a
+
+
+def torsion_green(supports, GJ, at, x_load) -> np.ndarray:
+    """St-Venant rotation (rad per N m) at ``at`` of a unit torque at each ``x_load``,
+    torsion restrained at every support (each span a fork-supported span on its own):
+    ``theta = X (L - a) / (GJ L)`` for X <= a, ``a (L - X) / (GJ L)`` for X >= a (X, a
+    from the span's left support); zero in other spans and off the deck.  Shape
+    (len(at), len(x_load))."""
+    sup = np.asarray(supports, float)
+    gj = np.broadcast_to(np.asarray(GJ, float), (sup.size - 1,))
+    at, x, sa, sl, L, X, a = span_coordinates(sup, at, x_load)
     on = (((at >= sup[0]) & (at <= sup[-1]))[:, None] & ((x >= sup[0]) & (x <= sup[-1]))[None, :]
           & (sa[:, None] == sl[None, :]))
     g = np.where(X <= a, X * (L - a), a * (L - X)) / (gj[sa][:, None] * L)

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vsi_numba.model import hermite
+from vsi_numba.model.deck3d import span_coordinates
 
 #: The file attribute that says how the twist and track displacements were computed.
 METHOD = "mode-acceleration"
@@ -130,15 +131,7 @@ def span_moment_shear(supports, at, x_load) -> tuple[np.ndarray, np.ndarray]:
     of a unit load at each ``x_load`` in the same span, zero in the other spans:
     ``(len(at), len(x_load))`` each (the kernels' :func:`~vsi_numba.kernels.record.cb_static`;
     a load on an interior support belongs to the span on its right)."""
-    sup = np.asarray(supports, float)
-    at = np.atleast_1d(np.asarray(at, float))
-    x = np.atleast_1d(np.asarray(x_load, float))
-    span = lambda v: np.clip(np.searchsorted(sup, v, side="right") - 1, 0,  # noqa: E731
-                             sup.size - 2)
-    sa, sl = span(at), span(x)
-    L = (sup[1:] - sup[:-1])[sa][:, None]
-    X = (at - sup[sa])[:, None]
-    a = (x - sup[sl])[None, :]
+    _, _, sa, sl, L, X, a = span_coordinates(supports, at, x_load)
     same = sa[:, None] == sl[None, :]
     m = np.where(X <= a, X * (L - a), a * (L - X)) / L
     v = np.where(a <= X, -a, L - a) / L

@@ -20,7 +20,8 @@ import pytest
 
 from vsi_numba.analysis import checks as chk
 from vsi_numba.analysis.dataset import ResultsError
-from vsi_numba.analysis.variants import variant_table, variant_view, write_variants_report
+from vsi_numba.analysis.report.variants import write_variants_report
+from vsi_numba.analysis.variants import variant_table, variant_view
 from vsi_numba.cli.report import report_command
 from vsi_numba.config import load_config
 from vsi_numba.io.schema import ENVELOPES

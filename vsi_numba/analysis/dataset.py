@@ -12,6 +12,8 @@ analysis function can assume one layout.
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import xarray as xr
 
@@ -399,3 +401,24 @@ def _scalar(value):
     """A numpy scalar (or a Python object from an object array) as a Python scalar."""
     return value.item() if hasattr(value, "item") else value
 
+
+#: Result of a check computed under a time-step resolution warning (never "pass").
+NOT_RELIABLE = "not reliable"
+
+
+def stored_warnings(ds: xr.Dataset) -> list[dict]:
+    """The configuration warnings a results file carries, as records {"message", "kind",
+    "keys"}: from ``warnings_json``, else one record per line of ``config_warnings``
+    (kind "resolution" when the line is a time-step resolution warning)."""
+    raw = ds.attrs.get("warnings_json")
+    if raw:
+        try:
+            recs = json.loads(str(raw))
+            if isinstance(recs, list):
+                return [r for r in recs if isinstance(r, dict) and "message" in r]
+        except ValueError:
+            pass
+    text = str(ds.attrs.get("config_warnings", "") or "")
+    return [{"message": line, "keys": [],
+             "kind": "resolution" if ("under-resolve" in line and "solver.dt" in line)
+             else "input"} for line in text.splitlines() if line.strip()]

@@ -18,9 +18,7 @@ import pandas as pd
 import xarray as xr
 
 from vsi_numba.analysis import checks as chk
-from vsi_numba.analysis.dataset import ResultsError, track_type
-from vsi_numba.analysis.report.text import NOT_RELIABLE, stored_warnings
-from vsi_numba.analysis.sanitize import markdown_document, write_csv
+from vsi_numba.analysis.dataset import NOT_RELIABLE, ResultsError, stored_warnings, track_type
 from vsi_numba.en1990 import deck_acceleration_limits
 
 #: Per-variant variables that become attributes of a variant's view.
@@ -396,87 +394,3 @@ def design_charts(ds: xr.Dataset, path, x_key: str | None = None):
     finally:
         plt.close(fig)
     return caption
-
-
-def write_variants_report(ds: xr.Dataset, outdir, source_path=None, **kwargs):
-    """The report of a study of variants: the table over variants, the envelope with the
-    governing variant named, the design chart, and the full report of the governing
-    variant in ``governing_variant/``; every variant's warnings, marked per variant.
-
-    Raises
-    ------
-    ResultsError
-        When every run of every variant failed (nothing to check).
-    """
-    from pathlib import Path
-
-    from vsi_numba.analysis.report.atomic import atomic_directory
-
-    if _all_failed(ds):
-        raise ResultsError(_ALL_FAILED)
-    with atomic_directory(outdir) as tmp:  # whole or not at all, like every report
-        _write_variants_files(ds, tmp, source_path, **kwargs)
-    return Path(outdir) / "report.md"
-
-
-def _write_variants_files(ds: xr.Dataset, outdir, source_path=None, **kwargs):
-    """The files of :func:`write_variants_report`, written into ``outdir`` (the new
-    report directory) as they come."""
-    from pathlib import Path
-
-    from vsi_numba.analysis.report import write_report
-    from vsi_numba.analysis.report.text import _warnings_block
-
-    if _all_failed(ds):
-        raise ResultsError(_ALL_FAILED)
-    outdir = Path(outdir)
-    outdir.mkdir(parents=True, exist_ok=True)
-    table = variant_table(ds)
-    from vsi_numba.analysis.report.tables import CSV_FLOAT_FORMAT
-
-    write_csv(table, outdir / "variants.csv", float_format=CSV_FLOAT_FORMAT)
-    gov = governing_variant(ds)
-    sub = write_report(variant_view(ds, gov), outdir / "governing_variant",
-                       source_path=source_path, **kwargs)
-    caption = design_charts(ds, outdir / "design_chart.png")
-    title = ds.attrs.get("title") or "vsi_numba study of variants"
-    n_fail = int(table["result"].astype(str).str.startswith("FAIL").sum())
-    lines = [f"# {title}", "",
-             f"A study of {ds.sizes['variant']} variants ({ds.attrs.get('varied_keys', '')}),"
-             f" {ds.sizes['speed']} speeds x {ds.sizes['train']} trains x "
-             f"{ds.sizes['irregularity']} track realisations"
-             + (f": `{Path(source_path).name}`." if source_path else "."), ""]
-    lines += _warnings_block(stored_warnings(ds))
-    for key in ("damping_rule", "additional_damping_rule"):
-        if ds.attrs.get(key):
-            lines += [f"- {ds.attrs[key]}"]
-    if "damping_rule" in ds and any(str(r) for r in ds["damping_rule"].values):
-        lines += [f"- Damping per variant (columns zeta_pct, dzeta_mf_pct): e.g. variant 0: "
-                  f"{ds['damping_rule'].values[0]}"]
-    a = peak_deck_acceleration(ds)
-    g = a.isel(variant=gov)
-    v_gov = float(ds["speed_kmh"].values[int(np.nanargmax(g.values))])
-    lines += ["", "## Envelope over the variants", "",
-              f"- **Governing variant {gov}** ({variant_label(ds, gov)}): peak deck "
-              f"acceleration **{float(g.max()):.3g} m/s²** at {v_gov:g} km/h (limit "
-              f"{variant_limit(ds, gov):g} m/s², {variant_track_type(ds, gov)} track; the "
-              "governing variant uses the most of its own limit); its full "
-              f"report: [governing_variant/report.md](governing_variant/{sub.name}).",
-              f"- Variants that FAIL the deck-acceleration check: **{n_fail}** of "
-              f"{len(table)}.", "", "## Per variant", ""]
-    show = table.copy()
-    for col in show.columns:
-        if show[col].dtype.kind == "f":
-            show[col] = show[col].map(lambda x: f"{x:.4g}")
-    lines += ["| variant | " + " | ".join(show.columns) + " |",
-              "|---|" + "---|" * len(show.columns)]
-    for k, row in show.iterrows():
-        lines.append(f"| {k} | " + " | ".join(str(v) for v in row.values) + " |")
-    lines += ["", "## Design chart", "", "![Design chart](design_chart.png)", "",
-              f"*{caption}*", ""]
-    path = outdir / "report.md"
-    path.write_text(markdown_document("\n".join(lines), images={"design_chart.png"}),
-                    encoding="utf-8")
-    (outdir / "variants.json").write_text(json.dumps(
-        {"governing_variant": gov, "label": variant_label(ds, gov)}, indent=1))
-    return path

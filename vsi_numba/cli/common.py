@@ -151,3 +151,27 @@ def output_problem(config: Path, out_path: Path, cfg=None) -> str | None:
     except OutputNotWritableError as exc:
         return str(exc)
     return None
+
+
+class sigterm_as_interrupt:  # noqa: N801 - used as a context manager
+    """SIGTERM raises KeyboardInterrupt (in the main thread): a terminated sweep keeps its
+    finished batches and says so, like Ctrl-C; a terminated report leaves a whole one."""
+
+    def __enter__(self):
+        import signal
+
+        def handler(signum, frame):
+            raise KeyboardInterrupt
+
+        try:
+            self._old = signal.signal(signal.SIGTERM, handler)
+        except ValueError:  # not the main thread
+            self._old = None
+        return self
+
+    def __exit__(self, *exc):
+        import signal
+
+        if self._old is not None:
+            signal.signal(signal.SIGTERM, self._old)
+        return None

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from vsi_numba.cli.common import EXIT_USAGE, Printer
+from vsi_numba.cli.common import EXIT_USAGE, Printer, sigterm_as_interrupt
 
 
 def report_command(results: Path, outdir: Path | None = None) -> int:
@@ -37,7 +37,6 @@ def report_command(results: Path, outdir: Path | None = None) -> int:
     from vsi_numba.analysis.dataset import ResultsError, prepare, require
     from vsi_numba.analysis.report import REQUIRED_VARIABLES, stored_warnings, write_report
     from vsi_numba.analysis.report.atomic import ReportDirectoryError
-    from vsi_numba.cli.sweep import _sigterm_as_interrupt
 
     pr = Printer()
 
@@ -93,7 +92,7 @@ def report_command(results: Path, outdir: Path | None = None) -> int:
         if outdir is None:
             outdir = results.with_name(f"{results.stem}_report")
         try:
-            with _sigterm_as_interrupt():
+            with sigterm_as_interrupt():
                 path = writer(data, outdir, source_path=results)
         except KeyboardInterrupt:
             error(f"interrupted: '{outdir}' holds a whole report, the earlier one (if any) "

@@ -6,36 +6,12 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from vsi_numba.cli.common import EXIT_USAGE, Printer, load_config_and_output
+from vsi_numba.cli.common import EXIT_USAGE, Printer, load_config_and_output, sigterm_as_interrupt
 
 #: A Dask scheduler address: scheme://host:port or host:port (inproc:// as is).
 _SCHEDULER_ADDRESS = re.compile(
     r"^(?:(?:tcp|tls|ucx|ws|wss)://(?:\[[0-9A-Fa-f:.]+\]|[^\s/:\[\]]+):\d{1,5}/?"
     r"|(?:\[[0-9A-Fa-f:.]+\]|[^\s/:\[\]]+):\d{1,5}|inproc://\S+)$")
-
-
-class _sigterm_as_interrupt:  # noqa: N801 - used as a context manager
-    """SIGTERM raises KeyboardInterrupt (in the main thread): a terminated sweep keeps its
-    finished batches and says so, like Ctrl-C."""
-
-    def __enter__(self):
-        import signal
-
-        def handler(signum, frame):
-            raise KeyboardInterrupt
-
-        try:
-            self._old = signal.signal(signal.SIGTERM, handler)
-        except ValueError:  # not the main thread
-            self._old = None
-        return self
-
-    def __exit__(self, *exc):
-        import signal
-
-        if self._old is not None:
-            signal.signal(signal.SIGTERM, self._old)
-        return None
 
 
 def sweep_command(config: Path, output: Path | None, workers: int | None,
@@ -81,7 +57,7 @@ def sweep_command(config: Path, output: Path | None, workers: int | None,
     if fresh:
         parts += ["--fresh"]
     try:
-        with _sigterm_as_interrupt():
+        with sigterm_as_interrupt():
             outcome = runner.execute_study(cfg, output, workers=workers, scheduler=scheduler,
                                            progress=not quiet, fresh=fresh, quiet=quiet,
                                            command=" ".join(parts))
@@ -102,7 +78,7 @@ def sweep_command(config: Path, output: Path | None, workers: int | None,
                     "(status != 0, outputs NaN); see the 'status' and 'message' variables",
                     1)
     try:  # Ctrl-C or SIGTERM between the phases: 130 as in them, no traceback
-        with _sigterm_as_interrupt():
+        with sigterm_as_interrupt():
             _print_governing(out_path, pr)
     except KeyboardInterrupt:
         return fail(f"interrupted: the results file {out_path} is written"

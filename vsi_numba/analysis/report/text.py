@@ -3,7 +3,6 @@ and one function per section (provenance, bridge, summary, trains, cases, statis
 
 from __future__ import annotations
 
-import json
 import re
 from importlib import metadata
 from pathlib import Path
@@ -15,8 +14,10 @@ import xarray as xr
 from vsi_numba.analysis import checks as chk
 from vsi_numba.analysis.dataset import (
     DETERMINISTIC,
+    NOT_RELIABLE,
     bridge_frequencies,
     status_meanings,
+    stored_warnings,  # noqa: F401 - the report modules import it from here
     track_type,
     track_type_assumed,
 )
@@ -125,28 +126,6 @@ def _result(text: str) -> str:
     return {"FAIL": "**FAIL**", "pass": "pass", NOT_RELIABLE: f"**{NOT_RELIABLE}**",
             "not determined": "**not determined**",
             f"FAIL ({NOT_RELIABLE})": f"**FAIL ({NOT_RELIABLE})**"}.get(text, text)
-
-
-#: Result of a check computed under a time-step resolution warning (never "pass").
-NOT_RELIABLE = "not reliable"
-
-
-def stored_warnings(ds: xr.Dataset) -> list[dict]:
-    """The configuration warnings a results file carries, as records {"message", "kind",
-    "keys"}: from ``warnings_json``, else one record per line of ``config_warnings``
-    (kind "resolution" when the line is a time-step resolution warning)."""
-    raw = ds.attrs.get("warnings_json")
-    if raw:
-        try:
-            recs = json.loads(str(raw))
-            if isinstance(recs, list):
-                return [r for r in recs if isinstance(r, dict) and "message" in r]
-        except ValueError:
-            pass
-    text = str(ds.attrs.get("config_warnings", "") or "")
-    return [{"message": line, "keys": [],
-             "kind": "resolution" if ("under-resolve" in line and "solver.dt" in line)
-             else "input"} for line in text.splitlines() if line.strip()]
 
 
 def mark_unreliable(table: pd.DataFrame, records: list[dict]) -> pd.DataFrame:

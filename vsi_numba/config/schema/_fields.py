@@ -22,6 +22,8 @@ from typing import Annotated, Any, Literal, Union
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
 from pydantic_core import PydanticUndefined
 
+from vsi_numba.model.irregularity import SPEED_BOUND_KMH
+
 #: Every section model: unknown keys are errors, numbers are TOML numbers (no strings, no
 #: booleans), integers stay integers, nan and inf are refused.
 STRICT = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False,
@@ -46,6 +48,15 @@ def Int(*, gt=None, ge=None, lt=None, le=None):  # noqa: N802
 
 #: A non-empty string.
 Text = Annotated[str, Field(min_length=1)]
+#: A number > 0; a speed in km/h (up to the bound of the track models); a matrix of rows.
+PosNum = Num(gt=0)
+Speed = Num(gt=0, le=SPEED_BOUND_KMH)
+Matrix = list[list[float]]
+
+
+def one_of(values) -> Any:
+    """``Literal[...]`` of the names a module defines (one list of choices)."""
+    return Literal[tuple(values)]
 
 #: Marks a key without a default (required, or required under a condition the
 #: description states).

@@ -1,0 +1,171 @@
+"""The keys of ``[report]``, ``[code_profile]``, ``[fatigue]`` and ``[compatibility]``."""
+
+from typing import Annotated
+
+from pydantic import Field
+
+from vsi_numba.code_profile import ANNEX_D_MIXES, DEFAULT_NAME, TABLE, limits_of
+from vsi_numba.config.schema._fields import (
+    Int,
+    Num,
+    Section,
+    Text,
+    key,
+    one_of,
+)
+
+# ---------------------------------------------------------------- [report] [code_profile]
+
+MAX_TEXT = 200
+_Line = Annotated[str, Field(min_length=1, max_length=MAX_TEXT)] | int | float
+
+
+class Report(Section):
+    """``[report]``: the title block of the report (one line of text each)."""
+
+    project: _Line = key(None, doc="project")
+    client: _Line = key(None, doc="client")
+    document: _Line = key(None, doc="document number")
+    revision: _Line = key(None, doc="revision")
+    prepared_by: _Line = key(None, doc="prepared by")
+    checked_by: _Line = key(None, doc="checked by")
+    approved_by: _Line = key(None, doc="approved by")
+    date: _Line = key(None, doc="date")
+
+
+class SourcedValue(Section):
+    """``{value, clause}``: an override with the clause or rule it comes from."""
+
+    value: float = key(required=True, doc="the value in the entry's SI unit")
+    clause: Text = key(None, doc="the clause or rule the value comes from")
+
+
+def _override_fields():
+    out = {}
+    for e in TABLE:
+        if e.applies == "fixed":
+            continue
+        unit = "" if e.unit == "1" else e.unit
+        number = (Int if e.integer else Num)(**e.limits.as_dict())
+        tp = number | SourcedValue
+        out[e.key] = (tp, key(None, unit=unit, default_text=f"{e.value:g}",
+                              doc=f"{e.description} ({e.clause})"))
+    return out
+
+
+def _overrides_model():
+    from pydantic import create_model
+
+    return create_model("Overrides", __base__=Section, **_override_fields())
+
+
+Overrides = _overrides_model()
+Overrides.__doc__ = ("``[code_profile] overrides``: entries of the code profile "
+                     "(:mod:`vsi_numba.code_profile`), a number in the entry's SI unit or "
+                     "{value, clause}.")
+
+
+class CodeProfile(Section):
+    """``[code_profile]``: the clause values of the checks (a national annex, a client's
+    rule), stored with the results."""
+
+    name: Text = key(DEFAULT_NAME, doc="the profile's name, printed in the report",
+                     expected="the name of the profile (a string), e.g. \"DE national "
+                              "annex\"")
+    overrides: Overrides = key(None, doc="entries of the code profile: a number in the "
+                                         "entry's SI unit, or {value, clause}")
+
+
+
+# ---------------------------------------------------------- [fatigue] [compatibility]
+
+#: The models of a train in ``[[fatigue.traffic]]``.
+FATIGUE_MODELS = ("moving_force", "interaction")
+_GAMMA_EXPECTED = f"a partial factor {limits_of('fatigue_gamma_Mf').text()}"
+
+
+class FatigueSection(Section):
+    """``[[fatigue.sections]]``: a steel detail of the deck, its stress the bending moment
+    at ``x`` over the section modulus."""
+
+    x: Num(ge=0) = key(required=True, unit="m", doc="position of the section from the left "
+                       "end of the deck", expected="a position >= 0 m along the deck",
+                       example=10.0)
+    section_modulus: Num(ge=1e-9) = key(required=True, unit="m^3",
+                                  doc="section modulus W at the detail: stress = M / W",
+                                  expected="a section modulus > 0 m^3 (stress = M / W; at "
+                                           "least 1e-9 m^3)",
+                                  example=0.045, plausible=(1e-4, 10.0),
+                                  typical="about 0.001 to 5 m^3")
+    detail_category: Num(gt=0, le=1000) = key(
+        required=True, unit="MPa", doc="EN 1993-1-9 detail category Delta sigma_C (Tables "
+                                       "8.1-8.10 [R]: 36 to 160)",
+        expected="a detail category > 0 MPa (EN 1993-1-9: 36 to 160)", example=71)
+    gamma_Ff: Num(**limits_of("fatigue_gamma_Ff").as_dict()) = key(
+        None, default_text="code profile fatigue_gamma_Ff",
+        doc="partial factor on the fatigue stress ranges (EN 1993-2 9.3 [R])",
+        expected=_GAMMA_EXPECTED)
+    gamma_Mf: Num(**limits_of("fatigue_gamma_Mf").as_dict()) = key(
+        None, default_text="code profile fatigue_gamma_Mf",
+        doc="partial factor on the fatigue strength (EN 1993-1-9 Table 3.1 [R])",
+        expected=_GAMMA_EXPECTED)
+    name: Text = key(None, default_text="its position", doc="name of the section in the "
+                     "report", expected="a name (string)")
+
+
+class FatigueTraffic(Section):
+    """``[[fatigue.traffic]]``: one train of the operator's traffic (added to the mix)."""
+
+    train: Text = key(required=True, doc="a library train, AnnexD-1 .. AnnexD-12, or an "
+                                         "axle-load CSV file (position m, load kN; relative "
+                                         "to the config)",
+                      expected="a train name (`vsi trains` lists them; AnnexD-1 .. "
+                               "AnnexD-12)", example="ICE3")
+    speed_kmh: Num(gt=0, le=600) = key(required=True, unit="km/h", doc="its speed",
+                                       expected="a speed > 0 km/h (at most 600)",
+                                       example=250.0)
+    per_day: Num(gt=0, le=10000) = key(required=True, unit="1/day",
+                                       doc="passages per day",
+                                       expected="a number of trains per day > 0",
+                                       example=20)
+    model: one_of(FATIGUE_MODELS) = key("moving_force", doc="the train's model: moving "
+                                        "forces or the vehicles' dynamics (library trains "
+                                        "that have it)")
+
+
+class Fatigue(Section):
+    """``[fatigue]``: the fatigue check of steel details of the deck under the dynamic
+    stress histories of a traffic (EN 1991-2 6.4.6.6 [R], EN 1993-1-9)."""
+
+    design_life_years: Num(gt=0, le=1000) = key(
+        100.0, unit="years", doc="design life: passages = per_day x 365 x years",
+        expected="a design life > 0 years (at most 1000)")
+    mix: one_of(ANNEX_D_MIXES) = key(
+        None, doc="an EN 1991-2 Annex D traffic mix [R], each train type at its Table D.1 "
+                  "speed (added to [[fatigue.traffic]])")
+    sections: list[FatigueSection] = key(
+        required=True, doc="the details checked ([[fatigue.sections]], one or more)",
+        expected="one or more [[fatigue.sections]] with x, section_modulus and "
+                 "detail_category")
+    traffic: list[FatigueTraffic] = key(
+        None, default_text="required without mix",
+        doc="the operator's trains ([[fatigue.traffic]])",
+        expected="[[fatigue.traffic]] with train, speed_kmh and per_day, or fatigue.mix")
+
+
+class Compatibility(Section):
+    """``[compatibility]``: is the train compatible with this existing bridge?  The
+    study's speeds must reach speed_factor x line_speed_kmh."""
+
+    train: Text = key(required=True, doc="the train under check (one of the study's "
+                                         "trains)",
+                      expected="the name of the train under check (one of train.preset)",
+                      example="ICE3")
+    line_speed_kmh: Num(gt=0, le=600) = key(
+        required=True, unit="km/h", doc="maximum line speed at the bridge",
+        expected="a line speed > 0 km/h (at most 600)", example=300.0)
+    speed_factor: Num(**limits_of("compatibility_speed_factor").as_dict()) = key(
+        None, default_text="code profile compatibility_speed_factor",
+        doc="checked up to this factor x the line speed ([R] practice for existing lines)",
+        expected=f"a factor {limits_of('compatibility_speed_factor').text()} on the line "
+                 "speed")

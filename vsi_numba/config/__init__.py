@@ -35,7 +35,9 @@ Modules
 ``[contact]``, ``[track]``), :mod:`~vsi_numba.config.study` and
 :mod:`~vsi_numba.config.variants`, :mod:`~vsi_numba.config.fatigue`,
 :mod:`~vsi_numba.config.compatibility` (one reader per section),
-:mod:`~vsi_numba.config.physics` (warnings and plausibility checks of the whole model),
+:mod:`~vsi_numba.config.physics` (warnings and plausibility checks of the whole model,
+with :mod:`~vsi_numba.config.track_physics` for the wheel, contact and track springs and
+:mod:`~vsi_numba.config.slips` for the unit slips),
 :mod:`~vsi_numba.config.limits` (their caps and thresholds) and
 :mod:`~vsi_numba.config.core` (:class:`Config`, :func:`load_config`);
 :mod:`~vsi_numba.config.schema` (the declared keys and what is generated from them).
@@ -78,14 +80,10 @@ from vsi_numba.config.limits import (
     MAX_VEHICLES,
     STEPS_PER_WAVELENGTH,
 )
-from vsi_numba.config.physics import (
-    HERTZ_LOAD_FACTOR,
-    RIGID_MASSIVE_ALPHA,
-    _defects_amplitude,
-    _train_loads,
-)
+from vsi_numba.config.physics import _defects_amplitude
 from vsi_numba.config.solver import CONTACT_MODELS, SOLVER_OVERRIDES, TRACK_MODELS
 from vsi_numba.config.study import RESONANCE_ORDERS, _line_speed_grid, _speed_grid
+from vsi_numba.config.track_physics import HERTZ_LOAD_FACTOR, RIGID_MASSIVE_ALPHA, _train_loads
 from vsi_numba.config.train import TRAIN_MODELS, VEHICLE_KINDS
 from vsi_numba.config.variants import MASS_FACTOR, _set_path, variant_labels
 

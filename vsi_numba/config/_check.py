@@ -120,7 +120,7 @@ class _Checker:
         self.warnings: list[str] = []
         self.records: list[dict] = []  # one per warning: message, kind, keys
         #: values outside the plausible range of their key (refused unless
-        #: solver.allow_implausible: :func:`vsi_numba.config.physics._refuse`)
+        #: solver.allow_implausible: :func:`_refuse`)
         self.implausible: list[str] = []
 
     # -- reporting
@@ -350,3 +350,11 @@ def _ok(*values) -> bool:
 
 def _drop_none(d: dict) -> dict:
     return {k: v for k, v in d.items() if v is not None}
+
+
+def _refuse(chk, solver, override: str, message: str) -> None:
+    """An error unless ``solver.<override> = true`` (then a warning)."""
+    if solver.get(override):
+        chk.warn(f"{message} (accepted: solver.{override} = true)", "plausibility")
+    else:
+        chk.errors.append(f"{message}; set solver.{override} = true to run it anyway")

@@ -25,6 +25,7 @@ from vsi_numba.config._check import (
     _Checker,
     _drop_none,
     _ok,
+    _refuse,
     _show,
 )
 from vsi_numba.config.bridge import EN_DAMPING, MIN_SPAN, _bridge_section, _BridgeSpec
@@ -47,8 +48,6 @@ from vsi_numba.config.physics import (
     _default_time_step,
     _physics_warnings,
     _plausibility,
-    _refuse,
-    _track_plausibility,
 )
 from vsi_numba.config.report import _report_section
 from vsi_numba.config.schema import VsiConfig, keys_of
@@ -64,6 +63,7 @@ from vsi_numba.config.study import (
     _StudySpec,
     refined_speeds,
 )
+from vsi_numba.config.track_physics import _track_plausibility
 from vsi_numba.config.train import _train_section, _TrainSpec
 from vsi_numba.config.variants import _build_variants, merge_variant_warnings
 from vsi_numba.model import bridge as _bridge

@@ -30,7 +30,8 @@ the same configuration.
 Modules
 -------
 :mod:`~vsi_numba.config._check` (the validation toolkit and :class:`ConfigError`),
-:mod:`~vsi_numba.config.bridge`, :mod:`~vsi_numba.config.train`,
+:mod:`~vsi_numba.config.bridge` (with
+:mod:`~vsi_numba.config.imported_bridge`), :mod:`~vsi_numba.config.train`,
 :mod:`~vsi_numba.config.irregularity`, :mod:`~vsi_numba.config.solver` (``[solver]``,
 ``[contact]``, ``[track]``), :mod:`~vsi_numba.config.study` and
 :mod:`~vsi_numba.config.variants`, :mod:`~vsi_numba.config.fatigue`,
@@ -55,12 +56,12 @@ from vsi_numba.config.bridge import (
     BRIDGE_KINDS,
     EN_DAMPING,
     FLEXIBILITY_WARNING,
-    MAX_FIXED_DOFS,
     MAX_TRACK_DOFS,
     MIN_SPAN,
     TRACK_TYPES,
 )
 from vsi_numba.config.core import Config, _validate, load_config
+from vsi_numba.config.imported_bridge import MAX_FIXED_DOFS
 from vsi_numba.config.irregularity import DEFECT_KINDS, IRREGULARITY_KINDS, _defect_profile
 from vsi_numba.config.limits import (
     DT_ERROR,

@@ -7,10 +7,7 @@ import dataclasses
 import hashlib
 import json
 import math
-import os
 import re
-import stat
-import tomllib
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -28,6 +25,10 @@ from vsi_numba.config._check import (
     _refuse,
     _show,
 )
+from vsi_numba.config.across import (
+    _distribution_checks,
+    _other_train_checks,
+)
 from vsi_numba.config.bridge import EN_DAMPING, MIN_SPAN, _bridge_section, _BridgeSpec
 from vsi_numba.config.code_profile import (
     _code_profile_section,
@@ -43,7 +44,7 @@ from vsi_numba.config.irregularity import (
     _irregularity_section,
     _IrregularitySpec,
 )
-from vsi_numba.config.limits import MAX_CONFIG_BYTES, MAX_RUNS
+from vsi_numba.config.limits import MAX_RUNS
 from vsi_numba.config.physics import (
     _default_time_step,
     _physics_warnings,
@@ -63,6 +64,7 @@ from vsi_numba.config.study import (
     _StudySpec,
     refined_speeds,
 )
+from vsi_numba.config.toml_file import _read_toml
 from vsi_numba.config.track_physics import _track_plausibility
 from vsi_numba.config.train import _train_section, _TrainSpec
 from vsi_numba.config.variants import _build_variants, merge_variant_warnings
@@ -370,84 +372,6 @@ class Config:
         return hashlib.sha256(self.to_json().encode("utf-8")).hexdigest()
 
 
-def _read_bounded(path: Path, limit: int) -> bytes:
-    """The bytes of a regular file of at most ``limit`` bytes.
-
-    Opened without blocking (a FIFO does not hang the open) and checked on the open
-    descriptor: anything but a regular file raises ``ValueError`` naming its kind, a
-    larger file ``ValueError`` with its size; at most ``limit + 1`` bytes are ever read.
-    """
-    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
-    try:
-        st = os.fstat(fd)
-        if stat.S_ISDIR(st.st_mode):
-            raise IsADirectoryError(21, "Is a directory")
-        if not stat.S_ISREG(st.st_mode):
-            kind = ("a FIFO (named pipe)" if stat.S_ISFIFO(st.st_mode) else
-                    "a character device" if stat.S_ISCHR(st.st_mode) else
-                    "a block device" if stat.S_ISBLK(st.st_mode) else
-                    "a socket" if stat.S_ISSOCK(st.st_mode) else "not a regular file")
-            raise ValueError(f"is {kind}, not a regular file")
-        if st.st_size > limit:
-            raise ValueError(f"is {st.st_size} bytes, more than the {limit} bytes a "
-                             "configuration may have")
-        chunks, n = [], 0
-        while n <= limit:
-            chunk = os.read(fd, min(1 << 20, limit + 1 - n))
-            if not chunk:
-                break
-            chunks.append(chunk)
-            n += len(chunk)
-        if n > limit:
-            raise ValueError(f"holds more than the {limit} bytes a configuration may have")
-        return b"".join(chunks)
-    finally:
-        os.close(fd)
-
-
-def _read_toml(path: Path) -> tuple[dict | None, list[str]]:
-    try:
-        raw = _read_bounded(path, MAX_CONFIG_BYTES)
-    except FileNotFoundError:
-        return None, [f"{path}: file not found; expected a TOML configuration file"]
-    except IsADirectoryError:
-        return None, [f"{path}: is a directory; expected a TOML configuration file"]
-    except ValueError as exc:
-        return None, [f"{path}: {exc}; expected a TOML configuration file"]
-    except OSError as exc:
-        return None, [f"{path}: cannot be read ({exc.strerror}); expected a TOML file"]
-    if raw.startswith(b"\xef\xbb\xbf"):
-        return None, [f"{path}: starts with a UTF-8 byte-order mark (BOM), which TOML does "
-                      "not allow; expected a UTF-8 TOML file without BOM (save it as "
-                      "'UTF-8', not 'UTF-8 with BOM')"]
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        return None, [f"{path}: not a TOML file (byte {exc.start} is not UTF-8 text); expected "
-                      "a UTF-8 TOML configuration file"]
-    try:
-        return tomllib.loads(text), []
-    except RecursionError:
-        return None, [f"{path}: nested too deeply (arrays or inline tables); expected a "
-                      "TOML configuration file"]
-    except ValueError as exc:
-        if isinstance(exc, tomllib.TOMLDecodeError):
-            return _syntax_error(path, text, exc)
-        msg = " ".join(str(exc).split())  # e.g. an integer of thousands of digits
-        return None, [f"{path}: value not readable ({msg}); expected a TOML configuration "
-                      "file with numbers of ordinary size"]
-
-
-def _syntax_error(path: Path, text: str, exc) -> tuple[None, list[str]]:
-    hint = "" if path.suffix.lower() == ".toml" else " (is this a TOML file?)"
-    msg = " ".join(str(exc).split())
-    if "(at end of document)" in msg:  # tomllib gives no line/column there
-        lines = text.split("\n")
-        msg = msg.replace("(at end of document)", f"(at end of document, line {len(lines)}, "
-                                                  f"column {len(lines[-1]) + 1})")
-    return None, [f"{path}: TOML syntax error: {msg}; expected valid TOML{hint}"]
-
-
 def load_config(path_or_mapping, base_dir=None) -> Config:
     """Read and validate a configuration.
 
@@ -525,64 +449,6 @@ def _check_run_count(cfg: Config, source: str) -> None:
                            f"{MAX_RUNS} runs in one study (split it, or vary fewer values in "
                            "study.vary, study.speeds_kmh, train.preset, irregularity.seeds)"],
                           source=source)
-
-
-def _other_train_checks(chk, bridge, train) -> None:
-    """``train.other_trains`` against the bridge's tracks and the trains: each on a track
-    of ``bridge.tracks`` other than ``train.track`` and the others, moving forces only
-    (their runs are superposed: exact for a linear deck under prescribed forces), on a
-    deck without the FE track layer."""
-    others = train.resolved["other_trains"]
-    n_tracks = len(bridge.resolved.get("tracks", [{}]))
-    own = int(train.resolved.get("track", 1))
-    seen = {own}
-    for i, o in enumerate(others):
-        k = int(o["track"])
-        p = f"train.other_trains[{i}].track"
-        if k > n_tracks:
-            chk.error(p, k, f"a track of bridge.tracks, 1 .. {n_tracks} (the bridge has "
-                            f"{n_tracks} track{'s' if n_tracks != 1 else ''}: give "
-                            "bridge.tracks = [{ eccentricity = .. }, ...])")
-        elif k in seen:
-            chk.error(p, k, f"a track not loaded yet (train.track = {own}"
-                            + "".join(f", other_trains[{j}].track = {int(q['track'])}"
-                                      for j, q in enumerate(others[:i])) + ")")
-        seen.add(k)
-    if "track" in bridge.resolved:
-        chk.error("train.other_trains", others, "no other trains with the FE track layer "
-                  "[bridge.track] (its track is the deck's line: one track)")
-    kind = bridge.resolved.get("kind")
-    if kind not in ("simply_supported", "continuous"):
-        chk.error("train.other_trains", others, "a simply_supported or continuous deck "
-                  f"(bridge.kind = \"{kind}\": several trains in one run are not offered "
-                  "on imported decks yet)")
-    dyn = [tr.name for tr in train.trains if any(v.n_dof > 0 for v in tr.vehicles)]
-    if dyn:
-        chk.error("train.other_trains", others,
-                  "moving-force trains (train.model = \"moving_force\"): the trains on "
-                  "the other tracks are added by superposing their runs, which is exact "
-                  "for prescribed forces on the linear deck only, not for vehicles that "
-                  f"interact with it ({', '.join(dyn[:3])}{' ...' if len(dyn) > 3 else ''})")
-
-
-def _distribution_checks(chk, track, solver, train) -> None:
-    """Warn when ``track.load_distribution`` has no moving force to act on (interaction
-    trains only), or when its forces reach beyond the approach: the first axle's forward
-    forces then start on the deck (a sudden load)."""
-    dist = _dist.from_track_config(track) if _ok(track) else None
-    if dist is None:
-        return
-    if _ok(train) and not any(np.size(v.loads) for tr in train.trains
-                              for v in tr.vehicles):
-        chk.warn(f"track.load_distribution = '{dist.kind}' is not used: no train of the "
-                 "study has moving forces (it spreads moving forces only; interaction "
-                 "trains see the track of track.model)", keys=["track.load_distribution"])
-    elif _ok(solver) and solver["approach"] < dist.extent:
-        chk.warn(f"solver.approach = {solver['approach']:g} m is shorter than the reach of "
-                 f"track.load_distribution = '{dist.kind}' ({dist.extent:.3g} m ahead of "
-                 "an axle): the first axle's forward forces start on the deck, a sudden "
-                 "load; expected an approach of at least that length",
-                 keys=["solver.approach", "track.load_distribution"])
 
 
 def _validate(data, path: Path | None, base: Path, source: str) -> Config:

@@ -61,3 +61,6 @@ MIN_STUDY_SPEED_KMH = 100.0
 #: A modal damping ratio at or above this (10 % of critical) looks like a percentage
 #: (railway decks: 0.5-4 %, EN 1991-2 Table 6.6 [R])
 MAX_DAMPING_RATIO = 0.10
+#: |eccentricity| (m) above which a track is warned as implausible: the outer tracks of
+#: a four-track deck stand about 7 m off its axis.
+MAX_ECCENTRICITY = 8.0

@@ -159,18 +159,12 @@ def _unit_slips(bridge, train, solver) -> bool:
 
 #: A car body lighter than this (kg) next to bogies in kg: the body mass in tonnes
 MIN_BODY_MASS = 1000.0
-
-
 #: The speeds of a dynamic study reach this multiple of the line speed (EN 1991-2
 #: 6.4.6.2 [R]).
 EN_SPEED_FACTOR = 1.2
-
-
 #: HSLM trains are the load models of lines above this speed (km/h; EN 1991-2
 #: 6.4.6.1.1 [R]) ...
 HSLM_MIN_SPEED_KMH = 200.0
-
-
 #: ... so a list of speeds for them that stops at or below this (km/h) while 3.6 x the
 #: fastest is above :data:`HSLM_MIN_SPEED_KMH` looks like m/s (120 m/s = 432 km/h).
 HSLM_MS_SLIP_KMH = 120.0

@@ -28,25 +28,17 @@ _DEFAULT_TRACK = {"foundation_stiffness": _track.FOUNDATION_DEFAULT,
 
 #: The nonlinear Hertz spring is checked at this multiple of the static wheel load.
 HERTZ_LOAD_FACTOR = 2.0
-
-
 #: Rigid contact with massive wheels needs at least this much numerical damping.
 RIGID_MASSIVE_ALPHA = -0.02
-
-
 #: dt x f the wheel-on-track mode needs when the irregularity excites it: for the bogie
 #: of tests/test_track_damping.py (ICE3 wheelsets, 45.9 Hz, German low 1-80 m, 400 km/h,
 #: damped track) dt x f = 0.023 gives the peak deck acceleration within 0.05 % and
 #: dQ/Q0 within 0.004 of the dt -> 0 limit, dt x f = 0.046 (dt = 1 ms) 1.2 % and 0.015;
 #: on the undamped track the mode rings and dt = 1 ms was up to 19 % off
 TRACK_MODE_DT = 0.025
-
-
 #: The wheel-on-track mode counts as excited when the irregularity reaches this share
 #: of its frequency (v / shortest wavelength)
 TRACK_MODE_EXCITED = 0.5
-
-
 #: Share of a mode's modal stiffness above which the rail stiffness left out of the
 #: deck is reported: 2 %, i.e. 1 % on the mode's frequency (a light 20 m deck with
 #: f1 = 4.8 Hz is at 1.0 % of the stiffness and is not worth a warning)

@@ -1,0 +1,68 @@
+"""Checks across sections that need several sections' resolved values: the trains on
+other tracks against the deck's tracks, and the load distribution of [track] against the
+trains and the approach."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vsi_numba.config._check import _ok
+from vsi_numba.model import distribution as _dist
+
+
+def _other_train_checks(chk, bridge, train) -> None:
+    """``train.other_trains`` against the bridge's tracks and the trains: each on a track
+    of ``bridge.tracks`` other than ``train.track`` and the others, moving forces only
+    (their runs are superposed: exact for a linear deck under prescribed forces), on a
+    deck without the FE track layer."""
+    others = train.resolved["other_trains"]
+    n_tracks = len(bridge.resolved.get("tracks", [{}]))
+    own = int(train.resolved.get("track", 1))
+    seen = {own}
+    for i, o in enumerate(others):
+        k = int(o["track"])
+        p = f"train.other_trains[{i}].track"
+        if k > n_tracks:
+            chk.error(p, k, f"a track of bridge.tracks, 1 .. {n_tracks} (the bridge has "
+                            f"{n_tracks} track{'s' if n_tracks != 1 else ''}: give "
+                            "bridge.tracks = [{ eccentricity = .. }, ...])")
+        elif k in seen:
+            chk.error(p, k, f"a track not loaded yet (train.track = {own}"
+                            + "".join(f", other_trains[{j}].track = {int(q['track'])}"
+                                      for j, q in enumerate(others[:i])) + ")")
+        seen.add(k)
+    if "track" in bridge.resolved:
+        chk.error("train.other_trains", others, "no other trains with the FE track layer "
+                  "[bridge.track] (its track is the deck's line: one track)")
+    kind = bridge.resolved.get("kind")
+    if kind not in ("simply_supported", "continuous"):
+        chk.error("train.other_trains", others, "a simply_supported or continuous deck "
+                  f"(bridge.kind = \"{kind}\": several trains in one run are not offered "
+                  "on imported decks yet)")
+    dyn = [tr.name for tr in train.trains if any(v.n_dof > 0 for v in tr.vehicles)]
+    if dyn:
+        chk.error("train.other_trains", others,
+                  "moving-force trains (train.model = \"moving_force\"): the trains on "
+                  "the other tracks are added by superposing their runs, which is exact "
+                  "for prescribed forces on the linear deck only, not for vehicles that "
+                  f"interact with it ({', '.join(dyn[:3])}{' ...' if len(dyn) > 3 else ''})")
+
+
+def _distribution_checks(chk, track, solver, train) -> None:
+    """Warn when ``track.load_distribution`` has no moving force to act on (interaction
+    trains only), or when its forces reach beyond the approach: the first axle's forward
+    forces then start on the deck (a sudden load)."""
+    dist = _dist.from_track_config(track) if _ok(track) else None
+    if dist is None:
+        return
+    if _ok(train) and not any(np.size(v.loads) for tr in train.trains
+                              for v in tr.vehicles):
+        chk.warn(f"track.load_distribution = '{dist.kind}' is not used: no train of the "
+                 "study has moving forces (it spreads moving forces only; interaction "
+                 "trains see the track of track.model)", keys=["track.load_distribution"])
+    elif _ok(solver) and solver["approach"] < dist.extent:
+        chk.warn(f"solver.approach = {solver['approach']:g} m is shorter than the reach of "
+                 f"track.load_distribution = '{dist.kind}' ({dist.extent:.3g} m ahead of "
+                 "an axle): the first axle's forward forces start on the deck, a sudden "
+                 "load; expected an approach of at least that length",
+                 keys=["solver.approach", "track.load_distribution"])

@@ -22,8 +22,10 @@ import numpy as np
 
 from vsi_numba import kernels as ek
 from vsi_numba.io.schema import ALL_TRACKS_SUFFIX
-from vsi_numba.solver.batch import BatchResult, run_batch
+from vsi_numba.solver.batch import run_batch
+from vsi_numba.solver.operators import DeckOperators
 from vsi_numba.solver.pack import Packed
+from vsi_numba.solver.results import BatchResult
 
 
 @dataclass(frozen=True)
@@ -61,7 +63,7 @@ def common_length(packed: Packed, others: list[OtherTrain]) -> list[Packed]:
 
 
 def run_with_others(packed: Packed, profile, speeds, points, settings, bridge,
-                    others: list[OtherTrain], deck: tuple
+                    others: list[OtherTrain], deck: DeckOperators
                     ) -> tuple[BatchResult, dict[str, np.ndarray]]:
     """Run the run's train and every other train over one time grid.
 
@@ -89,16 +91,17 @@ def _first_max(a: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, OtherTrain]],
-                         deck: tuple) -> dict[str, np.ndarray]:
+                         deck: DeckOperators) -> dict[str, np.ndarray]:
     """Envelopes of the summed response of ``main`` and ``others`` (every run of each
     kept its histories), named with :data:`~vsi_numba.io.schema.ALL_TRACKS_SUFFIX`: the
     deck at the output points, the whole-deck acceleration, the per-track rows (deck in
     space) and the load effects at the points and supports.  NaN rows where a run of
     any train failed."""
     phi_d, phi_a = main.phi_d, main.phi_a
-    n_ka = deck[4].shape[0] if len(deck) > 4 and np.size(deck[3]) else 0
-    phi_g = np.asarray(deck[4]) if n_ka else np.zeros((0, 0))
-    grid = np.asarray(deck[3], float) if n_ka else np.zeros(0)
+    deck = DeckOperators.of(deck)
+    n_ka = deck.phi_g.shape[0] if deck.n_grid else 0
+    phi_g = np.asarray(deck.phi_g) if n_ka else np.zeros((0, 0))
+    grid = np.asarray(deck.grid_x, float) if n_ka else np.zeros(0)
     space = main.space
     n_p = phi_d.shape[0] if space is None else space.n_points
     keep_a = np.any(phi_a != 0.0, axis=0)

@@ -281,9 +281,9 @@ def deck_rows(model) -> tuple[int, int, int, int]:
     whole-deck grid points, load-effect sections) of a study model."""
     deck = model.deck
     n_p = int(np.asarray(model.output_points).size)
-    n_rows = int(np.shape(deck[0])[0] + np.shape(deck[1])[0])
-    n_grid = int(np.size(deck[3])) if len(deck) > 3 else 0
-    eff = deck[5] if len(deck) > 5 else None
+    n_rows = int(np.shape(deck.phi_d)[0] + np.shape(deck.phi_a)[0])
+    n_grid = deck.n_grid
+    eff = deck.effects
     n_sec = int(np.size(eff.sections)) if eff is not None else 0
     return n_p, n_rows, n_grid, n_sec
 

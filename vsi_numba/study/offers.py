@@ -90,16 +90,17 @@ def not_offered(models, packed) -> dict[str, str]:
     Parameters
     ----------
     models : sequence of StudyModel
-        The study's models; ``deck`` is ``deck_operators``' tuple.
+        The study's models; ``deck`` is their ``DeckOperators``.
     packed : sequence of sequence of Packed
         Per model, the packed trains.
     """
     out: dict[str, str] = {}
-    if all(m.deck[5] is None for m in models):
+    if all(m.deck.effects is None for m in models):
         why = _effects_reason(models[0])
         out.update(dict.fromkeys(load_effect_variables(), why))
     else:
-        computed = {c for m in models if m.deck[5] is not None for c in m.deck[5].channels}
+        computed = {c for m in models if m.deck.effects is not None
+                    for c in m.deck.effects.channels}
         for effect, name, history in (("shear", "shear_force", "shear_force"),
                                       ("reaction", "support_reaction", "support_reaction"),
                                       ("rotation", "end_rotation", "rotation")):
@@ -113,13 +114,13 @@ def not_offered(models, packed) -> dict[str, str]:
                 out.update(dict.fromkeys(
                     [f"{pre}{ext}_{n}" for ext in ("max", "min") for n in names
                      for pre in ("", "time_of_")] + [history], why))
-    if all(np.asarray(m.deck[3]).size == 0 for m in models):
+    if all(m.deck.n_grid == 0 for m in models):
         b = models[0].bridge
         why = ("no deck: the bridge is rigid" if b.n_modes == 0 else
                f"no mode of the deck up to the EN 1990 A2 acceleration cut-off "
-               f"({models[0].deck[2]:.4g} Hz)")
+               f"({models[0].deck.cutoff:.4g} Hz)")
         out.update(dict.fromkeys(WHOLE_DECK_ACCELERATION, why))
-    layouts = [m.deck[6] if len(m.deck) > 6 else None for m in models]
+    layouts = [m.deck.layout for m in models]
     space = [*SPACE_ENVELOPES, *SPACE_HISTORIES]
     if all(x is None for x in layouts):
         out.update(dict.fromkeys(space, "the deck is a line: no bridge.tracks or "
@@ -134,7 +135,7 @@ def not_offered(models, packed) -> dict[str, str]:
         if not any(x is not None and x.grid_x.size for x in layouts):
             out.update(dict.fromkeys(
                 TRACK_WHOLE_DECK_ACCELERATION, "no mode of the deck up to the EN 1990 A2 "
-                f"acceleration cut-off ({models[0].deck[2]:.4g} Hz)"))
+                f"acceleration cut-off ({models[0].deck.cutoff:.4g} Hz)"))
         if not any(x is not None and x.has_torque for x in layouts):
             why = next(x.torque_reason for x in layouts if x is not None)
             out.update(dict.fromkeys(TORSIONAL_MOMENT, why))

@@ -243,7 +243,7 @@ def _global_attrs(model: StudyModel, config_json: str, sha: str, grid: StudyGrid
         "history_speeds_kmh": " ".join(f"{v:g}" for v in grid.speeds_kmh[grid.history_speeds]),
         "dt": float(model.settings.dt),
         "hht_alpha": float(model.settings.hht_alpha),
-        "acceleration_cutoff_hz": float(model.deck[2]),
+        "acceleration_cutoff_hz": float(model.deck.cutoff),
     }
     base = getattr(cfg, "base_dir", None)
     if base is not None:  # where the configuration's relative paths resolve (vsi report)
@@ -259,7 +259,7 @@ def _global_attrs(model: StudyModel, config_json: str, sha: str, grid: StudyGrid
         attrs["rail_inertia_in_deck_load"] = int(RAIL_INERTIA_IN_DECK_LOAD)
     if getattr(cfg, "deck_in_space", None) is not None:
         attrs["loaded_track"] = int(cfg.train_track)  # 1-based, as train.track
-        layout = model.deck[6] if len(model.deck) > 6 else None
+        layout = model.deck.layout
         if layout is not None and layout.channels is not None:
             from vsi_numba.solver.space_effects import METHOD
 
@@ -578,7 +578,7 @@ def _write_results(output: Path, store: CaseStore, study: _Study,
                  for m in models]
         variants = {"coords": variant_coords(labels),
                     "bridge_length": [m.bridge.length for m in models],
-                    "acceleration_cutoff": [m.deck[2] for m in models],
+                    "acceleration_cutoff": [m.deck.cutoff for m in models],
                     "config_json": [sp.config_json for sp in specs],
                     "damping": [m.bridge.damping for m in models],
                     "additional_damping": [m.config.additional_damping for m in models],
@@ -598,7 +598,7 @@ def _write_results(output: Path, store: CaseStore, study: _Study,
                       model.settings.dt, infos, variants,
                       deck_x=[deck_grid(m.bridge, m.output_points) for m in models],
                       supports=[m.bridge.supports for m in models], omit=omit,
-                      space=[m.deck[6] if len(m.deck) > 6 else None for m in models])
+                      space=[m.deck.layout for m in models])
         hold = _hold_after() == "write"
         try:
             for b in plan:
@@ -634,7 +634,7 @@ def _write_results(output: Path, store: CaseStore, study: _Study,
                     attrs["dt"] = VARIES
             if labels is None:  # per variant otherwise (damping_rule(variant))
                 _bridge_rules(attrs, model.config)
-                _modes_left_out(attrs, model.config, float(model.deck[2]))
+                _modes_left_out(attrs, model.config, float(model.deck.cutoff))
             f.flush()
             empty = no_values(f.found, not failed)
             if empty:

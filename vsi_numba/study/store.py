@@ -487,10 +487,10 @@ def study_need(study, pending):
     n_x = max(deck_grid(m.bridge, m.output_points).size for m in study.models)
     n_s = max(np.asarray(m.bridge.supports).size for m in study.models)
     # a deck in space: the histories along its tracks
-    n_k = max(m.deck[6].n_tracks if len(m.deck) > 6 and m.deck[6] is not None else 0
+    n_k = max(m.deck.layout.n_tracks if m.deck.layout is not None else 0
               for m in study.models)
-    n_tw = max(np.size(m.deck[6].twist_x) if len(m.deck) > 6 and m.deck[6] is not None
-               else 0 for m in study.models)
+    n_tw = max(np.size(m.deck.layout.twist_x) if m.deck.layout is not None else 0
+               for m in study.models)
     # trains on other tracks: the every-train-loaded envelopes (..._all_tracks) too
     all_tracks = any(getattr(m.config, "other_trains", []) for m in study.models)
     packed = [_packed_trains(sp, m) for sp, m in zip(study.specs, study.models, strict=True)]

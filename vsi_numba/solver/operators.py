@@ -100,7 +100,9 @@ class SpaceLayout:
     has no twist rows; a beam deck without torsion (every track line is the axis, the
     per-track values are the deck's) no whole-deck rows either (``whole_from_deck``:
     the deck's own whole-deck envelope is each track's), so that a deck declared with
-    tracks but no torsion costs little more than the planar one.
+    tracks but no torsion costs little more than the planar one.  When the
+    mode-acceleration channels give the twist (``channels``), the twist rows are left
+    out (``twist_rows`` false): the kernels would reduce them for nothing.
 
     The torsional moment at the output points, when computed, is the shear-force
     channel ``torque_channel`` of the load-effect tables scaled by ``torque_scale``
@@ -119,6 +121,7 @@ class SpaceLayout:
     torque_reason: str = ""  # why the torsional moment is not computed ("" if it is)
     whole_from_deck: bool = False  # the tracks' whole-deck acceleration is the deck's
     channels: object | None = None  # space_effects.SpaceChannels (mode-acceleration)
+    twist_rows: bool = True  # the twist rows are stacked (False: the channels give it)
 
     @property
     def n_tracks(self) -> int:
@@ -133,10 +136,11 @@ class SpaceLayout:
     def split(self, a: np.ndarray) -> dict[str, np.ndarray]:
         """Columns of ``a`` (n_runs, n_rows): ``deck`` (n_runs, n_p), ``track`` and
         ``twist`` (n_runs, n_tracks, n_p), ``twist_whole`` (n_runs, n_tracks, n_twist),
-        ``track_whole`` (n_runs, n_tracks, n_grid)."""
+        ``track_whole`` (n_runs, n_tracks, n_grid); the twist blocks are empty without
+        ``twist_rows``."""
         n_p, n_k = self.n_points, self.n_tracks
-        n_t = n_p if self.has_twist else 0
-        n_w = self.twist_x.size if self.has_twist else 0
+        n_t = n_p if self.has_twist and self.twist_rows else 0
+        n_w = self.twist_x.size if self.has_twist and self.twist_rows else 0
         n_g = 0 if self.whole_from_deck else self.grid_x.size
         r = a.shape[0]
         o1 = n_p + n_k * n_p
@@ -275,14 +279,19 @@ def space_operators(space, points, deck: DeckOperators, loaded: int = 0) -> Deck
     whole = np.concatenate([space.track_shapes(k, grid_x) for k in range(len(space.tracks))]
                            ) if grid_x.size and not from_deck else np.zeros((0, n_m))
     whole = np.where(keep[None, :], whole, 0.0)
-    extra = np.nan_to_num(np.concatenate([disp, twist_p, twist_g, np.zeros_like(whole)]))
-    extra_a = np.concatenate([np.where(keep[None, :], disp, 0.0),
-                              np.zeros((twist_p.shape[0] + twist_g.shape[0], n_m)), whole])
     effects = deck.effects
     from vsi_numba.solver.space_effects import space_channels
 
     channels = (space_channels(space, points, starts, effects.w2inv, loaded)
                 if effects is not None and isinstance(space, deck3d.BeamDeck3D) else None)
+    # the channels' twist replaces the rows' (SpaceLayout.split, BatchResult)
+    twist_rows = not (channels is not None and channels.n_channels > 0
+                      and channels.twist.size > 0)
+    if not twist_rows:
+        twist_p, twist_g = np.zeros((0, n_m)), np.zeros((0, n_m))
+    extra = np.nan_to_num(np.concatenate([disp, twist_p, twist_g, np.zeros_like(whole)]))
+    extra_a = np.concatenate([np.where(keep[None, :], disp, 0.0),
+                              np.zeros((twist_p.shape[0] + twist_g.shape[0], n_m)), whole])
     if channels is not None:  # twist, track displacement and torque by mode acceleration
         reason = "" if np.any(channels.torque >= 0) else (
             "the loaded track is on the deck's axis: the train does not twist the deck"
@@ -298,7 +307,7 @@ def space_operators(space, points, deck: DeckOperators, loaded: int = 0) -> Deck
     layout = SpaceLayout(points.size, np.asarray(ecc, float), grid, has_twist, grid_x,
                          tuple(t.line for t in space.tracks if t.line),
                          getattr(space, "no_twist", ""), channel, scale, reason, from_deck,
-                         channels)
+                         channels, twist_rows)
     return deck._replace(phi_d=np.ascontiguousarray(np.vstack([phi_d, extra])),
                          phi_a=np.ascontiguousarray(np.vstack([phi_a, extra_a])),
                          effects=effects, layout=layout)

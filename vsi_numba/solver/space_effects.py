@@ -184,8 +184,13 @@ def space_channels(space, points, starts, w2inv, loaded: int = 0,
 
     n_k = len(space.tracks)
     twist = np.full((n_k, starts.size), -1, np.int64)
+    by_gauge: dict[float, int] = {}  # the tracks of one gauge twist alike: one channel
     for k in range(n_k):
         s = float(space.tracks[k].gauge)
+        if s in by_gauge:
+            twist[k] = twist[by_gauge[s]]
+            continue
+        by_gauge[s] = k
         rows = space.twist_operator(k, starts)
         for i, x in enumerate(starts):
             twist[k, i] = len(terms)

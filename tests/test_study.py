@@ -34,6 +34,7 @@ from vsi_numba.study.runner import (
     study_model,
     study_spec,
 )
+from vsi_numba.study.spec import model_fingerprint
 from vsi_numba.study.store import StoreMismatchError, store_path
 
 
@@ -94,7 +95,8 @@ def envelopes(ds: xr.Dataset) -> xr.Dataset:
 
 
 def test_make_grid__deterministic_order_and_keys():
-    grid = make_grid([100.0, 150.0], ["A", "B"], [7, 9], [False, True])
+    grid = make_grid([100.0, 150.0], ["A", "B"], [7, 9], [False, True],
+                     [100.0 / 3.6, 150.0 / 3.6])
     assert grid.shape == (2, 2, 2)
     assert [c.key for c in grid.cases[:3]] == ["s0000_t000_i000", "s0000_t000_i001",
                                                "s0000_t001_i000"]
@@ -118,6 +120,46 @@ def test_study_grid__from_config(study_config):
     assert grid.irregularities == (1, 2)
     assert len(grid.cases) == 12
     assert grid.history_speeds.tolist() == [False, True, False]
+    # the speeds in m/s come from the configuration, the listed km/h / 3.6 bit for bit
+    listed = cfg.resolved()["study"]["speeds_kmh"]
+    assert [c.speed_m_s for c in grid.cases[::4]] == [v / 3.6 for v in listed]
+    assert grid.speeds_m_s.tolist() == [v / 3.6 for v in listed]
+
+
+def test_study_spec__carries_the_validated_config_to_a_worker(study_config, monkeypatch):
+    """A spec sent to another process (pickled) carries the ``Config``: the worker builds
+    the model without validating the file again, and the copy is the same cache key."""
+    import pickle
+
+    import vsi_numba.config as config_pkg
+    from vsi_numba.study import spec as spec_mod
+
+    cfg = load_config(study_config)
+    spec = study_spec(cfg)
+    sent = pickle.loads(pickle.dumps(spec))
+    assert sent == spec and hash(sent) == hash(spec) and sent.config is not cfg
+    assert sent.config.sha256 == cfg.sha256
+
+    def no_validation(*args, **kwargs):
+        raise AssertionError("the worker validated the configuration again")
+
+    monkeypatch.setattr(config_pkg, "load_config", no_validation)
+    monkeypatch.setattr(spec_mod, "_MODELS", {})
+    worker = study_model(sent)
+    monkeypatch.undo()
+    assert model_fingerprint(worker) == model_fingerprint(study_model(study_spec(cfg)))
+    # a spec of a JSON text is validated where its model is first built
+    again = study_model(StudySpec(spec.config_json, spec.base_dir))
+    assert model_fingerprint(again) == model_fingerprint(worker)
+
+
+def test_config__first_realisation_keeps_one_seed(study_config):
+    cfg = load_config(study_config)
+    assert cfg.irregularity_seeds == (1, 2)
+    first = cfg.first_realisation()
+    assert first.irregularity_seeds == (1,) and cfg.irregularity_seeds == (1, 2)
+    assert [rid for rid, _ in first.irregularities(0.0, 50.0)] == [1]
+    assert first.first_realisation() is first
 
 
 def test_run_case__equals_simulate(study_config):

@@ -281,7 +281,7 @@ def _planning_model(cfg, build):
         return None
     model = build(first)
     (profile,) = model.profiles.values()
-    seeds = cfg._resolved["irregularity"]["seeds"]
+    seeds = cfg.irregularity_seeds
     return dataclasses.replace(model, config=cfg,
                                profiles={int(s): profile for s in seeds})
 

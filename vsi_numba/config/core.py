@@ -315,6 +315,48 @@ class Config:
                           float)
 
     @property
+    def speeds_m_s(self) -> np.ndarray:
+        """Speeds of the study (m/s), shape (n_speeds,): :attr:`speeds_kmh` / 3.6, the one
+        conversion of the speeds (the study and the kernels use these)."""
+        return self.speeds_kmh / 3.6
+
+    @property
+    def irregularity_seeds(self) -> tuple[int, ...] | None:
+        """The seeds of the random track realisations (``irregularity.seeds``,
+        ``kind = 'psd'``), or None for a deterministic profile."""
+        irr = self._resolved["irregularity"]
+        if irr.get("kind") != "psd":
+            return None
+        return tuple(int(s) for s in irr["seeds"])
+
+    def first_realisation(self) -> Config:
+        """This configuration with only its first random track realisation (a shallow
+        copy; ``self`` unchanged), or ``self`` when it has at most one: ``vsi run``
+        computes the first realisation only, and a profile depends on its seed and the
+        track range alone, so the others need not be generated."""
+        import copy
+
+        irr = self._resolved["irregularity"]
+        if irr.get("kind") != "psd" or len(irr.get("seeds", ())) <= 1:
+            return self
+        out = copy.copy(self)
+        out._resolved = {**self._resolved,
+                         "irregularity": {**irr, "seeds": list(irr["seeds"][:1])}}
+        return out
+
+    def without_variants(self) -> Config:
+        """This configuration without the variants of ``study.vary`` (a shallow copy, or
+        ``self`` when it has none): what one run of the study computes from, small to
+        send to a worker process."""
+        if not self.variants:
+            return self
+        import copy
+
+        out = copy.copy(self)
+        out.variants = []
+        return out
+
+    @property
     def output_path(self) -> Path:
         """The netCDF output file (absolute; relative paths resolve against base_dir)."""
         return self._study.output_path

@@ -29,13 +29,17 @@ class Case(NamedTuple):
     i_speed, i_train, i_irregularity : int
         Indices along the study dimensions.
     speed_kmh : float
-        Train speed (km/h).
+        Train speed (km/h), as the configuration lists it.
     train : str
         Train name.
     irregularity : int
         Irregularity realisation id (the seed; -1 for a deterministic profile).
     histories : bool
         Whether time histories are kept for this case.
+    speed_m_s : float or None
+        Train speed (m/s), from the configuration
+        (:attr:`vsi_numba.config.Config.speeds_m_s`); None for a case that only names a
+        store entry (:attr:`key`).
     """
 
     index: int
@@ -46,16 +50,12 @@ class Case(NamedTuple):
     train: str
     irregularity: int
     histories: bool
+    speed_m_s: float | None = None
 
     @property
     def key(self) -> str:
         """Name of the case in the store, e.g. ``s0003_t001_i002``."""
         return f"s{self.i_speed:04d}_t{self.i_train:03d}_i{self.i_irregularity:03d}"
-
-    @property
-    def speed_m_s(self) -> float:
-        """Train speed (m/s)."""
-        return self.speed_kmh / 3.6
 
 
 @dataclass(frozen=True)
@@ -67,6 +67,7 @@ class StudyGrid:
     irregularities: tuple[int, ...]
     history_speeds: np.ndarray  # bool per speed
     cases: tuple[Case, ...]
+    speeds_m_s: np.ndarray  # the speeds in m/s, from the configuration
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -85,9 +86,14 @@ def history_mask(speeds_kmh, save: bool, history_speeds_kmh) -> np.ndarray:
     return np.array([bool(np.any(np.abs(wanted - v) <= 1e-9 * max(1.0, abs(v)))) for v in speeds])
 
 
-def make_grid(speeds_kmh, trains, irregularity_ids, history_speeds) -> StudyGrid:
-    """Build the deterministic case grid (speed, then train, then realisation)."""
+def make_grid(speeds_kmh, trains, irregularity_ids, history_speeds, speeds_m_s) -> StudyGrid:
+    """Build the deterministic case grid (speed, then train, then realisation);
+    ``speeds_m_s`` are ``speeds_kmh`` in m/s, as the configuration gives them
+    (:attr:`vsi_numba.config.Config.speeds_m_s`)."""
     speeds = np.asarray(speeds_kmh, float)
+    speeds_si = np.asarray(speeds_m_s, float)
+    if speeds_si.shape != speeds.shape:
+        raise ValueError(f"{speeds_si.size} speeds in m/s for {speeds.size} in km/h")
     trains = tuple(str(t) for t in trains)
     irr = tuple(int(i) for i in irregularity_ids)
     hist = np.asarray(history_speeds, bool)
@@ -100,6 +106,7 @@ def make_grid(speeds_kmh, trains, irregularity_ids, history_speeds) -> StudyGrid
         for i_t, name in enumerate(trains):
             for i_i, rid in enumerate(irr):
                 cases.append(
-                    Case(len(cases), i_s, i_t, i_i, float(v), name, rid, bool(hist[i_s]))
+                    Case(len(cases), i_s, i_t, i_i, float(v), name, rid, bool(hist[i_s]),
+                         float(speeds_si[i_s]))
                 )
-    return StudyGrid(speeds, trains, irr, hist, tuple(cases))
+    return StudyGrid(speeds, trains, irr, hist, tuple(cases), speeds_si)

@@ -1,4 +1,4 @@
-"""What a study computes from: the resolved configuration (:class:`StudySpec`, what a
+"""What a study computes from: the validated configuration (:class:`StudySpec`, what a
 worker receives) and the model built from it once per process (:class:`StudyModel`:
 bridge, trains, profiles, deck operators), its run grid, batch plan and fingerprints,
 and the coordinates of a parametric study's variants."""
@@ -10,9 +10,9 @@ import hashlib
 import json
 import os
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any
 
 import numpy as np
 
@@ -32,23 +32,34 @@ class StudyModel:
     x_range: tuple[float, float]
     speeds_kmh: np.ndarray
     deck: tuple  # (phi_d, phi_a, cut-off Hz) at the output points
+    #: the speeds (m/s) of the configuration (:attr:`vsi_numba.config.Config.speeds_m_s`)
+    speeds_m_s: np.ndarray
 
 
-class StudySpec(NamedTuple):
-    """What a worker needs to rebuild a study's model.
+@dataclass(frozen=True)
+class StudySpec:
+    """What a worker needs to build a study's model: the validated configuration.
 
-    The resolved configuration (JSON) and the directory its relative paths (profile file,
-    train file) resolve against.
+    ``config`` is the :class:`~vsi_numba.config.Config` itself (without its variants,
+    each of which has a spec of its own): a worker builds the model from it and never
+    validates the file again.  ``config_json`` (the resolved configuration) and
+    ``base_dir`` (the directory its relative paths resolve against) are what a spec is
+    compared and hashed by, so that the per-process model cache keeps one model per
+    configuration whatever copy of the spec a task carries.
     """
 
     config_json: str
     base_dir: str
+    config: Any = field(default=None, compare=False, repr=False)
 
 
 def study_spec(config) -> StudySpec:
     """:class:`StudySpec` of a ``Config``, a resolved-config dict or JSON string, or a spec.
 
-    Dicts and JSON strings resolve relative paths against the working directory.
+    Dicts and JSON strings resolve relative paths against the working directory; they
+    are validated when the model is first built (:func:`study_model`, once per process):
+    a study (:func:`~vsi_numba.study.runner.run_study`) validates its file first and
+    hands its workers the ``Config``.
     """
     if isinstance(config, StudySpec):
         return config
@@ -57,7 +68,7 @@ def study_spec(config) -> StudySpec:
     if isinstance(config, dict):
         return StudySpec(json.dumps(config, sort_keys=True, separators=(",", ":")),
                          str(Path.cwd()))
-    return StudySpec(config.to_json(), str(config.base_dir))
+    return StudySpec(config.to_json(), str(config.base_dir), config.without_variants())
 
 
 def _load(config):
@@ -65,6 +76,8 @@ def _load(config):
     from vsi_numba.config import load_config
 
     if isinstance(config, StudySpec):
+        if config.config is not None:
+            return config.config
         return load_config(json.loads(config.config_json), base_dir=config.base_dir)
     if isinstance(config, str | os.PathLike | dict):
         return load_config(config)
@@ -93,17 +106,9 @@ def _remember(spec: StudySpec, model: StudyModel) -> None:
 
 
 def _first_realisation(cfg):
-    """``cfg`` with only its first PSD seed (a shallow copy; ``cfg`` itself unchanged):
-    ``vsi run`` computes the first realisation only, and a profile depends on its seed
-    and the track range alone, so the others need not be generated."""
-    import copy
-
-    irr = cfg._resolved.get("irregularity", {})
-    if irr.get("kind") != "psd" or len(irr.get("seeds", ())) <= 1:
-        return cfg
-    out = copy.copy(cfg)
-    out._resolved = {**cfg._resolved, "irregularity": {**irr, "seeds": list(irr["seeds"][:1])}}
-    return out
+    """``cfg`` with only its first PSD seed
+    (:meth:`vsi_numba.config.Config.first_realisation`)."""
+    return cfg.first_realisation()
 
 
 def _build_model(cfg, first_realisation: bool = False) -> StudyModel:
@@ -128,7 +133,8 @@ def _build_model(cfg, first_realisation: bool = False) -> StudyModel:
 
         deck = space_operators(space, points, deck, int(cfg.train_track) - 1)
     return StudyModel(cfg, bridge, trains, settings, points, profiles, x_range,
-                      np.asarray(cfg.speeds_kmh, float), deck)
+                      np.asarray(cfg.speeds_kmh, float), deck,
+                      np.asarray(cfg.speeds_m_s, float))
 
 
 def model_fingerprint(model: StudyModel) -> str:
@@ -182,7 +188,7 @@ def study_grid(model: StudyModel) -> StudyGrid:
     hist = history_mask(cfg.speeds_kmh, bool(cfg.save_time_histories),
                         getattr(cfg, "history_speeds_kmh", None))
     return make_grid(cfg.speeds_kmh, [t.name for t in model.trains], list(model.profiles),
-                     hist)
+                     hist, cfg.speeds_m_s)
 
 
 def coordinate_name(key_path: str) -> str:

@@ -144,17 +144,34 @@ class CaseRunner:
             Configuration missing or not loadable, the train not in it, the run refused
             or failed.
         """
+        (res,) = self.study_speeds(train, [speed_kmh], dt)
+        if isinstance(res, RecomputeError):
+            raise res
+        return res
+
+    def study_speeds(self, train: str, speeds_kmh, dt: float | None = None) -> list:
+        """:meth:`study` at several speeds in one run of the study engine: one result per
+        speed of ``speeds_kmh`` (a one-speed dataset, as :meth:`study` returns it), or the
+        :class:`RecomputeError` of a speed whose run failed numerically.
+
+        Raises
+        ------
+        RecomputeError
+            Configuration missing or not loadable, the train not in it, the run refused
+            or failed as a whole.
+        """
         import tempfile
 
         from vsi_numba.study.runner import execute_study
         from vsi_numba.study.store import StudyError
 
+        asked = [round(float(v), 9) for v in speeds_kmh]
         data = self._data()
         if dt is not None:
             data["solver"] = {**data.get("solver", {}), "dt": float(dt)}
         study = {k: v for k, v in dict(data.get("study", {})).items()
                  if k not in ("history_speeds_kmh", "refine_resonance", "vary")}
-        study.update(speeds_kmh=[round(float(speed_kmh), 9)], output="rerun.nc",
+        study.update(speeds_kmh=sorted(set(asked)), output="rerun.nc",
                      save_time_histories=False)
         data["study"] = study
         data.pop("fatigue", None)
@@ -177,10 +194,15 @@ class CaseRunner:
         if str(train) not in [str(t) for t in res["train"].values]:
             raise RecomputeError(f"train {train!r} is not in the stored configuration")
         res = res.sel(train=[str(train)])
-        if "status" in res and bool((res["status"].values != 0).any()):
-            msg = (str(np.ravel(res["message"].values)[0]) if "message" in res else "")
-            raise RecomputeError(f"the re-run failed numerically ({msg})")
-        return res
+        kmh = np.asarray(res["speed_kmh"].values, float)
+        runs: list = []
+        for v in asked:
+            one = res.isel(speed=[int(np.argmin(abs(kmh - v)))])
+            if "status" in one and bool((one["status"].values != 0).any()):
+                msg = (str(np.ravel(one["message"].values)[0]) if "message" in one else "")
+                one = RecomputeError(f"the re-run failed numerically ({msg})")
+            runs.append(one)
+        return runs
 
     def model(self):
         """(bridge, trains by name, settings, profiles by realisation id); built once."""

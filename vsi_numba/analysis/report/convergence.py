@@ -78,33 +78,44 @@ def _acceleration_place(a: dict) -> str:
     return f"max over {line} ({grid})"
 
 
-def quantities(mini: xr.Dataset, q: float, le_check=None) -> dict[str, tuple[float, str]]:
+def quantities(mini: xr.Dataset, q: float, le_check=None, names=None
+               ) -> dict[str, tuple[float, str]]:
     """The summary's checks applied to a re-run (:meth:`CaseRunner.study`): name ->
-    (value, where), the value the summary would give for this train and speed."""
+    (value, where), the value the summary would give for this train and speed.
+
+    ``names``: the checks to make (default: every one of :data:`QUANTITIES`)."""
+    from vsi_numba.analysis.dataset import prepare
+
+    wanted = set(QUANTITIES) if names is None else set(names)
+    mini = prepare(mini)  # once: each check would prepare it again
     out: dict[str, tuple[float, str]] = {}
-    try:
-        a = chk.deck_acceleration_check(mini, q=q, n_boot=0)
-        out["deck_acceleration"] = (float(a.attrs["value"]),
-                                    f"x = {a.attrs['governing_point']:g} m, "
-                                    + _acceleration_place(a.attrs))
-    except chk.ResultsError:
-        pass
-    try:
-        d = chk.max_deck_displacement(mini, q=q)
-        x = d.attrs.get("governing_point", np.nan)
-        out["deck_displacement"] = (float(d.attrs["value"]), "max over the output points"
-                                    + (f", x = {float(x):g} m" if np.isfinite(x) else ""))
-    except chk.ResultsError:
-        pass
-    try:
-        w = chk.wheel_unloading(mini, q=q, n_boot=0)
-        if np.isfinite(float(w.attrs.get("value", np.nan))):
-            out["wheel_unloading"] = (float(w.attrs["value"]),
-                                      f"axle {w.attrs.get('governing_wheel', '–')}, "
-                                      + w.attrs.get("zone", "every axle"))
-    except chk.ResultsError:
-        pass
-    if le_check is not None:
+    if "deck_acceleration" in wanted:
+        try:
+            a = chk.deck_acceleration_check(mini, q=q, n_boot=0)
+            out["deck_acceleration"] = (float(a.attrs["value"]),
+                                        f"x = {a.attrs['governing_point']:g} m, "
+                                        + _acceleration_place(a.attrs))
+        except chk.ResultsError:
+            pass
+    if "deck_displacement" in wanted:
+        try:
+            d = chk.max_deck_displacement(mini, q=q)
+            x = d.attrs.get("governing_point", np.nan)
+            out["deck_displacement"] = (float(d.attrs["value"]),
+                                        "max over the output points"
+                                        + (f", x = {float(x):g} m" if np.isfinite(x) else ""))
+        except chk.ResultsError:
+            pass
+    if "wheel_unloading" in wanted:
+        try:
+            w = chk.wheel_unloading(mini, q=q, n_boot=0)
+            if np.isfinite(float(w.attrs.get("value", np.nan))):
+                out["wheel_unloading"] = (float(w.attrs["value"]),
+                                          f"axle {w.attrs.get('governing_wheel', '–')}, "
+                                          + w.attrs.get("zone", "every axle"))
+        except chk.ResultsError:
+            pass
+    if le_check is not None and "bending_moment" in wanted:
         from vsi_numba.analysis.checks.load_effects import load_effect_checks
 
         try:
@@ -209,18 +220,22 @@ def convergence_section(env: xr.Dataset, results: dict, runner: CaseRunner | Non
     dt = float(settings.dt)
     le_args = ({"length": length} if le_checks is not None and not isinstance(le_checks, str)
                else None)
-    cache: dict = {}
+    # every re-run the section needs, the checks wanted of each, then one study-engine
+    # call per train and time step (all its speeds at once)
+    wanted: dict[tuple, set] = {}
+    for name, (train, speed, _) in governing.items():
+        kmh = _grid_kmh(env, speed)
+        for key in ((train, kmh, dt), (train, kmh, dt / 2),
+                    *((train, v, dt) for v in off_grid_resonances(env, train)[0])):
+            names = wanted.setdefault((key[0], round(key[1], 6), key[2]), (key[1], set()))
+            names[1].add(name)
+    cache = _reruns(runner, wanted, q, le_args)
 
     def rerun(train, kmh, step):
-        key = (train, round(kmh, 6), step)
-        if key not in cache:
-            try:
-                cache[key] = quantities(runner.study(train, kmh, dt=step), q, le_args)
-            except _RERUN_ERRORS as exc:
-                cache[key] = exc
-        if isinstance(cache[key], Exception):
-            raise cache[key]
-        return cache[key]
+        found = cache[(train, round(kmh, 6), step)]
+        if isinstance(found, Exception):
+            raise found
+        return found
 
     rows, flagged, notes, unchecked = [], [], [], []
     for name, (train, speed, value) in governing.items():
@@ -310,6 +325,31 @@ def convergence_section(env: xr.Dataset, results: dict, runner: CaseRunner | Non
         blocks.append("The results re-run are converged within these thresholds; the "
                       "checks listed as not checked above were not made.")
     return Section(title, blocks)
+
+
+def _reruns(runner: CaseRunner, wanted: dict, q: float, le_args) -> dict:
+    """``wanted``: (train, km/h rounded, dt) -> (km/h, names of :data:`QUANTITIES`).
+    Returns (train, km/h rounded, dt) -> the quantities of :func:`quantities` named, or
+    the exception its re-run raised.  The speeds of a train at a time step are re-run in
+    one study (:meth:`CaseRunner.study_speeds`)."""
+    groups: dict[tuple, list] = {}
+    for key in wanted:
+        groups.setdefault((key[0], key[2]), []).append(key)
+    out: dict = {}
+    for (train, step), keys in groups.items():
+        speeds = [wanted[k][0] for k in keys]
+        try:
+            runs = runner.study_speeds(train, speeds, dt=step)
+        except _RERUN_ERRORS as exc:
+            runs = [exc] * len(keys)
+        for key, mini in zip(keys, runs, strict=True):
+            if not isinstance(mini, Exception):
+                try:
+                    mini = quantities(mini, q, le_args, wanted[key][1])
+                except _RERUN_ERRORS as exc:
+                    mini = exc
+            out[key] = mini
+    return out
 
 
 def _other_trains_off_grid(env: xr.Dataset, governing: set[str]) -> str:

@@ -8,8 +8,8 @@ Flow of :func:`run_study`
 3. run the batches that are not in the store yet on the chosen backend
    (:mod:`.backends`); each finished batch is written to the store at once, atomically;
 4. write the results file by slices from the stored batches, one batch in memory at a
-   time (:class:`vsi_numba.io.study_file.StudyFile`), to a temporary file in the store;
-   rename it over the output and remove the store (its lock last).
+   time, to a temporary file in the store; rename it over the output
+   (:mod:`.results_file`) and remove the store (its lock last).
 
 Because step 4 always reads the stored batches, a resumed study and an uninterrupted one
 give the same file; because every backend runs the same serial kernel on the same inputs,
@@ -32,23 +32,14 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import hashlib
-import json
 import os
 import subprocess
-import time as _time
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 from threadpoolctl import threadpool_limits
 
-from vsi_numba.io.netcdf import (
-    CONVENTIONS,
-    _fsync_dir,
-    history_line,
-    source_string,
-)
 from vsi_numba.io.paths import output_conflict
 from vsi_numba.study.backends import (
     DaskBackend,
@@ -59,18 +50,18 @@ from vsi_numba.study.backends import (
 )
 from vsi_numba.study.batches import (
     Batch,
-    _packed_trains,
     plan_fingerprint,
     run_batch_task,
     study_plan,
     superpose_refusal,
 )
 from vsi_numba.study.grid import Case, StudyGrid
-from vsi_numba.study.offers import no_values, not_computed_attr, not_offered
+from vsi_numba.study.hold import HOLD_ENV, hold_after  # noqa: F401 - HOLD_ENV: tests
+from vsi_numba.study.hold import hold as hold_store
 from vsi_numba.study.outlock import OutputLock
 from vsi_numba.study.progress import _Progress, _say
-from vsi_numba.study.spec import (
-    StudyModel,
+from vsi_numba.study.results_file import finished_earlier, write_results
+from vsi_numba.study.spec import (  # noqa: F401 - StudySpec, study_model: the API
     StudySpec,
     _build_model,
     _load,
@@ -79,27 +70,18 @@ from vsi_numba.study.spec import (
     study_grid,
     study_model,
     study_spec,
-    variant_coords,
 )
 from vsi_numba.study.store import (
     CaseStore,
     OutputNotWritableError,
     StudyError,
     check_writable,
-    final_write_error,
     store_path,
     study_need,
 )
 
 BACKENDS = ("serial", "threads", "processes", "dask")
 
-#: Global attribute value (``track_type``, ``dt``) of a study whose variants differ in it:
-#: each variant's value is in its ``variant_config_json``.
-VARIES = "varies by variant"
-
-#: Environment variable of the tests: hold the study (sleep until interrupted) once this
-#: many batches were stored in this run, so an interruption never races the machine.
-HOLD_ENV = "VSI_STUDY_HOLD_AFTER"
 #: estimated kernel seconds of a study's batches above which the readers of its results
 #: are imported while they run (:func:`_import_results_readers`)
 PREFETCH_COST = 2.0
@@ -166,123 +148,6 @@ def _choose_backend(backend, workers, scheduler, n_pending, scratch):
     if scheduler is None and workers is None:
         workers = available_cores()
     return DaskBackend(n_workers=workers, scheduler=scheduler, local_directory=scratch)
-
-
-def trains_info(spec: StudySpec, model: StudyModel) -> dict:
-    """Per-train coordinates and references of the results file."""
-    from vsi_numba.solver.simulate import static_deck_envelope
-
-    packed = _packed_trains(spec, model)
-    return {
-        "wheel_position": [np.concatenate([p.wheel_positions, p.load_positions])
-                           for p in packed],
-        "static_wheel_load": [np.concatenate([p.static_loads, p.vehicles.load_p])
-                              for p in packed],
-        "vehicle_name": [list(p.vehicle_names) for p in packed],
-        "n_wheel": [p.wheel_positions.size + p.load_positions.size for p in packed],
-        "n_vehicle": [p.vehicles.body_dof.size for p in packed],
-        "regular_length": [float(t.regular_length) for t in model.trains],
-        "status": [str(t.status) for t in model.trains],
-        "max_static_deck_displacement": np.array(
-            [static_deck_envelope(model.bridge, t, model.output_points) for t in model.trains]
-        ).reshape(len(model.trains), model.output_points.size),
-    }
-
-
-def track_type_of(cfg) -> str:
-    """Track type stated by a configuration (``"unspecified"`` when it states none).
-
-    Looked up as ``cfg.track_type``, then ``track_type`` in the resolved ``[bridge]``,
-    ``[track]`` or ``[study]`` tables (or a string ``track``).  The EN 1990 A2 deck
-    acceleration check reads it from the results' ``track_type`` attribute.
-    """
-    value = getattr(cfg, "track_type", None)
-    if value is None:
-        resolved = cfg.resolved() if hasattr(cfg, "resolved") else {}
-        for section in ("bridge", "track", "study"):
-            sec = resolved.get(section, {}) if isinstance(resolved, dict) else {}
-            if isinstance(sec, dict) and sec.get("track_type") is not None:
-                value = sec["track_type"]
-                break
-            if section == "track" and isinstance(resolved.get("track"), str):
-                value = resolved["track"]
-    return "unspecified" if value is None else str(value)
-
-
-def _global_attrs(model: StudyModel, config_json: str, sha: str, grid: StudyGrid,
-                  n_failed: int, failed: list[str], command: str, records=None,
-                  track_type: str | None = None) -> dict:
-    """Global attributes of a results file; ``records`` (the warnings) and ``track_type``
-    default to those of ``model.config``."""
-    cfg = model.config
-    if records is None:
-        records = _records(cfg)
-    warnings = [str(r["message"]) for r in records]
-    attrs = {
-        "Conventions": CONVENTIONS,
-        "title": str(cfg.title or "vsi_numba study"),
-        "history": history_line(command),
-        "source": source_string(),
-        "references": (
-            "Neves, Montenegro, Azevedo, Calcada (2014), A direct method for analyzing the "
-            "nonlinear vehicle-structure interaction, Engineering Structures 69, 83-89"
-        ),
-        "comment": (
-            "Study of speeds x trains x irregularity realisations; envelopes for every case, "
-            "time histories (dim time) only for the speeds listed in history_speeds. "
-            "Wheels, vehicles and time steps a train or run does not have are NaN."
-        ),
-        "config_json": config_json,
-        "config_sha256": sha,
-        "track_type": track_type if track_type is not None else track_type_of(cfg),
-        "bridge_length": float(model.bridge.length),
-        "bridge_description": str(model.bridge.description or ""),
-        "n_cases": len(grid.cases),
-        "n_failed_cases": int(n_failed),
-        "failed_cases": " ".join(failed[:200]) + (" ..." if len(failed) > 200 else ""),
-        "history_speeds_kmh": " ".join(f"{v:g}" for v in grid.speeds_kmh[grid.history_speeds]),
-        "dt": float(model.settings.dt),
-        "hht_alpha": float(model.settings.hht_alpha),
-        "acceleration_cutoff_hz": float(model.deck.cutoff),
-    }
-    base = getattr(cfg, "base_dir", None)
-    if base is not None:  # where the configuration's relative paths resolve (vsi report)
-        attrs["config_directory"] = str(Path(base).resolve())
-    if warnings:
-        attrs["config_warnings"] = "\n".join(str(w) for w in warnings)
-    attrs["warnings_json"] = json.dumps(records, ensure_ascii=False)
-    track = getattr(model.bridge, "track", None)
-    if track is not None and float(getattr(track, "rail_mass", 0.0)) > 0.0:
-        from vsi_numba.solver.pack import RAIL_INERTIA_IN_DECK_LOAD
-
-        # the deck load holds the rail's inertia (VehicleArrays.track_kappa)
-        attrs["rail_inertia_in_deck_load"] = int(RAIL_INERTIA_IN_DECK_LOAD)
-    if getattr(cfg, "deck_in_space", None) is not None:
-        attrs["loaded_track"] = int(cfg.train_track)  # 1-based, as train.track
-        layout = model.deck.layout
-        if layout is not None and layout.channels is not None:
-            from vsi_numba.solver.space_effects import METHOD
-
-            attrs["deck_twist_method"] = METHOD  # the twist and track displacements
-    others = getattr(cfg, "other_trains", [])
-    if others:  # the ..._all_tracks variables: every train of a run loaded
-        attrs["other_trains"] = json.dumps(others)
-        attrs["loaded_tracks_all"] = " ".join(
-            str(k) for k in sorted([int(cfg.train_track), *(int(o["track"]) for o in others)]))
-    return attrs
-
-
-def _records(cfg, base: bool = True) -> list[dict]:
-    """The warnings of a configuration as records {"message", "kind", "keys"}: of its own
-    values (``base``), or of the study it describes (with ``study.vary``: every variant's,
-    marked per variant, see :func:`vsi_numba.config.variants.merge_variant_warnings`)."""
-    records = getattr(cfg, "base_warning_records" if base else "warning_records", None)
-    if records is None:
-        records = getattr(cfg, "warning_records", None)
-    if records is None:
-        records = [{"message": str(w), "kind": "input", "keys": []}
-                   for w in getattr(cfg, "warnings", []) or []]
-    return [dict(r) for r in records]
 
 
 @dataclass(frozen=True)
@@ -468,7 +333,7 @@ def _execute_locked(cfg, spec, output, workers, scheduler, progress, backend, fr
         "".join(model_fingerprint(m) for m in models).encode()).hexdigest())
     plan_sha = plan_fingerprint(plan)
     if not fresh and not store_existed:
-        n_failed = _finished_earlier(output, sha, model_sha, plan_sha)
+        n_failed = finished_earlier(output, sha, model_sha, plan_sha)
         if n_failed is not None:  # the same study, written: nothing to recompute
             n_runs = len(grid.cases) * len(models)
             _say(quiet, f"{n_runs} runs: {output} holds them, written for this configuration, "
@@ -487,40 +352,6 @@ def _execute_locked(cfg, spec, output, workers, scheduler, progress, backend, fr
         if not store_existed and store.path.is_dir() and not store.done():
             store.remove()
         raise
-
-
-def _identity(model_sha: str, plan_sha: str) -> dict[str, str]:
-    """The attributes that tie a results file to the study that wrote it: the model's
-    and the plan's fingerprints (:func:`model_fingerprint`, :func:`plan_fingerprint`)
-    and the hash of the package's sources (``engine_sha256``: an edit of the code or
-    another version makes the file a different study's)."""
-    from vsi_numba._jit import package_hash
-
-    return {"model_sha256": model_sha, "plan_sha256": plan_sha,
-            "engine_sha256": package_hash(Path(__file__).resolve().parents[1])}
-
-
-def _finished_earlier(output: Path, sha: str, model_sha: str, plan_sha: str) -> int | None:
-    """The failed-run count of ``output`` when it is the results file of this very study
-    (the configuration's hash, the model's and the plan's fingerprints and the code's hash
-    all equal the file's, see :func:`_identity`), else None (no file, another study's,
-    one written before these attributes, or a file that cannot be read)."""
-    if not output.is_file():
-        return None
-    try:
-        import netCDF4
-
-        with netCDF4.Dataset(output) as nc:
-            attrs = {k: nc.getncattr(k) for k in nc.ncattrs()}
-    except (OSError, RuntimeError, ValueError):
-        return None
-    want = {"config_sha256": sha, **_identity(model_sha, plan_sha)}
-    if any(str(attrs.get(k, "")) != v for k, v in want.items()):
-        return None
-    try:
-        return int(attrs.get("n_failed_cases", 0))
-    except (TypeError, ValueError):
-        return None
 
 
 def _execute(store, study: _Study, output, backend, workers, scheduler, progress,
@@ -550,160 +381,11 @@ def _execute(store, study: _Study, output, backend, workers, scheduler, progress
                      quiet)
     else:
         _say(quiet, f"{n_runs} runs: all done earlier, writing {output}")
-    n_failed = _write_results(output, store, study, need.final_max)
+    n_failed = write_results(output, store, study, need.final_max)
     if not keep_cases:
         store.remove()
     _say(quiet, f"wrote {output}: {n_runs} runs, {n_failed} failed")
     return StudyOutcome(output, n_runs, n_failed, len(study.plan))
-
-
-def _write_results(output: Path, store: CaseStore, study: _Study,
-                   need_bytes: int | None = None) -> int:
-    """Stream the stored batches into the results file; returns the failed-run count."""
-    from vsi_numba.io.study_file import StudyFile
-    from vsi_numba.solver.batch import deck_grid
-
-    specs, models, grid, plan, labels = (study.specs, study.models, study.grid, study.plan,
-                                         study.labels)
-    infos = [trains_info(sp, m) for sp, m in zip(specs, models, strict=True)]
-    packed = [_packed_trains(sp, m) for sp, m in zip(specs, models, strict=True)]
-    hist_steps = [packed[b.variant or 0][b.i_train].n_steps(grid.speeds_kmh[s] / 3.6) + 1
-                  for b in plan for s, h in zip(b.speeds, b.histories, strict=True) if h]
-    n_time = max(hist_steps) if hist_steps else None
-    model = models[0]
-    variants = None
-    if labels is not None:
-        rules = [{k: getattr(m.config, k, None) for k in ("damping_rule",
-                                                          "additional_damping_rule")}
-                 for m in models]
-        variants = {"coords": variant_coords(labels),
-                    "bridge_length": [m.bridge.length for m in models],
-                    "acceleration_cutoff": [m.deck.cutoff for m in models],
-                    "config_json": [sp.config_json for sp in specs],
-                    "damping": [m.bridge.damping for m in models],
-                    "additional_damping": [m.config.additional_damping for m in models],
-                    "damping_rule": [" ; ".join(r[k] for k in ("damping_rule",
-                                                               "additional_damping_rule")
-                                                if r.get(k)) for r in rules]}
-    n_wheel = max(max(i["n_wheel"], default=0) for i in infos)
-    n_vehicle = max(max(i["n_vehicle"], default=0) for i in infos)
-    omit = not_offered(models, packed)
-    tmp = store.temp_path(output.name)
-    failed: list[str] = []
-    try:
-        f = StudyFile(tmp, grid.speeds_kmh, grid.trains, grid.irregularities,
-                      [m.output_points for m in models], [m.bridge.frequencies for m in models],
-                      n_wheel, n_vehicle, n_time,
-                      [m.settings.dt for m in models] if labels is not None else
-                      model.settings.dt, infos, variants,
-                      deck_x=[deck_grid(m.bridge, m.output_points) for m in models],
-                      supports=[m.bridge.supports for m in models], omit=omit,
-                      space=[m.deck.layout for m in models])
-        hold = _hold_after() == "write"
-        try:
-            for b in plan:
-                data = store.load(b.key)
-                info = infos[b.variant or 0]
-                f.write_batch(b, data, info["n_wheel"][b.i_train], info["n_vehicle"][b.i_train])
-                if hold:
-                    f.flush()
-                    f.nc.sync()
-                    _hold(store)
-                for r, st in enumerate(data["status"]):
-                    if st != 0:
-                        key = Case(0, b.speeds[r], b.i_train, b.i_irregularity, 0.0, "", 0,
-                                   False).key
-                        failed.append(key if b.variant is None else f"v{b.variant:04d}_{key}")
-                del data
-            failed.sort()
-            if labels is None:
-                attrs = _global_attrs(model, study.config_json, study.sha, grid, len(failed),
-                                      failed, study.command)
-            else:  # every variant's warnings, marked; one track type or "varies"
-                types = {track_type_of(m.config) for m in models}
-                attrs = _global_attrs(model, study.config_json, study.sha, grid, len(failed),
-                                      failed, study.command,
-                                      records=_records(study.config, base=False),
-                                      track_type=types.pop() if len(types) == 1 else
-                                      VARIES)
-            if labels is not None:
-                attrs["n_cases"] = study.n_runs
-                attrs["n_variants"] = len(models)
-                attrs["varied_keys"] = " ".join(labels[0])
-                if len({m.settings.dt for m in models}) > 1:
-                    attrs["dt"] = VARIES
-            if labels is None:  # per variant otherwise (damping_rule(variant))
-                _bridge_rules(attrs, model.config)
-                _modes_left_out(attrs, model.config, float(model.deck.cutoff))
-            f.flush()
-            empty = no_values(f.found, not failed)
-            if empty:
-                raise StudyError(
-                    f"not written: {output} would hold no value of {', '.join(empty)}, which "
-                    "this model computes; this is a defect of vsi_numba (the finished runs "
-                    "are kept), please report it with the configuration")
-            attrs["not_computed"] = not_computed_attr(omit)
-            # what a re-run compares to leave a file of the same study as it is
-            attrs.update(_identity(store.model_sha256, store.plan_sha256))
-            f.close(attrs)
-            if "fatigue" in study.config.resolved():  # the traffic's runs, counted
-                from vsi_numba.study import fatigue
-
-                fatigue.write(tmp, fatigue.fatigue_runs(study.config))
-        except BaseException:
-            f.abort()
-            raise
-        with open(tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
-        os.replace(tmp, output)
-        _fsync_dir(output.parent)
-    except (OSError, RuntimeError) as exc:
-        error = final_write_error(exc, output, store, need_bytes, tmp)
-        tmp.unlink(missing_ok=True)
-        raise error from exc
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return len(failed)
-
-
-def _bridge_rules(attrs: dict, cfg) -> None:
-    """The EN 1991-2 damping rules a config applied, as attributes of the results."""
-    for key in ("damping_rule", "additional_damping_rule"):
-        rule = getattr(cfg, key, None)
-        if rule:
-            attrs[key] = str(rule)
-
-
-def _modes_left_out(attrs: dict, cfg, cutoff: float) -> None:
-    """``modes_left_out_below_cutoff`` (how many modes up to the deck-acceleration
-    cut-off the model leaves out) and ``frequencies_left_out_below_cutoff`` (their
-    frequencies, Hz), when the configuration knows its spectrum up to the cut-off."""
-    left = getattr(cfg, "frequencies_left_out", None)
-    freqs = left(cutoff) if left is not None else None
-    if freqs is None:
-        return
-    attrs["modes_left_out_below_cutoff"] = int(len(freqs))
-    attrs["frequencies_left_out_below_cutoff"] = " ".join(f"{f:.6g}" for f in freqs)
-
-
-def _hold_after() -> int | str | None:
-    """The test hook's setting: a number of stored batches, ``"write"`` (inside the final
-    write) or None."""
-    value = os.environ.get(HOLD_ENV, "").strip()
-    if value == "write":
-        return value
-    try:
-        return int(value) if value else None
-    except ValueError:
-        return None
-
-
-def _hold(store: CaseStore) -> None:
-    """Test hook: announce the hold and sleep until interrupted or killed."""
-    (store.path / ".held").write_text(str(os.getpid()))
-    while True:
-        _time.sleep(0.05)
 
 
 def _workers_note(be, workers, scheduler) -> str:
@@ -779,7 +461,7 @@ def _import_results_readers(order) -> None:
 def _run_pending(be, spec, pending, store, progress, n_runs, n_done, quiet=True) -> None:
     errors: list[tuple[Batch, BaseException]] = []
     order = sorted(pending, key=lambda b: (-b.cost, b.index))
-    hold = _hold_after()
+    hold = hold_after()
     stored = 0
     helper = _start_compile_helper(be, spec, order)
     # The batches are the parallelism: BLAS on one thread in this process while they run.
@@ -807,7 +489,7 @@ def _run_pending(be, spec, pending, store, progress, n_runs, n_done, quiet=True)
                             _import_results_readers(order)
                     bar.advance(batch.n_runs)
                     if isinstance(hold, int) and stored >= hold:
-                        _hold(store)
+                        hold_store(store)
             except BaseException as exc:
                 if isinstance(exc, KeyboardInterrupt | StudyError):
                     raise

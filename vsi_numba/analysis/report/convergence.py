@@ -24,6 +24,7 @@ import pandas as pd
 import xarray as xr
 
 from vsi_numba.analysis import checks as chk
+from vsi_numba.analysis.governing import governing_cases
 from vsi_numba.analysis.recompute import CaseRunner, RecomputeError
 from vsi_numba.analysis.report.document import Markdown, Section, Table
 from vsi_numba.analysis.report.safe import md
@@ -130,28 +131,6 @@ def quantities(mini: xr.Dataset, q: float, le_check=None, names=None
     return out
 
 
-def _governing(results: dict, le_checks) -> dict[str, tuple[str, float, float, str]]:
-    """check -> (train, speed m/s, summary value, where) of its governing case."""
-    out = {}
-    for name in ("deck_acceleration", "deck_displacement", "wheel_unloading"):
-        r = results.get(name)
-        if r is None or isinstance(r, str):
-            continue
-        if name == "wheel_unloading" and not bool(np.asarray(r["applicable"]).any()):
-            continue
-        t = str(r.attrs.get("governing_train", "") or "")
-        v = float(r.attrs.get("governing_speed", np.nan))
-        if t and np.isfinite(v):
-            out[name] = (t, v, float(r.attrs.get("value", np.nan)))
-    if le_checks is not None and not isinstance(le_checks, str):
-        v = le_checks.verdict[le_checks.verdict["effect"] == "moment"]
-        if not v.empty and np.isfinite(float(v["ratio"].iloc[0])):
-            out["bending_moment"] = (str(v["train"].iloc[0]),
-                                     float(v["speed_kmh"].iloc[0]) / 3.6,
-                                     float(v["ratio"].iloc[0]))
-    return out
-
-
 def _grid_kmh(env: xr.Dataset, speed: float) -> float:
     """The grid's own km/h value of the grid speed ``speed`` (m/s)."""
     kmh = np.asarray(env["speed_kmh"].values, float)
@@ -210,7 +189,7 @@ def convergence_section(env: xr.Dataset, results: dict, runner: CaseRunner | Non
 
     if runner is None:
         return refused("the report was written without re-runs")
-    governing = _governing(results, le_checks)
+    governing = governing_cases(results, le_checks)
     if not governing:
         return refused("no check has a governing case")
     try:
@@ -223,7 +202,7 @@ def convergence_section(env: xr.Dataset, results: dict, runner: CaseRunner | Non
     # every re-run the section needs, the checks wanted of each, then one study-engine
     # call per train and time step (all its speeds at once)
     wanted: dict[tuple, set] = {}
-    for name, (train, speed, _) in governing.items():
+    for name, (train, speed, _, _) in governing.items():
         kmh = _grid_kmh(env, speed)
         for key in ((train, kmh, dt), (train, kmh, dt / 2),
                     *((train, v, dt) for v in off_grid_resonances(env, train)[0])):
@@ -238,7 +217,7 @@ def convergence_section(env: xr.Dataset, results: dict, runner: CaseRunner | Non
         return found
 
     rows, flagged, notes, unchecked = [], [], [], []
-    for name, (train, speed, value) in governing.items():
+    for name, (train, speed, value, _) in governing.items():
         label, units = QUANTITIES[name]
         kmh = _grid_kmh(env, speed)
         try:
@@ -309,7 +288,7 @@ def convergence_section(env: xr.Dataset, results: dict, runner: CaseRunner | Non
         blocks.append(Table(pd.DataFrame(rows), "Convergence of the governing cases"))
     blocks += notes
     blocks += [f"**Not checked** — {md(u)}" for u in unchecked]
-    others = _other_trains_off_grid(env, {g[0] for g in governing.values()})
+    others = _other_trains_off_grid(env, {g.train for g in governing.values()})
     if others:
         blocks.append(others)
     if flagged:

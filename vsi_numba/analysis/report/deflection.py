@@ -13,7 +13,7 @@ from vsi_numba.analysis.checks.deflection import (
     DeflectionResults,
 )
 from vsi_numba.analysis.report.document import Section, markdown_table
-from vsi_numba.analysis.report.echo import fmt_number
+from vsi_numba.analysis.report.numbers import fmt_number
 from vsi_numba.analysis.report.safe import md
 from vsi_numba.code_profile import RECALLED
 

@@ -19,37 +19,10 @@ import xarray as xr
 from vsi_numba.analysis.checks import applicable_trains, results_config
 from vsi_numba.analysis.dataset import bridge_frequencies
 from vsi_numba.analysis.report.document import Markdown, Section, Table
+from vsi_numba.analysis.report.numbers import fmt_list, fmt_number, sha256_text
 from vsi_numba.analysis.report.safe import cell, code
-from vsi_numba.analysis.report.text import sha256_text
 from vsi_numba.model.distribution import describe_config
 from vsi_numba.model.track import TRACK_ACCURACY_NOTE, TRACK_ACCURACY_NOTE_BEFORE
-
-
-def fmt_number(value, unit: str = "", digits: int = 4) -> str:
-    """``1.508e10 N m²``-style numbers: plain below 1e5, else mantissa e exponent with
-    trailing zeros dropped (``7.16e10``)."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        return str(value)
-    if not np.isfinite(v):
-        return "–"
-    if v != 0 and (abs(v) >= 1e5 or abs(v) < 1e-4):
-        mant, exp = f"{v:.{digits - 1}e}".split("e")
-        mant = mant.rstrip("0").rstrip(".")
-        text = f"{mant}e{int(exp)}"
-    else:
-        text = np.format_float_positional(v, precision=digits, unique=True, fractional=False,
-                                          trim="-")
-    text = text.replace("-", "−")
-    return f"{text} {unit}".rstrip()
-
-
-def fmt_list(values, unit: str = "", joiner: str = ", ") -> str:
-    """A list of numbers with one unit at the end (``20 + 20 m`` with ``joiner=" + "``)."""
-    vals = np.atleast_1d(np.asarray(values, dtype=float))
-    return joiner.join(fmt_number(v) for v in vals) + (f" {unit}" if unit else "")
-
 
 #: Title-block fields of ``[report]`` in the order shown.
 TITLE_FIELDS = (("project", "Project"), ("client", "Client"), ("document", "Document"),

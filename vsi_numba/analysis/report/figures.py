@@ -12,6 +12,7 @@ from vsi_numba.analysis.dataset import (
     DETERMINISTIC,
     nanargmax_case,
 )
+from vsi_numba.analysis.governing import governing_case
 from vsi_numba.analysis.recompute import CaseRunner, RecomputeError
 from vsi_numba.analysis.report.document import Figure
 from vsi_numba.analysis.report.safe import md
@@ -84,13 +85,13 @@ def _recompute_note(case, ds, name, envelope, where: dict, train, speed, irr, un
 def _deck_history(ds, results, hist: _Histories, applicable):
     """(figure, caption) of the governing deck acceleration case, or (None, reason)."""
     acc = results.get("deck_acceleration")
-    if acc is None or isinstance(acc, str) or not acc.attrs.get("governing_train"):
+    gov = governing_case(acc)
+    if gov is None:
         return None, ""
     a = acc.attrs
-    train, speed = a["governing_train"], a["governing_speed"]
+    train, speed, irr = gov.train, gov.speed, gov.irregularity
     # histories are stored at the output points only: show the one with the largest peak
     point = a.get("governing_output_point", a["governing_point"])
-    irr = a.get("governing_irregularity", DETERMINISTIC)
     wheel = None
     if (applicable is not None and bool(applicable.sel(train=train))
             and "max_wheel_unloading" in ds):
@@ -142,11 +143,11 @@ def _deck_history(ds, results, hist: _Histories, applicable):
 def _wheel_history(ds, results, hist: _Histories):
     """(figure, caption) of the governing wheel unloading case, or (None, reason)."""
     wu = results.get("wheel_unloading")
-    if wu is None or isinstance(wu, str) or not wu.attrs.get("governing_train"):
+    gov = governing_case(wu)
+    if gov is None:
         return None, ""
-    a = wu.attrs
-    train, speed, wheel = a["governing_train"], a["governing_speed"], a["governing_wheel"]
-    irr = a.get("governing_irregularity", DETERMINISTIC)
+    train, speed, irr = gov.train, gov.speed, gov.irregularity
+    wheel = wu.attrs["governing_wheel"]
     if wheel < 0:
         return None, ""
     case, how = hist.get(train, speed, irr, {"contact_force": {"wheel": wheel}})

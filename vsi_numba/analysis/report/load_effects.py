@@ -30,8 +30,8 @@ from vsi_numba.analysis.report.document import (
     Table,
     section_markdown,
 )
+from vsi_numba.analysis.report.numbers import fixed_against
 from vsi_numba.analysis.report.safe import natural_key
-from vsi_numba.analysis.report.text import fixed_against
 from vsi_numba.en1990 import END_ROTATION_CLAUSE
 from vsi_numba.en1991 import ALPHA_CLAUSE, LM71_CLAUSE, PHI_CLAUSE
 from vsi_numba.io.schema import ALL_TRACKS_SUFFIX

@@ -8,7 +8,7 @@ import numpy as np
 
 from vsi_numba.analysis.checks.twist import TWIST_CLAUSE, twist_checks
 from vsi_numba.analysis.report.document import Section, markdown_table
-from vsi_numba.analysis.report.echo import fmt_number
+from vsi_numba.analysis.report.numbers import fmt_number
 from vsi_numba.analysis.report.safe import md
 
 

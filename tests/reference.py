@@ -1,8 +1,13 @@
-"""Independent reference solutions for validating the vsi_numba engine.
+"""Independent reference solutions for validating the vsi_numba engine: those the tests
+alone need.
 
-Everything here uses numpy and scipy only and never imports ``vsi_numba``: the
-validation tests compare the engine with these closed forms, ``solve_ivp`` integrations
-of the coupled equations and event-driven solutions, never with the engine's own output.
+The references ``vsi verify`` also uses (the modes of a simply supported beam, the exact
+modal response to a moving force, Frýba's dynamic amplification, ...) are those of the
+shipped oracle, :mod:`vsi_numba.verification.reference`, imported here (one definition of
+each).  Everything here uses numpy and scipy and that oracle only (which imports numpy
+and scipy only) and never the engine: the validation tests compare the engine with these
+closed forms, ``solve_ivp`` integrations of the coupled equations and event-driven
+solutions, never with the engine's own output.
 
 Conventions (those of docs/manual/theory.md, "Conventions")
 --------------------------------------------------
@@ -30,40 +35,18 @@ import scipy.integrate
 import scipy.linalg
 import scipy.optimize
 
-#: Gravity (m s-2), the value used by the published train data and the theory manual.
-GRAVITY = 9.81
-
+# the shipped oracle's beam (``vsi verify`` uses it too): one definition of each
+from vsi_numba.verification.reference import (  # noqa: F401 - re-exported to the tests
+    GRAVITY,
+    moving_force_daf,
+    moving_force_modal,
+    ss_omega,
+    ss_shapes,
+)
 
 # =============================================================================
-# Simply supported beam: modes, static deflection, moving constant force
+# Simply supported beam: static deflection, moving constant force
 # =============================================================================
-
-
-def ss_omega(L: float, EI: float, m: float, n_modes: int) -> np.ndarray:
-    """Circular natural frequencies (rad/s) of a simply supported Euler-Bernoulli beam."""
-    j = np.arange(1, n_modes + 1)
-    return (j * np.pi / L) ** 2 * np.sqrt(EI / m)
-
-
-def ss_shapes(L: float, m: float, n_modes: int, x, derivative: int = 0) -> np.ndarray:
-    """Mass-normalised sine modes (or derivatives) at ``x``: shape (len(x), n_modes).
-
-    Zero outside ``[0, L]`` (the vehicle is on rigid ground there).
-    """
-    x = np.atleast_1d(np.asarray(x, float))
-    k = np.pi * np.arange(1, n_modes + 1) / L
-    amp = np.sqrt(2.0 / (m * L))
-    arg = np.outer(x, k)
-    if derivative == 0:
-        out = amp * np.sin(arg)
-    elif derivative == 1:
-        out = amp * k * np.cos(arg)
-    elif derivative == 2:
-        out = -amp * k**2 * np.sin(arg)
-    else:
-        raise ValueError("derivative must be 0, 1 or 2")
-    out[(x < 0.0) | (x > L)] = 0.0
-    return out
 
 
 def static_deflection_point_load(P: float, L: float, EI: float, a: float, x) -> np.ndarray:
@@ -81,83 +64,6 @@ def static_deflection_point_load(P: float, L: float, EI: float, a: float, x) -> 
     left = P * b * x * (L**2 - b**2 - x**2) / (6.0 * EI * L)
     right = P * a * xr * (L**2 - a**2 - xr**2) / (6.0 * EI * L)
     return np.where(x <= a, left, right)
-
-
-def _sdof_sine_from_rest(F, Om, om, zeta, t):
-    """``q'' + 2 zeta om q' + om^2 q = F sin(Om t)``, ``q(0) = q'(0) = 0``: (q, q').
-
-    Arrays ``F, Om, om`` of shape (n,) (one per mode), ``t`` of shape (nt,); returns
-    arrays (nt, n).  Exact, including the undamped resonance limit ``Om = om``.
-    """
-    t = np.asarray(t, float)[:, None]
-    F, Om, om = (np.asarray(a, float)[None, :] for a in (F, Om, om))
-    if zeta == 0.0:
-        den = om**2 - Om**2
-        res = np.abs(den) <= 1e-12 * om**2
-        den_s = np.where(res, 1.0, den)
-        q = F * (np.sin(Om * t) - Om / om * np.sin(om * t)) / den_s
-        qd = F * Om * (np.cos(Om * t) - np.cos(om * t)) / den_s
-        # resonance: q = F/(2 om^2) (sin om t - om t cos om t), q' = F t sin(om t) / 2
-        q_r = F / (2 * om**2) * (np.sin(om * t) - om * t * np.cos(om * t))
-        qd_r = 0.5 * F * t * np.sin(om * t)
-        return np.where(res, q_r, q), np.where(res, qd_r, qd)
-    D = (om**2 - Om**2) ** 2 + (2 * zeta * om * Om) ** 2
-    ap = F * (om**2 - Om**2) / D  # particular: ap sin(Om t) + bp cos(Om t)
-    bp = -F * 2 * zeta * om * Om / D
-    wd = om * np.sqrt(1.0 - zeta**2)
-    a = -bp  # homogeneous: exp(-zeta om t) (a cos wd t + b sin wd t)
-    b = (zeta * om * a - ap * Om) / wd
-    e = np.exp(-zeta * om * t)
-    c, s = np.cos(wd * t), np.sin(wd * t)
-    q = ap * np.sin(Om * t) + bp * np.cos(Om * t) + e * (a * c + b * s)
-    qd = (
-        ap * Om * np.cos(Om * t)
-        - bp * Om * np.sin(Om * t)
-        + e * ((-zeta * om * a + wd * b) * c + (-zeta * om * b - wd * a) * s)
-    )
-    return q, qd
-
-
-def _sdof_free(q0, qd0, om, zeta, tau):
-    """Free vibration of ``q'' + 2 zeta om q' + om^2 q = 0`` from (q0, qd0): (q, q')."""
-    tau = np.asarray(tau, float)[:, None]
-    wd = om * np.sqrt(1.0 - zeta**2)
-    e = np.exp(-zeta * om * tau)
-    b = (qd0 + zeta * om * q0) / wd
-    c, s = np.cos(wd * tau), np.sin(wd * tau)
-    q = e * (q0 * c + b * s)
-    qd = e * ((-zeta * om * q0 + wd * b) * c + (-zeta * om * b - wd * q0) * s)
-    return q, qd
-
-
-def moving_force_modal(P, L, EI, m, v, t, n_modes, zeta=0.0):
-    """Modal response to a constant force P entering a SS beam at ``t = 0``.
-
-    Exact solution of each modal equation ``q'' + 2 zeta w q' + w^2 q = P phi_j(v t)``
-    for ``0 <= t <= L/v`` and free vibration afterwards; ``q = 0`` for ``t < 0``.
-
-    Returns
-    -------
-    q, qd, qdd : ndarray, shape (len(t), n_modes)
-        Modal displacement, velocity, acceleration.
-    """
-    t = np.atleast_1d(np.asarray(t, float))
-    om = ss_omega(L, EI, m, n_modes)
-    Om = np.arange(1, n_modes + 1) * np.pi * v / L
-    F = np.full(n_modes, P * np.sqrt(2.0 / (m * L)))
-    T = L / v
-    q = np.zeros((t.size, n_modes))
-    qd = np.zeros_like(q)
-    on = (t >= 0.0) & (t <= T)
-    after = t > T
-    if np.any(on):
-        q[on], qd[on] = _sdof_sine_from_rest(F, Om, om, zeta, t[on])
-    if np.any(after):
-        qT, qdT = _sdof_sine_from_rest(F, Om, om, zeta, [T])
-        q[after], qd[after] = _sdof_free(qT[0], qdT[0], om, zeta, t[after] - T)
-    force = np.where(on[:, None], F * np.sin(np.outer(t, Om)), 0.0)
-    qdd = force - 2 * zeta * om * qd - om**2 * q
-    return q, qd, qdd
 
 
 def moving_force_series(P, L, EI, m, v, x, t, n_modes, zeta=0.0) -> np.ndarray:
@@ -192,35 +98,6 @@ def moving_force_series(P, L, EI, m, v, x, t, n_modes, zeta=0.0) -> np.ndarray:
     """
     q, _, _ = moving_force_modal(P, L, EI, m, v, t, n_modes, zeta)
     return q @ ss_shapes(L, m, n_modes, x).T
-
-
-def moving_force_daf(alpha: float, n_modes: int = 60, x_ratio: float = 0.5,
-                     include_free_vibration: bool = False) -> float:
-    """Dynamic amplification max_t w(x, t) / w_st of a moving force (undamped).
-
-    ``alpha = v / (2 f1 L)``; ``w_st = P L^3 / (48 EI)`` (the midspan static deflection).
-    The maximum is taken while the force is on the span (``include_free_vibration``
-    extends it over the following free vibration).
-    """
-    L = EI = m = P = 1.0
-    f1 = np.pi / 2.0  # (pi/L)^2 sqrt(EI/m) / (2 pi)
-    v = alpha * 2.0 * f1 * L
-    T = L / v
-    t_end = T * (4.0 if include_free_vibration else 1.0)
-    x = [x_ratio * L]
-    w_st = P * L**3 / (48.0 * EI)
-
-    def w(tt):
-        return moving_force_series(P, L, EI, m, v, x, np.atleast_1d(tt), n_modes)[:, 0]
-
-    tg = np.linspace(0.0, t_end, 40001)
-    wg = w(tg)
-    i = int(np.argmax(wg))
-    lo, hi = tg[max(i - 1, 0)], tg[min(i + 1, tg.size - 1)]
-    res = scipy.optimize.minimize_scalar(
-        lambda s: -w(s)[0], bounds=(lo, hi), method="bounded", options={"xatol": 1e-12}
-    )
-    return float(max(wg[i], -res.fun) / w_st)
 
 
 # =============================================================================
@@ -516,7 +393,7 @@ class BeamCrossing:
         return float(scipy.optimize.brentq(f, t_grid[i - 1], t_grid[i], xtol=1e-12))
 
 
-def quarter_car_on_beam(
+def quarter_car_crossing(
     body_mass, stiffness, damping, wheel_mass, L, EI, m, speed, n_modes, t_end,
     x_start=0.0, zeta=0.0, profile=None, points=None, rtol=1e-10, atol=1e-13,
     method="DOP853",
@@ -573,14 +450,14 @@ def quarter_car_on_beam(
     return ref.solve(t_end, rtol=rtol, atol=atol, method=method)
 
 
-def sprung_mass_on_beam(
+def sprung_mass_crossing(
     body_mass, stiffness, damping, L, EI, m, speed, n_modes, t_end, x_start=0.0,
     zeta=0.0, profile=None, points=None, rtol=1e-10, atol=1e-13, method="DOP853",
 ) -> BeamCrossing:
     """Sprung mass with a massless contact point crossing a SS beam (see
-    :func:`quarter_car_on_beam` with ``wheel_mass = 0``: the contact force is the
+    :func:`quarter_car_crossing` with ``wheel_mass = 0``: the contact force is the
     suspension force and acts on the beam)."""
-    return quarter_car_on_beam(
+    return quarter_car_crossing(
         body_mass, stiffness, damping, 0.0, L, EI, m, speed, n_modes, t_end,
         x_start=x_start, zeta=zeta, profile=profile, points=points, rtol=rtol, atol=atol,
         method=method,

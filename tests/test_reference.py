@@ -1,9 +1,11 @@
-"""Sanity tests of the independent reference solutions in ``tests/reference.py``.
+"""Sanity tests of the independent reference solutions in ``tests/reference.py`` and of
+those it takes from the shipped oracle, :mod:`vsi_numba.verification.reference`.
 
 These check the references against published values, against differently-derived
 formulations of the same problem (direct ODE integration, penalty contact, Rayleigh
-quotients) and against limits, before they are used to judge the engine.  No
-``vsi_numba`` code is involved.
+quotients, the shipped oracle's summaries of a crossing against the general crossing)
+and against limits, before they are used to judge the engine.  No engine code is
+involved.
 """
 
 from __future__ import annotations
@@ -15,6 +17,8 @@ import numpy as np
 import pytest
 import reference as ref
 import scipy.integrate
+
+from vsi_numba.verification import reference as vref
 
 G = ref.GRAVITY
 
@@ -151,8 +155,8 @@ def test_quarter_car_on_beam__matches_penalty_contact_formulation():
     prof = ref.CosineDip(0.004, 3.0, 3.0)
     L = BEAM["L"]
     t_end = (L + 1.0) / v - 1e-3  # up to just before the exit (impulse there)
-    r = ref.quarter_car_on_beam(M, k, c, mw, **BEAM, speed=v, n_modes=n, t_end=t_end,
-                                x_start=-1.0, profile=prof)
+    r = ref.quarter_car_crossing(M, k, c, mw, **BEAM, speed=v, n_modes=n, t_end=t_end,
+                                 x_start=-1.0, profile=prof)
     sol, rhs = _penalty_quarter_car(M, k, c, mw, **BEAM, v=v, n=n, t_end=t_end,
                                     x_start=-1.0, profile=prof, kc=1e11)
     t = np.linspace(0.0, t_end, 400)
@@ -172,10 +176,10 @@ def test_sprung_mass_on_beam__is_the_massless_wheel_limit():
     # quarter car with a wheel 1e-4 of the body mass: difference O(m_w / M)
     M, k, c, v, n = 3000.0, 2e6, 5e3, 20.0, 3
     t_end = 0.8
-    a = ref.sprung_mass_on_beam(M, k, c, **BEAM, speed=v, n_modes=n, t_end=t_end,
-                                x_start=-1.0)
-    b = ref.quarter_car_on_beam(M, k, c, 1e-4 * M, **BEAM, speed=v, n_modes=n,
-                                t_end=t_end, x_start=-1.0)
+    a = ref.sprung_mass_crossing(M, k, c, **BEAM, speed=v, n_modes=n, t_end=t_end,
+                                 x_start=-1.0)
+    b = ref.quarter_car_crossing(M, k, c, 1e-4 * M, **BEAM, speed=v, n_modes=n,
+                                 t_end=t_end, x_start=-1.0)
     t = np.linspace(0.0, t_end, 200)
     ea, eb = a.evaluate(t), b.evaluate(t)
     for key in ("deck_displacement", "body_acceleration", "contact_force"):
@@ -185,6 +189,52 @@ def test_sprung_mass_on_beam__is_the_massless_wheel_limit():
     e0 = a.evaluate([0.0, 0.04])
     np.testing.assert_allclose(e0["contact_force"], M * G, rtol=1e-12)
     np.testing.assert_allclose(e0["body_acceleration"], 0.0, atol=1e-12)
+
+
+def _grid_extremes(crossing, T, nt=20001, coarse=10, half=2 * 10):
+    """Extremes of a general crossing's midspan deflection, |body acceleration| and
+    contact force over the grid ``linspace(0, T, nt)`` of the shipped summaries: located
+    on every ``coarse``-th point, then taken on the grid within ``half`` points of it."""
+    t = np.linspace(0.0, T, nt)
+    pick = {"max_midspan": lambda e: e["deck_displacement"][:, 0],
+            "max_body_acceleration": lambda e: np.abs(e["body_acceleration"]),
+            "max_force": lambda e: e["contact_force"],
+            "min_force": lambda e: -e["contact_force"]}
+    rough = crossing.evaluate(t[::coarse])
+    out = {}
+    for key, f in pick.items():
+        i = coarse * int(np.argmax(f(rough)))
+        fine = t[max(i - half, 0):i + half + 1]
+        value = float(f(crossing.evaluate(fine)).max())
+        out[key] = -value if key == "min_force" else value
+    return out
+
+
+@pytest.mark.parametrize("wheel", [False, True], ids=["sprung_mass", "quarter_car"])
+def test_shipped_crossings__agree_with_the_general_crossing(wheel):
+    """The shipped oracle's crossings (``sprung_mass_on_beam``, ``quarter_car_on_beam``:
+    the extremes over the span from rest at x = 0, as ``vsi verify`` uses them in V02
+    and V09) against the general crossing here (another state and another integration:
+    piecewise, dense output): the same model, Yang & Wu's beam and body, the quarter car
+    with V09's 1 t wheel, 20 kN s/m and 2 % beam damping.  Both at rtol 1e-10: measured
+    below 1e-12 on the 20001-point grid (with 10 modes as with 4)."""
+    Y = vref.YANG_WU
+    T = Y["L"] / Y["v"]
+    n = 4  # modes (V02 and V09 keep 10; 4 keep the test cheap, the model is the same)
+    if wheel:
+        zeta, c, m_w = 0.02, 2.0e4, 1000.0
+        shipped = vref.quarter_car_on_beam(Y["L"], Y["EI"], Y["m"], zeta, Y["mass"],
+                                           Y["k"], c, m_w, Y["v"], n_modes=n)
+        general = ref.quarter_car_crossing(Y["mass"], Y["k"], c, m_w, Y["L"], Y["EI"],
+                                           Y["m"], Y["v"], n, T, zeta=zeta)
+    else:
+        shipped = vref.sprung_mass_on_beam(Y["L"], Y["EI"], Y["m"], Y["mass"], Y["k"],
+                                           Y["v"], n_modes=n)
+        general = ref.sprung_mass_crossing(Y["mass"], Y["k"], 0.0, Y["L"], Y["EI"],
+                                           Y["m"], Y["v"], n, T)
+    ext = _grid_extremes(general, T)
+    for key, value in ext.items():
+        assert value == pytest.approx(shipped[key], rel=1e-10, abs=0), key
 
 
 # ------------------------------------------------------------------ event-driven
@@ -198,8 +248,8 @@ def test_event_driven__no_loss_of_contact_equals_bilateral_solution():
     ed = ref.quarter_car_rigid_dip_event_driven(**QC, speed=v, profile=prof, t_end=0.6,
                                                 x_start=0.0)
     assert ed.events == []
-    bi = ref.quarter_car_on_beam(*QC.values(), L=1.0, EI=1.0, m=1.0, speed=v, n_modes=0,
-                                 t_end=0.6, profile=prof)
+    bi = ref.quarter_car_crossing(*QC.values(), L=1.0, EI=1.0, m=1.0, speed=v, n_modes=0,
+                                  t_end=0.6, profile=prof)
     t = np.linspace(0.0, 0.6, 301)
     a, b = ed.evaluate(t), bi.evaluate(t)
     for key in ("body_displacement", "body_acceleration", "contact_force"):
@@ -215,8 +265,8 @@ def test_event_driven__several_events_consistent_with_unilateral_contact():
     assert len(kinds) >= 6 and kinds[0] == "detach"
     assert all(a != b for a, b in zip(kinds[:-1], kinds[1:], strict=False))  # alternate
     # the first lift-off is where the bilateral contact force first vanishes
-    bi = ref.quarter_car_on_beam(*QC.values(), L=1.0, EI=1.0, m=1.0, speed=v, n_modes=0,
-                                 t_end=0.3, profile=prof)
+    bi = ref.quarter_car_crossing(*QC.values(), L=1.0, EI=1.0, m=1.0, speed=v, n_modes=0,
+                                  t_end=0.3, profile=prof)
     t_loss = bi.first_loss_of_contact(np.linspace(0.0, 0.3, 601))
     assert ed.events[0].t == pytest.approx(t_loss, abs=1e-8)
     assert ed.events[0].x > prof.position + 0.05  # a dynamic lift-off, not at the edge

@@ -87,9 +87,9 @@ VBI_APPROACH = 5.0
 @pytest.fixture(scope="module")
 def sprung_mass_reference():
     n, t_end = 5, (VBI_BEAM["L"] + VBI_APPROACH) / VBI_V + 0.5
-    return ref.sprung_mass_on_beam(VBI_CAR["body_mass"], VBI_CAR["stiffness"], 0.0,
-                                   **VBI_BEAM, speed=VBI_V, n_modes=n, t_end=t_end,
-                                   x_start=-VBI_APPROACH)
+    return ref.sprung_mass_crossing(VBI_CAR["body_mass"], VBI_CAR["stiffness"], 0.0,
+                                    **VBI_BEAM, speed=VBI_V, n_modes=n, t_end=t_end,
+                                    x_start=-VBI_APPROACH)
 
 
 def test_sprung_mass__crossing_simply_supported_beam_matches_solve_ivp(sprung_mass_reference):
@@ -119,9 +119,9 @@ QC_ON_BEAM = dict(c=1e4, mw=1000.0, n=5)
 @pytest.fixture(scope="module")
 def quarter_car_reference():
     t_end = (VBI_BEAM["L"] + VBI_APPROACH) / VBI_V + 0.5
-    return ref.quarter_car_on_beam(VBI_CAR["body_mass"], VBI_CAR["stiffness"],
-                                   QC_ON_BEAM["c"], QC_ON_BEAM["mw"], **VBI_BEAM, speed=VBI_V,
-                                   n_modes=QC_ON_BEAM["n"], t_end=t_end, x_start=-VBI_APPROACH)
+    return ref.quarter_car_crossing(VBI_CAR["body_mass"], VBI_CAR["stiffness"],
+                                    QC_ON_BEAM["c"], QC_ON_BEAM["mw"], **VBI_BEAM, speed=VBI_V,
+                                    n_modes=QC_ON_BEAM["n"], t_end=t_end, x_start=-VBI_APPROACH)
 
 
 def _quarter_car_run(dt, alpha):
@@ -231,8 +231,8 @@ def test_contact_loss__flexible_deck_first_detachment_where_bilateral_force_vani
     t = ds.time.values
     prof = ref.CosineDip(depth, lam, x0)
     t_ref_end = (x0 + lam + approach) / v
-    bil = ref.quarter_car_on_beam(*QC.values(), L=L, EI=EI, m=m, speed=v, n_modes=n,
-                                  t_end=t_ref_end, x_start=-approach, zeta=zeta, profile=prof)
+    bil = ref.quarter_car_crossing(*QC.values(), L=L, EI=EI, m=m, speed=v, n_modes=n,
+                                   t_end=t_ref_end, x_start=-approach, zeta=zeta, profile=prof)
     t_loss = bil.first_loss_of_contact(np.arange(0.0, t_ref_end, 1e-4))
     x_loss = -approach + v * t_loss
     assert x0 + 0.1 < x_loss < x0 + lam  # inside the dip, decided by the dynamics
@@ -249,8 +249,8 @@ def test_contact_loss__flexible_deck_first_detachment_where_bilateral_force_vani
     np.testing.assert_allclose(ds.deck_displacement.isel(point=0).values[before], w_ref,
                                atol=1e-2 * np.abs(w_ref).max())
     # the deck matters: on rigid ground the same car would lift off elsewhere
-    rigid = ref.quarter_car_on_beam(*QC.values(), L=L, EI=EI, m=m, speed=v, n_modes=0,
-                                    t_end=t_ref_end, x_start=-approach, profile=prof)
+    rigid = ref.quarter_car_crossing(*QC.values(), L=L, EI=EI, m=m, speed=v, n_modes=0,
+                                     t_end=t_ref_end, x_start=-approach, profile=prof)
     x_rigid = -approach + v * rigid.first_loss_of_contact(np.arange(0.0, t_ref_end, 1e-4))
     assert abs(x_rigid - x_loss) > 5 * v * dt
 
@@ -261,9 +261,9 @@ def test_contact_loss__flexible_deck_first_detachment_where_bilateral_force_vani
 @pytest.fixture(scope="module")
 def convergence_reference():
     t_end = (VBI_BEAM["L"] + VBI_APPROACH) / VBI_V + 0.3
-    return ref.sprung_mass_on_beam(VBI_CAR["body_mass"], VBI_CAR["stiffness"], 0.0,
-                                   **VBI_BEAM, speed=VBI_V, n_modes=2, t_end=t_end,
-                                   x_start=-VBI_APPROACH)
+    return ref.sprung_mass_crossing(VBI_CAR["body_mass"], VBI_CAR["stiffness"], 0.0,
+                                    **VBI_BEAM, speed=VBI_V, n_modes=2, t_end=t_end,
+                                    x_start=-VBI_APPROACH)
 
 
 def test_convergence__second_order_in_time_for_hht_alpha_zero(convergence_reference):

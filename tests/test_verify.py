@@ -1,7 +1,7 @@
 """``vsi verify``: the verification manual runs through the CLI, writes its CSV and HTML,
 names every case's source, and fails (exit 1) when a figure leaves its tolerance.
 
-The references of the cases live in ``vsi_numba/verification/reference.py``, which must
+The references of the cases live in ``vsi_numba/verification/reference/``, which must
 never import the rest of the package (checked here with ``ast``).
 """
 
@@ -98,16 +98,38 @@ def test_verify__unwritable_output_is_a_usage_error(tmp_path):
     assert "--output" in res.output and "Traceback" not in res.output
 
 
-def test_verify__reference_module_imports_only_numpy_and_scipy():
-    tree = ast.parse(Path(reference.__file__).read_text(encoding="utf-8"))
+def test_verify__reference_package_imports_only_numpy_and_scipy():
+    """Every module of the shipped oracle imports numpy, scipy and the oracle's own
+    modules only (import-linter's contract in pyproject.toml says the same of the
+    package's imports)."""
+    files = sorted(Path(reference.__file__).parent.glob("*.py"))
+    assert len(files) >= 5, files
     names = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            names |= {a.name for a in node.names}
-        elif isinstance(node, ast.ImportFrom):
-            assert node.level == 0, "relative import in reference.py"
-            names.add(node.module)
-    assert {n.split(".")[0] for n in names} <= {"__future__", "numpy", "scipy"}, names
+    for path in files:
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                names |= {a.name for a in node.names}
+            elif isinstance(node, ast.ImportFrom):
+                assert node.level == 0, f"relative import in {path.name}"
+                names.add(node.module)
+    own = {n for n in names if n.startswith("vsi_numba.")}
+    assert all(n.startswith("vsi_numba.verification.reference.") for n in own), own
+    assert {n.split(".")[0] for n in names - own} <= {"__future__", "numpy", "scipy"}, names
+
+
+def test_verify__importing_the_oracle_loads_no_engine_module():
+    """At run time too: importing the oracle loads numpy, scipy and the oracle's modules
+    (and the package's two lazy ``__init__`` modules), nothing else of vsi_numba."""
+    import subprocess
+    import sys
+
+    code = ("import sys, vsi_numba.verification.reference as r; "
+            "print(' '.join(sorted(m for m in sys.modules if m.startswith('vsi_numba') "
+            "or m.split('.')[0] in ('numba', 'pandas', 'xarray', 'matplotlib'))))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.split()
+    extra = {m for m in out if not m.startswith("vsi_numba.verification.reference")}
+    assert extra == {"vsi_numba", "vsi_numba.verification"}, extra
 
 
 def test_verify__fryba_reference_reproduces_the_published_table():

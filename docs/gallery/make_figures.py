@@ -15,7 +15,9 @@ Usage (from the repository root; about 2 minutes on 2 cores with a warm numba ca
 
     python docs/gallery/make_figures.py [CONFIG_STEM ...]
 
-The docs build does not run it: the PNG and CSV files are committed.
+The docs build does not run it: the PNG and CSV files are committed, and
+``tests/test_gallery.py`` recomputes the CSV tables (the same commands and
+:func:`results_rows`, no figure) and compares them with the committed ones.
 """
 
 from __future__ import annotations

@@ -341,8 +341,8 @@ STUDY_VARIABLES = {
         "(EN 1990 A2.4.4.2.1)", {},
     ),
     "damping_ratio": (
-        ("variant", "mode"), "1", "modal damping ratio of the variant (interaction models; "
-        "moving forces add additional_damping)", {},
+        ("variant", "mode"), "1", "modal damping ratio the runs used (per variant in a study "
+        "of variants; moving forces add additional_damping)", {},
     ),
     "additional_damping": (
         ("variant",), "1", "EN 1991-2 6.4.6.3.1 additional damping of the moving-force "

@@ -85,11 +85,16 @@ class StudyFile:
         A study of variants: ``coords`` maps a coordinate name to ``(values, attrs)``
         (one value per variant), ``bridge_length`` and ``acceleration_cutoff`` (one per
         variant), ``config_json`` (the resolved configuration of each variant).
+    damping : tuple, optional
+        ``(ratios, additional)``: per variant the modal damping ratios the runs used
+        (per mode) and the moving-force trains' additional damping; written as
+        ``damping_ratio`` (mode) and ``additional_damping`` () without variants (with
+        variants they come from ``variants``).
     """
 
     def __init__(self, path, speeds_kmh, trains, irregularities, points, frequencies,
                  n_wheel, n_vehicle, n_time, dt, trains_info, variants=None, deck_x=None,
-                 supports=None, omit=None, space=None):
+                 supports=None, omit=None, space=None, damping=None):
         import netCDF4
 
         #: variables not written (the study's model does not compute them) -> reason
@@ -307,6 +312,12 @@ class StudyFile:
         _put_attrs(status, attrs_for("train_status"))
         self._float("frequency", (*lead, "mode"), attrs_for("frequency"))[...] = per_variant(
             frequencies, (n_m,))
+        if damping is not None and variants is None:  # the values the runs used
+            ratios, additional = damping
+            self._float("damping_ratio", ("mode",), attrs_for("damping_ratio"))[...] = \
+                per_variant(ratios, (n_m,))
+            self._float("additional_damping", (), attrs_for("additional_damping"))[...] = \
+                float(np.ravel(np.asarray(additional, float))[0])
 
     def _coords_attr(self, dims) -> str:
         """CF ``coordinates`` attribute: the auxiliary coordinates a variable spans."""

@@ -36,7 +36,8 @@ from vsi_numba.solver.settings import SolverSettings
 
 def run_batch(packed: Packed, profile: Profile, speeds, points, settings: SolverSettings,
               bridge: ModalBridge, keep_histories=None, deck=None,
-              _ensure: bool = True, _kernel=None) -> BatchResult:
+              modal_forces: bool = False, _ensure: bool = True, _kernel=None
+              ) -> BatchResult:
     """Run one packed model at several speeds (m/s) in one kernel call.
 
     Parameters
@@ -54,6 +55,9 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     deck : DeckOperators, optional
         ``deck_operators(bridge, points, settings)`` when already computed; one with
         only ``(phi_d, phi_a, cutoff)`` has no whole-deck grid (its envelopes are NaN).
+    modal_forces : bool
+        Keep the modal force histories of the runs that keep histories also without
+        load effects (they are kept with them).
     _ensure : bool
         First have the family's kernels compiled once per machine
         (:func:`~vsi_numba.solver.kernel_cache.ensure_compiled`); False inside that.
@@ -81,7 +85,8 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     slots = np.full(n_r, -1, np.int64)
     slots[keep] = np.arange(int(keep.sum()))
     n_t = int(n_steps[keep].max()) + 1 if keep.any() else 0
-    out = _history_buffers(int(keep.sum()), n_t, n_m, n_w, n_b, eff is not None)
+    out = _history_buffers(int(keep.sum()), n_t, n_m, n_w, n_b,
+                           eff is not None or modal_forces)
     z = np.zeros
     red = ek.Reduce(
         phi_d=phi_d, phi_a=phi_a,

@@ -25,6 +25,7 @@ from vsi_numba.io.schema import ALL_TRACKS_SUFFIX
 from vsi_numba.solver.batch import run_batch
 from vsi_numba.solver.operators import DeckOperators
 from vsi_numba.solver.pack import Packed
+from vsi_numba.solver.reductions import first_absmax, first_max_min
 from vsi_numba.solver.results import BatchResult
 
 
@@ -73,10 +74,19 @@ def run_with_others(packed: Packed, profile, speeds, points, settings, bridge,
     """
     models = common_length(packed, others)
     every = np.ones(np.size(speeds), bool)
+    deck = DeckOperators.of(deck)
     main = run_batch(models[0], profile, speeds, points, settings, bridge,
                      keep_histories=every, deck=deck)
-    runs = [run_batch(p, profile, speeds, points, settings, bridge, keep_histories=every,
-                      deck=deck) for p in models[1:]]
+    # the other trains' runs give their modal histories only (their own envelopes are
+    # not results): no output rows, whole-deck grid, load effects or channels for the
+    # kernels to reduce; their histories are read with the run's tables
+    n_m = deck.phi_d.shape[1]
+    bare = DeckOperators(np.zeros((0, n_m)), np.zeros((0, n_m)), deck.cutoff)
+    runs = [dataclasses.replace(
+        run_batch(p, profile, speeds, points, settings, bridge, keep_histories=every,
+                  deck=bare, modal_forces=main.effects is not None),
+        phi_d=main.phi_d, phi_a=main.phi_a, grid_x=main.grid_x, effects=main.effects,
+        static_deck=main.static_deck, space=main.space) for p in models[1:]]
     env = all_tracks_envelopes(main, [(r, o) for r, o in zip(runs, others, strict=True)],
                                deck)
     main.elapsed += sum(r.elapsed for r in runs)  # the kernel time of every train
@@ -85,9 +95,8 @@ def run_with_others(packed: Packed, profile, speeds, points, settings, bridge,
 
 def _first_max(a: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Largest |a| over axis 0 and the time of its first occurrence."""
-    b = np.abs(a)
-    i = np.argmax(b, axis=0)
-    return np.take_along_axis(b, i[None], axis=0)[0], t[i]
+    value, i = first_absmax(a)
+    return value, t[i]
 
 
 def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, OtherTrain]],
@@ -142,9 +151,8 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
                                             static=main.static_deck)
                 series = {k: v + more[k] for k, v in series.items()}
             for name, v in series.items():
-                effects.setdefault(name, []).append(
-                    (v.max(axis=0), t[np.argmax(v, axis=0)], v.min(axis=0),
-                     t[np.argmin(v, axis=0)]))
+                hi, hi_i, lo, lo_i = first_max_min(v)
+                effects.setdefault(name, []).append((hi, t[hi_i], lo, t[lo_i]))
         ch = space.channels if space is not None else None
         if ch is not None:  # twist and track displacement by mode acceleration, summed
             c = main.space_series(r)

@@ -229,15 +229,86 @@ def run_batch_task(spec, batch: Batch) -> dict:
     packed, profile = packed_for(spec, batch.i_train, batch.i_irregularity)
     speeds = np.asarray(model.speeds_kmh, float)[list(batch.speeds)] / 3.6
     others = _other_trains(spec, batch.i_train)
-    extra = {}
-    if others:
-        from vsi_numba.solver.superpose import run_with_others
-
-        res, extra = run_with_others(packed, profile, speeds, model.output_points,
-                                     model.settings, model.bridge, list(others), model.deck)
-    else:
+    if not others:
         res = run_batch(packed, profile, speeds, model.output_points, model.settings,
                         model.bridge, keep_histories=batch.histories, deck=model.deck)
+        return _task_output(res, {}, packed, speeds, list(batch.histories))
+    from vsi_numba.solver.superpose import run_with_others
+
+    # every run of every train keeps its histories until they are summed: a few runs
+    # at a time, so that the memory does not grow with the batch
+    parts = []
+    for chunk in superpose_chunks(packed, speeds, 1 + len(others)):
+        res, extra = run_with_others(packed, profile, speeds[chunk], model.output_points,
+                                     model.settings, model.bridge, list(others), model.deck)
+        parts.append(_task_output(res, extra, packed, speeds[chunk],
+                                  [batch.histories[i] for i in chunk]))
+    return _joined(parts)
+
+
+#: Raw histories (bytes, every train of the runs) the superposition of trains on other
+#: tracks holds at once (:func:`superpose_chunks`).
+SUPERPOSE_CHUNK_BYTES = 16 * 2**20
+
+
+def superpose_chunks(packed, speeds, n_trains: int,
+                     budget: float | None = None) -> list[np.ndarray]:
+    """The runs of a batch (indices into ``speeds``, m/s) cut into consecutive chunks
+    whose raw histories of ``n_trains`` trains fit in ``budget`` bytes (default
+    :data:`SUPERPOSE_CHUNK_BYTES`; one run at least)."""
+    budget = SUPERPOSE_CHUNK_BYTES if budget is None else float(budget)
+    chunks: list[list[int]] = [[]]
+    used = 0.0
+    for i, v in enumerate(np.asarray(speeds, float)):
+        need = n_trains * history_bytes(packed, int(packed.n_steps(float(v))))
+        if chunks[-1] and used + need > budget:
+            chunks.append([])
+            used = 0.0
+        chunks[-1].append(i)
+        used += need
+    return [np.array(c, np.int64) for c in chunks]
+
+
+def _joined(parts: list[dict]) -> dict:
+    """The outputs of consecutive chunks of a batch's runs (:func:`_task_output`) as
+    one: per-run arrays concatenated, the kernel seconds summed, the histories padded
+    to the longest run (NaN)."""
+    if len(parts) == 1:
+        return parts[0]
+    kept = set(_history_names()) | {"kernel_seconds", "hist_runs", "hist_steps"}
+    out: dict = {name: np.concatenate([p[name] for p in parts], axis=0)
+                 for name in parts[0] if name not in kept}
+    out["kernel_seconds"] = np.float64(sum(float(p["kernel_seconds"]) for p in parts))
+    offsets = np.cumsum([0] + [int(p["status"].size) for p in parts[:-1]])
+    hist = [(p, o) for p, o in zip(parts, offsets, strict=True) if "hist_runs" in p]
+    if not hist:
+        return out
+    n_t = max(int(p["hist_steps"].max()) for p, _ in hist)
+    out["hist_runs"] = np.concatenate([p["hist_runs"] + o for p, o in hist])
+    out["hist_steps"] = np.concatenate([p["hist_steps"] for p, _ in hist])
+    for name in _history_names():
+        arrays = [p.get(name) for p, _ in hist]
+        if all(a is None for a in arrays):
+            out[name] = None
+            continue
+        tail = next(a.shape[2:] for a in arrays if a is not None)
+        blocks = []
+        for (p, _), a in zip(hist, arrays, strict=True):
+            block = np.full((p["hist_runs"].size, n_t, *tail), np.nan, np.float32)
+            if a is not None:
+                block[:, :a.shape[1]] = a
+            blocks.append(block)
+        out[name] = np.concatenate(blocks, axis=0)
+    return out
+
+
+def _history_names() -> tuple[str, ...]:
+    return (*HISTORIES, *SPACE_HISTORIES)
+
+
+def _task_output(res, extra: dict, packed, speeds, histories: list) -> dict:
+    """:func:`run_batch_task`'s output of the runs of one :class:`BatchResult`
+    (``histories``: per run, whether its histories are written)."""
     out: dict = {
         "status": res.status.astype(np.int32),
         "max_iterations": res.red.iters.astype(np.int32),
@@ -246,7 +317,7 @@ def run_batch_task(spec, batch: Batch) -> dict:
     }
     out.update({name: np.ascontiguousarray(v) for name, v in res.envelopes().items()})
     out.update(extra)
-    runs = [r for r in range(speeds.size) if batch.histories[r]]
+    runs = [r for r in range(speeds.size) if histories[r]]
     if runs:
         # histories of the dynamic wheels only: a moving force's "contact force" is its
         # constant load (static_wheel_load), not a result; the file leaves it NaN

@@ -225,7 +225,9 @@ def write_results(output: Path, store: CaseStore, study,
                       model.settings.dt, infos, variants,
                       deck_x=[deck_grid(m.bridge, m.output_points) for m in models],
                       supports=[m.bridge.supports for m in models], omit=omit,
-                      space=[m.deck.layout for m in models])
+                      space=[m.deck.layout for m in models],
+                      damping=([m.bridge.damping for m in models],
+                               [m.config.additional_damping for m in models]))
         holding = hold_after() == "write"
         try:
             for b in plan:

@@ -51,7 +51,7 @@ Example
 
 # the names other modules and tests import from vsi_numba.config
 # ruff: noqa: F401
-from vsi_numba.config._check import _BAD, _MISSING, ConfigError, _Checker, _Num, _show
+from vsi_numba.config._check import _BAD, _MISSING, ConfigError, _Checker, _show
 from vsi_numba.config.bridge import (
     BRIDGE_KINDS,
     EN_DAMPING,

@@ -10,14 +10,11 @@ from __future__ import annotations
 import difflib
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from vsi_numba.config._show import _join, _key, _render, _show  # noqa: F401 (re-exported)
-from vsi_numba.solver.settings import Bounds
 
 
 class ConfigError(ValueError):
@@ -95,23 +92,6 @@ def _as_list(v):
     return v
 
 
-@dataclass(frozen=True)
-class _Num:
-    """A numeric key: expectation text, limits, default (``_MISSING`` = required)."""
-
-    expected: str
-    gt: float | None = None
-    ge: float | None = None
-    lt: float | None = None
-    le: float | None = None
-    default: Any = _MISSING
-    integer: bool = False
-
-    @property
-    def bounds(self) -> Bounds:
-        return Bounds(gt=self.gt, ge=self.ge, lt=self.lt, le=self.le)
-
-
 class _Checker:
     """Collects errors and warnings while walking the config."""
 
@@ -171,31 +151,27 @@ class _Checker:
         return data
 
     # -- scalars
-    def number(self, value, path: str, spec: _Num):
-        """Validate one number against ``spec``; return float/int or ``_BAD``."""
-        if spec.integer:
-            ok = isinstance(value, int) and not isinstance(value, bool)
-        else:
-            ok = _is_number(value) and _finite(value)
-        if ok:
-            x = int(value) if spec.integer else float(value)
-            ok = x in spec.bounds
-        if not ok:
-            return self.error(path, value, spec.expected)
+    def number(self, value, path: str, tp, expected: str):
+        """Validate one number against its declared type ``tp`` (:func:`~vsi_numba.config.
+        schema._fields.Num`, :func:`~vsi_numba.config.schema._fields.Int` with their
+        bounds, or ``float``); return float/int or ``_BAD`` (reported with
+        ``expected``)."""
+        from vsi_numba.config.schema._fields import number_of
+
+        x = number_of(tp, value)
+        if x is None:
+            return self.error(path, value, expected)
         return x
 
-    def get_number(self, tbl, path: str, key: str, spec: _Num):
-        """Read ``tbl[key]`` as a number; default, ``None`` (optional) or ``_BAD``."""
+    def get_number(self, tbl, path: str, key: str, tp, expected: str, default=_MISSING):
+        """Read ``tbl[key]`` as a number of type ``tp`` (:meth:`number`); ``default`` when
+        absent (``_MISSING``: a required key, reported missing)."""
         p = _join(path, key)
         if key not in tbl:
-            if spec.default is _MISSING:
-                return self.error(p, _MISSING, spec.expected)
-            return spec.default
-        return self.number(tbl[key], p, spec)
-
-    def numbers(self, tbl, path, specs: dict[str, _Num]) -> dict:
-        """Read several numeric keys; the result maps key -> value (or ``_BAD``)."""
-        return {k: self.get_number(tbl, path, k, s) for k, s in specs.items()}
+            if default is _MISSING:
+                return self.error(p, _MISSING, expected)
+            return default
+        return self.number(tbl[key], p, tp, expected)
 
     def fields(self, tbl, path: str, model, keys=None, *, required=None, notes=None) -> dict:
         """Read declared keys of ``model`` (:mod:`vsi_numba.config.schema.models`) from
@@ -262,17 +238,20 @@ class _Checker:
                 out = _BAD
         return out
 
-    def number_list(self, value, path: str, item: _Num, *, expected: str,
+    def number_list(self, value, path: str, item, item_expected: str, *, expected: str,
                     scalar_ok: bool = False, min_len: int = 1, max_len: int | None = None):
-        """Read a list of numbers (or a single number when ``scalar_ok``)."""
+        """Read a list of numbers of type ``item`` (:meth:`number`, each reported with
+        ``item_expected``), or a single number when ``scalar_ok``; ``expected`` is the
+        list's expectation."""
         value = _as_list(value)
         if scalar_ok and _is_number(value):
-            return self.number(value, path, item)
+            return self.number(value, path, item, item_expected)
         if not isinstance(value, list):
             return self.error(path, value, expected)
         if len(value) < min_len or (max_len is not None and len(value) > max_len):
             return self.error(path, value, expected)
-        out = [self.number(v, f"{path}[{i}]", item) for i, v in enumerate(value)]
+        out = [self.number(v, f"{path}[{i}]", item, item_expected)
+               for i, v in enumerate(value)]
         return _BAD if any(o is _BAD for o in out) else out
 
     def string(self, tbl, path: str, key: str, expected: str, default=_MISSING, nonempty=True):

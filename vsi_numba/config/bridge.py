@@ -25,7 +25,6 @@ from vsi_numba.config._check import (
     _drop_none,
     _is_number,
     _join,
-    _Num,
     _ok,
     _Sentinel,
 )
@@ -43,7 +42,7 @@ from vsi_numba.config.limits import (
     MAX_OUTPUT_POINTS,
 )
 from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import implausible, keys_of, kinds_of
+from vsi_numba.config.schema._fields import Num, PosNum, implausible, keys_of, kinds_of
 from vsi_numba.model import bridge as _bridge
 
 BRIDGE_KINDS = ("simply_supported", "continuous", "rigid", "modes_file", "matrices")
@@ -90,18 +89,14 @@ class _BridgeSpec:
         return np.sort(np.asarray(out, float))
 
 
-_POS = _Num("a value > 0", gt=0)
-
-
 def _per_span(chk, tbl, path, key, expected, n_spans, model=None):
     """EI / mass_per_length: a number > 0 or one per span (outside the plausible range
     that ``model`` declares for ``key``: :attr:`_Checker.implausible`)."""
     p = _join(path, key)
     if key not in tbl:
         return chk.error(p, _MISSING, f"{expected} (a number, or one per span)")
-    item = _Num(expected, gt=0)
     v = chk.number_list(
-        tbl[key], p, item, scalar_ok=True,
+        tbl[key], p, PosNum, expected, scalar_ok=True,  # the item type of PerSpan
         expected=f"{expected} (a number, or a list with one value per span)",
     )
     if isinstance(v, list) and n_spans is not None and len(v) != n_spans:
@@ -143,7 +138,7 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
     )
     if "spans" in d:
         spans = chk.number_list(
-            d["spans"], "bridge.spans", _Num("a span length > 0 m", gt=0),
+            d["spans"], "bridge.spans", PosNum, "a span length > 0 m",
             expected=span_expect, scalar_ok=True, min_len=1, max_len=200,
         )
         if _is_number(spans):
@@ -219,7 +214,7 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
     points = _BAD
     if "output_points" in d:
         points = chk.number_list(d["output_points"], "bridge.output_points",
-                                 _Num("a position x (m)"), scalar_ok=True,
+                                 float, "a position x (m)", scalar_ok=True,
                                  expected=f"a list of at most {MAX_OUTPUT_POINTS} positions "
                                           "on the deck (m)", max_len=MAX_OUTPUT_POINTS)
         if _is_number(points):
@@ -406,7 +401,7 @@ def _damping_ratio(chk, value):
     path = "bridge.damping_ratio"
     expected = ("a damping ratio 0 <= zeta < 1, a list with one per mode, or "
                 f"'{EN_DAMPING}' (Table 6.6 with bridge.deck_type)")
-    got = chk.number_list(value, path, _Num("a damping ratio 0 <= zeta < 1", ge=0),
+    got = chk.number_list(value, path, Num(ge=0), "a damping ratio 0 <= zeta < 1",
                           scalar_ok=True, expected=expected)
     if not _ok(got):
         return got

@@ -26,9 +26,9 @@ from vsi_numba.code_profile import (
     default_profile,
     profile_from,
 )
-from vsi_numba.config._check import _BAD, _MISSING, _join, _Num, _show
+from vsi_numba.config._check import _BAD, _MISSING, _join, _show
 from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import keys_of
+from vsi_numba.config.schema._fields import Int, Num, keys_of
 
 #: An override further than this factor from the recommended value gets a warning.
 IMPLAUSIBLE_FACTOR = 3.0
@@ -79,10 +79,10 @@ def _code_profile_section(chk, d):
         unit = "" if e.unit == "1" else f" {e.unit}"
         kind = "a whole number" if e.integer else "a number"
         lim = e.limits  # the bounds of the entry (and of the keys that stand for it)
-        value = chk.number(raw_value, vp, _Num(
+        value = chk.number(
+            raw_value, vp, (Int if e.integer else Num)(**lim.as_dict()),
             f"{kind} {lim.text()}{unit} ({e.description}; recommended {e.value:g}{unit}, "
-            f"{e.clause}), or a table {{value = ..., clause = \"...\"}}", integer=e.integer,
-            **lim.as_dict()))
+            f"{e.clause}), or a table {{value = ..., clause = \"...\"}}")
         if value is _BAD or clause is _BAD:
             continue
         values[key] = value

@@ -15,11 +15,11 @@ from vsi_numba.config._check import (
     _MISSING,
     _as_list,
     _join,
-    _Num,
     _ok,
 )
 from vsi_numba.config.limits import MAX_ECCENTRICITY
 from vsi_numba.config.schema import models as _m
+from vsi_numba.config.schema._fields import Int
 from vsi_numba.model import bridge as _bridge
 
 _IMPORTED = ("modes_file", "matrices")
@@ -40,17 +40,16 @@ def _dof_indices(chk, d, key, base, allow_pattern=False):
     v = _as_list(d[key])
     if allow_pattern and isinstance(v, Mapping):
         chk.table(v, p, {"start", "step"})
-        start = chk.get_number(v, p, "start", _Num(
-            f"an integer DOF number >= dof_base ({base})", ge=base, integer=True, default=base))
-        step = chk.get_number(v, p, "step", _Num(
-            "an integer step >= 1", ge=1, integer=True, default=1))
+        start = chk.get_number(v, p, "start", Int(ge=base),
+                               f"an integer DOF number >= dof_base ({base})", default=base)
+        step = chk.get_number(v, p, "step", Int(ge=1), "an integer step >= 1", default=1)
         return {"start": start, "step": step} if _ok(start, step) else _BAD
     expected = f"a list of integer DOF numbers >= dof_base ({base})" + (
         ", or {start = i, step = s}" if allow_pattern else "")
     if not isinstance(v, list) or len(v) > MAX_FIXED_DOFS:
         return chk.error(p, d[key], expected)
-    out = [chk.number(x, f"{p}[{i}]", _Num(f"an integer DOF number >= dof_base ({base})",
-                                            ge=base, integer=True)) for i, x in enumerate(v)]
+    out = [chk.number(x, f"{p}[{i}]", Int(ge=base),
+                      f"an integer DOF number >= dof_base ({base})") for i, x in enumerate(v)]
     return out if _ok(*out) else _BAD
 
 
@@ -125,10 +124,10 @@ def _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes, fmax,
         extra["mass_normalised"] = chk.boolean(d, path, "mass_normalised", None)
         res["mass_normalised"] = extra["mass_normalised"]
     else:
-        base = chk.get_number(d, path, "dof_base", _Num(
-            "0 (DOFs numbered from 0) or 1 (from 1)", ge=0, le=1, integer=True, default=0))
-        sign = chk.get_number(d, path, "rotation_sign", _Num(
-            "1 (rotation DOF = +dw/dx) or -1 (= -dw/dx)", default=1.0))
+        base = chk.get_number(d, path, "dof_base", Int(ge=0, le=1),
+                              "0 (DOFs numbered from 0) or 1 (from 1)", default=0)
+        sign = chk.get_number(d, path, "rotation_sign", float,
+                              "1 (rotation DOF = +dw/dx) or -1 (= -dw/dx)", default=1.0)
         if _ok(sign) and sign not in (1, -1):
             sign = chk.error("bridge.rotation_sign", d["rotation_sign"],
                              "1 (rotation DOF = +dw/dx) or -1 (= -dw/dx)")

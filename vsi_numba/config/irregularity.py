@@ -15,12 +15,11 @@ from vsi_numba.config._check import (
     _drop_none,
     _is_number,
     _join,
-    _Num,
     _ok,
     _Sentinel,
 )
 from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import expected_of
+from vsi_numba.config.schema._fields import expected_of, item_type
 from vsi_numba.model import irregularity as _irr
 
 IRREGULARITY_KINDS = ("none", "cosine", "step", "psd", "file")
@@ -111,7 +110,7 @@ def _irregularity_section(chk, d, base_dir: Path) -> _IrregularitySpec | _Sentin
         else:
             seeds = chk.number_list(
                 d["seeds"], "irregularity.seeds",
-                _Num("an integer seed 0 <= seed < 2^63", ge=0, lt=2**63, integer=True),
+                item_type(_m.PsdIrregularity, "seeds"), "an integer seed 0 <= seed < 2^63",
                 expected="a non-empty list of distinct integer seeds >= 0", max_len=10_000,
                 scalar_ok=True)
             if _is_number(seeds):

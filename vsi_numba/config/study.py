@@ -16,14 +16,13 @@ from vsi_numba.config._check import (
     _as_list,
     _drop_none,
     _is_number,
-    _Num,
     _ok,
     _resolve,
     _Sentinel,
 )
 from vsi_numba.config.limits import MAX_SPEEDS
 from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import keys_of
+from vsi_numba.config.schema._fields import Num, item_type, keys_of
 from vsi_numba.config.variants import _vary_axes
 from vsi_numba.en1991 import (
     ALPHA_CLAUSE,
@@ -46,7 +45,9 @@ class _StudySpec:
     axes: list
 
 
-_SPEED = _Num(f"a speed > 0 km/h (at most {SPEED_BOUND_KMH:g})", gt=0, le=SPEED_BOUND_KMH)
+#: A speed of the study: the declared type of one of study.speeds_kmh, and its expectation
+_SPEED = item_type(_m.Study, "speeds_kmh")
+_SPEED_EXPECTED = f"a speed > 0 km/h (at most {SPEED_BOUND_KMH:g})"
 
 
 def _speed_grid(start, stop, step) -> np.ndarray:
@@ -92,7 +93,8 @@ def _study_section(chk, d, default_output: str, base_dir: Path, profile=None
                     else:
                         speeds = _speed_grid(vals["start"], vals["stop"], vals["step"]).tolist()
         else:
-            speeds = chk.number_list(raw, "study.speeds_kmh", _SPEED, expected=expected,
+            speeds = chk.number_list(raw, "study.speeds_kmh", _SPEED, _SPEED_EXPECTED,
+                                     expected=expected,
                                      scalar_ok=True, max_len=MAX_SPEEDS)
             if _is_number(speeds):
                 speeds = [speeds]
@@ -121,6 +123,7 @@ def _study_section(chk, d, default_output: str, base_dir: Path, profile=None
     hist = None
     if "history_speeds_kmh" in d:
         hist = chk.number_list(d["history_speeds_kmh"], "study.history_speeds_kmh", _SPEED,
+                               _SPEED_EXPECTED,
                                expected="a list of speeds (km/h) taken from study.speeds_kmh",
                                scalar_ok=True, min_len=0)
         if _is_number(hist):
@@ -139,9 +142,10 @@ def _study_section(chk, d, default_output: str, base_dir: Path, profile=None
     if profile is not None:  # the code profile's range (a national annex may widen it)
         lo, hi = profile["classification_factor_min"], profile["classification_factor_max"]
         clause = profile.clause("classification_factor_min", "classification_factor_max")
-    alpha = chk.get_number(d, path, "classification_factor", _Num(
+    alpha = chk.get_number(
+        d, path, "classification_factor", Num(ge=lo, le=hi),
         f"a load classification factor alpha of LM71 in [{lo:g}, {hi:g}] ({clause})",
-        ge=lo, le=hi, default=None))
+        default=None)
     maint = chk.fields(d, path, _m.Study, ["track_maintenance"], notes={
         "track_maintenance": " (the dynamic factor of LM71: 'careful' maintenance Phi_2, "
                              "'standard' Phi_3, EN 1991-2 6.4.5.2)"})["track_maintenance"]

@@ -17,14 +17,13 @@ from vsi_numba.config._check import (
     _drop_none,
     _finite,
     _is_number,
-    _Num,
     _ok,
     _Sentinel,
     _show,
 )
 from vsi_numba.config.limits import MAX_CONFIG_BYTES, MAX_USER_DOFS, MAX_VEHICLES
 from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import keys_of, kinds_of
+from vsi_numba.config.schema._fields import Int, Num, keys_of, kinds_of
 from vsi_numba.model import library as _lib
 from vsi_numba.model import vehicle as _veh
 from vsi_numba.model.library import extra as _extra
@@ -148,7 +147,7 @@ def _user_vehicle(chk, v, path, name):
         chk.error(f"{path}.wheel_dofs", _MISSING, "a list of wheel DOF indices")
     else:
         dofs = chk.number_list(v["wheel_dofs"], f"{path}.wheel_dofs",
-                               _Num(f"a DOF index 0 <= i <= {hi}", ge=0, le=hi, integer=True),
+                               Int(ge=0, le=hi), f"a DOF index 0 <= i <= {hi}",
                                expected="a non-empty list of wheel DOF indices")
         if isinstance(dofs, list) and len(set(dofs)) != len(dofs):
             dofs = chk.error(f"{path}.wheel_dofs", v["wheel_dofs"], "distinct DOF indices")
@@ -158,7 +157,7 @@ def _user_vehicle(chk, v, path, name):
                   "one position (m behind the vehicle's first axle) per wheel DOF")
     else:
         pos = chk.number_list(v["wheel_positions"], f"{path}.wheel_positions",
-                              _Num("a position >= 0 m behind the first axle", ge=0),
+                              Num(ge=0), "a position >= 0 m behind the first axle",
                               expected="a list of wheel positions >= 0 m, one per wheel DOF")
         if isinstance(pos, list) and isinstance(dofs, list) and len(pos) != len(dofs):
             pos = chk.error(f"{path}.wheel_positions", v["wheel_positions"],
@@ -168,11 +167,11 @@ def _user_vehicle(chk, v, path, name):
                             "strictly increasing positions (wheels front to back)")
     grav = None
     if "gravity" in v:
-        grav = chk.number_list(v["gravity"], f"{path}.gravity", _Num("a load in N"),
+        grav = chk.number_list(v["gravity"], f"{path}.gravity", float, "a load in N",
                                expected="a list of static loads (N, positive down), one per DOF",
                                min_len=n or 1, max_len=n)
-    body = chk.get_number(v, path, "body_dof", _Num(
-        f"a DOF index -1 <= i <= {hi} (-1: none)", ge=-1, le=hi, integer=True, default=-1))
+    body = chk.get_number(v, path, "body_dof", Int(ge=-1, le=hi),
+                          f"a DOF index -1 <= i <= {hi} (-1: none)", default=-1)
     if not _ok(*mats.values(), dofs, pos, grav, body) or n is None:
         return _BAD
     try:

@@ -9,8 +9,10 @@ import math
 import re
 from collections.abc import Mapping
 
-from vsi_numba.config._check import ConfigError, _is_number, _key, _Num, _ok, _show
+from vsi_numba.config._check import ConfigError, _is_number, _key, _ok, _show
 from vsi_numba.config.limits import MAX_VARIANTS
+from vsi_numba.config.schema import models as _m
+from vsi_numba.config.schema._fields import item_type
 
 _KEY_PATH = re.compile(r"^[A-Za-z_]\w*(\[\d+\])?(\.[A-Za-z_]\w*(\[\d+\])?)+$")
 _VARY_SECTIONS = ("bridge", "train", "irregularity", "solver", "contact", "track")
@@ -87,7 +89,8 @@ def _vary_axes(chk, d):
                 axes.append(axis)
     if "mass_bounds" in d:
         f = chk.number_list(d["mass_bounds"], "study.mass_bounds",
-                            _Num("a factor on bridge.mass_per_length > 0", gt=0),
+                            item_type(_m.Study, "mass_bounds"),
+                            "a factor on bridge.mass_per_length > 0",
                             expected="factors on bridge.mass_per_length, e.g. [0.9, 1.1] "
                                      "(EN 1991-2 6.4.6.3.2: lower and upper bound)",
                             min_len=1)

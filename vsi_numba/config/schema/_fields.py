@@ -15,6 +15,7 @@ reports it with its declared expectation).
 from __future__ import annotations
 
 import functools
+import math
 import types
 import typing
 from typing import Annotated, Any, Literal, Union
@@ -75,6 +76,47 @@ SLIPS: dict[str, tuple[tuple[str, float], ...]] = {
     "kg m^2/m": (("t m^2/m", 1e3),),
     "km/h": (("m/s", 3.6),),
 }
+
+
+def item_type(model: type[BaseModel], name: str) -> Any:
+    """The declared type of one number of key ``name``: the key's type, or that of one
+    item of its list (``X | list[X]``, ``list[X]``; a table member of a union is not a
+    number)."""
+    tp = model.model_fields[name].annotation
+    members = typing.get_args(tp) if typing.get_origin(tp) in (Union, types.UnionType) \
+        else (tp,)
+    for m in members:
+        if typing.get_origin(m) is list:
+            return typing.get_args(m)[0]
+    return members[0]
+
+
+def number_of(tp, value) -> int | float | None:
+    """``value`` as a number of the declared type ``tp`` (:func:`Num`, :func:`Int`,
+    ``float``, ``int``), or None: a TOML integer for an integer type, a finite number
+    otherwise (no boolean), within the bounds ``tp`` declares."""
+    base, *meta = typing.get_args(tp) if typing.get_origin(tp) is Annotated else (tp,)
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return None
+    if base is int:
+        if not isinstance(value, int):
+            return None
+        x = int(value)
+    else:
+        try:
+            if not math.isfinite(float(value)):
+                return None
+        except OverflowError:  # an int beyond the float range
+            return None
+        x = float(value)
+    for info in meta:
+        for b in getattr(info, "metadata", ()):
+            gt, ge = getattr(b, "gt", None), getattr(b, "ge", None)
+            lt, le = getattr(b, "lt", None), getattr(b, "le", None)
+            if ((gt is not None and not x > gt) or (ge is not None and not x >= ge)
+                    or (lt is not None and not x < lt) or (le is not None and not x <= le)):
+                return None
+    return x
 
 
 def key(default: Any = None, *, doc: str, unit: str = "", expected: str = "",

@@ -147,6 +147,7 @@ _FIG613 = "EN 1991-2 6.4.6.1.1, Fig. 6.13"
 _SIGNATURE = "ERRI D214 RP9 (DER, LIR); EN 1991-2 Annex E, E.2"
 _SN = "EN 1993-1-9 7.1, Fig. 7.1"
 _LAMBDA = "EN 1993-2 9.5.3"
+_SN_STUD = "EN 1994-1-1 6.8.3(3), Fig. 6.12; EN 1994-2 6.8.3"
 
 #: The table: (key, value, unit, clause, description, recalled, applies[, integer/note]).
 TABLE: tuple[Entry, ...] = (
@@ -306,6 +307,16 @@ TABLE: tuple[Entry, ...] = (
     Entry("fatigue_gamma_Mf", 1.35, "1", "EN 1993-1-9 3(7), Table 3.1",
           "partial factor of the fatigue strength gamma_Mf (safe life, high consequence; "
           "default of fatigue.sections.gamma_Mf)", applies="input", limits=PARTIAL_FACTOR),
+    # ------------------------------------------------ fatigue (headed stud connectors)
+    Entry("fatigue_stud_category", 90.0, "MPa", _SN_STUD,
+          "reference shear strength Delta tau_c of headed studs at N_C = 2e6 cycles "
+          "(normal-weight concrete)"),
+    Entry("fatigue_stud_slope", 8.0, "1", _SN_STUD,
+          "slope m of the S-N curve of headed studs (one slope, no cut-off)",
+          limits=Limits(gt=None, ge=1.0, le=20.0)),
+    Entry("fatigue_stud_gamma_Mf", 1.0, "1", "EN 1994-2 2.4.1.2(6)",
+          "partial factor of the fatigue strength of headed studs gamma_Mf,s (default of "
+          "fatigue.studs.gamma_Mf)", applies="input", limits=PARTIAL_FACTOR),
     Entry("fatigue_lambda_1", 0.65, "1", _LAMBDA + ", Table 9.3",
           "lambda_1 (span and traffic mix): about 0.65 for a 20 m simply supported span "
           "under the standard mix; read Table 9.3 for the span and override"),

@@ -1,5 +1,5 @@
-"""``[fatigue]``: the fatigue check of steel details under the dynamic stress histories
-(:mod:`vsi_numba.model.fatigue`, :mod:`vsi_numba.study.fatigue`).
+"""``[fatigue]``: the fatigue check of steel details and of headed stud shear connectors
+under the dynamic stress histories (:mod:`vsi_numba.model.fatigue`, :mod:`vsi_numba.study.fatigue`).
 
 ```toml
 [fatigue]
@@ -14,6 +14,17 @@ detail_category = 71              # MPa, EN 1993-1-9 detail category Delta sigma
 gamma_Ff = 1.0                    # optional (code profile fatigue_gamma_Ff)
 gamma_Mf = 1.35                   # optional (code profile fatigue_gamma_Mf)
 name = "bottom flange, midspan"   # optional
+
+[[fatigue.studs]]                 # optional: headed stud shear connectors
+x = 1.0                           # m from the left end of the deck (the shear there)
+diameter = 0.022                  # m, shank diameter d
+per_row = 4                       # studs per row n
+row_spacing = 0.15                # m, spacing s of the rows
+first_moment = 0.06               # m^3, S of the slab about the composite neutral axis
+second_moment = 0.12              # m^4, I of the composite section (tau = V S s / (I n A))
+gamma_Ff = 1.0                    # optional (code profile fatigue_gamma_Ff)
+gamma_Mf = 1.0                    # optional (code profile fatigue_stud_gamma_Mf)
+name = "studs near the bearing"   # optional
 
 [[fatigue.traffic]]               # the operator's trains (added to the mix)
 train = "ICE3"                    # a library train, AnnexD-1 .. AnnexD-12, or an axle-load
@@ -39,19 +50,23 @@ DETAIL_CATEGORIES = (36, 40, 45, 50, 56, 63, 71, 80, 90, 100, 112, 125, 140, 160
 #: (:class:`~vsi_numba.config.schema.models.Fatigue` and its tables).
 KEYS = keys_of(_m.Fatigue)
 SECTION_KEYS = keys_of(_m.FatigueSection)
+STUD_KEYS = keys_of(_m.FatigueStud)
 TRAFFIC_KEYS = keys_of(_m.FatigueTraffic)
 MODELS = _m.FATIGUE_MODELS
 #: The scalar keys of ``[[fatigue.sections]]`` (read by their declaration).
 _SECTION_NUMBERS = ("x", "section_modulus", "detail_category", "gamma_Ff", "gamma_Mf")
+#: The scalar keys of ``[[fatigue.studs]]``.
+_STUD_NUMBERS = ("x", "diameter", "per_row", "row_spacing", "first_moment",
+                 "second_moment", "gamma_Ff", "gamma_Mf")
 
 
 def _fatigue_section(chk, d, profile, bridge=_BAD, study_axes=(), base=None
                      ) -> dict | None:
     """Validate ``[fatigue]``; return it with every default filled (None without it).
 
-    ``bridge`` (the validated ``[bridge]``) bounds the sections' x; ``study_axes`` (the
-    variants of ``study.vary``) are refused: the fatigue runs use the configuration's
-    own bridge.
+    ``bridge`` (the validated ``[bridge]``) bounds the sections' x.  With ``study.vary``
+    the fatigue runs follow the variants (each variant's own bridge); ``[fatigue]``
+    itself is not a section ``study.vary`` may vary, so it is the same in every variant.
     """
     if d is _MISSING:
         return None
@@ -69,16 +84,20 @@ def _fatigue_section(chk, d, profile, bridge=_BAD, study_axes=(), base=None
         out["mix"] = mix
     out["sections"] = _sections(chk, d.get("sections", _MISSING), profile, bridge)
     out["traffic"] = _traffic(chk, d.get("traffic", _MISSING), mix is not None, base)
-    if study_axes:
-        chk.error("fatigue", "{...}", "no [fatigue] with study.vary (the fatigue runs use "
-                  "the configuration's own bridge): run the fatigue study without vary")
-        return _BAD
+    if "studs" in d:
+        out["studs"] = _studs(chk, d["studs"], profile, bridge)
     static = getattr(getattr(bridge, "model", None), "static", None) if _ok(bridge) else None
     if _ok(bridge) and bridge.kind != "rigid" and (static is None
                                                    or "moment" not in static.effects):
         chk.error("fatigue", "{...}", "a deck that gives bending moments (a beam deck, or "
                   "matrices with rotation DOFs); this bridge.kind = "
                   f"'{bridge.kind}' gives none")
+        return _BAD
+    if _ok(bridge) and out.get("studs") and bridge.kind != "rigid" and (
+            static is None or "shear" not in static.effects):
+        chk.error("fatigue.studs", "[...]", "a deck that gives shear forces (a beam deck, "
+                  f"or matrices with rotation DOFs); this bridge.kind = '{bridge.kind}' "
+                  "gives none")
         return _BAD
     if _ok(bridge) and bridge.kind == "rigid":
         chk.error("fatigue", "{...}", "a deck with bending moments (bridge.kind "
@@ -134,6 +153,39 @@ def _sections(chk, v, profile, bridge):
             chk.warn(f"{p}.detail_category = {r['detail_category']:g} MPa is not a detail "
                      "category of EN 1993-1-9 (" + ", ".join(map(str, DETAIL_CATEGORIES))
                      + "): used as given", kind="plausibility", keys=[f"{p}.detail_category"])
+        out.append(r)
+    return _BAD if any(o is _BAD for o in out) else out
+
+
+def _studs(chk, v, profile, bridge):
+    path = "fatigue.studs"
+    what = "with x, diameter, per_row, row_spacing, first_moment and second_moment"
+    if not isinstance(v, list) or not v:
+        return chk.error(path, v, f"a list of tables [[fatigue.studs]] {what}")
+    out = []
+    for i, s in enumerate(v):
+        p = f"{path}[{i}]"
+        if chk.table(s, p, STUD_KEYS, what=" " + what) is _BAD:
+            out.append(_BAD)
+            continue
+        r = chk.fields(s, p, _m.FatigueStud, _STUD_NUMBERS)
+        if r["gamma_Ff"] is None:  # the defaults are the code profile's
+            r["gamma_Ff"] = profile["fatigue_gamma_Ff"]
+        if r["gamma_Mf"] is None:
+            r["gamma_Mf"] = profile["fatigue_stud_gamma_Mf"]
+        r = {k: (float(v) if _ok(v) else v) for k, v in r.items()}
+        name = chk.fields(s, p, _m.FatigueStud, ["name"])["name"]
+        if isinstance(name, str) and not name.strip():
+            name = chk.error(f"{p}.name", name, expected_of(_m.FatigueStud, "name"))
+        if name is _BAD or not _ok(*r.values()):
+            out.append(_BAD)
+            continue
+        if name is not None:
+            r["name"] = name.strip()
+        if _ok(bridge) and r["x"] > bridge.length + 1e-9:
+            chk.error(f"{p}.x", r["x"], f"a position on the deck, 0 to {bridge.length:g} m")
+            out.append(_BAD)
+            continue
         out.append(r)
     return _BAD if any(o is _BAD for o in out) else out
 
@@ -258,7 +310,7 @@ def fatigue_budget(chk, section: dict, bridge, solver: dict, profile, base_dir,
                               profile["fatigue_free_vibration_decay"]),
                MAX_FATIGUE_FREE_VIBRATION)
     dt = solver["dt"]
-    n_sec = len(section["sections"])
+    n_sec = len(section["sections"]) + len(section.get("studs") or ())
     n_mix = len(traffic_of({"mix": section["mix"]})) if section.get("mix") else 0
     for i, row in enumerate(traffic_of(section)):
         try:
@@ -307,7 +359,10 @@ def traffic_of(section: dict) -> list[dict]:
 def describe(section: dict) -> str:
     """One line for ``vsi check``: sections and traffic."""
     t = traffic_of(section)
-    return (f"fatigue: {len(section['sections'])} section(s), {len(t)} train(s) in the "
+    studs = len(section.get("studs") or ())
+    return (f"fatigue: {len(section['sections'])} section(s)"
+            + (f", {studs} stud layout(s)" if studs else "")
+            + f", {len(t)} train(s) in the "
             f"traffic ({sum(r['per_day'] for r in t):g} per day), design life "
             f"{section['design_life_years']:g} years" + (
                 f", EN 1991-2 Annex D {section['mix']} mix" if section.get("mix") else ""))

@@ -394,6 +394,47 @@ FATIGUE = {
                            "train / g", {}),
     "fatigue_free_vibration": (("fatigue_traffic",), "s", "free vibration simulated after "
                                "the last axle left (until decayed)", {}),
+    # headed stud shear connectors ([[fatigue.studs]]): tau = V S s / (I n pi d^2 / 4)
+    "fatigue_stud_damage": (
+        ("fatigue_stud",), "1", "Miner's damage sum of the studs over the design life (all "
+        "trains), stud S-N curve (EN 1994-1-1 6.8.3) and factored shear-stress ranges",
+        {"cell_methods": "fatigue_traffic: sum"}),
+    "fatigue_stud_damage_per_train": (
+        ("fatigue_traffic", "fatigue_stud"), "1",
+        "Miner's damage sum of the studs of one train over the design life", {}),
+    "fatigue_stud_damage_per_passage": (
+        ("fatigue_traffic", "fatigue_stud"), "1",
+        "Miner's damage of the studs of one passage of the train (free vibration "
+        "included)", {}),
+    "fatigue_stud_cycles": (
+        ("fatigue_traffic", "fatigue_stud", "stress_range"), "1",
+        "rainflow cycles of the stud shear stress per passage in each range bin "
+        "(unfactored ranges; half cycles count 0.5)", {}),
+    "fatigue_stud_max_shear_stress_range": (
+        ("fatigue_traffic", "fatigue_stud"), "MPa",
+        "largest rainflow range of the stud shear stress of one passage (unfactored)",
+        {"sign_convention": "ranges: the sign of the shear (V = dM/dx) does not enter"}),
+    "fatigue_stud_equivalent_shear_stress_range": (
+        ("fatigue_stud",), "MPa",
+        "damage-equivalent stud shear-stress range Delta tau_E2 at 2e6 cycles, unfactored "
+        "(from the Miner sum, slope m of the stud curve)", {}),
+    "fatigue_stud_shear_stress_per_shear_force": (
+        ("fatigue_stud",), "m-2", "stud shear stress per unit vertical shear force: "
+        "S s / (I n pi d^2 / 4)", {}),
+    "fatigue_stud_diameter": (("fatigue_stud",), "m", "shank diameter d of the studs", {}),
+    "fatigue_stud_per_row": (("fatigue_stud",), "1", "studs per row n", {}),
+    "fatigue_stud_row_spacing": (("fatigue_stud",), "m", "spacing s of the stud rows", {}),
+    "fatigue_stud_first_moment": (("fatigue_stud",), "m3", "first moment S of the slab "
+                                  "about the composite neutral axis", {}),
+    "fatigue_stud_second_moment": (("fatigue_stud",), "m4", "second moment I of the "
+                                   "composite section", {}),
+    "fatigue_stud_category": (("fatigue_stud",), "MPa", "reference shear strength Delta "
+                              "tau_c of the studs at 2e6 cycles", {}),
+    "fatigue_stud_slope": (("fatigue_stud",), "1", "slope m of the stud S-N curve", {}),
+    "fatigue_stud_gamma_Ff": (("fatigue_stud",), "1", "partial factor of the fatigue loads "
+                              "(studs)", {}),
+    "fatigue_stud_gamma_Mf": (("fatigue_stud",), "1", "partial factor gamma_Mf,s of the "
+                              "stud fatigue strength", {}),
 }
 
 COORDS = {

@@ -1,6 +1,7 @@
 """Fatigue of steel details under the dynamic stress histories: S-N curves of
 EN 1993-1-9, rainflow counting, Miner's rule, the damage-equivalent stress range and the
-simplified lambda-method of EN 1993-2 (values: :mod:`vsi_numba.code_profile`, [R]).
+simplified lambda-method of EN 1993-2; the S-N curve of headed stud shear connectors of
+EN 1994-1-1 6.8.3 (values: :mod:`vsi_numba.code_profile`, [R]).
 
 S-N curve (EN 1993-1-9 7.1, Fig. 7.1 [R]) of a detail category Delta sigma_C (MPa, the
 range at N_C = 2e6 cycles), with the design strength Delta sigma_C / gamma_Mf::
@@ -98,6 +99,62 @@ class SNCurve:
         """Factored range at N_C cycles that does the damage ``damage`` (MPa):
         strength * D^(1/m1)."""
         return self.strength * max(float(damage), 0.0) ** (1.0 / self.m1)
+
+
+@dataclass(frozen=True)
+class StudCurve:
+    """S-N curve of headed stud shear connectors (EN 1994-1-1 6.8.3(3) [R]), design
+    values: (Delta tau_R)^m N_R = (Delta tau_c)^m N_C with one slope m = 8 and no
+    cut-off, strength Delta tau_c / gamma_Mf,s.  Ranges in MPa."""
+
+    category: float = 90.0  # Delta tau_c, MPa
+    gamma_Mf: float = 1.0
+    m: float = 8.0
+    n_c: float = 2e6
+
+    @classmethod
+    def of(cls, gamma_Mf: float, profile: CodeProfile | None = None) -> StudCurve:
+        """The curve of ``profile`` (category, slope, N_C) with ``gamma_Mf``."""
+        p = resolve(profile)
+        return cls(p["fatigue_stud_category"], float(gamma_Mf), p["fatigue_stud_slope"],
+                   p["fatigue_reference_cycles"])
+
+    @property
+    def strength(self) -> float:
+        """Design reference strength Delta tau_c / gamma_Mf,s (MPa)."""
+        return self.category / self.gamma_Mf
+
+    def cycles(self, stress_range) -> np.ndarray:
+        """Cycles to failure N of each (factored) shear-stress range (MPa); inf at 0."""
+        s = np.asarray(stress_range, float)
+        with np.errstate(divide="ignore"):
+            return self.n_c * (self.strength / s) ** self.m
+
+    def damage(self, stress_range, counts) -> float:
+        """Miner's sum of ``counts`` cycles at each factored ``stress_range`` (MPa)."""
+        n = self.cycles(stress_range)
+        c = np.asarray(counts, float)
+        return float(np.sum(np.where(np.isfinite(n), c / n, 0.0)))
+
+    def equivalent_range(self, damage: float) -> float:
+        """Factored range at N_C cycles that does ``damage`` (MPa): strength D^(1/m)
+        (EN 1994-2 6.8.7.2(1): gamma_Ff Delta tau_E2 <= Delta tau_c / gamma_Mf,s is
+        then D <= 1)."""
+        return self.strength * max(float(damage), 0.0) ** (1.0 / self.m)
+
+
+def stud_stress_per_shear(first_moment: float, second_moment: float, row_spacing: float,
+                          per_row: float, diameter: float) -> float:
+    """Shear stress in the studs per unit vertical shear (Pa per N = m^-2).
+
+    The longitudinal shear flow of the uncracked composite section is v_L = V S / I (N
+    per m; S the first moment of the slab about the composite neutral axis, I the second
+    moment of the composite section, both in the units of the steel), one row of
+    ``per_row`` studs takes the flow of ``row_spacing`` and each stud its share over its
+    shank area pi d^2 / 4: tau = V S s / (I n pi d^2 / 4).
+    """
+    area = per_row * np.pi * diameter**2 / 4.0
+    return float(first_moment / second_moment * row_spacing / area)
 
 
 def rainflow_cycles(series) -> tuple[np.ndarray, np.ndarray]:

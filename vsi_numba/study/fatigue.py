@@ -49,14 +49,43 @@ def _train(row, base_dir):
     return fatigue_train(row, base_dir)
 
 
+#: Results that depend on the bridge: with ``study.vary`` they get a leading ``variant``
+#: dimension (one row per variant); the rest (sections, studs, traffic) is the same in
+#: every variant.
+PER_VARIANT = ("histogram", "damage_per_passage", "damage_per_train", "damage",
+               "max_range", "cycles", "equivalent", "free_vibration", "stud_histogram",
+               "stud_damage_per_passage", "stud_damage_per_train", "stud_damage",
+               "stud_max_range", "stud_equivalent")
+
+
 def fatigue_runs(cfg, progress=None) -> dict:
-    """Run the traffic of ``cfg``'s ``[fatigue]`` and count the stress cycles.
+    """Run the traffic of ``cfg``'s ``[fatigue]`` and count the stress cycles; with
+    ``study.vary``, over each variant's bridge (its own configuration), stacked along a
+    leading variant axis (:data:`PER_VARIANT`).
 
     Returns
     -------
     dict
-        Arrays (see :func:`write`) and ``seconds`` (wall time of the runs).
+        Arrays (see :func:`write`) and ``seconds`` (wall time of the runs);
+        ``n_variants`` (0 without variants).
     """
+    t0 = _time.perf_counter()
+    if not getattr(cfg, "variants", None):
+        out = _fatigue_runs(cfg, progress)
+        out["n_variants"] = 0
+        return out
+    runs = [_fatigue_runs(vcfg, progress) for _, vcfg in cfg.variants]
+    out = dict(runs[0])
+    for k in PER_VARIANT:
+        if k in out:
+            out[k] = np.stack([r[k] for r in runs])
+    out["n_variants"] = len(runs)
+    out["seconds"] = _time.perf_counter() - t0
+    return out
+
+
+def _fatigue_runs(cfg, progress=None) -> dict:
+    """:func:`fatigue_runs` of one bridge (a configuration without variants)."""
     from vsi_numba.code_profile import resolve
     from vsi_numba.config.fatigue import traffic_of
     from vsi_numba.config.physics import train_extent
@@ -82,6 +111,17 @@ def fatigue_runs(cfg, progress=None) -> dict:
     frees = [min(fat.decay_time(cfg.bridge_for(t).omega, cfg.bridge_for(t).damping,
                                 profile["fatigue_free_vibration_decay"]), MAX_FREE_VIBRATION)
              for t in trains]
+    studs = section.get("studs") or []
+    xv = np.array([s["x"] for s in studs], float)
+    per_v = np.array([fat.stud_stress_per_shear(s["first_moment"], s["second_moment"],
+                                                s["row_spacing"], s["per_row"],
+                                                s["diameter"]) for s in studs], float)
+    stud_curves = [fat.StudCurve.of(s["gamma_Mf"], profile) for s in studs]
+    gfv = np.array([s["gamma_Ff"] for s in studs], float)
+    n_v = xv.size
+    # the studs' shear at points of their own after the sections' (the sections' moments
+    # are those of the sections alone)
+    points = np.concatenate([xs, xv]) if n_v else xs
     x_range = profile_range(base.length, [train_extent(t) for t in trains],
                             settings.approach, max(frees))
     track = cfg.irregularities(*x_range)[0][1]
@@ -92,17 +132,28 @@ def fatigue_runs(cfg, progress=None) -> dict:
     cycles = np.zeros((n_t, n_s))
     free = np.zeros(n_t)
     tonnes = np.zeros(n_t)
+    v_hist = np.zeros((n_t, n_v, fat.N_BINS))
+    v_pass = np.zeros((n_t, n_v))
+    v_max = np.zeros((n_t, n_v))
     for i, (row, train) in enumerate(zip(traffic, trains, strict=True)):
         bridge = cfg.bridge_for(train)
         fv = free[i] = frees[i]
         run = dataclasses.replace(settings, free_vibration=fv)
-        sim = simulate(bridge, train, row["speed_kmh"] / 3.6, track, run, output_points=xs,
-                       save_histories=True)
+        sim = simulate(bridge, train, row["speed_kmh"] / 3.6, track, run,
+                       output_points=points, save_histories=True)
         if int(sim.attrs.get("status", 0)) != 0:
             raise FatigueError(f"fatigue run of {row['train']} at {row['speed_kmh']:g} km/h "
                                f"failed: {sim.attrs.get('message', '')}")
-        moment = np.asarray(sim["bending_moment"].values, float)  # (time, section), N m
+        moment = np.asarray(sim["bending_moment"].values, float)[:, :n_s]  # N m
+        shear = np.asarray(sim["shear_force"].values, float)[:, n_s:] if n_v else None
         del sim
+        for j in range(n_v):
+            tau = shear[:, j] * per_v[j] / 1e6  # MPa
+            r, c = fat.rainflow_cycles(tau)
+            v_hist[i, j] = fat.histogram(r, c)
+            v_pass[i, j] = stud_curves[j].damage(gfv[j] * r, c)
+            v_max[i, j] = r.max() if r.size else 0.0
+        del shear
         for j in range(n_s):
             stress = moment[:, j] / w[j] / 1e6  # MPa
             r, c = fat.rainflow_cycles(stress)
@@ -125,7 +176,27 @@ def fatigue_runs(cfg, progress=None) -> dict:
     damage = damage_per_train.sum(axis=0)
     equivalent = np.array([curves[j].equivalent_range(damage[j]) / gff[j]
                            for j in range(n_s)])
+    studs_out = {}
+    if n_v:
+        v_train = v_pass * passages[:, None]
+        v_damage = v_train.sum(axis=0)
+        studs_out = {
+            "stud_x": xv, "stud_names": [s.get("name") or f"studs at x = {x:g} m"
+                                         for s, x in zip(studs, xv, strict=True)],
+            "stud_stress_per_shear": per_v,
+            **{f"stud_{k}": np.array([s[k] for s in studs], float)
+               for k in ("diameter", "per_row", "row_spacing", "first_moment",
+                         "second_moment", "gamma_Ff", "gamma_Mf")},
+            "stud_category": np.array([c.category for c in stud_curves], float),
+            "stud_slope": np.array([c.m for c in stud_curves], float),
+            "stud_histogram": v_hist, "stud_damage_per_passage": v_pass,
+            "stud_damage_per_train": v_train, "stud_damage": v_damage,
+            "stud_max_range": v_max,
+            "stud_equivalent": np.array([stud_curves[j].equivalent_range(v_damage[j])
+                                         / gfv[j] for j in range(n_v)]),
+        }
     return {
+        **studs_out,
         "x": xs, "names": [s.get("name") or f"x = {x:g} m" for s, x in zip(secs, xs,
                                                                            strict=True)],
         "section_modulus": w, "detail_category": np.array([s["detail_category"]
@@ -164,7 +235,34 @@ def write(path, res: dict) -> None:
         "fatigue_train_mass": res["tonnes"],
         "fatigue_free_vibration": res["free_vibration"],
     }
+    studs = {
+        "fatigue_stud_damage": "stud_damage",
+        "fatigue_stud_damage_per_train": "stud_damage_per_train",
+        "fatigue_stud_damage_per_passage": "stud_damage_per_passage",
+        "fatigue_stud_cycles": "stud_histogram",
+        "fatigue_stud_max_shear_stress_range": "stud_max_range",
+        "fatigue_stud_equivalent_shear_stress_range": "stud_equivalent",
+        "fatigue_stud_shear_stress_per_shear_force": "stud_stress_per_shear",
+        "fatigue_stud_diameter": "stud_diameter",
+        "fatigue_stud_per_row": "stud_per_row",
+        "fatigue_stud_row_spacing": "stud_row_spacing",
+        "fatigue_stud_first_moment": "stud_first_moment",
+        "fatigue_stud_second_moment": "stud_second_moment",
+        "fatigue_stud_category": "stud_category",
+        "fatigue_stud_slope": "stud_slope",
+        "fatigue_stud_gamma_Ff": "stud_gamma_Ff",
+        "fatigue_stud_gamma_Mf": "stud_gamma_Mf",
+    }
+    if "stud_x" in res:
+        data.update({name: res[k] for name, k in studs.items()})
+    varied = {"fatigue_damage", "fatigue_damage_per_train", "fatigue_damage_per_passage",
+              "fatigue_cycles", "fatigue_max_stress_range", "fatigue_equivalent_stress_range",
+              "fatigue_free_vibration", *(n for n, k in studs.items() if k in PER_VARIANT)}
+    lead = ("variant",) if res.get("n_variants") else ()
     with netCDF4.Dataset(path, "a") as nc:
+        if lead and "variant" not in nc.dimensions:
+            raise FatigueError("the results file has no variant dimension for the fatigue "
+                               "results of a study of variants")
         nc.createDimension("fatigue_section", res["x"].size)
         nc.createDimension("fatigue_traffic", len(res["train"]))
         nc.createDimension("stress_range", fat.N_BINS)
@@ -184,8 +282,20 @@ def write(path, res: dict) -> None:
         for k, name in enumerate(res["names"]):
             v[k] = str(name)
         v.setncatts({"units": "1", "long_name": "name of the fatigue section"})
+        if "stud_x" in res:
+            nc.createDimension("fatigue_stud", res["stud_x"].size)
+            v = nc.createVariable("fatigue_stud", "f8", ("fatigue_stud",))
+            v[:] = res["stud_x"]
+            v.setncatts({"units": "m", "long_name": "stud shear connectors (fatigue): "
+                         "distance from the left end of the bridge"})
+            v = nc.createVariable("fatigue_stud_name", str, ("fatigue_stud",))
+            for k, name in enumerate(res["stud_names"]):
+                v[k] = str(name)
+            v.setncatts({"units": "1", "long_name": "name of the stud layout"})
         for name, values in data.items():
             dims, units, long_name, extra = FATIGUE[name]
+            if name in varied:
+                dims = (*lead, *dims)
             var = nc.createVariable(name, "f8", dims)
             var[:] = np.asarray(values, float)
             var.setncatts({"units": units, "long_name": long_name, **extra})

@@ -1,7 +1,8 @@
 """The report's fatigue section (results of a study with ``[fatigue]``,
 :mod:`vsi_numba.study.fatigue`): Miner's damage per section and per train over the design
 life, the damage-equivalent stress range against the lambda-method, the verdict per
-section, and the summary rows."""
+section, the same for the headed stud shear connectors (``[[fatigue.studs]]``), the
+summary rows, and the table over the variants of a parametric study."""
 
 from __future__ import annotations
 
@@ -15,6 +16,9 @@ from vsi_numba.analysis.report.safe import md
 CLAUSES = ("EN 1991-2 6.4.6.6 (fatigue with dynamic analysis); EN 1993-1-9 7.1 and 8 "
            "(S-N curves, Miner); EN 1993-2 9.5.3 (lambda-method); EN 1991-2 Annex D "
            "(traffic) [R]")
+#: Clauses of the stud check.
+STUD_CLAUSES = ("EN 1994-1-1 6.8.3 (stud S-N curve); EN 1994-2 6.8.7.2(1) (damage "
+                "equivalent check) [R]")
 
 
 def has_fatigue(ds) -> bool:
@@ -83,6 +87,29 @@ def _rows(ds, lm=None) -> pd.DataFrame:
     })
 
 
+def has_studs(ds) -> bool:
+    """True when the results hold the stud fatigue variables."""
+    return "fatigue_stud_damage" in ds.variables
+
+
+def _stud_rows(ds) -> pd.DataFrame:
+    d = np.asarray(ds["fatigue_stud_damage"].values, float)
+    cat = np.asarray(ds["fatigue_stud_category"].values, float)
+    gff = np.asarray(ds["fatigue_stud_gamma_Ff"].values, float)
+    gmf = np.asarray(ds["fatigue_stud_gamma_Mf"].values, float)
+    e2 = np.asarray(ds["fatigue_stud_equivalent_shear_stress_range"].values, float)
+    return pd.DataFrame({
+        "section": [str(n) for n in ds["fatigue_stud_name"].values],
+        "x": np.asarray(ds["fatigue_stud"].values, float),
+        "d": np.asarray(ds["fatigue_stud_diameter"].values, float),
+        "n": np.asarray(ds["fatigue_stud_per_row"].values, float),
+        "s": np.asarray(ds["fatigue_stud_row_spacing"].values, float),
+        "factor": np.asarray(ds["fatigue_stud_shear_stress_per_shear_force"].values, float),
+        "category": cat, "gamma_Ff": gff, "gamma_Mf": gmf, "damage": d, "e2": e2,
+        "util": gff * e2 / (cat / gmf),
+    })
+
+
 def summary_rows(ds) -> list[dict]:
     """Rows of the report's summary table (columns of
     :data:`vsi_numba.analysis.checks.SUMMARY_COLUMNS`): Miner's damage per section."""
@@ -100,6 +127,17 @@ def summary_rows(ds) -> list[dict]:
                     "result": "pass" if r["damage"] <= 1.0 else "FAIL",
                     "governing_train": trains[k], "governing_speed_kmh": float(speeds[k]),
                     "clause": "EN 1993-1-9 8(3), EN 1991-2 6.4.6.6 [R]"})
+    if has_studs(ds):
+        per_train = np.asarray(ds["fatigue_stud_damage_per_train"].values, float)
+        for j, r in _stud_rows(ds).iterrows():
+            k = int(np.argmax(per_train[:, j]))
+            out.append({"check": f"Stud fatigue damage (Miner), {r['section']}",
+                        "value": r["damage"], "units": "1", "limit": 1.0,
+                        "margin": 1.0 - r["damage"], "utilisation": r["damage"],
+                        "result": "pass" if r["damage"] <= 1.0 else "FAIL",
+                        "governing_train": trains[k],
+                        "governing_speed_kmh": float(speeds[k]),
+                        "clause": "EN 1994-2 6.8.7.2(1), EN 1994-1-1 6.8.3 [R]"})
     return out
 
 
@@ -165,11 +203,99 @@ def fatigue_section(ds) -> Section | None:
     blocks.append(Table(pd.DataFrame(tab), "Fatigue damage per train over the design life "
                                            "and the largest stress range of one passage "
                                            "(unfactored)"))
+    if has_studs(ds):
+        blocks += _stud_blocks(ds, trains, speeds, per_day, years)
     blocks.append(Figure(_figure(ds, rows), "fatigue_spectra.png",
                          "Rainflow stress-range spectra over the design life (all trains, "
                          "cycles per range bin, cumulative from the largest range) and the "
                          "design S-N curve of each section"))
     return Section("Fatigue", blocks)
+
+
+def _stud_blocks(ds, trains, speeds, per_day, years) -> list:
+    """The verdicts, the method and the tables of the headed stud shear connectors."""
+    rows = _stud_rows(ds)
+    slope = float(np.asarray(ds["fatigue_stud_slope"].values, float)[0])
+    verdicts = []
+    for _, r in rows.iterrows():
+        ok = r["damage"] <= 1.0
+        verdicts.append(f"- {md(r['section'])} (studs at x = {r['x']:g} m, {r['n']:g} × "
+                        f"⌀{1e3 * r['d']:g} mm every {r['s']:g} m): Miner's damage over "
+                        f"{years:g} years **{r['damage']:.3g}** → "
+                        f"**{'pass' if ok else 'FAIL'}** (margin {1 - r['damage']:+.3g}); "
+                        f"γ_Ff·Δτ_E2 / (Δτ_c/γ_Mf,s) = {r['util']:.3g}.")
+    method = (
+        "Studs: the vertical shear V(t) of each passage at the studs' x gives the "
+        "longitudinal shear flow of the uncracked composite section v_L = V·S/I (S the "
+        "first moment of the slab about the composite neutral axis, I the composite "
+        "second moment); a row of n studs every s takes v_L·s, each stud its share over "
+        "its shank πd²/4: τ = V·S·s / (I·n·πd²/4). The history τ(t), free vibration "
+        "included, is counted by rainflow; the factored ranges γ_Ff·Δτ meet the stud S-N "
+        f"curve of EN 1994-1-1 6.8.3 [R] (Δτ_c at 2·10⁶ cycles, slope m = {slope:g}, no "
+        "cut-off) divided by γ_Mf,s; the check of EN 1994-2 6.8.7.2(1) [R] "
+        "γ_Ff·Δτ_E2 ≤ Δτ_c/γ_Mf,s with the damage-equivalent range of the dynamic "
+        f"histories (γ_Ff·Δτ_E2 = (Δτ_c/γ_Mf,s)·D^(1/{slope:g})) is Miner's D ≤ 1. Not "
+        "made here: the λ_v value of EN 1994-2 6.8.6.2 (not computed) and the interaction "
+        "with the stress of a steel flange in tension, EN 1994-2 6.8.7.2(2).")
+    frame = pd.DataFrame({
+        "Studs": rows["section"], "x [m]": rows["x"], "d [mm]": 1e3 * rows["d"],
+        "per row": rows["n"], "row spacing [m]": rows["s"],
+        "τ / V [MPa/MN]": rows["factor"], "Δτ_c [MPa]": rows["category"],
+        "γ_Ff": rows["gamma_Ff"], "γ_Mf,s": rows["gamma_Mf"], "Miner D": rows["damage"],
+        "Δτ_E2 dynamic [MPa]": rows["e2"],
+        "Result": [Markdown("pass") if d <= 1 else Markdown("**FAIL**")
+                   for d in rows["damage"]],
+    })
+    per_train = np.asarray(ds["fatigue_stud_damage_per_train"].values, float)
+    max_range = np.asarray(ds["fatigue_stud_max_shear_stress_range"].values, float)
+    tab = {"Train": trains, "Speed [km/h]": speeds, "Trains per day": per_day}
+    for j, name in enumerate(rows["section"]):
+        tab[f"max Δτ [MPa], {name}"] = max_range[:, j]
+        tab[f"D, {name}"] = per_train[:, j]
+    return ["\n".join(verdicts), method,
+            Table(frame, "Stud fatigue verdict per layout (" + STUD_CLAUSES + ")"),
+            Table(pd.DataFrame(tab), "Stud fatigue damage per train over the design life "
+                                     "and the largest shear-stress range of one passage "
+                                     "(unfactored)")]
+
+
+def variants_section(ds) -> Section | None:
+    """The fatigue results over the variants of a parametric study: Miner's damage per
+    section (and studs) and variant, and the variant where fatigue governs; None without
+    fatigue results or without a ``variant`` dimension on them."""
+    if not has_fatigue(ds) or "variant" not in ds["fatigue_damage"].dims:
+        return None
+    from vsi_numba.analysis.variants import variant_label
+
+    n = ds.sizes["variant"]
+    names = [str(x) for x in ds["fatigue_section_name"].values]
+    cols = {f"D, {m}": np.asarray(ds["fatigue_damage"].values, float)[:, j]
+            for j, m in enumerate(names)}
+    if has_studs(ds):
+        studs = [str(x) for x in ds["fatigue_stud_name"].values]
+        cols.update({f"D studs, {m}": np.asarray(ds["fatigue_stud_damage"].values,
+                                                 float)[:, j]
+                     for j, m in enumerate(studs)})
+    d = np.column_stack(list(cols.values()))
+    worst = d.max(axis=1)
+    gov = int(np.nanargmax(worst))
+    which = list(cols)[int(np.nanargmax(d[gov]))].removeprefix("D, ").removeprefix(
+        "D studs, ")
+    labels = [variant_label(ds, k) for k in range(n)]
+    frame = pd.DataFrame({"Variant": np.arange(n), "Varied values": labels, **cols,
+                          "Result": [Markdown("pass") if w <= 1 else Markdown("**FAIL**")
+                                     for w in worst]})
+    n_fail = int((worst > 1.0).sum())
+    text = (f"Every variant's fatigue runs are its own bridge under the same traffic "
+            f"(`[fatigue]` is the same in every variant). **Fatigue governs in variant "
+            f"{gov}** ({md(labels[gov])}): Miner's damage **{worst[gov]:.3g}** at "
+            f"{md(which)} → **{'pass' if worst[gov] <= 1 else 'FAIL'}**; variants that "
+            f"FAIL the fatigue check: **{n_fail}** of {n}. The full fatigue section (per "
+            "train, λ-method, spectra) is in the governing variant's report, for the "
+            "variant that governs the deck acceleration.")
+    return Section("Fatigue over the variants",
+                   [text, Table(frame, "Miner's damage over the design life per variant "
+                                       "and section (" + CLAUSES + ")")])
 
 
 def _figure(ds, rows):

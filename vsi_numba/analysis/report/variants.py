@@ -102,6 +102,14 @@ def write_variants_report(ds: xr.Dataset, outdir, source_path=None, **kwargs) ->
     return Path(outdir) / "report.md"
 
 
+def _fatigue(ds: xr.Dataset) -> list:
+    """The fatigue section over the variants (a study with ``[fatigue]``), or none."""
+    from vsi_numba.analysis.report.fatigue import variants_section
+
+    sec = variants_section(ds)
+    return [] if sec is None else [sec]
+
+
 def _write_variants(ds: xr.Dataset, outdir: Path, report_dir: Path, source_path=None,
                     **kwargs) -> Path:
     """The files of :func:`write_variants_report`, written into ``outdir`` as they come
@@ -166,6 +174,7 @@ def _write_variants(ds: xr.Dataset, outdir: Path, report_dir: Path, source_path=
                                 "with units in the headers).",
                                 Table(_show_table(_with_units(ds, table)),
                                       "Deck acceleration check per variant")]),
+        *_fatigue(ds),
         Section("Design chart", [chart]),
         input_echo(view, f"The input of the governing variant {gov} ({md(label)}); the other "
                          "variants differ in the varied keys only."),

@@ -113,6 +113,48 @@ class FatigueSection(Section):
                      "report", expected="a name (string)")
 
 
+class FatigueStud(Section):
+    """``[[fatigue.studs]]``: a row layout of headed stud shear connectors of a composite
+    deck; the stud shear stress is tau = V S s / (I n pi d^2 / 4) from the vertical shear
+    V at ``x`` (EN 1994-2 6.8 [R])."""
+
+    x: Num(ge=0) = key(required=True, unit="m", doc="position of the studs from the left "
+                       "end of the deck (the shear there)",
+                       expected="a position >= 0 m along the deck", example=2.0)
+    diameter: Num(gt=0, le=0.1) = key(
+        required=True, unit="m", doc="shank diameter d of a stud",
+        expected="a stud diameter > 0 m (at most 0.1 m)", example=0.022,
+        plausible=(0.010, 0.035), typical="16 to 25 mm (0.016 to 0.025 m)")
+    per_row: Int(ge=1, le=20) = key(required=True, doc="studs per row n (across the "
+                                    "flange(s) of the section)",
+                                    expected="a whole number of studs per row, 1 to 20",
+                                    example=4)
+    row_spacing: Num(gt=0, le=5) = key(
+        required=True, unit="m", doc="spacing s of the rows along the deck",
+        expected="a row spacing > 0 m (at most 5 m)", example=0.15,
+        plausible=(0.05, 1.0), typical="0.1 to 0.8 m")
+    first_moment: Num(gt=0, le=100) = key(
+        required=True, unit="m^3", doc="first moment S of the concrete slab (transformed "
+                                       "to steel) about the composite neutral axis",
+        expected="a first moment > 0 m^3", example=0.06, plausible=(1e-4, 10.0),
+        typical="about 0.005 to 1 m^3")
+    second_moment: Num(gt=0, le=1000) = key(
+        required=True, unit="m^4", doc="second moment I of the composite section "
+                                       "(transformed to steel); v_L = V S / I",
+        expected="a second moment of area > 0 m^4", example=0.12,
+        plausible=(1e-4, 100.0), typical="about 0.005 to 10 m^4")
+    gamma_Ff: Num(**limits_of("fatigue_gamma_Ff").as_dict()) = key(
+        None, default_text="code profile fatigue_gamma_Ff",
+        doc="partial factor on the shear-stress ranges (EN 1993-2 9.3 [R])",
+        expected=_GAMMA_EXPECTED)
+    gamma_Mf: Num(**limits_of("fatigue_stud_gamma_Mf").as_dict()) = key(
+        None, default_text="code profile fatigue_stud_gamma_Mf",
+        doc="partial factor gamma_Mf,s on the stud fatigue strength (EN 1994-2 2.4.1.2 "
+            "[R])", expected=_GAMMA_EXPECTED)
+    name: Text = key(None, default_text="its position", doc="name of the stud layout in "
+                     "the report", expected="a name (string)")
+
+
 class FatigueTraffic(Section):
     """``[[fatigue.traffic]]``: one train of the operator's traffic (added to the mix)."""
 
@@ -147,6 +189,11 @@ class Fatigue(Section):
         required=True, doc="the details checked ([[fatigue.sections]], one or more)",
         expected="one or more [[fatigue.sections]] with x, section_modulus and "
                  "detail_category")
+    studs: list[FatigueStud] = key(
+        None, default_text="none", doc="headed stud shear connectors checked from the "
+                                       "shear histories ([[fatigue.studs]])",
+        expected="[[fatigue.studs]] with x, diameter, per_row, row_spacing, first_moment "
+                 "and second_moment")
     traffic: list[FatigueTraffic] = key(
         None, default_text="required without mix",
         doc="the operator's trains ([[fatigue.traffic]])",

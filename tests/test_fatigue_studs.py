@@ -138,11 +138,12 @@ def test_fatigue_studs__crawl_gives_the_closed_form_shear_ranges_and_miner(tmp_p
                                         297.5e3 * _tau_per_shear(studs[1]) / 1e6],
                                rtol=1e-4)  # the 1 mm sampling of the crawl
     got = ds["fatigue_stud_max_shear_stress_range"].values[0]
-    # crawl at 1 km/h: the deck's dynamics add ~ v / (2 f L) = 0.14 % to the ranges
-    np.testing.assert_allclose(got, r_mine, rtol=3e-3)
-    # damage ~ range^8: 8 x 0.14 % ~ 1.1 %, and the crawl's ripple cycles add ~ nothing
+    # crawl at 1 km/h: the deck's dynamics add at most ~ v / (2 f L) = 0.14 % to the
+    # moment ranges, less to the shear jumps
+    np.testing.assert_allclose(got, r_mine, rtol=1e-3)
+    # damage ~ range^8: 8 x 0.1 %, and the crawl's ripple cycles add ~ nothing
     np.testing.assert_allclose(ds["fatigue_stud_damage_per_passage"].values[0], d_mine,
-                               rtol=2e-2)
+                               rtol=1e-2)
     np.testing.assert_allclose(ds["fatigue_stud_damage"].values,
                                ds["fatigue_stud_damage_per_passage"].values[0]
                                * 50 * 365 * 100, rtol=1e-12)  # passages: exact product

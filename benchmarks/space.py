@@ -12,7 +12,10 @@ c. the double-track viaduct with St-Venant torsion (two tracks at +-2.25 m, the
    mode counts (read from the ``mode`` dimension of the two results files);
 d. the bundled config: (c) with the same train on track 2 entering at the far end
    (``train.other_trains``, two trains per run superposed): the ratio d / c against 2,
-   the number of trains per run.
+   the number of trains per run;
+e. planar with the modes of (c): (a) with ``n_modes`` = (c)'s mode count instead of
+   ``max_frequency``: the promise is the double-track viaduct with trains meeting (d)
+   at most 3 x this planar deck with the same number of modes (ratio d / e, bar 3).
 
 Each command is ``python -m vsi_numba.cli sweep CONFIG -o OUT --quiet`` as a subprocess
 (:func:`benchmarks.study.run_command`: wall time, CPU time of the command and its
@@ -35,6 +38,7 @@ from __future__ import annotations
 import argparse
 import copy
 import datetime as _dt
+import functools
 import os
 import statistics
 import sys
@@ -51,12 +55,16 @@ from benchmarks.timing import REPO, load1, machine_info, user_env
 DOUBLE_TRACK = REPO / "configs" / "double_track_viaduct.toml"
 BEGIN = "<!-- space-benchmark:begin -->"
 END = "<!-- space-benchmark:end -->"
-VARIANTS = ("a", "b", "c", "d")
+VARIANTS = ("a", "b", "c", "d", "e")
 LABELS = {"a": "planar (no tracks, no torsion)",
           "b": "one track at eccentricity 0, no torsion",
           "c": "two tracks at +-2.25 m with torsion, one train per run",
-          "d": "(c) with the train meeting on track 2 (bundled config)"}
+          "d": "(c) with the train meeting on track 2 (bundled config)",
+          "e": "planar with the mode count of (c)"}
 SINGLE_TRACK_BAR = 1.10
+#: The double-track viaduct with trains meeting (d) over the planar deck with the same
+#: number of modes (e).
+SAME_MODES_BAR = 3.0
 
 
 @dataclass(frozen=True)
@@ -109,7 +117,29 @@ def space_configs(speeds, trains: tuple | None = None) -> dict[str, dict]:
     a["train"].pop("track")
     b = copy.deepcopy(a)
     b["bridge"]["tracks"] = [{"eccentricity": 0.0}]
-    return {"a": a, "b": b, "c": c, "d": d}
+    e = copy.deepcopy(a)
+    e["bridge"].pop("max_frequency", None)
+    e["bridge"]["n_modes"] = space_mode_count(c)
+    return {"a": a, "b": b, "c": c, "d": d, "e": e}
+
+
+def space_mode_count(cfg: dict) -> int:
+    """Retained modes of the deck of ``cfg`` (its study model, built in this process)."""
+    import json
+
+    return _mode_count(json.dumps(cfg["bridge"], sort_keys=True))
+
+
+@functools.lru_cache(maxsize=8)
+def _mode_count(bridge_json: str) -> int:
+    import json
+
+    from vsi_numba.config import load_config
+
+    cfg = load_config({"title": "modes", "bridge": json.loads(bridge_json),
+                       "train": {"preset": "HSLM-A1", "model": "moving_force"},
+                       "study": {"speeds_kmh": [200.0]}})
+    return int(cfg.build_bridge().n_modes)
 
 
 def n_runs(cfg: dict) -> int:
@@ -290,6 +320,15 @@ def _measures(res: SpaceResult) -> None:
         Measure("d3", "trains meeting (two per run) / one train, compute", res.grid,
                 _ratio(comp["d"], comp["c"]), "ratio", 2.0, None,
                 f"{fmt_s(comp['d'])} / {fmt_s(comp['c'])}"),
+        Measure("e1", "trains meeting / planar with the same modes, wall", res.grid,
+                wall["d"] / wall["e"], "ratio", SAME_MODES_BAR, None,
+                f"{fmt_s(wall['d'])} / {fmt_s(wall['e'])}; modes {m['d']} / {m['e']}"),
+        Measure("e2", "trains meeting / planar with the same modes, CPU", res.grid,
+                cpu["d"] / cpu["e"], "ratio", SAME_MODES_BAR, None,
+                f"{fmt_s(cpu['d'])} / {fmt_s(cpu['e'])}"),
+        Measure("e3", "trains meeting / planar with the same modes, compute", res.grid,
+                _ratio(comp["d"], comp["e"]), "ratio", SAME_MODES_BAR, None,
+                f"{fmt_s(comp['d'])} / {fmt_s(comp['e'])}"),
         Measure("n1", "noise: slowest / fastest repetition of (a), CPU", res.grid,
                 max(res.cpus["a"]) / min(res.cpus["a"]), "ratio", None, None,
                 f"the same command {len(res.cpus['a'])} times; a ratio of the medians "

@@ -338,7 +338,9 @@ def test_space_smoke(tmp_path):
     assert res.planar_identical == []
     assert res.modes["a"] == res.modes["b"] < res.modes["c"]
     keys = {m.key: m for m in res.measures}
-    assert set(keys) == {"b1", "b2", "b3", "c1", "c2", "c3", "d1", "d3", "n1"}
+    assert set(keys) == {"b1", "b2", "b3", "c1", "c2", "c3", "d1", "d3", "e1", "e2", "e3",
+                         "n1"}
+    assert res.modes["e"] == res.modes["c"] and keys["e1"].bar == 3.0
     assert res.modes["d"] == res.modes["c"] and keys["d1"].bar == 2.0
     assert keys["b1"].bar == 1.10 and keys["c1"].bar == res.modes["c"] / res.modes["a"]
     table = SP.text_table(res)

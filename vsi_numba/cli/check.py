@@ -21,7 +21,8 @@ vibration.  From there:
   compiles the kernels (one to three minutes) on top of that.
 * **memory** (peak RSS) = :data:`BASE_MEMORY_MB` (the imported libraries and the
   kernels) + the raw time histories of the batches in flight (two per worker; with
-  trains on other tracks every run's, of every train) + the superposition's
+  trains on other tracks those of every train of the runs superposed at once, at most
+  :data:`~vsi_numba.study.batches.SUPERPOSE_CHUNK_BYTES`) + the superposition's
   temporaries of one run; the
   results file is written one stored batch at a time, so the study's size does not
   count.
@@ -156,6 +157,7 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
         history_bytes,
         study_plan,
         superpose_bytes,
+        superpose_chunks,
         superpose_refusal,
     )
     from vsi_numba.study.spec import (
@@ -222,11 +224,17 @@ def estimate_study(cfg, workers: int | None = None) -> StudyEstimate:
                         p.vehicles.body_dof.size,
                         np.asarray(model.bridge.supports).size)
         # the raw histories a batch keeps: those asked for, and with trains on other
-        # tracks every run's of every train (they are summed after the kernels)
-        raw_hist = max([raw_hist] + [sum(history_bytes(packed[b.i_train], int(
-            packed[b.i_train].n_steps(speeds[s]))) * n_trains for s, h in zip(
-                b.speeds, b.histories, strict=True) if h or n_trains > 1)
-            for b in batches])
+        # tracks every train's of the runs superposed at once (superpose_chunks)
+        for b in batches:
+            p = packed[b.i_train]
+            if n_trains > 1:
+                v = speeds[list(b.speeds)]
+                held = max(sum(n_trains * history_bytes(p, int(p.n_steps(v[i])))
+                               for i in c) for c in superpose_chunks(p, v, n_trains))
+            else:
+                held = sum(history_bytes(p, int(p.n_steps(speeds[s])))
+                           for s, h in zip(b.speeds, b.histories, strict=True) if h)
+            raw_hist = max(raw_hist, held)
     n_s, n_t, n_i = grid.shape
     n_runs = n_s * n_t * n_i * len(vcfgs)
     n_workers = max(1, min(workers or available_cores(), len(plan)))
@@ -288,12 +296,14 @@ def _planning_model(cfg, build):
 
 def _extra_step_seconds(packed, rows, n_trains: int) -> float:
     """Kernel and numpy seconds per time step of a run that the batch plan's step cost
-    leaves out: the deck-in-space rows (:data:`SPACE_ROW_SECONDS`, each train's kernel)
+    leaves out: the deck-in-space rows (:data:`SPACE_ROW_SECONDS`, the run's train's
+    kernel)
     and, with trains on other tracks, the superposition (:data:`SUPERPOSE_ROW_SECONDS`,
     :data:`SUPERPOSE_EFFECT_SECONDS`)."""
     n_p, n_rows, n_grid, n_sec = rows
     n_m = int(packed.bridge.omega.size)
-    out = SPACE_ROW_SECONDS * n_m * max(n_rows - 2 * n_p, 0) * n_trains
+    # (the other trains' kernels reduce no rows: only the run's own train's)
+    out = SPACE_ROW_SECONDS * n_m * max(n_rows - 2 * n_p, 0)
     if n_trains > 1:
         out += SUPERPOSE_ROW_SECONDS * n_m * (n_rows + n_grid)
         out += SUPERPOSE_EFFECT_SECONDS * n_trains * int(packed.load_positions.size) * n_sec

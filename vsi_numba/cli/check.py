@@ -71,7 +71,10 @@ SUPERPOSE_ROW_SECONDS = 0.8e-9
 #: train's load-effect histories).  Both set on configs/double_track_viaduct.toml (two
 #: trains meeting, 12 modes, 822 deck rows, 97 grid points and sections, 50 axles):
 #: ``vsi sweep`` measured 19.4 s of CPU (13.8 s with study.load_effects = false) under
-#: load, estimated 23.8 s (17.8 s); the constants of the plan alone gave 5.1 s.
+#: load, estimated 23.8 s (17.8 s); the constants of the plan alone gave 5.1 s.  With
+#: the other trains' kernels reducing no rows (the row term counts the run's own train
+#: only) and 406 deck rows: HSLM-A1..A10 x 60 speeds (600 runs) measured 46.3 s of CPU,
+#: estimated 45.2 s; a 15 + 20 + 15 m deck, 12 modes, 64 runs: 6.1 s, estimated 7.5 s.
 SUPERPOSE_EFFECT_SECONDS = 0.7e-9
 #: Seconds per MB of results written (netCDF, compression of the histories).
 WRITE_SECONDS_PER_MB = 0.05

@@ -177,11 +177,23 @@ def calibrate(
                                   help="TOML configuration with a [calibration] section"),
     output: Path = typer.Option(..., "-o", "--output", help="netCDF posterior file"),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress or warnings"),
+    workers: int | None = typer.Option(
+        None, "--workers", "-w", help="start a Dask LocalCluster (127.0.0.1) with N workers"
+        " (with --backend threads or processes: N of those)"),
+    scheduler: str | None = typer.Option(
+        None, "--scheduler", help="address of an existing Dask scheduler, tcp://HOST:PORT"),
+    backend: str | None = typer.Option(
+        None, "--backend", help="serial, threads (the default), processes or dask (the "
+        "default with --workers or --scheduler); the same seed gives the same numbers on "
+        "every one"),
+    fresh: bool = typer.Option(
+        False, "--fresh", help="discard the evaluations an interrupted run stored "
+        "(OUTPUT.evaluations) and start over; otherwise the run continues from them"),
 ):
-    """Bayesian updating of configuration keys from measured records (emcee)."""
+    """Bayesian updating of configuration keys from measured records (emcee); resumable."""
     from vsi_numba.cli.existing import calibrate_command
 
-    raise typer.Exit(calibrate_command(config, output, quiet))
+    raise typer.Exit(calibrate_command(config, output, quiet, workers, scheduler, backend, fresh))
 
 
 @app.command()
@@ -190,11 +202,24 @@ def reliability(
                                   help="TOML configuration with a [reliability] section"),
     output: Path = typer.Option(..., "-o", "--output", help="netCDF reliability file"),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress or warnings"),
+    workers: int | None = typer.Option(
+        None, "--workers", "-w", help="start a Dask LocalCluster (127.0.0.1) with N workers"
+        " (with --backend threads or processes: N of those)"),
+    scheduler: str | None = typer.Option(
+        None, "--scheduler", help="address of an existing Dask scheduler, tcp://HOST:PORT"),
+    backend: str | None = typer.Option(
+        None, "--backend", help="serial, threads (the default), processes or dask (the "
+        "default with --workers or --scheduler); the same seed gives the same numbers on "
+        "every one"),
+    fresh: bool = typer.Option(
+        False, "--fresh", help="discard the evaluations an interrupted run stored "
+        "(OUTPUT.evaluations) and start over; otherwise the run continues from them"),
 ):
-    """Probability that a check is exceeded and reliability index (subset simulation)."""
+    """Probability that a check is exceeded and reliability index (subset simulation);
+    resumable."""
     from vsi_numba.cli.existing import reliability_command
 
-    raise typer.Exit(reliability_command(config, output, quiet))
+    raise typer.Exit(reliability_command(config, output, quiet, workers, scheduler, backend, fresh))
 
 
 @app.command()

@@ -31,7 +31,19 @@ def _prepare(config: Path, output: Path, section: str, command: str, pr: Printer
     return cfg
 
 
-def calibrate_command(config: Path, output: Path, quiet: bool) -> int:
+def _store(output: Path) -> Path:
+    """The file of the evaluations that makes a run resumable (next to the output)."""
+    return Path(f"{output}.evaluations")
+
+
+def _notes(notes, quiet: bool, pr: Printer) -> None:
+    if not quiet:
+        for n in notes:
+            pr.line(n, stderr=True)
+
+
+def calibrate_command(config: Path, output: Path, quiet: bool, workers=None, scheduler=None,
+                      backend=None, fresh: bool = False) -> int:
     """Entry of ``vsi calibrate CONFIG -o POSTERIOR.nc``; returns the exit code (0
     written, 2 the calibration cannot start or be made, 130 interrupted: nothing
     written)."""
@@ -52,9 +64,13 @@ def calibrate_command(config: Path, output: Path, quiet: bool) -> int:
             last[0] = pct // 10
             pr.line(f"calibrate: {done} of about {total} forward runs", stderr=True)
 
+    notes: list[str] = []
     ds = _compute_and_write(lambda: calibrate(cfg, progress=progress,
-                                              command=f"vsi calibrate {config} -o {output}"),
-                            CalibrationError, output, pr)
+                                              command=f"vsi calibrate {config} -o {output}",
+                                              backend=backend, workers=workers,
+                                              scheduler=scheduler, store=_store(output),
+                                              fresh=fresh, notes=notes),
+                            CalibrationError, output, pr, notes, quiet)
     if isinstance(ds, int):
         return ds
     import numpy as np
@@ -69,7 +85,8 @@ def calibrate_command(config: Path, output: Path, quiet: bool) -> int:
     return 0
 
 
-def reliability_command(config: Path, output: Path, quiet: bool) -> int:
+def reliability_command(config: Path, output: Path, quiet: bool, workers=None,
+                        scheduler=None, backend=None, fresh: bool = False) -> int:
     """Entry of ``vsi reliability CONFIG -o RELIABILITY.nc``; returns the exit code."""
     from vsi_numba.existing.reliability import ReliabilityError, estimate
 
@@ -80,9 +97,12 @@ def reliability_command(config: Path, output: Path, quiet: bool) -> int:
     if not quiet:
         for w in cfg.warnings:
             pr.warning(w)
+    notes: list[str] = []
     ds = _compute_and_write(lambda: estimate(cfg, command=f"vsi reliability {config} -o "
-                                                         f"{output}"),
-                            ReliabilityError, output, pr)
+                                                         f"{output}", backend=backend,
+                                             workers=workers, scheduler=scheduler,
+                                             store=_store(output), fresh=fresh, notes=notes),
+                            ReliabilityError, output, pr, notes, quiet)
     if isinstance(ds, int):
         return ds
     p = float(ds["probability_of_exceedance_range"].values)
@@ -116,19 +136,30 @@ def existing_report(ds, results: Path, outdir: Path | None, pr: Printer) -> int:
     return 0
 
 
-def _compute_and_write(compute, error_type, output, pr):
-    """``compute()`` and its dataset written to ``output``; the dataset, or the exit code
-    after the message (``error_type``: the command's own refusal)."""
+def _compute_and_write(compute, error_type, output, pr, notes=(), quiet=False):
+    """``compute()`` and its dataset written to ``output``, then the store of its
+    evaluations removed; the dataset, or the exit code after the message
+    (``error_type``: the command's own refusal)."""
+    from vsi_numba.existing.forward import ForwardError
+    from vsi_numba.existing.parallel import BackendError
+
+    store = _store(output)
     try:
         ds = compute()
+        _notes(notes, quiet, pr)
         _write(ds, Path(output))
-    except error_type as exc:
+    except (error_type, ForwardError, BackendError) as exc:
+        _notes(notes, quiet, pr)
         pr.error(exc)
         return EXIT_USAGE
     except KeyboardInterrupt:
-        pr.error("interrupted: nothing written")
+        _notes(notes, quiet, pr)
+        kept = f": the forward runs so far are kept in {store}; the same command continues " \
+               "from them" if store.exists() else ": nothing written"
+        pr.error(f"interrupted{kept}")
         return 130
     except OSError as exc:
         pr.error(f"cannot write {output}: {exc}")
         return EXIT_USAGE
+    store.unlink(missing_ok=True)
     return ds

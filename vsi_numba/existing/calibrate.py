@@ -48,8 +48,15 @@ from pathlib import Path
 import numpy as np
 
 from vsi_numba.existing.distributions import Marginals, describe
-from vsi_numba.existing.forward import Forward, Group
-from vsi_numba.existing.signal import best_shift, lowpass, noise_gain, resample
+from vsi_numba.existing.forward import Forward, Group, record_path
+from vsi_numba.existing.signal import (
+    best_shift,
+    best_shifts,
+    decimation,
+    lowpass,
+    noise_gain,
+    resample,
+)
 from vsi_numba.io.records import read_record
 
 #: Prior of a noise standard deviation that is a parameter: lognormal, this cov, median
@@ -75,26 +82,32 @@ class _Prepared:
     """The records, filtered and on the model's grid, and what the likelihood needs."""
 
     def __init__(self, cfg):
+        from vsi_numba.existing.speed import record_speeds
+
         self.cfg = cfg
         c = cfg.resolved()["calibration"]
         self.c = c
         self.records = c["records"]
         self.keys = [p["key"] for p in c["parameters"]]
-        trains = []
+        #: per record: its speed (km/h), as given or from the record (speed.py)
+        self.speeds_kmh, self.speed_notes = record_speeds(cfg)
+        groups = []  # (train, track) in the records' order
         for r in self.records:
-            if r["train"] not in trains:
-                trains.append(r["train"])
+            g = (r["train"], r.get("track"))
+            if g not in groups:
+                groups.append(g)
         self.groups = []
         self.where = []  # per record: (group, speed index, point index)
-        for name in trains:
-            rs = [r for r in self.records if r["train"] == name]
-            speeds = sorted({float(r["speed_kmh"]) for r in rs})
-            points = sorted({float(r["point"]) for r in rs})
-            self.groups.append(Group(name, tuple(speeds), tuple(points)))
-        for r in self.records:
-            gi = trains.index(r["train"])
+        for name, track in groups:
+            idx = [i for i, r in enumerate(self.records)
+                   if (r["train"], r.get("track")) == (name, track)]
+            speeds = sorted({self.speeds_kmh[i] for i in idx})
+            points = sorted({float(self.records[i]["point"]) for i in idx})
+            self.groups.append(Group(name, tuple(speeds), tuple(points), track))
+        for i, r in enumerate(self.records):
+            gi = groups.index((r["train"], r.get("track")))
             g = self.groups[gi]
-            self.where.append((gi, g.speeds_kmh.index(float(r["speed_kmh"])),
+            self.where.append((gi, g.speeds_kmh.index(self.speeds_kmh[i]),
                                g.points.index(float(r["point"]))))
         self.data = cfg.resolved()
         self.forward = Forward(self.data, cfg.base_dir, self.keys, self.groups)
@@ -121,6 +134,10 @@ class _Prepared:
             self.measured.append((t, m))
             self.raw.append(rec)
             self.gain.append(noise_gain(rec.t.size, fs, self.cutoff))
+        # the likelihood's samples, the coarse alignment's thinning and its transforms
+        self.kept = [np.arange(0, m.size, self.step) for _, m in self.measured]
+        self.dec = decimation(self.dt, self.cutoff)
+        self._fft = [{} for _ in self.records]
         self.quantities = sorted({r["quantity"] for r in self.records})
         self.noise_keys = []
         self.noise_specs = []
@@ -152,33 +169,55 @@ class _Prepared:
         h = (rr.acceleration if q == "deck_acceleration" else rr.displacement)[si][:, pi]
         return lowpass(h, 1.0 / self.dt, self.cutoff)
 
-    def loglike(self, row, result) -> tuple[float, np.ndarray]:
-        """Log-likelihood of one row and the records' shifts (s)."""
-        shifts = np.full(len(self.records), np.nan)
-        if any(r.error for r in result):
-            return -np.inf, shifts
-        total = 0.0
+    def loglikes(self, rows, results) -> tuple[np.ndarray, np.ndarray]:
+        """Log-likelihoods (n,) and the records' shifts (n, n_records, s) of rows and
+        their forward results, every record's histories filtered and aligned at once
+        (:func:`~vsi_numba.existing.signal.best_shifts`)."""
+        n = len(rows)
+        ll = np.zeros(n)
+        shifts = np.full((n, len(self.records)), np.nan)
+        ok = np.array([not any(r.error for r in res) for res in results], bool)
+        ll[~ok] = -np.inf
+        idx = np.flatnonzero(ok)
+        if not idx.size:
+            return ll, shifts
         for i in range(len(self.records)):
+            gi, si, pi = self.where[i]
+            q = self.records[i]["quantity"]
+            S = np.stack([(results[j][gi].acceleration if q == "deck_acceleration" else
+                           results[j][gi].displacement)[si][:, pi] for j in idx], axis=1)
+            S = lowpass(S, 1.0 / self.dt, self.cutoff)
             t, m = self.measured[i]
-            s = self.history(result, i)
             lag0 = int(round(t[0] / self.dt))
-            lag, _ = best_shift(m, s, lag0, self.max_lag)
-            shifts[i] = lag * self.dt - t[0]
-            k = np.arange(0, m.size, self.step)
-            ts = (k + lag) * self.dt
-            sm = np.interp(ts, np.arange(s.size) * self.dt, s, left=0.0, right=0.0)
-            sig = self.noise(row, i) * self.gain[i]
-            r = (m[k] - sm) / sig
-            total += -0.5 * float(r @ r) - k.size * (math.log(sig)
-                                                     + 0.5 * math.log(2 * math.pi))
-        return total, shifts
+            lags = best_shifts(m, S, lag0, self.max_lag, self.dec, self._fft[i])
+            shifts[idx, i] = lags * self.dt - t[0]
+            k = self.kept[i]
+            grid = np.arange(S.shape[0], dtype=float)
+            for c, j in enumerate(idx):
+                sm = np.interp(k + lags[c], grid, S[:, c], left=0.0, right=0.0)
+                sig = self.noise(rows[j], i) * self.gain[i]
+                r = (m[k] - sm) / sig
+                ll[j] += -0.5 * float(r @ r) - k.size * (math.log(sig)
+                                                         + 0.5 * math.log(2 * math.pi))
+        return ll, shifts
 
     def evaluate(self, rows) -> tuple[np.ndarray, np.ndarray]:
         """Log-likelihoods (n,) and shifts (n, n_records) of parameter rows (n, n_par)."""
         rows = np.atleast_2d(rows)
-        results = self.forward.run(rows[:, : len(self.keys)])
-        out = [self.loglike(r, res) for r, res in zip(rows, results, strict=True)]
-        return np.array([o[0] for o in out]), np.array([o[1] for o in out])
+        results = [self.forward.run_row(r) for r in rows[:, : len(self.keys)]]
+        return self.loglikes(rows, results)
+
+    def evaluate_u(self, u) -> np.ndarray:
+        """The outputs of rows ``u`` of the priors' standard normal space: (n, 1 +
+        n_records), the log-likelihood then the records' shifts (the evaluation the
+        backends run, :mod:`vsi_numba.existing.parallel`)."""
+        ll, shifts = self.evaluate(self.marginals.from_u(np.atleast_2d(u)))
+        return np.concatenate([ll[:, None], shifts], axis=1)
+
+
+def evaluation_of(cfg):
+    """The evaluation of a configuration's calibration (built in a worker process)."""
+    return _Prepared(cfg).evaluate_u
 
 
 def _polish(f, u, n_dim: int) -> np.ndarray:
@@ -207,17 +246,27 @@ def _r_hat(chain: np.ndarray) -> np.ndarray:
         return np.sqrt(var / w)
 
 
-def calibrate(cfg, progress=None, command: str = "vsi calibrate"):
+def calibrate(cfg, progress=None, command: str = "vsi calibrate", backend=None,
+              workers=None, scheduler=None, store=None, fresh=False, notes=None):
     """Run the calibration of a configuration with a ``[calibration]`` section
     (:func:`_calibrate`) with the BLAS pool at one thread: its threads only spin on the
-    small products of the forward runs (1.4 x the CPU time for the same wall time)."""
+    small products of the forward runs (1.4 x the CPU time for the same wall time).
+
+    ``backend``, ``workers``, ``scheduler``: where the forward runs go
+    (:mod:`vsi_numba.existing.parallel`); ``store``: the file of the evaluations that
+    makes the run resumable (None: none), ``fresh``: discard it first; ``notes``: a list
+    that receives what the user should know (a discarded store, replayed blocks).
+    """
     from threadpoolctl import threadpool_limits
 
     with threadpool_limits(limits=1, user_api="blas"):
-        return _calibrate(cfg, progress=progress, command=command)
+        return _calibrate(cfg, progress=progress, command=command, backend=backend,
+                          workers=workers, scheduler=scheduler, store=store, fresh=fresh,
+                          notes=notes)
 
 
-def _calibrate(cfg, progress=None, command: str = "vsi calibrate"):
+def _calibrate(cfg, progress=None, command: str = "vsi calibrate", backend=None,
+               workers=None, scheduler=None, store=None, fresh=False, notes=None):
     """Run the calibration of a configuration with a ``[calibration]`` section.
 
     Returns
@@ -225,13 +274,42 @@ def _calibrate(cfg, progress=None, command: str = "vsi calibrate"):
     xarray.Dataset
         The posterior file's content (:func:`posterior_dataset`).
     """
-    import emcee
+    from vsi_numba.existing.parallel import Evaluator, Spec, Store
 
-    t0 = _time.perf_counter()
     c = cfg.resolved().get("calibration")
     if not c:
         raise CalibrationError("the configuration has no [calibration] section")
     prep = _Prepared(cfg)
+    spec = Spec("calibration", cfg.to_json(), str(Path(cfg.base_dir).resolve()))
+    st = Store(store, _identity(cfg, "calibration", prep.marginals.n,
+                                1 + len(prep.records)), fresh=fresh)
+    if notes is not None and st.discarded:
+        notes.append(f"the stored evaluations {store} were discarded: {st.discarded}")
+    try:
+        with Evaluator(spec, prep.evaluate_u, 1 + len(prep.records), backend=backend,
+                       workers=workers, scheduler=scheduler, store=st) as ev:
+            ds = _sample(cfg, c, prep, ev, progress, command)
+    finally:
+        st.close()
+    if notes is not None and st.replayed:
+        notes.append(f"{st.replayed} blocks of forward runs replayed from {store}")
+    ds.attrs["backend"] = ev.describe()
+    return ds
+
+
+def _identity(cfg, kind: str, n_in: int, n_out: int) -> dict:
+    """What a store of evaluations belongs to (:class:`~vsi_numba.existing.parallel.Store`)."""
+    from vsi_numba import __version__
+
+    return {"kind": kind, "config_sha256": cfg.sha256, "version": __version__,
+            "n_in": int(n_in), "n_out": int(n_out)}
+
+
+def _sample(cfg, c, prep, ev, progress, command):
+    """The start search, the chains, the predictive records and the check."""
+    import emcee
+
+    t0 = _time.perf_counter()
     n_dim = prep.marginals.n
     n_walkers = int(c.get("n_walkers") or max(16, 4 * n_dim + (4 * n_dim) % 2))
     n_steps = max(1, int(math.ceil(int(c["n_samples"]) / n_walkers)))
@@ -240,10 +318,11 @@ def _calibrate(cfg, progress=None, command: str = "vsi calibrate"):
     n_runs = [0]
 
     def log_prob(u):
-        rows = prep.marginals.from_u(u)
-        ll, shifts = prep.evaluate(rows)
-        n_runs[0] += len(rows)
-        lp = ll - 0.5 * np.sum(np.asarray(u) ** 2, axis=1)
+        u = np.atleast_2d(np.asarray(u, float))
+        out = ev(u)
+        ll, shifts = out[:, 0], out[:, 1:]
+        n_runs[0] += len(u)
+        lp = ll - 0.5 * np.sum(u ** 2, axis=1)
         if progress is not None:
             progress(n_runs[0], n_walkers * (burn + n_steps) + START_DRAWS * n_walkers
                      + POLISH_EVALUATIONS * n_dim)
@@ -310,12 +389,14 @@ def _predictive(prep: _Prepared, post, rng, n: int) -> list[dict]:
     return out
 
 
-def check_speeds(cfg) -> np.ndarray:
-    """Line speed, +10 % and +20 % (km/h) of the calibrated check."""
+def check_speeds(cfg, record_speeds=None) -> np.ndarray:
+    """Line speed, +10 % and +20 % (km/h) of the calibrated check (without a line speed:
+    the fastest record's, ``record_speeds`` when given)."""
     c = cfg.resolved()["calibration"]
     line = c.get("line_speed_kmh") or cfg.resolved()["study"].get("line_speed_kmh")
     if line is None:
-        line = max(float(r["speed_kmh"]) for r in c["records"])
+        line = max(record_speeds if record_speeds is not None else
+                   [float(r["speed_kmh"]) for r in c["records"]])
     return float(line) * np.array([1.0, 1.1, 1.2])
 
 
@@ -326,7 +407,7 @@ def _check(prep: _Prepared, post, n: int) -> dict:
     from vsi_numba.en1990 import deck_acceleration_limits
 
     cfg = prep.cfg
-    speeds = check_speeds(cfg)
+    speeds = check_speeds(cfg, prep.speeds_kmh)
     names = [t.name for t in cfg.trains()]
     preset = cfg.resolved()["train"].get("preset")
     trains = names if preset is not None else [None]
@@ -404,7 +485,7 @@ def posterior_dataset(prep: _Prepared, post, blobs, logpost, diag, pred, check, 
             "record_point": ("record", np.array([float(r["point"]) for r in recs]),
                              {"long_name": "deck abscissa of the record", "units": "m"}),
             "record_train": ("record", [str(r["train"]) for r in recs]),
-            "record_speed_kmh": ("record", np.array([float(r["speed_kmh"]) for r in recs]),
+            "record_speed_kmh": ("record", np.array(prep.speeds_kmh, float),
                                  {"long_name": "train speed of the record",
                                   "units": "km/h"}),
             "record_length": ("record", np.array([p["t"].size for p in pred], np.int64),
@@ -474,7 +555,4 @@ def posterior_dataset(prep: _Prepared, post, blobs, logpost, diag, pred, check, 
     return ds
 
 
-def _record_path(file: str, base_dir) -> Path:
-    """A record's file as the configuration names it, relative to its directory."""
-    f = Path(file)
-    return f if f.is_absolute() else Path(base_dir) / f
+_record_path = record_path

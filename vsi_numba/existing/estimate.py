@@ -47,18 +47,23 @@ def lines(cfg) -> list[str]:
         burn = int(c["burn_in"]) if c.get("burn_in") is not None else steps
         n = (cal.START_DRAWS * w + cal.POLISH_EVALUATIONS * n_dim + w * (burn + steps)
              + 2 * int(c["check_samples"]))
-        trains = sorted({r["train"] for r in c["records"]})
-        groups = [Group(t, tuple(sorted({float(r["speed_kmh"]) for r in c["records"]
-                                         if r["train"] == t})),
-                        tuple(sorted({float(r["point"]) for r in c["records"]})))
-                  for t in trains]
-        per = _per_run_seconds(cfg, [p["key"] for p in c["parameters"]],
-                               c["parameters"], groups, True)
+        from vsi_numba.existing.forward import CHUNK_ROWS
+
+        prep = cal._Prepared(cfg)  # the records read, filtered, the speeds found
+        out.extend(prep.speed_notes)
+        u = np.zeros((CHUNK_ROWS, prep.marginals.n))
+        prep.evaluate_u(u)  # the first builds caches
+        t0 = _time.perf_counter()
+        prep.evaluate_u(u)
+        per = (_time.perf_counter() - t0) / CHUNK_ROWS
+        if not prep.forward._typed:
+            out.append(f"calibration: the forward runs validate the configuration for "
+                       f"every sample ({prep.forward.typed_reason})")
         mem = 8.0 * int(c["n_samples"]) * (n_dim + 2 + len(c["records"]))
         out.append(f"calibration: {n:,} forward runs ({w} walkers x {burn} burn-in + "
                    f"{steps} kept steps, start search, {c['check_samples']} x 2 for the "
                    f"check and the predictive records), {len(c['records'])} records each; "
-                   f"~{per * 1e3:.0f} ms a forward run (measured here) -> time "
+                   f"~{per * 1e3:.1f} ms a forward run with its likelihood (measured here) -> time "
                    f"~{n * per / max(1, min(n_thr, 2)) / 60:.1f} min on {n_thr} thread(s); "
                    f"posterior ~{_size(mem)}")
     if res.get("reliability"):

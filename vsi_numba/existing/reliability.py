@@ -78,26 +78,48 @@ class Response:
         self.n_speeds = len(speeds_kmh)
         self.runs = 0
         self.failed: list[str] = []
+        self.n_failed = 0
+        self.evaluator = None
 
-    def __call__(self, u) -> np.ndarray:
-        """Values (n, n_speeds) of the check at rows ``u`` (n, n_variables)."""
+    def values(self, u) -> np.ndarray:
+        """Values (n, n_speeds) of the check at rows ``u`` (n, n_variables) of the
+        standard normal space; a row whose model cannot be run is +inf (exceeded, the
+        safe side; :meth:`failure` names why).  The evaluation the backends run
+        (:mod:`vsi_numba.existing.parallel`)."""
         u = np.atleast_2d(np.asarray(u, float))
         rows = self.marginals.from_u(u)
-        res = self.forwards[0].run(rows)
-        self.runs += len(rows) * self.n_speeds
         out = np.empty((len(rows), self.n_speeds))
-        for k, rr in enumerate(res):
-            bad = [x.error for x in rr if x.error]
-            if bad:
-                # a model the configuration refuses or a run that fails is not a safe
-                # outcome: it counts as exceeded, and is named
-                self.failed.append(bad[0])
+        for k, row in enumerate(rows):
+            rr = self.forwards[0].run_row(row)
+            if any(x.error for x in rr):
                 out[k] = np.inf
                 continue
             env = [x.envelope_acc if self.check == "deck_acceleration" else
                    x.envelope_disp for x in rr]
             out[k] = np.max(env, axis=0)
         return out
+
+    def failure(self, u) -> str:
+        """Why the model of row ``u`` cannot be run ("" when it can)."""
+        rr = self.forwards[0].run_row(self.marginals.from_u(np.atleast_2d(u))[0])
+        return next((x.error for x in rr if x.error), "")
+
+    def __call__(self, u) -> np.ndarray:
+        """:meth:`values` through the evaluator (backend and store) when one is set."""
+        u = np.atleast_2d(np.asarray(u, float))
+        out = self.evaluator(u) if self.evaluator is not None else self.values(u)
+        self.runs += len(u) * self.n_speeds
+        bad = ~np.all(np.isfinite(out), axis=1)
+        if bad.any():
+            self.n_failed += int(bad.sum())
+            if len(self.failed) < 5:
+                self.failed.append(self.failure(u[np.flatnonzero(bad)[0]]))
+        return out
+
+
+def evaluation_of(cfg):
+    """The evaluation of a configuration's reliability estimate (built in a worker)."""
+    return Response(cfg, np.asarray(cfg.speeds_kmh, float)).values
 
 
 def _monte_carlo(g, n_var, limit, target, block, max_runs, rng):
@@ -152,17 +174,22 @@ def _subset(g1, n_var, limit, target, block, max_runs, seed):
     return p, cov, calls[0]
 
 
-def estimate(cfg, command: str = "vsi reliability"):
+def estimate(cfg, command: str = "vsi reliability", backend=None, workers=None,
+             scheduler=None, store=None, fresh=False, notes=None):
     """Estimate the probability of exceedance of the configuration's check
     (:func:`_estimate`) with the BLAS pool at one thread: its threads only spin on the
-    small products of the forward runs (1.4 x the CPU time for the same wall time)."""
+    small products of the forward runs (1.4 x the CPU time for the same wall time).
+    ``backend``, ``workers``, ``scheduler``, ``store``, ``fresh``, ``notes``: as for
+    :func:`vsi_numba.existing.calibrate.calibrate`."""
     from threadpoolctl import threadpool_limits
 
     with threadpool_limits(limits=1, user_api="blas"):
-        return _estimate(cfg, command=command)
+        return _estimate(cfg, command=command, backend=backend, workers=workers,
+                         scheduler=scheduler, store=store, fresh=fresh, notes=notes)
 
 
-def _estimate(cfg, command: str = "vsi reliability"):
+def _estimate(cfg, command: str = "vsi reliability", backend=None, workers=None,
+              scheduler=None, store=None, fresh=False, notes=None):
     """Estimate the probability of exceedance of the configuration's check.
 
     Returns
@@ -170,6 +197,11 @@ def _estimate(cfg, command: str = "vsi reliability"):
     xarray.Dataset
         The reliability file (:func:`reliability_dataset`).
     """
+    from pathlib import Path
+
+    from vsi_numba.existing.calibrate import _identity
+    from vsi_numba.existing.parallel import Evaluator, Spec, Store
+
     t0 = _time.perf_counter()
     r = cfg.resolved().get("reliability")
     if not r:
@@ -183,26 +215,45 @@ def _estimate(cfg, command: str = "vsi reliability"):
                                + g.failed[0])
     g.runs = 0
     n_var = g.marginals.n
+    spec = Spec("reliability", cfg.to_json(), str(Path(cfg.base_dir).resolve()))
+    st = Store(store, _identity(cfg, "reliability", n_var, speeds.size), fresh=fresh)
+    if notes is not None and st.discarded:
+        notes.append(f"the stored evaluations {store} were discarded: {st.discarded}")
+    try:
+        with Evaluator(spec, g.values, speeds.size, backend=backend, workers=workers,
+                       scheduler=scheduler, store=st) as ev:
+            g.evaluator = ev
+            p, cov, runs = _estimates(g, r, speeds, limit, n_var)
+    finally:
+        g.evaluator = None
+        st.close()
+    if notes is not None and st.replayed:
+        notes.append(f"{st.replayed} blocks of forward runs replayed from {store}")
+    ds = reliability_dataset(cfg, r, speeds, limit, probe[0], p, cov, runs, g,
+                             _time.perf_counter() - t0, command)
+    ds.attrs["backend"] = ev.describe()
+    return ds
+
+
+def _estimates(g, r, speeds, limit, n_var):
+    """(P, cov, runs) per speed and over the range, by the configuration's method."""
     target, block, max_runs = float(r["target_cov"]), int(r["block_size"]), int(
         r["max_runs"])
     if r["method"] == "monte_carlo":
         rng = np.random.default_rng(int(r["seed"]))
-        p, cov, runs = _monte_carlo(g, n_var, limit, target, block, max_runs, rng)
-    else:
-        p, cov, runs = [], [], []
-        for j in range(speeds.size + (speeds.size > 1)):
-            col = (lambda u, j=j: g(u)[:, j]) if j < speeds.size else \
-                (lambda u: g(u).max(axis=1))
-            pj, cj, nj = _subset(col, n_var, limit, target, block, max_runs,
-                                 int(r["seed"]) + j)
-            p.append(pj)
-            cov.append(cj)
-            runs.append(nj)
-        if speeds.size == 1:  # the range is the one speed: the same estimate
-            p, cov, runs = p * 2, cov * 2, runs * 2
-        p, cov, runs = np.array(p), np.array(cov), np.array(runs)
-    return reliability_dataset(cfg, r, speeds, limit, probe[0], p, cov, runs, g,
-                               _time.perf_counter() - t0, command)
+        return _monte_carlo(g, n_var, limit, target, block, max_runs, rng)
+    p, cov, runs = [], [], []
+    for j in range(speeds.size + (speeds.size > 1)):
+        col = (lambda u, j=j: g(u)[:, j]) if j < speeds.size else \
+            (lambda u: g(u).max(axis=1))
+        pj, cj, nj = _subset(col, n_var, limit, target, block, max_runs,
+                             int(r["seed"]) + j)
+        p.append(pj)
+        cov.append(cj)
+        runs.append(nj)
+    if speeds.size == 1:  # the range is the one speed: the same estimate
+        p, cov, runs = p * 2, cov * 2, runs * 2
+    return np.array(p), np.array(cov), np.array(runs)
 
 
 def reliability_dataset(cfg, r, speeds, limit, median_value, p, cov, runs, g, elapsed,
@@ -265,7 +316,7 @@ def reliability_dataset(cfg, r, speeds, limit, median_value, p, cov, runs, g, el
                        else "crude Monte Carlo"),
             "target_cov": float(r["target_cov"]), "seed": int(r["seed"]),
             "n_forward_runs": int(g.runs), "elapsed_s": float(elapsed),
-            "failed_runs": len(g.failed),
+            "failed_runs": int(g.n_failed),
             "failed_examples": json.dumps(sorted(set(g.failed))[:5]),
         },
     )

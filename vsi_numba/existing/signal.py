@@ -12,6 +12,7 @@ before they are compared.
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 import scipy.signal
@@ -85,3 +86,74 @@ def best_shift(m: np.ndarray, s: np.ndarray, lag0: int, max_lag: int) -> tuple[f
         if den > 0:
             frac = float(np.clip(0.5 * (a - d) / den, -0.5, 0.5))
     return float(lags[i] + frac), float(sse[i])
+
+
+def decimation(dt: float, cutoff: float) -> int:
+    """Samples of the model grid per sample of the coarse alignment search: the grid
+    thinned to at least 8 samples per period of the cut-off frequency (the filtered
+    histories have no content above about twice the cut-off: 0.4 % at 2 f_c)."""
+    return max(1, int(math.floor(1.0 / (COARSE_SAMPLES_PER_PERIOD * cutoff * dt))))
+
+
+#: Samples per period of the cut-off frequency of the coarse alignment search.
+COARSE_SAMPLES_PER_PERIOD = 8
+
+
+def best_shifts(m: np.ndarray, S: np.ndarray, lag0: int, max_lag: int, dec: int,
+                m_fft=None) -> np.ndarray:
+    """:func:`best_shift` of every column of ``S`` (J, n) against ``m`` (K,), at once.
+
+    A coarse search on the grid thinned by ``dec`` (one FFT cross-correlation of all the
+    columns: :func:`scipy.fft.rfft` along the time axis), then the sums of squares at
+    the integer lags within ``dec`` of the coarse minimum on the full grid, refined by a
+    parabola through the minimum and its neighbours.  ``m_fft``: a dict in which the
+    thinned record's transforms are kept between calls.  Returns the lags (n,), in
+    samples of the full grid.
+    """
+    import scipy.fft
+
+    m = np.asarray(m, float)
+    S = np.asarray(S, float)
+    K, J = m.size, S.shape[0]
+    n = S.shape[1]
+    lo, hi = max(lag0 - max_lag, -(K - 1)), min(lag0 + max_lag, J - 1)
+    if lo > hi or n == 0:
+        return np.full(n, float(lag0))
+    md, Sd = m[::dec], S[::dec]
+    Kd, Jd = md.size, Sd.shape[0]
+    nfft = scipy.fft.next_fast_len(Kd + Jd, real=True)
+    key = (nfft, dec, K)
+    cache = m_fft if m_fft is not None else {}
+    if key not in cache:
+        cache[key] = (np.conj(scipy.fft.rfft(md, nfft)), float(md @ md))
+    mf, mmd = cache[key]
+    c = scipy.fft.irfft(scipy.fft.rfft(Sd, nfft, axis=0) * mf[:, None], nfft, axis=0)
+    lo_c, hi_c = max(-(-lo // dec), -(Kd - 1)), min(hi // dec, Jd - 1)
+    if lo_c > hi_c:
+        lo_c = hi_c = int(np.clip(round(lag0 / dec), -(Kd - 1), Jd - 1))
+    lags_c = np.arange(lo_c, hi_c + 1)
+    csd = np.concatenate([np.zeros((1, n)), np.cumsum(Sd * Sd, axis=0)])
+    energy = csd[np.clip(lags_c + Kd, 0, Jd)] - csd[np.clip(lags_c, 0, Jd)]
+    sse_c = mmd - 2.0 * c[lags_c % nfft] + energy
+    coarse = lags_c[np.argmin(sse_c, axis=0)] * dec
+    # the full grid near the coarse minimum: s zero outside its samples
+    pad = np.zeros((n, K + J + K))  # a row per column of S: contiguous dot products
+    pad[:, K: K + J] = S.T
+    cs = np.concatenate([np.zeros((1, n)), np.cumsum(S * S, axis=0)])
+    mm = float(m @ m)
+    out = np.empty(n)
+    for j in range(n):
+        lags = np.arange(max(lo, coarse[j] - dec), min(hi, coarse[j] + dec) + 1)
+        col = pad[j]
+        cj = np.array([m @ col[K + L: 2 * K + L] for L in lags])
+        e = cs[np.clip(lags + K, 0, J), j] - cs[np.clip(lags, 0, J), j]
+        sse = mm - 2.0 * cj + e
+        i = int(np.argmin(sse))
+        frac = 0.0
+        if 0 < i < sse.size - 1:
+            a, b, d = sse[i - 1], sse[i], sse[i + 1]
+            den = a - 2.0 * b + d
+            if den > 0:
+                frac = float(np.clip(0.5 * (a - d) / den, -0.5, 0.5))
+        out[j] = lags[i] + frac
+    return out

@@ -178,8 +178,8 @@ def _calibration_section(chk, d, data, base: Path, ok: bool, validate) -> dict |
     records = chk.table_list(d.get("records", _MISSING), "calibration.records",
                              _m.CalibrationRecord,
                              expected=f"1 to {MAX_RECORDS} [[calibration.records]] tables "
-                                      "{file, quantity, point, train, speed_kmh}",
-                             what=" {file, quantity, point, train, speed_kmh}",
+                                      "{file, quantity, point, train[, speed_kmh]}",
+                             what=" {file, quantity, point, train[, speed_kmh]}",
                              max_len=MAX_RECORDS)
     if _ok(records):
         records = _records(chk, records, base)
@@ -194,9 +194,19 @@ def _calibration_section(chk, d, data, base: Path, ok: bool, validate) -> dict |
         return _BAD
     if ok:
         _key_checks(chk, data, base, params, "calibration.parameters", validate)
+        n_tracks = len(data["bridge"].get("tracks") or [{}]) if isinstance(
+            data.get("bridge"), dict) else 1
         for i, rec in enumerate(records):
+            track = rec.get("track")
+            if track is not None and track > n_tracks:
+                chk.error(f"calibration.records[{i}].track", track,
+                          "no track for a deck of one track (bridge.tracks not given): "
+                          "leave it out" if n_tracks == 1 else
+                          f"a track of bridge.tracks, 1 .. {n_tracks}")
+                continue
             try:
-                validate(record_train_data(data, rec["train"], base), None, base, "<trial>")
+                validate(record_train_data(data, rec["train"], base, track), None, base,
+                         "<trial>")
                 errors = []
             except ConfigError as exc:
                 errors = list(exc.errors)
@@ -207,9 +217,9 @@ def _calibration_section(chk, d, data, base: Path, ok: bool, validate) -> dict |
             "records": records}
 
 
-def record_train_data(data: dict, train: str, base: Path) -> dict:
+def record_train_data(data: dict, train: str, base: Path, track: int | None = None) -> dict:
     """The base configuration's mapping running the record's train (as moving forces when
-    the base's train is)."""
+    the base's train is), on ``track`` when given (a deck in space)."""
     out = base_data(data)
     tr = dict(out.get("train", {}))
     model = tr.get("model")
@@ -221,6 +231,8 @@ def record_train_data(data: dict, train: str, base: Path) -> dict:
         keep["preset"] = train
     if model is not None:
         keep["model"] = model
+    if track is not None:
+        keep["track"] = int(track)
     out["train"] = keep
     return out
 

@@ -62,7 +62,9 @@ class ForwardError(ValueError):
 @dataclass(frozen=True)
 class Group:
     """The runs of one train: its speeds (km/h), deck points (m) and track (1-based;
-    None: the configuration's)."""
+    None: the configuration's).  On a deck in space a group with a track runs its train
+    on that track and reads its histories on that track's line (the points' shapes
+    ``phi + y_k theta``)."""
 
     train: str | None  # None: the configuration's own train
     speeds_kmh: tuple[float, ...]
@@ -207,8 +209,9 @@ class Forward:
             self._typed = self._build_typed()
 
     def _group_data(self, g: Group) -> dict:
-        d = self.data if g.train is None else record_train_data(self.data, g.train,
-                                                                self.base_dir)
+        if g.train is not None:
+            return record_train_data(self.data, g.train, self.base_dir, g.track)
+        d = self.data
         if g.track is not None:
             d = copy.deepcopy(d)
             d.setdefault("train", {})["track"] = int(g.track)
@@ -343,6 +346,13 @@ class Forward:
         deck = deck_operators(m.bridge, m.points, m.settings, load_effects=False)
         if self.histories:
             deck = deck[:3]
+            if g.track is not None and cfg.deck_in_space is not None:
+                # the record's point is on its track's line (phi + y_k theta), not on
+                # the deck's axis that the deck outputs read
+                phi_d = np.ascontiguousarray(m.bridge.shapes(m.points), dtype=np.float64)
+                keep = np.asarray(m.bridge.frequencies) <= deck[2] + 1e-9
+                deck = (phi_d, np.ascontiguousarray(np.where(keep[None, :], phi_d, 0.0)),
+                        deck[2])
         return m, packed, deck, np.asarray(m.bridge.frequencies, float)
 
     # ------------------------------------------------------------------------ runs

@@ -121,6 +121,7 @@ class Store:
         self.path = None if path is None else Path(path)
         self.identity = dict(identity, format=STORE_FORMAT)
         self.blocks: dict[bytes, np.ndarray] = {}
+        self._stored: set[bytes] = set()  # the blocks read from the file
         self.discarded = ""
         self.replayed = 0
         self.computed = 0
@@ -161,6 +162,7 @@ class Store:
             y = np.frombuffer(body, np.float64, n * n_out, pos + 8 + 8 * n * n_in
                               ).reshape(n, n_out)
             self.blocks[self._key(u)] = y.copy()
+            self._stored.add(self._key(u))
             pos += size
             good = pos
         if good < len(body):  # a block cut short by a kill: drop it
@@ -168,8 +170,12 @@ class Store:
                 f.truncate(len(head) + 1 + good)
 
     def get(self, u):
-        y = self.blocks.get(self._key(u))
-        if y is not None:
+        """The stored outputs of a block (None: not computed yet); a block asked for
+        twice in one run (a search that comes back to a point) is computed once."""
+        key = self._key(u)
+        y = self.blocks.get(key)
+        if y is not None and key in self._stored:
+            self._stored.discard(key)
             self.replayed += 1
         return y
 

@@ -143,9 +143,14 @@ def _subset(g1, n_var, limit, target, block, max_runs, seed):
     import openturns as ot
 
     calls = [0]
+    raised: list[BaseException] = []
 
     def f(x):
-        y = g1(np.asarray(x, float))
+        try:
+            y = g1(np.asarray(x, float))
+        except BaseException as exc:  # OpenTURNS turns it into a RuntimeError
+            raised.append(exc)
+            raise
         calls[0] += len(y)
         return [[float(v)] for v in y]
 
@@ -160,7 +165,12 @@ def _subset(g1, n_var, limit, target, block, max_runs, seed):
         algo.setMaximumOuterSampling(1)
         algo.setBlockSize(int(n_level))
         algo.setConditionalProbability(LEVEL_PROBABILITY)
-        algo.run()
+        try:
+            algo.run()
+        except RuntimeError:
+            if raised:  # the evaluation's own exception (an interruption: the store)
+                raise raised[0] from None
+            raise
         res = algo.getResult()
         p = float(res.getProbabilityEstimate())
         cov = float(res.getCoefficientOfVariation()) if p > 0 else math.inf

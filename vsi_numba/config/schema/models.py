@@ -147,7 +147,9 @@ class CalibrationRecord(Section):
     train: Text = _declare(required=True, doc="a library train (vsi trains) or an axle CSV file",
                       expected="a train name (vsi trains) or an axle CSV file",
                       example="HSLM-A1")
-    speed_kmh: Speed = _declare(required=True, unit="km/h", doc="train speed of the passage",
+    speed_kmh: Speed = _declare(None, default_text="from the record (the model's best fit in "
+                                                   "shape)", unit="km/h",
+                           doc="train speed of the passage",
                            expected=f"a speed > 0 km/h (at most {SPEED_BOUND_KMH:g})")
 
 

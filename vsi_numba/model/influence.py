@@ -216,18 +216,29 @@ def influence(static: StaticDeck | None, effect: str, at, x_load) -> np.ndarray:
         The effect is unknown, the bridge cannot give it (the message says what is
         available and why), or a support index is out of range.
     """
-    check_effects(static, (effect,))
-    at = np.atleast_1d(np.asarray(at, float))
+    return influences(static, ((effect, at),), x_load)[0]
+
+
+def influences(static: StaticDeck | None, requests, x_load) -> list[np.ndarray]:
+    """:func:`influence` of each ``(effect, at)`` of ``requests`` for the same unit
+    forces at ``x_load``: the same values, the loads' spans and the support moments
+    found once for all of them."""
     x = np.atleast_1d(np.asarray(x_load, float))
-    if effect not in AT_SECTIONS:
-        k = at.astype(np.int64)
-        if np.any(k != at) or np.any((k < 0) | (k >= static.n_supports)):
-            raise LoadEffectError(f"{effect}: support indices 0 .. {static.n_supports - 1} "
-                                  f"expected, got {at.tolist()}")
-        at = k
+    checked = []
+    for effect, at in requests:
+        check_effects(static, (effect,))
+        at = np.atleast_1d(np.asarray(at, float))
+        if effect not in AT_SECTIONS:
+            k = at.astype(np.int64)
+            if np.any(k != at) or np.any((k < 0) | (k >= static.n_supports)):
+                raise LoadEffectError(f"{effect}: support indices 0 .. "
+                                      f"{static.n_supports - 1} expected, got {at.tolist()}")
+            at = k
+        checked.append((effect, at))
     if static.kind == "matrices":
-        return _matrices(static, effect, at, x)
-    return _beam(static, effect, at, x)
+        return [_matrices(static, effect, at, x) for effect, at in checked]
+    loads = _beam_loads(static, x) if checked else None
+    return [_beam(static, effect, at, x, loads) for effect, at in checked]
 
 
 # ------------------------------------------------------------------------------- beams
@@ -271,13 +282,20 @@ def support_moments(static: StaticDeck, x) -> np.ndarray:
     return ms
 
 
-def _beam(static: StaticDeck, effect, at, x):
-    sup, L, ei = static.supports, static.spans, static.EI
+def _beam_loads(static: StaticDeck, x):
+    """What :func:`_beam` needs of the unit forces at ``x`` whatever the effect: on the
+    deck, their span, a and b in it, the support moments."""
+    sup, L = static.supports, static.spans
     on = (x >= sup[0]) & (x <= sup[-1])
     sl = _span_of(sup, x)
     a = np.where(on, x - sup[sl], 0.0)
     b = L[sl] - a
-    ms = support_moments(static, x)
+    return on, sl, a, b, support_moments(static, x)
+
+
+def _beam(static: StaticDeck, effect, at, x, loads=None):
+    sup, L, ei = static.supports, static.spans, static.EI
+    on, sl, a, b, ms = _beam_loads(static, x) if loads is None else loads
     if effect in AT_SECTIONS:
         inside = (at >= sup[0]) & (at <= sup[-1])
         sa = _span_of(sup, at)

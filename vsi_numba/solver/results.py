@@ -349,7 +349,7 @@ def effect_series(e: LoadEffectTables, static, x: np.ndarray, force: np.ndarray,
     ``c`` = q - F / w^2 (n, n_m); ``chan``: :meth:`BatchResult._effect_channels`.
     Returns ``bending_moment``, ``shear_force`` (n, point), ``support_reaction``,
     ``rotation`` (n, support)."""
-    from vsi_numba.model.influence import influence
+    from vsi_numba.model.influence import influences
 
     n = x.shape[0]
     points = e.sections[e.point_index]
@@ -359,14 +359,14 @@ def effect_series(e: LoadEffectTables, static, x: np.ndarray, force: np.ndarray,
     step, load = np.nonzero((x >= e.supports[0]) & (x <= e.supports[-1]) & (force != 0.0))
     xs, fs = x[step, load], force[step, load]
     out = {}
-    for name, effect, at, cols in (
-            ("bending_moment", "moment", points, chan["bending_moment"]),
-            ("shear_force", "shear", points, chan["shear_force"]),
-            ("support_reaction", "reaction", k, chan["support_reaction"]),
-            ("rotation", "rotation", k, chan["end_rotation"])):
-        if effect not in e.channels:
-            continue
-        g = influence(static, effect, at, xs) * fs  # (len(at), pairs)
+    wanted = [(name, effect, at, cols) for name, effect, at, cols in (
+        ("bending_moment", "moment", points, chan["bending_moment"]),
+        ("shear_force", "shear", points, chan["shear_force"]),
+        ("support_reaction", "reaction", k, chan["support_reaction"]),
+        ("rotation", "rotation", k, chan["end_rotation"])) if effect in e.channels]
+    lines = influences(static, [(effect, at) for _, effect, at, _ in wanted], xs)
+    for (name, _, at, cols), line in zip(wanted, lines, strict=True):
+        g = line * fs  # (len(at), pairs)
         total = np.stack([np.bincount(step, weights=row, minlength=n) for row in g],
                          axis=1) if len(at) else np.zeros((n, 0))
         out[name] = total + c @ e.E[:, cols]

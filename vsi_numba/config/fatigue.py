@@ -173,7 +173,9 @@ def _studs(chk, v, profile, bridge):
             r["gamma_Ff"] = profile["fatigue_gamma_Ff"]
         if r["gamma_Mf"] is None:
             r["gamma_Mf"] = profile["fatigue_stud_gamma_Mf"]
-        r = {k: (float(v) if _ok(v) else v) for k, v in r.items()}
+        # numbers as floats, the count as an int (the stored configuration reloads)
+        r = {k: ((int(v) if k == "per_row" else float(v)) if _ok(v) else v)
+             for k, v in r.items()}
         name = chk.fields(s, p, _m.FatigueStud, ["name"])["name"]
         if isinstance(name, str) and not name.strip():
             name = chk.error(f"{p}.name", name, expected_of(_m.FatigueStud, "name"))

@@ -42,7 +42,14 @@ from vsi_numba.config.limits import (
     MAX_OUTPUT_POINTS,
 )
 from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import Num, PosNum, implausible, keys_of, kinds_of
+from vsi_numba.config.schema._fields import (
+    Num,
+    PosNum,
+    expected_of,
+    implausible,
+    keys_of,
+    kinds_of,
+)
 from vsi_numba.model import bridge as _bridge
 
 BRIDGE_KINDS = ("simply_supported", "continuous", "rigid", "modes_file", "matrices")
@@ -138,7 +145,7 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
     )
     if "spans" in d:
         spans = chk.number_list(
-            d["spans"], "bridge.spans", PosNum, "a span length > 0 m",
+            d["spans"], "bridge.spans", PosNum, expected_of(_m.Continuous, "spans"),
             expected=span_expect, scalar_ok=True, min_len=1, max_len=200,
         )
         if _is_number(spans):
@@ -163,8 +170,9 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
     ei = mass = damping = n_modes = fmax = _BAD
     eps = None
     if flexible:
-        ei = _per_span(chk, d, path, "EI", "a bending stiffness EI > 0 N m^2", n_spans)
-        mass = _per_span(chk, d, path, "mass_per_length", "a mass per length > 0 kg/m", n_spans)
+        ei = _per_span(chk, d, path, "EI", expected_of(_m.Continuous, "EI"), n_spans)
+        mass = _per_span(chk, d, path, "mass_per_length",
+                         expected_of(_m.Continuous, "mass_per_length"), n_spans)
         res.update(EI=ei, mass_per_length=mass)
     if kind != "rigid":
         damping = 0.0

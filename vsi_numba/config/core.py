@@ -52,6 +52,7 @@ from vsi_numba.config.physics import (
 )
 from vsi_numba.config.report import _report_section
 from vsi_numba.config.schema import VsiConfig, keys_of
+from vsi_numba.config.schema._fields import expected_of
 from vsi_numba.config.solver import (
     SOLVER_OVERRIDES,
     _contact_section,
@@ -498,7 +499,8 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     top = keys_of(VsiConfig)  # the declared tables (vsi_numba.config.schema.models)
     chk.table(data, "", top)
     default_title = path.stem if path is not None else "untitled"
-    title = chk.string(data, "", "title", "a title (string)", default=None, nonempty=False)
+    title = chk.string(data, "", "title", expected_of(VsiConfig, "title"), default=None,
+                       nonempty=False)
     if "bridge" not in data:
         chk.error("bridge", _MISSING, "a table [bridge] with kind, spans, EI, mass_per_length")
     if "train" not in data:

@@ -19,7 +19,7 @@ from vsi_numba.config._check import (
 )
 from vsi_numba.config.limits import MAX_ECCENTRICITY
 from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import Int
+from vsi_numba.config.schema._fields import Int, expected_of
 from vsi_numba.model import bridge as _bridge
 
 _IMPORTED = ("modes_file", "matrices")
@@ -116,7 +116,7 @@ def _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes, fmax,
     for key in files:
         given[key], full[key] = chk.file(d, path, key, base_dir, _IMPORT_FILES[key])
         res[key] = given[key]
-    line = chk.string(d, path, "track_line", "the name of a track line (string)",
+    line = chk.string(d, path, "track_line", expected_of(_m.Matrices, "track_line"),
                       default=None)
     res["track_line"] = line
     extra: dict[str, Any] = {}
@@ -125,12 +125,11 @@ def _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes, fmax,
         res["mass_normalised"] = extra["mass_normalised"]
     else:
         base = chk.get_number(d, path, "dof_base", Int(ge=0, le=1),
-                              "0 (DOFs numbered from 0) or 1 (from 1)", default=0)
-        sign = chk.get_number(d, path, "rotation_sign", float,
-                              "1 (rotation DOF = +dw/dx) or -1 (= -dw/dx)", default=1.0)
+                              expected_of(_m.Matrices, "dof_base"), default=0)
+        sign_expected = expected_of(_m.Matrices, "rotation_sign")
+        sign = chk.get_number(d, path, "rotation_sign", float, sign_expected, default=1.0)
         if _ok(sign) and sign not in (1, -1):
-            sign = chk.error("bridge.rotation_sign", d["rotation_sign"],
-                             "1 (rotation DOF = +dw/dx) or -1 (= -dw/dx)")
+            sign = chk.error("bridge.rotation_sign", d["rotation_sign"], sign_expected)
         b0 = base if _ok(base) else 0
         fixed = _dof_indices(chk, d, "fixed_dofs", b0) if "fixed_dofs" in d else []
         vert = (_dof_indices(chk, d, "vertical_dofs", b0, allow_pattern=True)

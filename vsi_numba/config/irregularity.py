@@ -111,7 +111,7 @@ def _irregularity_section(chk, d, base_dir: Path) -> _IrregularitySpec | _Sentin
             seeds = chk.number_list(
                 d["seeds"], "irregularity.seeds",
                 item_type(_m.PsdIrregularity, "seeds"), "an integer seed 0 <= seed < 2^63",
-                expected="a non-empty list of distinct integer seeds >= 0", max_len=10_000,
+                expected=expected_of(_m.PsdIrregularity, "seeds"), max_len=10_000,
                 scalar_ok=True)
             if _is_number(seeds):
                 seeds = [seeds]
@@ -122,8 +122,10 @@ def _irregularity_section(chk, d, base_dir: Path) -> _IrregularitySpec | _Sentin
     elif kind == "file":
         given, full = chk.file(d, path, "path", base_dir, "the profile (CSV, columns x and r)")
         res["path"] = given
-        xcol = chk.string(d, path, "x_column", "a column name (string)", default="x")
-        rcol = chk.string(d, path, "r_column", "a column name (string)", default="r")
+        xcol = chk.string(d, path, "x_column", expected_of(_m.FileIrregularity, "x_column"),
+                          default="x")
+        rcol = chk.string(d, path, "r_column", expected_of(_m.FileIrregularity, "r_column"),
+                          default="r")
         unit, dx = chk.fields(d, path, _m.FileIrregularity, ["r_unit", "dx"]).values()
         res.update(_drop_none({"x_column": xcol, "r_column": rcol, "r_unit": unit, "dx": dx}))
         ok = _ok(given, full, xcol, rcol, unit, dx)

@@ -22,7 +22,7 @@ from vsi_numba.config._check import (
 )
 from vsi_numba.config.limits import MAX_SPEEDS
 from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import Num, item_type, keys_of
+from vsi_numba.config.schema._fields import Num, expected_of, item_type, keys_of
 from vsi_numba.config.variants import _vary_axes
 from vsi_numba.en1991 import (
     ALPHA_CLAUSE,
@@ -76,7 +76,7 @@ def _study_section(chk, d, default_output: str, base_dir: Path, profile=None
         return _BAD
     line = chk.fields(d, path, _m.Study, ["line_speed_kmh"])["line_speed_kmh"]
     speeds = _BAD
-    expected = ("a list of speeds > 0 km/h, or a table {start, stop, step} in km/h")
+    expected = expected_of(_m.Study, "speeds_kmh")
     if "speeds_kmh" in d:
         raw = _as_list(d["speeds_kmh"])
         if isinstance(raw, Mapping):
@@ -106,12 +106,12 @@ def _study_section(chk, d, default_output: str, base_dir: Path, profile=None
         chk.error("study.speeds_kmh", _MISSING, expected + " (or give study.line_speed_kmh)")
     elif line is not _BAD:
         speeds = _line_speed_grid(line)
-    output = chk.string(d, path, "output", "a path to a netCDF file ending in .nc",
+    output = chk.string(d, path, "output", expected_of(_m.Study, "output"),
                         default=default_output)
     out_full = _BAD
     if _ok(output):
         if "\x00" in output or not output.endswith(".nc"):
-            output = chk.error("study.output", output, "a path to a netCDF file ending in .nc")
+            output = chk.error("study.output", output, expected_of(_m.Study, "output"))
         else:
             out_full = _resolve(base_dir, output)
             if out_full is None:
@@ -124,7 +124,7 @@ def _study_section(chk, d, default_output: str, base_dir: Path, profile=None
     if "history_speeds_kmh" in d:
         hist = chk.number_list(d["history_speeds_kmh"], "study.history_speeds_kmh", _SPEED,
                                _SPEED_EXPECTED,
-                               expected="a list of speeds (km/h) taken from study.speeds_kmh",
+                               expected=expected_of(_m.Study, "history_speeds_kmh"),
                                scalar_ok=True, min_len=0)
         if _is_number(hist):
             hist = [hist]

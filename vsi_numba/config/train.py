@@ -23,7 +23,7 @@ from vsi_numba.config._check import (
 )
 from vsi_numba.config.limits import MAX_CONFIG_BYTES, MAX_USER_DOFS, MAX_VEHICLES
 from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import Int, Num, keys_of, kinds_of
+from vsi_numba.config.schema._fields import Int, Num, expected_of, keys_of, kinds_of
 from vsi_numba.model import library as _lib
 from vsi_numba.model import vehicle as _veh
 from vsi_numba.model.library import extra as _extra
@@ -197,7 +197,8 @@ def _vehicle(chk, v, path, index):
                                     f"'{other}')")
     chk.table(v, path, allowed, elsewhere=elsewhere)
     offset = chk.fields(v, path, _VEHICLE_MODELS[kind], ["offset"])["offset"]
-    name = chk.string(v, path, "name", "a vehicle name (string)", default=f"{kind}{index}")
+    name = chk.string(v, path, "name", expected_of(_VEHICLE_MODELS[kind], "name"),
+                      default=f"{kind}{index}")
     res = {"kind": kind, "offset": offset, "name": name}
     if kind == "user":
         veh = _user_vehicle(chk, v, path, name if _ok(name) else kind)
@@ -315,7 +316,7 @@ def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
         if _ok(others):
             res["other_trains"] = others
     if "vehicles" in d:
-        name = chk.string(d, path, "name", "a train name (string)",
+        name = chk.string(d, path, "name", expected_of(_m.Train, "name"),
                           default=title if title else "custom")
         res["name"] = name
         return _explicit_train(chk, d["vehicles"], name, res)
@@ -414,7 +415,7 @@ def _axle_train(chk, v, base_dir, res):
         return _BAD
     given, full = chk.file(v, path, "file", base_dir, "axle loads (CSV: position, load)")
     unit = chk.fields(v, path, _m.Axles, ["load_unit"])["load_unit"]
-    name = chk.string(v, path, "name", "a train name (string)", default=None)
+    name = chk.string(v, path, "name", expected_of(_m.Axles, "name"), default=None)
     if not _ok(given, full, unit, name):
         return _BAD
     try:

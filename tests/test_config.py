@@ -637,3 +637,23 @@ def test_config__warning_psd_sampling():
     [w] = load_config(with_("irregularity", psd)).warnings
     assert w.startswith("irregularity.wavelength_min = 0.5 m is crossed in 9 time steps at "
                         "200 km/h")
+
+
+@pytest.mark.parametrize("track", ["one", None, 1.5])
+def test_config__bad_train_track_next_to_other_trains_is_an_error(track):
+    """A train.track that is refused, next to train.other_trains: the error names it (the
+    other trains' tracks are not compared with a refused value; no TypeError)."""
+    data = {
+        "bridge": {"kind": "simply_supported", "spans": [20.0], "EI": 1.5e10,
+                   "mass_per_length": 1.0e4, "n_modes": 3, "damping_ratio": 0.01,
+                   "tracks": [{"eccentricity": 2.0}, {"eccentricity": -2.0}],
+                   "torsion": {"GJ": 1e10, "polar_mass": 4.0e4, "n_modes": 2}},
+        "train": {"preset": "HSLM-A1", "model": "moving_force", "track": track,
+                  "other_trains": [{"track": 2, "direction": "opposite", "offset": 10.0}]},
+        "study": {"speeds_kmh": [200.0]},
+    }
+    with pytest.raises(ConfigError) as exc:
+        load_config(data)
+    assert [e for e in exc.value.errors if e.startswith("train.track = ")], exc.value.errors
+    data["train"]["track"] = 1  # the same configuration with a valid track loads
+    assert load_config(data).other_trains[0]["track"] == 2

@@ -17,9 +17,10 @@ def _other_train_checks(chk, bridge, train) -> None:
     deck without the FE track layer."""
     others = train.resolved["other_trains"]
     n_tracks = len(bridge.resolved.get("tracks", [{}]))
-    own = int(train.resolved.get("track", 1))
+    own = train.resolved.get("track", 1)
     seen = {own}
-    for i, o in enumerate(others):
+    # (a train.track already refused: the other trains' tracks are not compared with it)
+    for i, o in enumerate(others if _ok(own) else ()):
         k = int(o["track"])
         p = f"train.other_trains[{i}].track"
         if k > n_tracks:

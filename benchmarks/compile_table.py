@@ -14,6 +14,13 @@ time; the self times add up to the total.  Functions that numba inlines
     python -m benchmarks.compile_table --json BEFORE.json AFTER.json  # table of saved runs
     ... --write "TITLE"     # into reports/benchmarks.md, section "Compile time per function"
     python -m benchmarks.compile_table --measure > X.json       # the code on sys.path
+    python -m benchmarks.compile_table --cold [TREE ...]   # ``vsi compile``, empty cache
+
+``--cold`` runs the whole command a first run pays, ``vsi compile`` (both families, the
+moving-force family in its second process on 2 cores), in a fresh process on an empty
+``NUMBA_CACHE_DIR`` for each tree (default: this checkout), and prints its CPU seconds
+(user + system of the command and its helper process), its wall seconds and the size of
+the cache it wrote.
 
 A tree is a checkout of the repository (its root goes first on ``PYTHONPATH``).
 """
@@ -103,6 +110,25 @@ def run_tree(tree: str) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+def cold(tree: str) -> dict:
+    """``vsi compile`` on ``tree``'s code from an empty cache: {"cpu": s, "wall": s,
+    "cache_mb": MB} (CPU: user + system of the command and of the processes it waited
+    for, its compile helper)."""
+    import resource
+
+    with tempfile.TemporaryDirectory(prefix="numba-cache-") as cache:
+        env = {**os.environ, "PYTHONPATH": tree, "NUMBA_CACHE_DIR": cache}
+        r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-m", "vsi_numba.cli", "compile", "--quiet"],
+                       env=env, cwd=tree, check=True)
+        wall = time.perf_counter() - t0
+        r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        size = sum(p.stat().st_size for p in Path(cache).rglob("*") if p.is_file())
+    cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+    return {"cpu": cpu, "wall": wall, "cache_mb": size / 1e6}
+
+
 def markdown(before: dict, after: dict) -> str:
     """Per-function self time before and after, family by family, with totals."""
     lines = []
@@ -171,6 +197,9 @@ def main(argv=None) -> int:
     p.add_argument("trees", nargs="*", help="BEFORE_TREE AFTER_TREE")
     p.add_argument("--measure", action="store_true",
                    help="measure the code on sys.path (empty NUMBA_CACHE_DIR) as JSON")
+    p.add_argument("--cold", action="store_true",
+                   help="CPU and wall seconds of `vsi compile` from an empty cache, for "
+                        "each tree given (default: this checkout)")
     p.add_argument("--json", action="store_true",
                    help="the two arguments are JSON files of --measure")
     p.add_argument("--write", metavar="TITLE",
@@ -179,6 +208,12 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     if args.measure:
         print(json.dumps(measure()))
+        return 0
+    if args.cold:
+        for tree in args.trees or [str(Path(__file__).resolve().parents[1])]:
+            r = cold(tree)
+            print(f"{tree}: vsi compile from an empty cache: {r['cpu']:.1f} s CPU, "
+                  f"{r['wall']:.1f} s wall, cache {r['cache_mb']:.1f} MB")
         return 0
     if len(args.trees) != 2:
         p.error("give BEFORE_TREE AFTER_TREE (or --measure)")

@@ -104,6 +104,37 @@ def test_vsi_compile__two_processes_on_an_empty_cache_compile_once(tmp_path):
                           check=True).stdout.strip() == "False"
 
 
+def test_vsi_compile_into__a_copied_generic_cache_loads_elsewhere(tmp_path):
+    """``vsi compile --into DIR`` compiles for a generic CPU into DIR (its marker file,
+    the kernels under ``vsi_numba.kernels-HASH``: no path of this machine); a copy of DIR
+    at another path, used as ``NUMBA_CACHE_DIR``, makes the process target the generic
+    CPU and load the kernels (a host-CPU process would miss numba's index key and
+    compile), and a plain cache directory gives a host-CPU process."""
+    import shutil
+
+    from vsi_numba._jit import GENERIC_MARK
+
+    built = tmp_path / "built"
+    done = _vsi("compile", "--family", "moving_force", "--into", str(built))
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines()[0].startswith("moving_force: compiled ("), done.stdout
+    assert f"NUMBA_CACHE_DIR={built}" in done.stdout.replace("\n", "")
+    assert (built / GENERIC_MARK).is_file()
+    subdirs = [p.name for p in built.iterdir() if p.is_dir()]
+    assert len(subdirs) == 1 and subdirs[0].startswith("vsi_numba.kernels-"), subdirs
+    assert any((built / subdirs[0]).glob("*.nbi"))
+    copy = tmp_path / "elsewhere" / "kernels"
+    shutil.copytree(built, copy)
+    code = "import numba, vsi_numba._jit; print(numba.config.CPU_NAME)"
+    for cache, cpu in ((copy, "generic"), (tmp_path / "plain", "None")):
+        ask = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                             env={**os.environ, "NUMBA_CACHE_DIR": str(cache)}, check=True)
+        assert ask.stdout.strip() == cpu, (cache, ask.stdout)
+    loaded = _vsi("compile", "--family", "moving_force", cache_dir=copy)
+    assert loaded.returncode == 0, loaded.stderr
+    assert loaded.stdout.startswith("moving_force: loaded ("), loaded.stdout
+
+
 _HOLDER = """
 import sys, time
 from vsi_numba.solver.kernel_cache import compile_lock

@@ -124,6 +124,40 @@ def test_dask_cluster__separate_processes_bit_identical_to_local(tmp_path):
     assert a == b
 
 
+def _kernel_cache_counts():
+    """On a worker: numba's cache hits and misses of the moving-force kernel."""
+    from vsi_numba.solver import kernel_cache as kc
+
+    stats = kc.kernel("moving_force").stats
+    return sum(stats.cache_hits.values()), sum(stats.cache_misses.values())
+
+
+def test_dask_cluster__workers_load_the_clients_kernels(tmp_path):
+    """Workers whose numba cache is empty (``NUMBA_CACHE_DIR`` of their own) load the
+    kernels the client sends (``worker_kernels.share_kernels``) instead of compiling
+    them: numba counts cache hits and no miss on them (a miss is a compilation), and the
+    results equal the local run's."""
+    from vsi_numba.solver.batch import compile_family
+    from vsi_numba.study.backends import worker_env
+
+    compile_family("moving_force")  # the client's cache holds the family
+    cfg = tmp_path / "study.toml"
+    cfg.write_text(textwrap.dedent(CONFIG))
+    local = run_study(cfg, tmp_path / "local.nc").load()
+    empty = tmp_path / "worker-cache"
+    env = {**worker_env(), "NUMBA_CACHE_DIR": str(empty)}
+    with LoopbackCluster(2, tmp_path / "cluster", env=env) as cluster:
+        dist = run_study(cfg, tmp_path / "cluster.nc", scheduler=cluster.address).load()
+        with Client(cluster.address) as client:
+            counts = client.run(_kernel_cache_counts)
+    assert len(counts) == 2, counts  # a worker that ran no batch loaded nothing
+    assert all(misses == 0 for _, misses in counts.values()), counts
+    assert sum(hits for hits, _ in counts.values()) >= 1, counts
+    assert any(empty.rglob("*.nbc"))
+    xr.testing.assert_identical(local["max_deck_acceleration"],
+                                dist["max_deck_acceleration"])
+
+
 class _Boom(Exception):
     pass
 

@@ -12,9 +12,12 @@ import numpy as np
 import pytest
 
 from vsi_numba import kernels as ek
-from vsi_numba.kernels.linalg import skyline_cholesky_solve
-from vsi_numba.kernels.schur import solve_active_set
-from vsi_numba.kernels.shapes import eval_modes, eval_profile
+from vsi_numba.kernels.probe import (
+    eval_modes,
+    eval_profile,
+    skyline_cholesky_solve,
+    solve_active_set,
+)
 from vsi_numba.model import bridge as br
 from vsi_numba.model import vehicle as vh
 from vsi_numba.model.irregularity import Profile, cosine_defect, no_irregularity

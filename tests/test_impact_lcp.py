@@ -12,7 +12,7 @@ import pytest
 import reference as ref
 
 from vsi_numba import kernels as ek
-from vsi_numba.kernels.step import hht_step
+from vsi_numba.kernels.probe import hht_step
 from vsi_numba.model import bridge as br
 from vsi_numba.model import vehicle as vh
 from vsi_numba.model.irregularity import no_irregularity

@@ -12,6 +12,15 @@ lost, and the step and the compilation are cheaper without it. A kernel that mus
 allocate opts back in with ``njit(_nrt=True)`` (numba refuses an allocation in the others
 at compile time).
 
+A counter that a kernel passes to another kernel starts as ``np.int64(0)``, not ``0``:
+numba types the call as soon as it knows a first type for each argument, and for a
+counter that starts as ``0`` that is the literal ``Literal[int](0)``, so the callee
+would be compiled once for the literal and once more for ``int64``.
+
+``no_cfunc_wrapper=True``: numba would also compile a C-ABI entry point for every kernel
+(for calls through a function pointer, which nothing here makes); for the bundles of
+arrays the kernels take, its code is as large as the kernel's prologue.
+
 The cache follows the source of the whole package that defines a kernel: numba keys a
 cached kernel on the hash of its own file only, so an edit to a callee in another file of
 the package would load the caller with the old callee.  :func:`njit` registers the
@@ -33,7 +42,7 @@ from numba.core import caching
 from numba.core.registry import CPUDispatcher
 
 JIT_OPTIONS = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy",
-               "_nrt": False}
+               "_nrt": False, "no_cfunc_wrapper": True}
 
 
 def njit(func=None, *, kernel_only: bool = False, **overrides):
@@ -105,27 +114,41 @@ def package_hash(directory: str | os.PathLike) -> str:
 
 
 class PackageSourceLocator(caching._CacheLocator):
-    """numba's cache locator for the kernels of a registered package: the cache directory
-    numba would choose (``NUMBA_CACHE_DIR``, else the ``__pycache__`` beside the file,
-    else the user-wide cache), stamped with :func:`package_hash` of the package instead
-    of the hash of the defining file alone."""
+    """numba's cache locator for the kernels of a registered package, stamped with
+    :func:`package_hash` of the package instead of the hash of the defining file alone.
+
+    The directory: with ``NUMBA_CACHE_DIR``, ``NUMBA_CACHE_DIR/PACKAGE-HASH`` (e.g.
+    ``vsi_numba.kernels-3f0c...``: the package's dotted name and the first 16 hex digits
+    of its :func:`package_hash`), so that a cache directory names no absolute path and can
+    be copied to another install of the same sources (numba's own layout names a hash of
+    the source directory's absolute path); each version of the sources has a directory of
+    its own.  Else the one numba would choose (the ``__pycache__`` beside the file, else
+    the user-wide cache)."""
 
     # numba's own locators, in its order (numba < 0.68 names them with a leading "_")
     _DEFAULT = tuple(getattr(caching, name, None) or getattr(caching, "_" + name)
                      for name in ("UserProvidedCacheLocator", "InTreeCacheLocator",
                                   "UserWideCacheLocator"))
 
-    def __init__(self, inner, py_file: str):
+    def __init__(self, inner, py_func, py_file: str, user_dir: bool = False):
         self._inner = inner
         self._package = _package_dir(py_file)
+        self._name = py_func.__module__.rpartition(".")[0] or py_func.__module__
+        self._user_dir = user_dir
         # numba's cache reads the locator's file where it warns that a kernel cannot be
         # cached (dynamic globals, e.g. with NUMBA_OPT=0): the kernel's own file
         self._py_file = py_file
 
     def ensure_cache_path(self):
-        self._inner.ensure_cache_path()
+        if self._user_dir:
+            super().ensure_cache_path()
+        else:
+            self._inner.ensure_cache_path()
 
     def get_cache_path(self):
+        if self._user_dir:
+            return os.path.join(numba.config.CACHE_DIR,
+                                f"{self._name}-{self.get_source_stamp()[:16]}")
         return self._inner.get_cache_path()
 
     def get_source_stamp(self):
@@ -138,13 +161,65 @@ class PackageSourceLocator(caching._CacheLocator):
     def from_function(cls, py_func, py_file):
         if _package_dir(py_file) not in _PACKAGES:
             return None  # not a kernel of this project: numba's own locators
-        for locator in cls._DEFAULT:
+        if numba.config.CACHE_DIR:
+            self = cls(cls._DEFAULT[0](py_func, py_file), py_func, py_file, user_dir=True)
+            try:
+                self.ensure_cache_path()
+                return self
+            except OSError:  # not writable: where numba would go next
+                pass
+        for locator in cls._DEFAULT[1:]:
             inner = locator.from_function(py_func, py_file)
             if inner is not None:
-                return cls(inner, py_file)
+                return cls(inner, py_func, py_file)
         return None
 
 
 if PackageSourceLocator not in caching.CacheImpl._locator_classes:
     caching.CacheImpl._locator_classes.insert(0, PackageSourceLocator)
 
+
+# ------------------------------------------------------------------ the target CPU
+
+#: The file that marks a ``NUMBA_CACHE_DIR`` whose kernels are compiled for a generic CPU
+#: of the machine's architecture (``vsi compile --into DIR``): a process with that cache
+#: directory compiles and loads its kernels for the generic CPU too (:func:`use_generic_cpu`).
+GENERIC_MARK = "vsi_numba-generic-cpu"
+
+#: numba's settings of a generic CPU: the architecture's baseline instructions only.
+GENERIC_CPU_ENV = {"NUMBA_CPU_NAME": "generic", "NUMBA_CPU_FEATURES": ""}
+
+
+def _codegen_started() -> bool:
+    """numba has made its CPU code generator in this process (it reads the target CPU
+    once, then)."""
+    from numba.core.registry import cpu_target
+
+    return "_toplevel_target_context" in vars(cpu_target)
+
+
+def use_generic_cpu() -> bool:
+    """Compile and load the kernels of this process for a generic CPU
+    (:data:`GENERIC_CPU_ENV`, also for the processes it starts), unless ``NUMBA_CPU_NAME``
+    names another CPU or numba has compiled or loaded a function already (its target is
+    fixed then).  numba keys a cached kernel on the target CPU: code for a generic CPU
+    runs on every machine of the architecture, so such a cache can be copied to another
+    machine.  Returns whether this process's kernels target a generic CPU."""
+    if numba.config.CPU_NAME is None and not _codegen_started():
+        os.environ.update(GENERIC_CPU_ENV)
+        numba.config.reload_config()
+    return targets_generic_cpu()
+
+
+def targets_generic_cpu() -> bool:
+    """This process compiles and loads its kernels for a generic CPU."""
+    return str(numba.config.CPU_NAME).lower() == "generic"
+
+
+def generic_cache(directory: str | os.PathLike | None) -> bool:
+    """``directory`` is a cache of kernels for a generic CPU (holds :data:`GENERIC_MARK`)."""
+    return bool(directory) and os.path.isfile(os.path.join(directory, GENERIC_MARK))
+
+
+if generic_cache(numba.config.CACHE_DIR):
+    use_generic_cpu()

@@ -101,12 +101,17 @@ def compile_(
     family: str | None = typer.Option(
         None, "--family", help="moving_force or interaction (default: both)"),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="print nothing"),
+    into: Path | None = typer.Option(
+        None, "--into", metavar="DIR",
+        help="compile them for a generic CPU into this cache directory instead: a study "
+             "with NUMBA_CACHE_DIR=DIR (or a copy of DIR on another machine with the same "
+             "Python, numba and vsi_numba) loads them"),
 ):
     """Compile the numba kernels into the cache (or load them from it), once per machine:
     what a first run would otherwise do before its first batch."""
     from vsi_numba.cli.compile_kernels import compile_command
 
-    raise typer.Exit(compile_command(family, quiet))
+    raise typer.Exit(compile_command(family, quiet, into))
 
 
 @app.command()

@@ -6,6 +6,8 @@ then the accelerations and contact forces consistent with the constraints
 
 from __future__ import annotations
 
+import numpy as np
+
 from vsi_numba._jit import njit
 from vsi_numba.kernels.linalg import block_matvec, skyline_cholesky_solve
 from vsi_numba.kernels.schur import build_schur, contact_arrays, contact_profile
@@ -33,7 +35,7 @@ def solve_lcp(cw, m, max_iter, tol_z, tol_w):
     Returns (status, iterations): OK, SINGULAR_IMPACT or NOT_CONVERGED.
     """
     for it in range(1, max_iter + 1):
-        na = 0
+        na = np.int64(0)
         for a in range(m):
             i = cw.cand[a]
             cw.lz[i] = 0.0
@@ -110,7 +112,7 @@ def project_velocities(br, veh, wk, st, speed, dt, alpha, max_iter, tol_force, t
     tol_z = tol_force * dt
     tol_w = tol_gap / dt
     build_schur(veh, wk, wk.ones, veh.M_inv)
-    m = 0
+    m = np.int64(0)
     for i in range(n_w):
         if wk.active[i] == 1 and veh.wheel_massless[i] == 0:
             g = st.ud[veh.wheel_dof[i]]
@@ -196,7 +198,7 @@ def consistent_accelerations(br, veh, wk, st, speed, scale, dt, max_iter, tol_fo
         st.qdd[j] = wk.hq[j]
     block_matvec(veh, veh.M_inv, wk.hv, st.udd, False, 1.0)
     build_schur(veh, wk, wk.ones, veh.M_inv)
-    m = 0
+    m = np.int64(0)
     for i in range(n_w):
         if wk.active[i] == 1 and veh.wheel_massless[i] == 0:
             ga = st.udd[veh.wheel_dof[i]]

@@ -79,7 +79,7 @@ def block_matvec_nz(veh, A, m, x, y, scale):
             y[s + r] += scale * acc
 
 
-@njit
+@njit(kernel_only=True)
 def skyline_cholesky_solve(A, idx, m, first, Lw, b, x):
     """Solve A[idx, idx] x = b for the ``m`` indices in ``idx`` by Cholesky, within the
     envelope ``first`` (see contact_profile; ``first = 0`` is the dense factorisation).

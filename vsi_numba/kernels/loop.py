@@ -48,7 +48,7 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
     dt = prm.dt
     # n = -1: no step, the initial state recorded as step 0 (t = 0)
     for n in range(-1, prm.n_steps):
-        iters = 0
+        iters = np.int64(0)
         if n >= 0:
             copy_state(st, bk)
             for i in range(n_w):
@@ -119,7 +119,7 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
                     m = 1 << level
                     h_sub = dt / m
                     k = 0
-                    iters = 0
+                    iters = np.int64(0)
                 # the next piece: (.., ta] of length hs at level lev, or an impact
                 impact = False
                 if phase == WHOLE:
@@ -184,7 +184,7 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
             if not state_is_finite(st):
                 return NON_FINITE, n + 1
         tn = float(n + 1) * dt
-        nl = 0
+        nl = np.int64(0)
         if red.le_E.shape[1] > 0:
             nl = le_list(red, veh.wheel_x0, st.X, veh.load_x0, veh.load_p, tn, prm.speed)
         record(step_arrays(veh, st, wk), red, r, n + 1, tn, prm.speed, out, h, iters, nl)

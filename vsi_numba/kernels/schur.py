@@ -5,6 +5,8 @@ block, rigid unilateral contact by the active-set method, Hertzian contact by Ne
 
 from __future__ import annotations
 
+import numpy as np
+
 from vsi_numba._jit import njit
 from vsi_numba.kernels.linalg import skyline_cholesky_solve
 from vsi_numba.kernels.types import NOT_CONVERGED, OK, SINGULAR_SCHUR, ContactArrays
@@ -84,7 +86,7 @@ def build_schur(veh, wk, khat_q, A):
             wk.S[k, i] = s
 
 
-@njit
+@njit(kernel_only=True)
 def solve_active_set(cw, scale, max_iter, tol_gap, tol_force):
     """Unilateral contact by the active-set method on S X = -gap* / scale.
 
@@ -95,7 +97,7 @@ def solve_active_set(cw, scale, max_iter, tol_gap, tol_force):
     """
     n_w = cw.X.shape[0]
     for it in range(1, max_iter + 1):
-        m = 0
+        m = np.int64(0)
         for i in range(n_w):
             cw.X[i] = 0.0
             if cw.active[i] == 1:
@@ -141,7 +143,7 @@ def solve_hertz(cw, scale, g_hertz, max_iter, tol_force):
     """
     n_w = cw.X.shape[0]
     for it in range(1, max_iter + 1):
-        m = 0
+        m = np.int64(0)
         changed = False
         for i in range(n_w):
             gf = cw.gstar[i]

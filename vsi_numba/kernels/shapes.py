@@ -16,7 +16,7 @@ def off_modes(br, x):
     return br.kind == 0 or x < 0.0 or x > br.length or br.omega.shape[0] == 0
 
 
-@njit
+@njit(kernel_only=True)
 def eval_modes(br, x, out, dout, d2out):
     """Mode shapes and their first two x-derivatives at ``x`` (zero off the bridge).
 
@@ -84,7 +84,7 @@ def eval_hermite(nodes, values, slopes, x, out, dout, d2out):
         d2out[j] = e1 * w1 + e2 * t1 + e3 * w2 + e4 * t2
 
 
-@njit
+@njit(kernel_only=True)
 def eval_profile(pr, x, out):
     """Irregularity r, r', r'' at ``x`` into ``out[0:3]`` (zero outside the profile)."""
     n = pr.coef.shape[0]

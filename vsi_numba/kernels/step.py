@@ -59,7 +59,7 @@ from vsi_numba.kernels.track import track_element, track_predict, track_update
 from vsi_numba.kernels.types import NOT_CONVERGED, OK, SINGULAR_SCHUR
 
 
-@njit
+@njit(kernel_only=True)
 def hht_step(br, veh, pr, prm, st, wk, t1, dt, level):
     """Advance the state by one HHT-alpha step of size ``dt`` to time ``t1``.
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import os
+import subprocess
 import sys
 import threading
 import time
@@ -70,8 +71,8 @@ def cache_path(family: str) -> Path | None:
 
 def stamp_path(family: str) -> Path | None:
     """The stamp file written after the family compiled: named by the hash of the
-    kernels' sources, numba's and Python's versions, so an edit or an upgrade makes it
-    absent."""
+    kernels' sources, numba's and Python's versions and the target CPU
+    (``NUMBA_CPU_NAME``), so an edit or an upgrade makes it absent."""
     import numba
 
     from vsi_numba._jit import package_hash
@@ -81,7 +82,7 @@ def stamp_path(family: str) -> Path | None:
         return None
     k = kernel(family)
     key = "|".join([package_hash(os.path.dirname(k.py_func.__code__.co_filename)),
-                    numba.__version__, sys.version])
+                    numba.__version__, sys.version, str(numba.config.CPU_NAME)])
     return path / f"vsi_numba-{family}-{hashlib.sha256(key.encode()).hexdigest()[:16]}.ok"
 
 
@@ -153,3 +154,86 @@ def helper_command(family: str) -> list[str]:
     if family not in FAMILIES:
         raise ValueError(f"family = {family!r}: expected one of {FAMILIES}")
     return [sys.executable, "-m", "vsi_numba.cli", "compile", "--family", family, "--quiet"]
+
+
+def start_helper(families) -> subprocess.Popen | None:
+    """On a first run that needs both families (``families``: those it needs, in the
+    order it needs them) with neither in the cache and 2 cores or more, a process of
+    its own compiles the last of them (:func:`helper_command`) while this one compiles
+    the other: the two compilations run at once.  This process then finds that family's
+    compile lock held by the helper, waits for it and loads the kernels from the cache.
+    Returns the helper's process (end it with :func:`stop_helper`), or None."""
+    from vsi_numba._process import available_cores, term_with_parent
+
+    families = list(dict.fromkeys(families))
+    if (len(families) < 2 or available_cores() < 2
+            or any(is_cached(f) for f in families)):
+        return None
+    try:
+        return subprocess.Popen(helper_command(families[-1]), stdin=subprocess.DEVNULL,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                preexec_fn=term_with_parent())
+    except OSError:  # no process to spare: this process compiles both
+        return None
+
+
+@contextlib.contextmanager
+def stop_helper(proc: subprocess.Popen | None):
+    """End the helper of :func:`start_helper` (if any) on leaving, also when the work
+    stops before the helper is done."""
+    try:
+        yield proc
+    finally:
+        if proc is not None:
+            if proc.poll() is None:
+                proc.terminate()
+            proc.wait()
+
+
+# --------------------------------------------------------- kernels for other machines
+
+def cache_files() -> dict[str, bytes]:
+    """The files of this process's kernel cache (numba's index and data files and the
+    families' stamps; the cache directory is one for both families), to install in
+    another process's cache with :func:`install_cache_files`: the kernels are compiled
+    once, by the process that has them, not by every Dask worker.  Empty without a
+    cache."""
+    path = cache_path(FAMILIES[0])
+    if path is None or not path.is_dir():
+        return {}
+    out = {}
+    for p in sorted(path.iterdir()):
+        if p.is_file() and p.suffix in (".nbi", ".nbc", ".ok"):
+            with contextlib.suppress(OSError):
+                out[p.name] = p.read_bytes()
+    return out
+
+
+def install_cache_files(files: dict[str, bytes], generic: bool = False) -> int:
+    """Write the kernel cache ``files`` of another process (:func:`cache_files`, for the
+    same sources, numba and Python) into this process's cache directory, each file that
+    is not there yet; ``generic``: they were compiled for a generic CPU (this process
+    then compiles and loads its kernels so, :func:`vsi_numba._jit.use_generic_cpu`).
+    numba loads a kernel whose index entry names this process's target CPU; any other is
+    compiled here as before.  Returns the number of files written."""
+    from vsi_numba._jit import use_generic_cpu
+
+    if not files or (generic and not use_generic_cpu()):
+        return 0
+    path = cache_path(FAMILIES[0])
+    if path is None:
+        return 0
+    n = 0
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        for name, data in files.items():
+            target = path / name
+            if os.path.basename(name) != name or target.exists():
+                continue
+            tmp = path / f"{name}.tmp.{os.getpid()}"
+            tmp.write_bytes(data)
+            os.replace(tmp, target)
+            n += 1
+    except OSError:  # an unwritable cache: the kernels compile here
+        return n
+    return n

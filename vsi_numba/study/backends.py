@@ -339,6 +339,10 @@ class DaskBackend:
             self._log.setLevel(logging.WARNING)
         if self.scheduler is not None:
             self._client = Client(self.scheduler, timeout="30s")
+            # the workers load this process's compiled kernels instead of compiling them
+            from vsi_numba.study.worker_kernels import share_kernels
+
+            share_kernels(self._client)
         else:
             # worker threads in this process (the kernels release the GIL): no process
             # start-up, the model and the numba cache are loaded once; in-process

@@ -32,8 +32,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import hashlib
-import os
-import subprocess
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
@@ -399,47 +397,29 @@ def _workers_note(be, workers, scheduler) -> str:
 
 
 def _start_compile_helper(be, spec, order):
-    """On a first run of a study needing both kernel families with neither in the numba
-    cache, a process of its own compiles the family the batch ``order`` needs last
-    (:func:`~vsi_numba.solver.kernel_cache.helper_command`) while this one compiles the
-    other: on 2 cores the two compilations run at once.  The first batch of the helper's
-    family then waits for the family's compile lock, which the helper holds, and loads the
-    kernels from the cache.  Returns the helper's process, or None.  Only for the backends
-    that run the batches in this process (serial, threads, ``--workers``' LocalCluster)."""
-    from vsi_numba._process import available_cores, term_with_parent
+    """The compile helper of a first run (:func:`~vsi_numba.solver.kernel_cache.
+    start_helper`) for the families the batches ``order`` need, in that order; only for
+    the backends that run the batches in this process (serial, threads, ``--workers``'
+    LocalCluster).  Returns the helper's process, or None."""
     from vsi_numba.solver import kernel_cache as kc
     from vsi_numba.study.batches import _packed_train, _spec_of
 
     in_process = be.name in ("serial", "threads") or (
         be.name == "dask" and getattr(be, "scheduler", None) is None)
-    if (not in_process or available_cores() < 2
-            or any(kc.is_cached(f) for f in kc.FAMILIES)):
+    if not in_process or any(kc.is_cached(f) for f in kc.FAMILIES):
         return None
     seen: dict = {}  # train -> family (variants do not change the trains)
     for b in order:
         if b.i_train not in seen:
             seen[b.i_train] = kc.family_of(_packed_train(_spec_of(spec, b), b.i_train))
-    families = list(dict.fromkeys(seen.values()))
-    if len(families) < 2:
-        return None
-    try:
-        return subprocess.Popen(kc.helper_command(families[-1]), env=dict(os.environ),
-                                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                                stderr=subprocess.DEVNULL, preexec_fn=term_with_parent())
-    except OSError:  # no process to spare: this process compiles both
-        return None
+    return kc.start_helper(seen.values())
 
 
-@contextlib.contextmanager
 def _stop_helper(proc):
     """End the compile helper (if any) when the study stops before it is done."""
-    try:
-        yield
-    finally:
-        if proc is not None:
-            if proc.poll() is None:
-                proc.terminate()
-            proc.wait()
+    from vsi_numba.solver.kernel_cache import stop_helper
+
+    return stop_helper(proc)
 
 
 def _import_results_readers(order) -> None:

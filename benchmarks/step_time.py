@@ -23,7 +23,7 @@ import sys
 import time
 
 
-def measure(repeat: int) -> dict:
+def measure(repeat: int, families=("interaction", "moving_force")) -> dict:
     """{family: CPU us per step} of the code on ``sys.path``."""
     from vsi_numba.model import bridge as br
     from vsi_numba.model.irregularity import cosine_defect
@@ -37,7 +37,8 @@ def measure(repeat: int) -> dict:
     settings = SolverSettings(dt=1e-3, approach=5.0, free_vibration=0.2)
     v = 300.0 / 3.6
     out = {}
-    for family, model in (("interaction", "interaction"), ("moving_force", "moving_force")):
+    for family in families:
+        model = family
         train = get_train("ICE3" if family == "interaction" else "HSLM-A1", model=model)
         profile = cosine_defect(0.002, 6.0, 12.5)
         packed = pack(beam, train, v, profile, settings)
@@ -62,10 +63,12 @@ def main(argv=None) -> int:
     p.add_argument("trees", nargs="*", help="BEFORE_TREE AFTER_TREE")
     p.add_argument("--rounds", type=int, default=5)
     p.add_argument("--repeat", type=int, default=7)
+    p.add_argument("--family", choices=("interaction", "moving_force"), action="append",
+                   help="only this family (repeatable; default: both)")
     p.add_argument("--measure", action="store_true", help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.measure:
-        print(json.dumps(measure(args.repeat)))
+        print(json.dumps(measure(args.repeat, args.family or ("interaction", "moving_force"))))
         return 0
     if len(args.trees) != 2:
         p.error("give BEFORE_TREE AFTER_TREE")
@@ -73,12 +76,13 @@ def main(argv=None) -> int:
     for _ in range(args.rounds):
         for tree in args.trees:
             env = {**os.environ, "PYTHONPATH": tree, "OPENBLAS_NUM_THREADS": "1"}
-            done = subprocess.run([sys.executable, "-m", "benchmarks.step_time", "--measure",
-                                   "--repeat", str(args.repeat)], env=env, cwd=tree,
-                                  check=True, capture_output=True, text=True)
+            fam = [a for f in (args.family or []) for a in ("--family", f)]
+            done = subprocess.run([sys.executable, __file__, "--measure", "--repeat",
+                                   str(args.repeat), *fam], env=env, cwd=tree, check=True,
+                                  capture_output=True, text=True)
             res[tree].append(json.loads(done.stdout.strip().splitlines()[-1]))
     before, after = args.trees
-    for family in ("interaction", "moving_force"):
+    for family in args.family or ("interaction", "moving_force"):
         b = statistics.median(r[family] for r in res[before])
         a = statistics.median(r[family] for r in res[after])
         print(f"{family}: {b:.3f} -> {a:.3f} us/step CPU (x{a / b:.3f}; medians of "

@@ -124,14 +124,6 @@ def test_dask_cluster__separate_processes_bit_identical_to_local(tmp_path):
     assert a == b
 
 
-def _kernel_cache_counts():
-    """On a worker: numba's cache hits and misses of the moving-force kernel."""
-    from vsi_numba.solver import kernel_cache as kc
-
-    stats = kc.kernel("moving_force").stats
-    return sum(stats.cache_hits.values()), sum(stats.cache_misses.values())
-
-
 def test_dask_cluster__workers_load_the_clients_kernels(tmp_path):
     """Workers whose numba cache is empty (``NUMBA_CACHE_DIR`` of their own) load the
     kernels the client sends (``worker_kernels.share_kernels``) instead of compiling
@@ -149,7 +141,12 @@ def test_dask_cluster__workers_load_the_clients_kernels(tmp_path):
     with LoopbackCluster(2, tmp_path / "cluster", env=env) as cluster:
         dist = run_study(cfg, tmp_path / "cluster.nc", scheduler=cluster.address).load()
         with Client(cluster.address) as client:
-            counts = client.run(_kernel_cache_counts)
+            # numba's cache hits and misses of the moving-force kernel on each worker (a
+            # lambda: sent by value, the workers cannot import this module)
+            counts = client.run(lambda: (lambda s: (sum(s.cache_hits.values()),
+                                                    sum(s.cache_misses.values())))(
+                importlib.import_module("vsi_numba.solver.kernel_cache").kernel(
+                    "moving_force").stats))
     assert len(counts) == 2, counts  # a worker that ran no batch loaded nothing
     assert all(misses == 0 for _, misses in counts.values()), counts
     assert sum(hits for hits, _ in counts.values()) >= 1, counts

@@ -165,7 +165,7 @@ def section(before: dict, after: dict, title: str) -> str:
         BEGIN, "## Compile time per function", "",
         f"Written by `python -m benchmarks.compile_table` ({title}).  Each version compiled "
         "both kernel families from an empty numba cache in a process of its own "
-        "(`warm_up_family`, the leaves not in a second process); CPU seconds of that "
+        "(`_tiny_batch`, both families in one process); CPU seconds of that "
         "process per jitted function, from `numba:compile` events: *self* is the "
         "function's own compilation, *incl.* with the callees it compiled.  Functions "
         "numba inlines have no row.  Both families: "

@@ -171,7 +171,13 @@ def markdown(res: Result) -> str:
         row = "| main job, empty numba cache (once) | " + " | ".join(
             f"{_s(res.cold[lab][0])} | {_s(res.cold[lab][1])}" if lab in res.cold else "- | -"
             for lab in labels)
-        lines.append(row + (" | - | -" if base else "") + " |")
+        if base and all(lab in res.cold for lab in labels):
+            w = res.cold[labels[0]][0] / res.cold["baseline"][0]
+            c = res.cold[labels[0]][1] / res.cold["baseline"][1]
+            row += f" | {w:.2f} | {c:.2f}"
+        elif base:
+            row += " | - | -"
+        lines.append(row + " |")
     lines.append("")
     for lab in labels:
         if res.notes.get(lab):

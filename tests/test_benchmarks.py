@@ -380,3 +380,19 @@ def test_main_job_section__medians_ratios_and_replaced_in_place(tmp_path):
     out = report.read_text()
     assert out.count(MJ.BEGIN) == 1 and "| 0.50 | 0.50 |" in out
     assert out.startswith("# report") and out.rstrip().endswith("## Later")
+
+
+def test_main_job_section__cold_run_with_its_ratio():
+    """The run on an empty numba cache: each checkout's wall and CPU and this checkout's
+    over the baseline's; without a baseline's cold run, no ratio."""
+    from benchmarks import main_job as MJ
+
+    res = MJ.Result({"this checkout": Path("."), "baseline": Path("/b")}, rounds=1,
+                    date="2026-12-01T00:00:00+00:00", load=(1.0, 1.5))
+    res.cold = {"this checkout": (30.0, 45.0), "baseline": (60.0, 90.0)}
+    row = next(ln for ln in MJ.markdown(res).splitlines() if ln.startswith("| main job, empty"))
+    assert row.split(" | ")[1:5] == ["30.00 s", "45.00 s", "60.00 s", "90.00 s"]
+    assert row.endswith("| 0.50 | 0.50 |")
+    res.cold.pop("baseline")
+    row = next(ln for ln in MJ.markdown(res).splitlines() if ln.startswith("| main job, empty"))
+    assert row.endswith("| - | - | - | - |")

@@ -13,6 +13,17 @@ life.  The results file gets the histograms (dims ``fatigue_traffic``,
 over the design life (``fatigue_damage``), and the traffic's tonnage (the report computes
 the lambda-method value from it, :mod:`vsi_numba.analysis.report.fatigue`).
 
+Studs (``[[fatigue.studs]]``): the same runs give the vertical shear V(t) at the studs'
+x (output points after the sections', so the sections' moments are those without them);
+the stud shear stress tau = V S s / (I n pi d^2 / 4)
+(:func:`~vsi_numba.model.fatigue.stud_stress_per_shear`) is counted and summed on the
+stud curve (:class:`~vsi_numba.model.fatigue.StudCurve`) the same way
+(``fatigue_stud_*``, dim ``fatigue_stud``).
+
+Variants (``study.vary``): the traffic runs over each variant's bridge (the variant's
+own configuration); the results of :data:`PER_VARIANT` get a leading ``variant``
+dimension, the rest is the same in every variant (``[fatigue]`` is not varied).
+
 When the free vibration has decayed
     Every mode decays as exp(-zeta_j omega_j t).  The run continues for
     ``t = ln(1 / r) / min_j(zeta_j omega_j)`` after the last axle leaves, with r the

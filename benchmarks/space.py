@@ -20,13 +20,15 @@ e. planar with the modes of (c): (a) with ``n_modes`` = (c)'s mode count instead
 Each command is ``python -m vsi_numba.cli sweep CONFIG -o OUT --quiet`` as a subprocess
 (:func:`benchmarks.study.run_command`: wall time, CPU time of the command and its
 children, peak RSS of its process tree), warm numba cache: every variant first runs
-once on a 1-run grid (not in smoke mode).  The variants run in interleaved rounds
-(a, b, c, then the same on a 1-run grid), so the load of a shared machine hits them
-alike; medians over the rounds.  *Compute* is the CPU time on the full grid minus that
-of the same command on 1 run (start-up, imports, model, kernels from the cache, file
-output): the part that grows with the runs, and less sensitive than the wall to the
-other work of a shared machine.  ``--cold`` adds one run of (a) and (c) each with an
-empty numba cache of its own (the same moving-force kernels compile for both).
+once on a 1-run grid (not in smoke mode, the tests' size, where only (a) runs as a
+subprocess and the others by the CLI app in the benchmark's process).  The variants run
+in interleaved rounds (a, b, c, then the same on a 1-run grid), so the load of a shared
+machine hits them alike; medians over the rounds.  *Compute* is the CPU time on the
+full grid minus that of the same command on 1 run (start-up, imports, model, kernels
+from the cache, file output): the part that grows with the runs, and less sensitive
+than the wall to the other work of a shared machine.  ``--cold`` adds one run of (a)
+and (c) each with an empty numba cache of its own (the same moving-force kernels compile
+for both).
 
 Usage: ``python -m benchmarks.space [--smoke | --quick] [--rounds N] [--cold]
 [--no-write] [--report PATH]``; the section ``Decks in space`` of
@@ -49,7 +51,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from benchmarks.cases import fmt_s, md_table
-from benchmarks.study import MB, Measure, one_run, run_command, to_toml
+from benchmarks.study import MB, Measure, one_run, run_command, run_in_process, to_toml
 from benchmarks.timing import REPO, load1, machine_info, user_env
 
 DOUBLE_TRACK = REPO / "configs" / "double_track_viaduct.toml"
@@ -76,13 +78,15 @@ class SpacePlan:
     rounds: int
     warm_up: bool = True
     fixed: bool = True  # also time each variant on a 1-run grid (the fixed part)
+    in_process: bool = False  # every variant but (a) in this process (smoke: no measure)
 
 
 def make_space_plan(mode: str, rounds: int | None = None) -> SpacePlan:
-    """``smoke`` (one 1-run command per variant, for the tests), ``quick`` (48 runs per
-    variant, 3 rounds), ``normal`` (92 runs, 5 rounds)."""
+    """``smoke`` (1 run per variant, for the tests: (a) as a command, the others by the
+    CLI app in this process), ``quick`` (48 runs per variant, 3 rounds), ``normal`` (92
+    runs, 5 rounds)."""
     if mode == "smoke":
-        plan = SpacePlan("smoke", (300.0,), 1, warm_up=False, fixed=False)
+        plan = SpacePlan("smoke", (300.0,), 1, warm_up=False, fixed=False, in_process=True)
     elif mode == "quick":
         plan = SpacePlan("quick", tuple(140.0 + 20.0 * i for i in range(12)), 3)
     elif mode == "normal":
@@ -220,13 +224,17 @@ def run_space_bench(mode: str = "normal", write: bool = True, report: Path | Non
             ones[v].write_text(to_toml(one_run(cfg)))
         k = 0
 
-        def sweep(config: Path, keep: bool = False, environ: dict | None = None):
+        def sweep(config: Path, keep: bool = False, environ: dict | None = None,
+                  in_process: bool = False):
             nonlocal k
             k += 1
             out = tmp / f"out{k}.nc"
             cmd = [sys.executable, "-m", "vsi_numba.cli", "sweep", str(config), "-o",
                    str(out), "--quiet"]
-            r = run_command(cmd, tmp, environ or env)
+            if in_process:
+                r = run_in_process(cmd[3:])  # after `python -m vsi_numba.cli`
+            else:
+                r = run_command(cmd, tmp, environ or env)
             if r.aborted or r.returncode not in (0, 1) or not out.exists():
                 raise RuntimeError(f"`vsi sweep {config.name}` failed (exit {r.returncode}"
                                    f"{', ' + r.aborted if r.aborted else ''}):\n{r.stderr}")
@@ -244,7 +252,8 @@ def run_space_bench(mode: str = "normal", write: bool = True, report: Path | Non
                 j = i % len(VARIANTS)
                 order = VARIANTS[j:] + VARIANTS[:j]
                 for v in order:
-                    r, out = sweep(paths[v], keep=i == 0)
+                    r, out = sweep(paths[v], keep=i == 0,
+                                   in_process=plan.in_process and v != "a")
                     if i == 0:
                         outs[v] = out
                     res.walls.setdefault(v, []).append(r.wall)

@@ -102,16 +102,18 @@ class StudyPlan:
     cold: bool = True  # h: the first run with an empty numba cache
     tests: bool = False  # i: time the README's test command (else the last figure)
     cluster: bool = False  # j: the catalogue on a loopback Dask cluster (else the last figure)
+    in_process: bool = False  # a3: the on/off pair in this process (smoke: no measure)
 
 
 def make_study_plan(mode: str) -> StudyPlan:
-    """``smoke`` (one 1-run command, for the tests), ``quick`` (scaling capped at 1,000
-    runs), ``normal``, ``full`` (3 repetitions)."""
+    """``smoke`` (one 1-run command as a subprocess, the load-effects pair in this
+    process, for the tests), ``quick`` (scaling capped at 1,000 runs), ``normal``,
+    ``full`` (3 repetitions)."""
     if mode == "smoke":
         return StudyPlan("smoke", trains=("HSLM-A1",), speeds=(420.0,), repeat=1, dask=False,
                          study1=False, ice3_seeds=(), hist_pilots=(), hist_full=False,
                          scaling=(), yardstick_repeat=1,
-                         warm_up=False, cold=False)
+                         warm_up=False, cold=False, in_process=True)
     if mode == "quick":
         return StudyPlan("quick", scaling=(100, 300, 1000), scaling_budget_s=600.0,
                          cold=False)
@@ -263,6 +265,29 @@ def run_command(cmd: list[str], cwd: Path, env: dict, timeout: float = 3600.0,
                    f"{rss_limit / MB:,.0f} MB of process-tree RSS)")
     return CommandRun(wall, float(sampler.peak), sampler.max_procs, rc, sampler.samples,
                       sampler.cpu, stderr, aborted, cpu)
+
+
+def run_in_process(args: list[str]) -> CommandRun:
+    """``vsi ARGS`` in this process (the CLI app itself, no interpreter start): the smoke
+    modes' runner, whose numbers are not measures.  Wall and CPU time of the command; as
+    peak RSS the process's own high-water mark (``ru_maxrss``), one process."""
+    import contextlib
+    import io
+    import resource
+
+    from vsi_numba.cli.app import app
+
+    err = io.StringIO()
+    w0, c0 = time.perf_counter(), time.process_time()
+    rc = 0
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+        try:
+            app(args=list(args), prog_name="vsi")
+        except SystemExit as exc:
+            rc = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+    wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024.0
+    return CommandRun(wall, rss, 1, rc, 0, 0.0, err.getvalue()[-3000:], "", cpu)
 
 
 # --------------------------------------------------------------------------- configs
@@ -485,14 +510,19 @@ class Bench:
         return path
 
     def run(self, config: Path, workers: int | None = None, keep: bool = False,
-            backend: str | None = None) -> tuple[CommandRun, Path, float]:
-        """One command; returns the run, the output path and its size (bytes).  The output
-        is deleted unless ``keep``."""
+            backend: str | None = None,
+            in_process: bool = False) -> tuple[CommandRun, Path, float]:
+        """One command (``in_process``: the CLI app in this process, see
+        :func:`run_in_process`); returns the run, the output path and its size (bytes).
+        The output is deleted unless ``keep``."""
         self.k += 1
         out = self.tmp / f"out{self.k}" / "results.nc"
         out.parent.mkdir()
-        r = run_command(self.command(config, out, workers, backend), self.tmp, self.env,
-                        rss_limit=self.rss_limit)
+        cmd = self.command(config, out, workers, backend)
+        if in_process and backend is None:
+            r = run_in_process(cmd[3:])  # after `python -m vsi_numba.cli`
+        else:
+            r = run_command(cmd, self.tmp, self.env, rss_limit=self.rss_limit)
         if r.aborted or r.returncode not in (0, 1) or not out.exists():
             raise RuntimeError(f"`vsi sweep {config.name}` failed (exit {r.returncode}"
                                f"{', ' + r.aborted if r.aborted else ''}):\n{r.stderr}")
@@ -582,8 +612,8 @@ def _measure_a(b: Bench, res: StudyResult):
     off_path = b.write(off_cfg, "hslm_no_load_effects")
     on_runs, off_runs = [], []
     for _ in range(max(p.repeat, 1)):
-        on_runs.append(b.run(path)[0])
-        off_runs.append(b.run(off_path)[0])
+        on_runs.append(b.run(path, in_process=p.in_process)[0])
+        off_runs.append(b.run(off_path, in_process=p.in_process)[0])
         b.echo(f"[study]   a. load effects on / off: {on_runs[-1].wall:.2f} / "
                f"{off_runs[-1].wall:.2f} s wall, {on_runs[-1].cpu:.2f} / "
                f"{off_runs[-1].cpu:.2f} s CPU")
@@ -594,7 +624,8 @@ def _measure_a(b: Bench, res: StudyResult):
         "a3", "HSLM sweep: load effects on / off (whole command, wall)", grid,
         w_on / w_off, "ratio", 1.3, 1.15,
         f"{fmt_s(w_on)} / {fmt_s(w_off)}; CPU {fmt_s(c_on)} / {fmt_s(c_off)} = "
-        f"{c_on / c_off:.2f}; medians of {len(on_runs)} interleaved pairs"))
+        f"{c_on / c_off:.2f}; medians of {len(on_runs)} interleaved pairs"
+        + ("; in the benchmark's process (smoke: not a measure)" if p.in_process else "")))
     if p.dask:
         dask, *_ = b.repeated("a. vsi sweep --workers 2 (Dask)", path, grid, p.repeat,
                               workers=2, warm=warm)

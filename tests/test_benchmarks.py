@@ -270,7 +270,8 @@ def test_study_verdicts_and_section(tmp_path):
 
 def test_study_smoke(tmp_path, capsys):
     """`python -m benchmarks --study --smoke`: one 1-run `vsi sweep` subprocess, measured
-    (wall, process-tree RSS), checked against the yardstick, written to the report."""
+    (wall, process-tree RSS), checked against the yardstick, written to the report (the
+    load-effects pair by the CLI app in this process)."""
     from benchmarks.__main__ import main
 
     report = tmp_path / "bench.md"
@@ -326,8 +327,9 @@ def test_space_configs_differ_only_in_the_deck_in_space():
 
 
 def test_space_smoke(tmp_path):
-    """`python -m benchmarks.space --smoke`: one 1-run `vsi sweep` per variant; the
-    planar results equal those with one track at 0 in every shared variable, the torsion
+    """`python -m benchmarks.space --smoke`: one 1-run `vsi sweep` per variant ((a) as a
+    subprocess, the others by the CLI app in this process); the planar results (of the
+    subprocess) equal those with one track at 0 in every shared variable, the torsion
     adds modes, and the section is written beside the report's other sections."""
     from benchmarks import space as SP
 

@@ -48,7 +48,8 @@ speeds_kmh = [200.0, 300.0]
 
 def measure() -> dict:
     """The measure of the code on ``sys.path`` (see the module's text)."""
-    from vsi_numba.study.backends import LoopbackCluster, worker_env
+    from vsi_numba.study.backends import worker_env
+    from vsi_numba.study.cluster import LoopbackCluster
 
     with tempfile.TemporaryDirectory(prefix="vsi-dask-") as tmp:
         tmp = Path(tmp)

@@ -929,10 +929,10 @@ def cluster_estimate(plan, kernel_seconds: dict, compute_1: float, fixed: float,
     less ``fixed``, the part that does not parallelise: start-up, planning, the final
     write - measured as the wall of the same command with every batch already stored);
     the batches are grouped into the tasks the backend would submit for that many
-    workers (:func:`~vsi_numba.study.backends.dask_chunks`), and the tasks are list-
+    workers (:func:`~vsi_numba.study.cluster.dask_chunks`), and the tasks are list-
     scheduled largest first.  Returns (wall, number of tasks).
     """
-    from vsi_numba.study.backends import chunk_seconds, dask_chunks
+    from vsi_numba.study.cluster import chunk_seconds, dask_chunks
 
     total = sum(kernel_seconds[b.key] for b in plan)
     scale = compute_1 / total
@@ -1023,7 +1023,7 @@ def _measure_j(b: Bench | None, res: StudyResult, config: Path = STUDY3,
     import datetime as _dt
     import json
 
-    from vsi_numba.study.backends import LoopbackCluster
+    from vsi_numba.study.cluster import LoopbackCluster
     from vsi_numba.study.store import store_path
 
     warm = b.write(one_run(hslm_config(("HSLM-A1",), (420.0,))), "j_1run")

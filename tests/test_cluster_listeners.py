@@ -45,7 +45,7 @@ def non_loopback(listeners):
 
 def test_listeners__local_dask_backend_binds_loopback_only():
     """The local cluster's scheduler, workers, nannies and dashboards: 127.0.0.1 only."""
-    from vsi_numba.study.backends import DaskBackend
+    from vsi_numba.study.cluster import DaskBackend
 
     me = os.getpid()
     before = set(listening([me]))

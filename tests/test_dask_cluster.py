@@ -22,15 +22,15 @@ import psutil
 import xarray as xr
 from dask.distributed import Client
 
-from vsi_numba.study.backends import (
+from vsi_numba.study.backends import QUIET_DASK
+from vsi_numba.study.batches import Batch
+from vsi_numba.study.cluster import (
     CHUNK_SECONDS,
-    QUIET_DASK,
     TAIL_CHUNKS_PER_THREAD,
     LoopbackCluster,
     chunk_seconds,
     dask_chunks,
 )
-from vsi_numba.study.batches import Batch
 from vsi_numba.study.runner import run_study
 
 CONFIG = """

@@ -333,14 +333,14 @@ def test_hostile__max_subdivisions_up_to_30_run(levels):
 def test_hostile__unreachable_scheduler_leaves_no_store(tmp_path, monkeypatch):
     """A study that stored nothing (here: the scheduler cannot be reached) removes the
     store it created."""
-    from vsi_numba.study import backends
+    from vsi_numba.study import cluster
     from vsi_numba.study.runner import run_study
     from vsi_numba.study.store import store_path
 
     def refuse(self):
         raise OSError("Timed out trying to connect to tcp://127.0.0.1:9")
 
-    monkeypatch.setattr(backends.DaskBackend, "__enter__", refuse)
+    monkeypatch.setattr(cluster.DaskBackend, "__enter__", refuse)
     out = tmp_path / "out.nc"
     with pytest.raises(OSError, match="Timed out"):
         run_study(cfg(), out, scheduler="tcp://127.0.0.1:9")
@@ -553,7 +553,7 @@ def test_hostile__dask_backend_keeps_distributed_quiet_after_an_interrupt():
     machine); a study that ends normally gets the caller's level back."""
     import logging
 
-    from vsi_numba.study.backends import DaskBackend
+    from vsi_numba.study.cluster import DaskBackend
 
     log = logging.getLogger("distributed")
     before = log.level

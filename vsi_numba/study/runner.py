@@ -40,7 +40,6 @@ from threadpoolctl import threadpool_limits
 
 from vsi_numba.io.paths import output_conflict
 from vsi_numba.study.backends import (
-    DaskBackend,
     ProcessBackend,
     SerialBackend,
     ThreadBackend,
@@ -145,6 +144,8 @@ def _choose_backend(backend, workers, scheduler, n_pending, scratch):
         return ThreadBackend(n) if backend == "threads" else ProcessBackend(n)
     if scheduler is None and workers is None:
         workers = available_cores()
+    from vsi_numba.study.cluster import DaskBackend
+
     return DaskBackend(n_workers=workers, scheduler=scheduler, local_directory=scratch)
 
 

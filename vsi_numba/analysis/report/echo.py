@@ -75,6 +75,8 @@ def _damping_table(ds: xr.Dataset, cfg: dict) -> Table | None:
         z = np.atleast_1d(np.asarray(zeta, dtype=float))
     else:
         return None
+    if z.size > 1 and np.all(z == z[0]):
+        z = z[:1]  # one ratio for every mode: written once
     if "additional_damping" in ds:
         dz = float(np.ravel(ds["additional_damping"].values)[0])
     elif derived is not None:

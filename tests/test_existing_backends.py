@@ -83,6 +83,27 @@ def test_calibrate__a_store_of_another_configuration_is_discarded(calibration_ca
     _same(serial, _data(d / "mixed.nc"))
 
 
+def test_calibrate__an_output_another_process_writes_is_refused_and_its_store_kept(
+        calibration_case):
+    """One writer per output: while another process holds the output's lock (as a
+    running ``vsi calibrate`` does), a second command on it - even with ``--fresh``,
+    which would discard the store - is refused, naming the holder, and the holder's
+    store of evaluations is left as it wrote it."""
+    from vsi_numba.study.outlock import OutputLock
+
+    d, cfg, _ = calibration_case
+    out = d / "busy.nc"
+    store = d / "busy.nc.evaluations"
+    store.write_bytes(b"the other process's evaluations\n")
+    with OutputLock(out, "vsi calibrate (the other process)"):
+        res = vsi("calibrate", cfg, "-o", out, "-q", "--fresh")
+    assert res.returncode == 2, res.stdout + res.stderr
+    assert "being written by another process" in res.stderr, res.stderr
+    assert "the other process" in res.stderr, res.stderr
+    assert store.read_bytes() == b"the other process's evaluations\n"
+    assert not out.exists()
+
+
 @pytest.fixture(scope="module", params=["monte_carlo", "subset"])
 def reliability_case(tmp_path_factory, request):
     d = tmp_path_factory.mktemp(f"backends_rel_{request.param}")

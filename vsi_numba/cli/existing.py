@@ -140,14 +140,24 @@ def _compute_and_write(compute, error_type, output, pr, notes=(), quiet=False):
     """``compute()`` and its dataset written to ``output``, then the store of its
     evaluations removed; the dataset, or the exit code after the message
     (``error_type``: the command's own refusal)."""
+    import sys
+
     from vsi_numba.existing.forward import ForwardError
     from vsi_numba.existing.parallel import BackendError
+    from vsi_numba.study.outlock import OutputBusyError, OutputLock
 
     store = _store(output)
     try:
-        ds = compute()
-        _notes(notes, quiet, pr)
-        _write(ds, Path(output))
+        # one writer per output, as for a sweep: the store beside it (appended, discarded
+        # when it belongs to another configuration) is the holder's alone
+        with OutputLock(output, "vsi " + " ".join(sys.argv[1:])):
+            ds = compute()
+            _notes(notes, quiet, pr)
+            _write(ds, Path(output))
+            store.unlink(missing_ok=True)
+    except OutputBusyError as exc:
+        pr.error(exc)
+        return EXIT_USAGE
     except (error_type, ForwardError, BackendError) as exc:
         _notes(notes, quiet, pr)
         pr.error(exc)
@@ -161,5 +171,4 @@ def _compute_and_write(compute, error_type, output, pr, notes=(), quiet=False):
     except OSError as exc:
         pr.error(f"cannot write {output}: {exc}")
         return EXIT_USAGE
-    store.unlink(missing_ok=True)
     return ds

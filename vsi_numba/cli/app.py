@@ -6,6 +6,7 @@ package, imported when the command runs (``vsi --help`` stays fast).  No numeric
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Annotated
 
 import typer
 
@@ -176,24 +177,32 @@ def modes(
     raise typer.Exit(modes_command(config, output))
 
 
+# The options of the commands that run forward models on a backend and keep their
+# evaluations (calibrate, reliability).
+_Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="no progress or warnings")]
+_Workers = Annotated[int | None, typer.Option(
+    "--workers", "-w", help="start a Dask LocalCluster (127.0.0.1) with N workers"
+    " (with --backend threads or processes: N of those)")]
+_Scheduler = Annotated[str | None, typer.Option(
+    "--scheduler", help="address of an existing Dask scheduler, tcp://HOST:PORT")]
+_Backend = Annotated[str | None, typer.Option(
+    "--backend", help="serial, threads (the default), processes or dask (the default "
+    "with --workers or --scheduler); the same seed gives the same numbers on every one")]
+_Fresh = Annotated[bool, typer.Option(
+    "--fresh", help="discard the evaluations an interrupted run stored "
+    "(OUTPUT.evaluations) and start over; otherwise the run continues from them")]
+
+
 @app.command()
 def calibrate(
     config: Path = typer.Argument(..., metavar="CONFIG",
                                   help="TOML configuration with a [calibration] section"),
     output: Path = typer.Option(..., "-o", "--output", help="netCDF posterior file"),
-    quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress or warnings"),
-    workers: int | None = typer.Option(
-        None, "--workers", "-w", help="start a Dask LocalCluster (127.0.0.1) with N workers"
-        " (with --backend threads or processes: N of those)"),
-    scheduler: str | None = typer.Option(
-        None, "--scheduler", help="address of an existing Dask scheduler, tcp://HOST:PORT"),
-    backend: str | None = typer.Option(
-        None, "--backend", help="serial, threads (the default), processes or dask (the "
-        "default with --workers or --scheduler); the same seed gives the same numbers on "
-        "every one"),
-    fresh: bool = typer.Option(
-        False, "--fresh", help="discard the evaluations an interrupted run stored "
-        "(OUTPUT.evaluations) and start over; otherwise the run continues from them"),
+    quiet: _Quiet = False,
+    workers: _Workers = None,
+    scheduler: _Scheduler = None,
+    backend: _Backend = None,
+    fresh: _Fresh = False,
 ):
     """Bayesian updating of configuration keys from measured records (emcee); resumable."""
     from vsi_numba.cli.existing import calibrate_command
@@ -206,19 +215,11 @@ def reliability(
     config: Path = typer.Argument(..., metavar="CONFIG",
                                   help="TOML configuration with a [reliability] section"),
     output: Path = typer.Option(..., "-o", "--output", help="netCDF reliability file"),
-    quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress or warnings"),
-    workers: int | None = typer.Option(
-        None, "--workers", "-w", help="start a Dask LocalCluster (127.0.0.1) with N workers"
-        " (with --backend threads or processes: N of those)"),
-    scheduler: str | None = typer.Option(
-        None, "--scheduler", help="address of an existing Dask scheduler, tcp://HOST:PORT"),
-    backend: str | None = typer.Option(
-        None, "--backend", help="serial, threads (the default), processes or dask (the "
-        "default with --workers or --scheduler); the same seed gives the same numbers on "
-        "every one"),
-    fresh: bool = typer.Option(
-        False, "--fresh", help="discard the evaluations an interrupted run stored "
-        "(OUTPUT.evaluations) and start over; otherwise the run continues from them"),
+    quiet: _Quiet = False,
+    workers: _Workers = None,
+    scheduler: _Scheduler = None,
+    backend: _Backend = None,
+    fresh: _Fresh = False,
 ):
     """Probability that a check is exceeded and reliability index (subset simulation);
     resumable."""

@@ -56,7 +56,7 @@ SHOWN = ("$\\frac{$", "<script>alert(1)</script>", "<img src=x onerror=alert(1)>
 BEAM_KEYS = ("title", "train.name", "train.vehicles[0].name", "train.vehicles[1].name",
              "report.project", "report.checked_by", "code_profile.overrides.clause",
              "code_profile.overrides.clause (2)", "fatigue.sections[0].name",
-             "fatigue.sections[1].name", "code_profile.name")
+             "fatigue.sections[1].name", "fatigue.studs[0].name", "code_profile.name")
 VARIANTS_KEYS = ("title", "train.name", "study.vary_together.label[0]",
                  "study.vary_together.label[1]")
 MODES_KEYS = ("title", "train.axles.name", "bridge.tracks[0].line", "report.client",
@@ -137,6 +137,14 @@ x = 2.5
 section_modulus = 0.05
 detail_category = 71
 name = {_q(s['fatigue.sections[1].name'])}
+[[fatigue.studs]]
+x = 2.5
+diameter = 0.022
+per_row = 4
+row_spacing = 0.15
+first_moment = 0.057
+second_moment = 0.105
+name = {_q(s['fatigue.studs[0].name'])}
 [[fatigue.traffic]]
 train = {_q(FILE_NAME + '.csv')}
 speed_kmh = 100.0

@@ -226,8 +226,8 @@ class Evaluator:
         self.store = store if store is not None else Store(None, {})
         self.blocks = 0
         self._pool = None
+        self._dask = None  # the Dask backend while in use
         self._client = None
-        self._cluster = None
         self._spec_ref = None
         limit = os.environ.get(INTERRUPT_ENV, "").strip()
         self._interrupt = int(limit) if limit.isdigit() else None
@@ -266,54 +266,34 @@ class Evaluator:
         return self
 
     def _start_dask(self) -> None:
-        import logging
+        """The cluster of a study's Dask backend (:class:`~vsi_numba.study.cluster.DaskBackend`:
+        a loopback LocalCluster of worker threads, or the scheduler, whose workers get
+        this process's compiled kernels), the spec scattered to every worker."""
+        from vsi_numba.study.cluster import DaskBackend
 
-        import dask
-        from dask.distributed import Client, LocalCluster
-
-        from vsi_numba.study.backends import LOOPBACK, QUIET_DASK
-
-        self._dask_config = dask.config.set(dict(QUIET_DASK))
-        self._dask_config.__enter__()
-        log = logging.getLogger("distributed")
-        if log.getEffectiveLevel() < logging.WARNING:
-            log.setLevel(logging.WARNING)
+        self._dask = DaskBackend(n_workers=self.n_workers if self.scheduler is None else None,
+                                 scheduler=self.scheduler)
         try:
-            if self.scheduler is not None:
-                self._client = Client(self.scheduler, timeout="30s")
-            else:
-                self._cluster = LocalCluster(
-                    n_workers=self.n_workers, threads_per_worker=1, processes=False,
-                    dashboard_address=f"{LOOPBACK}:0",
-                    worker_dashboard_address=f"{LOOPBACK}:0")
-                self._client = Client(self._cluster)
+            self._dask.__enter__()
         except OSError as exc:
             self._stop_dask()
             raise BackendError(f"cannot reach the Dask scheduler {self.scheduler}: {exc}"
                                ) from None
+        self._client = self._dask.client
         self._client.wait_for_workers(1)
         self._spec_ref = self._client.scatter(self.spec, broadcast=True, hash=False)
 
     def _stop_dask(self) -> None:
-        client, cluster = self._client, self._cluster
-        self._client = self._cluster = None
-        try:
-            if client is not None:
-                client.close()
-        finally:
-            if cluster is not None:
-                cluster.close()
-            cfg = getattr(self, "_dask_config", None)
-            if cfg is not None:
-                cfg.__exit__(None, None, None)
-                self._dask_config = None
+        dask_backend, self._dask, self._client = self._dask, None, None
+        if dask_backend is not None:
+            dask_backend.__exit__(None, None, None)
 
     def __exit__(self, exc_type, exc, tb):
         pool, self._pool = self._pool, None
         try:
             if pool is not None:
                 pool.shutdown(wait=exc_type is None, cancel_futures=exc_type is not None)
-            if self._client is not None or self._cluster is not None:
+            if self._dask is not None:
                 self._stop_dask()
         finally:
             unregister(self.spec)

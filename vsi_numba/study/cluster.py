@@ -45,6 +45,11 @@ class DaskBackend:
         return len(self._client.scheduler_info(n_workers=-1).get("workers", {}))
 
     @property
+    def client(self):
+        """The connected ``dask.distributed.Client`` (None outside the ``with`` block)."""
+        return self._client
+
+    @property
     def n_threads(self) -> int:
         """Threads of the cluster's workers (as the scheduler reports them)."""
         if self._client is None:

@@ -50,10 +50,9 @@ import numpy as np
 from vsi_numba.existing.distributions import Marginals, describe
 from vsi_numba.existing.forward import Forward, Group, record_path
 from vsi_numba.existing.signal import (
-    best_shift,
-    best_shifts,
     decimation,
     lowpass,
+    lowpass_sections,
     noise_gain,
     resample,
 )
@@ -134,10 +133,17 @@ class _Prepared:
             self.measured.append((t, m))
             self.raw.append(rec)
             self.gain.append(noise_gain(rec.t.size, fs, self.cutoff))
-        # the likelihood's samples, the coarse alignment's thinning and its transforms
+        # the likelihood's samples, the coarse alignment's thinning, the records' side of
+        # the alignment (computed once) and the histories each record reads
         self.kept = [np.arange(0, m.size, self.step) for _, m in self.measured]
         self.dec = decimation(self.dt, self.cutoff)
-        self._fft = [{} for _ in self.records]
+        from vsi_numba.existing.misfit import RecordFit
+
+        sections = lowpass_sections(1.0 / self.dt, self.cutoff)
+        self.fits = [RecordFit(m, int(round(t[0] / self.dt)), self.max_lag, self.dec,
+                               self.step, sections) for t, m in self.measured]
+        self.wanted = [(gi, si, pi, r["quantity"] == "deck_acceleration")
+                       for (gi, si, pi), r in zip(self.where, self.records, strict=True)]
         self.quantities = sorted({r["quantity"] for r in self.records})
         self.noise_keys = []
         self.noise_specs = []
@@ -161,51 +167,53 @@ class _Prepared:
         q = self.records[i_record]["quantity"]
         return float(row[len(self.keys) + self.quantities.index(q)])
 
-    def history(self, result, i_record: int) -> np.ndarray:
-        """The model's filtered history of record ``i_record`` (model grid from t = 0)."""
-        gi, si, pi = self.where[i_record]
-        rr = result[gi]
-        q = self.records[i_record]["quantity"]
-        h = (rr.acceleration if q == "deck_acceleration" else rr.displacement)[si][:, pi]
-        return lowpass(h, 1.0 / self.dt, self.cutoff)
-
-    def loglikes(self, rows, results) -> tuple[np.ndarray, np.ndarray]:
+    def loglikes(self, rows, hist) -> tuple[np.ndarray, np.ndarray]:
         """Log-likelihoods (n,) and the records' shifts (n, n_records, s) of rows and
-        their forward results, every record's histories filtered and aligned at once
-        (:func:`~vsi_numba.existing.signal.best_shifts`)."""
+        the histories of their forward runs (:meth:`Forward.point_histories
+        <vsi_numba.existing.forward.Forward.point_histories>`), each record's histories
+        filtered, aligned and compared at once (:class:`~vsi_numba.existing.misfit.RecordFit`)."""
         n = len(rows)
         ll = np.zeros(n)
         shifts = np.full((n, len(self.records)), np.nan)
-        ok = np.array([not any(r.error for r in res) for res in results], bool)
+        ok = np.array([not e for e in hist.errors], bool)
         ll[~ok] = -np.inf
         idx = np.flatnonzero(ok)
         if not idx.size:
             return ll, shifts
-        for i in range(len(self.records)):
-            gi, si, pi = self.where[i]
-            q = self.records[i]["quantity"]
-            S = np.stack([(results[j][gi].acceleration if q == "deck_acceleration" else
-                           results[j][gi].displacement)[si][:, pi] for j in idx], axis=1)
-            S = lowpass(S, 1.0 / self.dt, self.cutoff)
-            t, m = self.measured[i]
-            lag0 = int(round(t[0] / self.dt))
-            lags = best_shifts(m, S, lag0, self.max_lag, self.dec, self._fft[i])
-            shifts[idx, i] = lags * self.dt - t[0]
-            k = self.kept[i]
-            grid = np.arange(S.shape[0], dtype=float)
-            for c, j in enumerate(idx):
-                sm = np.interp(k + lags[c], grid, S[:, c], left=0.0, right=0.0)
-                sig = self.noise(rows[j], i) * self.gain[i]
-                r = (m[k] - sm) / sig
-                ll[j] += -0.5 * float(r @ r) - k.size * (math.log(sig)
-                                                         + 0.5 * math.log(2 * math.pi))
+        for i, fit in enumerate(self.fits):
+            t, _ = self.measured[i]
+            sig = np.array([self.noise(rows[j], i) for j in idx]) * self.gain[i]
+            for sel, part, x in _by_length(hist.values[i], hist.lengths[i], idx):
+                lags, sse, _ = fit.fit(x, sig[part])
+                shifts[sel, i] = lags * self.dt - t[0]
+                ll[sel] += -0.5 * sse - self.kept[i].size * (np.log(sig[part])
+                                                            + 0.5 * math.log(2 * math.pi))
         return ll, shifts
 
     def evaluate(self, rows) -> tuple[np.ndarray, np.ndarray]:
         """Log-likelihoods (n,) and shifts (n, n_records) of parameter rows (n, n_par)."""
         rows = np.atleast_2d(rows)
-        results = [self.forward.run_row(r) for r in rows[:, : len(self.keys)]]
-        return self.loglikes(rows, results)
+        hist = self.forward.point_histories(rows[:, : len(self.keys)], self.wanted)
+        return self.loglikes(rows, hist)
+
+    def predictive_rows(self, x) -> np.ndarray:
+        """The posterior-predictive histories of rows of the keys' values (n, n_keys):
+        (n, 1 + sum of the records' lengths), 1 when the row's model ran (else 0 and
+        NaN), then each record's filtered model history aligned at its best shift, on
+        the record's grid (the evaluation the backends run for :func:`_predictive`)."""
+        x = np.atleast_2d(np.asarray(x, float))
+        hist = self.forward.point_histories(x, self.wanted)
+        sizes = [m.size for _, m in self.measured]
+        out = np.full((len(x), 1 + sum(sizes)), np.nan)
+        ok = np.array([not e for e in hist.errors], bool)
+        out[:, 0] = ok
+        idx = np.flatnonzero(ok)
+        start = 1
+        for i, fit in enumerate(self.fits):
+            for sel, _, h in _by_length(hist.values[i], hist.lengths[i], idx):
+                out[sel, start: start + sizes[i]] = fit.fit(h, np.ones(sel.size), True)[2]
+            start += sizes[i]
+        return out
 
     def evaluate_u(self, u) -> np.ndarray:
         """The outputs of rows ``u`` of the priors' standard normal space: (n, 1 +
@@ -215,9 +223,46 @@ class _Prepared:
         return np.concatenate([ll[:, None], shifts], axis=1)
 
 
+def _by_length(values, lengths, idx):
+    """The rows ``idx`` of ``values`` (n, n_t) in blocks of one history length:
+    (rows, their positions in ``idx``, the block (rows, length))."""
+    ln = lengths[idx]
+    for n_t in np.unique(ln):
+        part = np.flatnonzero(ln == n_t)
+        sel = idx[part]
+        if sel.size == values.shape[0] and n_t == values.shape[1]:
+            yield sel, part, values
+        else:
+            yield sel, part, values[sel, :n_t]
+
+
+#: The calibrations prepared in this process (a worker's evaluations share them).
+_PREPARED: dict = {}
+
+
+def _prepared(cfg) -> _Prepared:
+    key = (cfg.sha256, str(Path(cfg.base_dir).resolve()))
+    prep = _PREPARED.get(key)
+    if prep is None:
+        prep = _PREPARED[key] = _Prepared(cfg)
+    return prep
+
+
 def evaluation_of(cfg):
     """The evaluation of a configuration's calibration (built in a worker process)."""
-    return _Prepared(cfg).evaluate_u
+    return _prepared(cfg).evaluate_u
+
+
+def predictive_of(cfg):
+    """The posterior-predictive evaluation of a configuration's calibration
+    (:meth:`_Prepared.predictive_rows`, built in a worker process)."""
+    return _prepared(cfg).predictive_rows
+
+
+def check_of(cfg):
+    """The check's evaluation of a configuration's calibration (:class:`_Check`, built
+    in a worker process)."""
+    return _Check(_prepared(cfg)).values
 
 
 def _polish(f, u, n_dim: int) -> np.ndarray:
@@ -288,7 +333,15 @@ def _calibrate(cfg, progress=None, command: str = "vsi calibrate", backend=None,
     try:
         with Evaluator(spec, prep.evaluate_u, 1 + len(prep.records), backend=backend,
                        workers=workers, scheduler=scheduler, store=st) as ev:
-            ds = _sample(cfg, c, prep, ev, progress, command)
+            # the predictive records and the check on the same workers (not stored: a
+            # resumed run computes them again, to the same numbers)
+            base = (spec.config_json, spec.base_dir)
+            check = _Check(prep)
+            predict = ev.other(Spec("calibration_predictive", *base), prep.predictive_rows,
+                               1 + sum(m.size for _, m in prep.measured))
+            checks = ev.other(Spec("calibration_check", *base), check.values,
+                              check.speeds.size)
+            ds = _sample(cfg, c, prep, ev, progress, command, predict, (check, checks))
     finally:
         st.close()
     if notes is not None and st.replayed:
@@ -305,8 +358,10 @@ def _identity(cfg, kind: str, n_in: int, n_out: int) -> dict:
             "n_in": int(n_in), "n_out": int(n_out)}
 
 
-def _sample(cfg, c, prep, ev, progress, command):
-    """The start search, the chains, the predictive records and the check."""
+def _sample(cfg, c, prep, ev, progress, command, predict, check):
+    """The start search, the chains, the predictive records and the check (``predict``,
+    ``check``: their evaluations on the backend, :meth:`Evaluator.other
+    <vsi_numba.existing.parallel.Evaluator.other>`)."""
     import emcee
 
     t0 = _time.perf_counter()
@@ -353,8 +408,8 @@ def _sample(cfg, c, prep, ev, progress, command):
     diag = dict(acceptance=np.asarray(sampler.acceptance_fraction, float), tau=tau, ess=ess,
                 rhat=rhat, n_walkers=n_walkers, n_steps=n_steps, burn=burn,
                 n_runs=n_runs[0])
-    pred = _predictive(prep, post, rng, int(c["check_samples"]))
-    check = _check(prep, post, int(c["check_samples"]))
+    pred = _predictive(prep, post, int(c["check_samples"]), predict)
+    check = _check(prep, post, int(c["check_samples"]), *check)
     elapsed = _time.perf_counter() - t0
     return posterior_dataset(prep, post, blobs.reshape(-1, blobs.shape[-1]),
                              lp.reshape(-1), diag, pred, check, elapsed, command)
@@ -366,23 +421,18 @@ def _draws(post: np.ndarray, n: int) -> np.ndarray:
     return post[idx]
 
 
-def _predictive(prep: _Prepared, post, rng, n: int) -> list[dict]:
+def _predictive(prep: _Prepared, post, n: int, predict) -> list[dict]:
     """Posterior-predictive records: the filtered model history of each draw aligned at
-    its best shift, on the record's grid; 5 / 50 / 95 % per time."""
+    its best shift, on the record's grid (:meth:`_Prepared.predictive_rows`, run by
+    ``predict``); 5 / 50 / 95 % per time."""
     rows = _draws(post, n)
-    results = prep.forward.run(rows[:, : len(prep.keys)])
+    y = predict(rows[:, : len(prep.keys)])
+    y = y[y[:, 0] == 1.0]
     out = []
-    for i in range(len(prep.records)):
-        t, m = prep.measured[i]
-        sims = []
-        for res in results:
-            if any(r.error for r in res):
-                continue
-            s = prep.history(res, i)
-            lag, _ = best_shift(m, s, int(round(t[0] / prep.dt)), prep.max_lag)
-            ts = (np.arange(m.size) + lag) * prep.dt
-            sims.append(np.interp(ts, np.arange(s.size) * prep.dt, s, left=0.0, right=0.0))
-        sims = np.array(sims)
+    start = 1
+    for t, m in prep.measured:
+        sims = y[:, start: start + m.size]
+        start += m.size
         q = np.percentile(sims, [5, 50, 95], axis=0) if sims.size else np.full(
             (3, m.size), np.nan)
         out.append({"t": t, "measured": m, "p05": q[0], "p50": q[1], "p95": q[2]})
@@ -400,35 +450,51 @@ def check_speeds(cfg, record_speeds=None) -> np.ndarray:
     return float(line) * np.array([1.0, 1.1, 1.2])
 
 
-def _check(prep: _Prepared, post, n: int) -> dict:
-    """The deck-acceleration check (whole-deck envelope, band-limited) of the train of
-    the configuration at the line speed +10/+20 %, for posterior draws and for the
-    configuration's own values (the code's, where it takes them from the code)."""
+class _Check:
+    """The deck-acceleration check of a calibration's configuration: the whole-deck
+    envelope (band-limited) of the train of the configuration at the line speed +10/+20
+    % (:func:`check_speeds`), one forward run per train and row of the keys' values."""
+
+    def __init__(self, prep: _Prepared):
+        cfg = prep.cfg
+        self.speeds = check_speeds(cfg, prep.speeds_kmh)
+        self.names = [t.name for t in cfg.trains()]
+        preset = cfg.resolved()["train"].get("preset")
+        trains = self.names if preset is not None else [None]
+        self.groups = [Group(t, tuple(float(v) for v in self.speeds),
+                             (float(cfg.output_points[0]),)) for t in trains]
+        self.forward = Forward(prep.data, cfg.base_dir, prep.keys, self.groups,
+                               histories=False)
+
+    def values(self, x) -> np.ndarray:
+        """The check's values (n, speeds) of rows of the keys' values (n, n_keys): the
+        largest over the trains, NaN where a row's model does not run."""
+        x = np.atleast_2d(np.asarray(x, float))
+        val = np.full((len(x), self.speeds.size), np.nan)
+        for k, row in enumerate(x):
+            r = self.forward.run_row(row)
+            if not any(e.error for e in r):
+                val[k] = np.max([e.envelope_acc for e in r], axis=0)
+        return val
+
+
+def _check(prep: _Prepared, post, n: int, check: _Check, values) -> dict:
+    """The deck-acceleration check (:class:`_Check`) for posterior draws (run by
+    ``values``) and for the configuration's own values (the code's, where it takes them
+    from the code)."""
     from vsi_numba.en1990 import deck_acceleration_limits
 
     cfg = prep.cfg
-    speeds = check_speeds(cfg, prep.speeds_kmh)
-    names = [t.name for t in cfg.trains()]
-    preset = cfg.resolved()["train"].get("preset")
-    trains = names if preset is not None else [None]
-    groups = [Group(t, tuple(float(v) for v in speeds), (float(cfg.output_points[0]),))
-              for t in trains]
-    fwd = Forward(prep.data, cfg.base_dir, prep.keys, groups, histories=False)
-    rows = _draws(post, n)[:, : len(prep.keys)]
-    res = fwd.run(rows)
-    val = np.full((len(rows), speeds.size), np.nan)
-    for k, r in enumerate(res):
-        if not any(x.error for x in r):
-            val[k] = np.max([x.envelope_acc for x in r], axis=0)
-    base = Forward(prep.data, cfg.base_dir, [], groups, histories=False).run_row([])
+    val = values(_draws(post, n)[:, : len(prep.keys)])
+    base = Forward(prep.data, cfg.base_dir, [], check.groups, histories=False).run_row([])
     if any(x.error for x in base):
         raise CalibrationError("the configuration's own model cannot be run: "
                                + next(x.error for x in base if x.error))
     code = np.max([x.envelope_acc for x in base], axis=0)
     limits = deck_acceleration_limits(cfg.code_profile)
     limit = float(limits.get(cfg.track_type, limits["ballasted"]))
-    return {"speeds_kmh": speeds, "posterior": val[np.all(np.isfinite(val), axis=1)],
-            "code": code, "limit": limit, "trains": [n for n in names]}
+    return {"speeds_kmh": check.speeds, "posterior": val[np.all(np.isfinite(val), axis=1)],
+            "code": code, "limit": limit, "trains": list(check.names)}
 
 
 def posterior_dataset(prep: _Prepared, post, blobs, logpost, diag, pred, check, elapsed,

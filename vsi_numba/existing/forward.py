@@ -38,6 +38,7 @@ import copy
 import dataclasses
 import math
 import os
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -70,6 +71,15 @@ class Group:
     speeds_kmh: tuple[float, ...]
     points: tuple[float, ...]
     track: int | None = None
+
+
+@dataclass(frozen=True)
+class PointHistories:
+    """Histories at deck points of a block of rows (:meth:`Forward.point_histories`)."""
+
+    values: list  # per history wanted: (n_rows, n_t) m s-2 or m, zero past its length
+    lengths: list  # per history wanted: (n_rows,) samples of each row's history
+    errors: list  # per row: why it is no model ('' when it ran)
 
 
 @dataclass
@@ -202,6 +212,7 @@ class Forward:
         self._data = [self._group_data(g) for g in self.groups]
         self.n_runs = 0
         self._models: list = [None] * len(self.groups)
+        self._local = threading.local()  # each thread's kernel arguments
         self._typed = typed and bool(self.keys) and all(k in TYPED_KEYS for k in self.keys)
         self.typed_reason = "" if self._typed else (
             "not requested" if not typed else "a key without a typed law")
@@ -301,7 +312,9 @@ class Forward:
                 return f"{k} = {v:g}: expected > 0"
         return ""
 
-    def _typed_row(self, i: int, row):
+    def _typed_parts(self, i: int, row):
+        """(model, kernel bridge arrays, frequencies, shape factor) of a typed row, or
+        (None, the reason the row is no model)."""
         values = {k: float(v) for k, v in zip(self.keys, row, strict=True)}
         bad = self._bounds(values)
         if bad:
@@ -318,8 +331,14 @@ class Forward:
                              sine_amp=np.ascontiguousarray(br.sine_amp * s),
                              values=np.ascontiguousarray(br.values * s),
                              slopes=np.ascontiguousarray(br.slopes * s))
+        return (m, arrays, m.bridge.frequencies * f, s), ""
+
+    def _typed_row(self, i: int, row):
+        built, bad = self._typed_parts(i, row)
+        if built is None:
+            return None, bad
+        m, arrays, freqs, s = built
         packed = dataclasses.replace(m.packed, bridge=arrays)
-        freqs = m.bridge.frequencies * f
         return (m, packed, m.deck_for(freqs, s), freqs), ""
 
     # ------------------------------------------------------------------- full path
@@ -415,6 +434,116 @@ class Forward:
             return [self.run_row(r) for r in rows]
         with ThreadPoolExecutor(max_workers=n) as pool:
             return list(pool.map(self.run_row, rows))
+
+
+    # ------------------------------------------------------- histories at points
+    def point_histories(self, rows, wanted) -> PointHistories:
+        """Histories at deck points of every row (the calibration's records).
+
+        ``wanted``: per history, ``(group, speed index, point index, acceleration)``
+        (acceleration: True, band-limited as the deck outputs; False: displacement).
+        The typed path runs each row's kernel call on arguments built once per thread
+        and group (:meth:`_kernel_args`: the model's own arrays with the row's
+        frequencies, damping and shapes; the histories equal those of
+        :meth:`run_row`'s kernel call bit for bit) and reads the points' histories with
+        compiled code (:mod:`vsi_numba.existing.misfit`): no Python work per time step
+        and little per row, so threads run it in parallel.  The full path takes
+        :meth:`run_row`'s histories.
+        """
+        rows = np.atleast_2d(np.asarray(rows, float))
+        n = len(rows)
+        errors = [""] * n
+        if self._typed:
+            lengths = []
+            for gi, si, _, _ in wanted:
+                m = self._models[gi]
+                lengths.append(np.full(n, m.packed.n_steps(float(m.speeds[si])) + 1,
+                                       np.int64))
+            values = [np.zeros((n, int(ln[0]))) for ln in lengths]
+            for r, row in enumerate(rows):
+                errors[r] = self._typed_histories(row, wanted, values, r)
+            return PointHistories(values, lengths, errors)
+        results = [self.run_row(row) for row in rows]
+        per = [[None] * n for _ in wanted]
+        for r, res in enumerate(results):
+            errors[r] = next((x.error for x in res if x.error), "")
+            if errors[r]:
+                continue
+            for w, (gi, si, pi, acc) in enumerate(wanted):
+                per[w][r] = (res[gi].acceleration if acc else res[gi].displacement)[si][:, pi]
+        values, lengths = [], []
+        for hs in per:
+            ln = np.array([0 if h is None else h.size for h in hs], np.int64)
+            v = np.zeros((n, int(ln.max(initial=1))))
+            for r, h in enumerate(hs):
+                if h is not None:
+                    v[r, : h.size] = h
+            values.append(v)
+            lengths.append(ln)
+        return PointHistories(values, lengths, errors)
+
+    def _kernel_args(self, i: int) -> list:
+        """This thread's kernel arguments of group ``i`` (those
+        :func:`~vsi_numba.solver.batch.run_batch` builds for the model at the
+        configuration's values with every history kept), built on first use."""
+        args = getattr(self._local, "args", None)
+        if args is None:
+            args = self._local.args = {}
+        if i not in args:
+            from vsi_numba.solver import kernel_cache
+            from vsi_numba.solver.batch import compile_family, run_batch
+
+            m = self._models[i]
+            got = []
+            run_batch(m.packed, m.profile, m.speeds, m.points, m.settings, m.bridge,
+                      keep_histories=np.ones(m.speeds.size, bool),
+                      deck=m.deck_for(m.bridge.frequencies, 1.0)[:3],
+                      _kernel=lambda *a: got.extend(a))
+            compile_family(kernel_cache.family_of(m.packed))
+            args[i] = got
+        return args[i]
+
+    def _typed_histories(self, row, wanted, values, r: int) -> str:
+        """Run every group of a typed row into row ``r`` of ``values``; the row's error
+        ('' when it ran)."""
+        from vsi_numba import kernels as ek
+        from vsi_numba.existing.misfit import STORABLE, first_unstorable, point_history
+        from vsi_numba.solver import driver
+        from vsi_numba.solver.results import STATUS_MESSAGES
+
+        for gi in range(len(self.groups)):
+            built, bad = self._typed_parts(gi, row)
+            if built is None:
+                return bad
+            m, arrays, freqs, s = built
+            phi_d, phi_a, _ = m.deck_for(freqs, s)
+            (_, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red, out, slots, status,
+             reached) = self._kernel_args(gi)
+            red = red._replace(phi_d=phi_d, phi_a=phi_a)
+            driver.run_batch(arrays, veh, pr, prm, speeds, n_steps, init, st, bk, wk, red,
+                             out, slots, status, reached)
+            self.n_runs += speeds.size
+            env = (red.disp, red.acc, red.xmin, red.xmax, red.body)
+            for k in range(speeds.size):
+                code, step = int(status[k]), int(reached[k])
+                if code == ek.OK:
+                    n = int(n_steps[k]) + 1
+                    if not all(np.all(np.abs(a[k]) <= STORABLE) for a in env):
+                        code = ek.NON_FINITE
+                    bad_q = first_unstorable(out.q, slots[k], n)
+                    bad_a = first_unstorable(out.qdd, slots[k], n)
+                    if bad_q >= 0 or bad_a >= 0:
+                        code = ek.NON_FINITE
+                        step = min(x for x in (bad_q, bad_a) if x >= 0)
+                if code != ek.OK:
+                    return (f"{STATUS_MESSAGES[code]} at t = {step * prm.dt:.6g} s "
+                            f"(step {step})")
+            for w, (g, si, pi, acc) in enumerate(wanted):
+                if g == gi:
+                    point_history(out.qdd if acc else out.q, slots[si],
+                                  int(n_steps[si]) + 1, (phi_a if acc else phi_d)[pi],
+                                  values[w][r])
+        return ""
 
 
 def central_row(section: dict) -> np.ndarray:

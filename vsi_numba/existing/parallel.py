@@ -61,7 +61,7 @@ class BackendError(ValueError):
 class Spec:
     """What a worker needs to build an evaluation: its kind and the configuration."""
 
-    kind: str  # "calibration" or "reliability"
+    kind: str  # a key of FACTORIES
     config_json: str
     base_dir: str
 
@@ -73,6 +73,8 @@ class Spec:
 
 #: The function that builds a kind's evaluation from a configuration (in a worker).
 FACTORIES = {"calibration": "vsi_numba.existing.calibrate:evaluation_of",
+             "calibration_predictive": "vsi_numba.existing.calibrate:predictive_of",
+             "calibration_check": "vsi_numba.existing.calibrate:check_of",
              "reliability": "vsi_numba.existing.reliability:evaluation_of"}
 #: The evaluations this process holds (spec key -> callable rows -> outputs).
 _EVALUATIONS: dict = {}
@@ -101,11 +103,22 @@ def _evaluation(spec: Spec):
     return ev
 
 
+_CONTROLLER = []  # this process's threadpoolctl controller, found once
+
+
+def _blas_one_thread():
+    """A context with the BLAS pool at one thread (threadpoolctl's controller of this
+    process, its libraries found once: finding them costs ~1 ms, as much as a run)."""
+    if not _CONTROLLER:
+        from threadpoolctl import ThreadpoolController
+
+        _CONTROLLER.append(ThreadpoolController())
+    return _CONTROLLER[0].limit(limits=1, user_api="blas")
+
+
 def evaluate_chunk(spec: Spec, u: np.ndarray) -> np.ndarray:
     """The outputs of one chunk of rows (the function every backend runs)."""
-    from threadpoolctl import threadpool_limits
-
-    with threadpool_limits(limits=1, user_api="blas"):
+    with _blas_one_thread():
         return np.asarray(_evaluation(spec)(np.asarray(u, float)), float)
 
 
@@ -229,6 +242,8 @@ class Evaluator:
         self._dask = None  # the Dask backend while in use
         self._client = None
         self._spec_ref = None
+        self._others: list[Spec] = []  # the specs of :meth:`other`
+        self._refs: dict = {}  # their references on a Dask cluster
         limit = os.environ.get(INTERRUPT_ENV, "").strip()
         self._interrupt = int(limit) if limit.isdigit() else None
 
@@ -297,16 +312,39 @@ class Evaluator:
                 self._stop_dask()
         finally:
             unregister(self.spec)
+            for spec in self._others:
+                unregister(spec)
         return None
 
-    def _run(self, parts: list[np.ndarray]) -> list[np.ndarray]:
+    def _run(self, parts: list[np.ndarray], spec=None) -> list[np.ndarray]:
+        spec = spec or self.spec
         if self.backend == "dask":
-            futures = [self._client.submit(evaluate_chunk, self._spec_ref, p, pure=False)
+            ref = self._spec_ref if spec is self.spec else self._refs[spec.key]
+            futures = [self._client.submit(evaluate_chunk, ref, p, pure=False)
                        for p in parts]
             return self._client.gather(futures)
         if self._pool is not None:
-            return list(self._pool.map(evaluate_chunk, [self.spec] * len(parts), parts))
-        return [evaluate_chunk(self.spec, p) for p in parts]
+            return list(self._pool.map(evaluate_chunk, [spec] * len(parts), parts))
+        return [evaluate_chunk(spec, p) for p in parts]
+
+    def other(self, spec: Spec, evaluation, n_out: int):
+        """Another evaluation run on this evaluator's backend (its threads, worker
+        processes or cluster), in the same chunks, without the store: a callable rows
+        (n, n_in) -> outputs (n, n_out).  ``evaluation`` serves this process; a worker
+        process builds its own from ``spec`` (:data:`FACTORIES`)."""
+        register(spec, evaluation)
+        self._others.append(spec)
+        if self.backend == "dask":
+            self._refs[spec.key] = self._client.scatter(spec, broadcast=True, hash=False)
+
+        def run(u) -> np.ndarray:
+            u = np.ascontiguousarray(np.atleast_2d(np.asarray(u, float)))
+            if not len(u):
+                return np.zeros((0, int(n_out)))
+            return np.concatenate(self._run(chunks(u), spec), axis=0).reshape(
+                len(u), int(n_out))
+
+        return run
 
     def __call__(self, u) -> np.ndarray:
         """Outputs (n, n_out) of rows ``u`` (n, n_in): from the store, or computed."""

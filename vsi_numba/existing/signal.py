@@ -32,6 +32,16 @@ def lowpass(x: np.ndarray, fs: float, cutoff: float) -> np.ndarray:
     return scipy.signal.sosfiltfilt(sos, x, axis=0, padlen=pad)
 
 
+def lowpass_sections(fs: float, cutoff: float):
+    """``(sos, zi)`` of :func:`lowpass` at ``fs`` Hz: its second-order sections and
+    their steady state for a unit step (:func:`scipy.signal.sosfilt_zi`); None when the
+    cut-off is at or above the Nyquist frequency (no filter)."""
+    if not cutoff < 0.5 * fs * 0.999:
+        return None
+    sos = _sos(float(fs), float(cutoff))
+    return sos, scipy.signal.sosfilt_zi(sos)
+
+
 @functools.lru_cache(maxsize=64)
 def _sos(fs: float, cutoff: float) -> np.ndarray:
     """Second-order sections of the Butterworth low-pass (designed once per pair)."""

@@ -158,6 +158,9 @@ class _Prepared:
         self.specs = specs + self.noise_specs
         self.marginals = Marginals(self.specs)
         self.parameters = self.keys + self.noise_keys
+        # the likelihood's compiled code loaded (or compiled) here, before the backend
+        # fans out to worker processes
+        self.evaluate(self.marginals.from_u(np.zeros((1, self.marginals.n))))
 
     def noise(self, row, i_record: int) -> float:
         """Standard deviation of the raw noise of record ``i_record`` for ``row``."""

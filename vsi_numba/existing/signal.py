@@ -111,7 +111,9 @@ COARSE_SAMPLES_PER_PERIOD = 8
 
 def best_shifts(m: np.ndarray, S: np.ndarray, lag0: int, max_lag: int, dec: int,
                 m_fft=None) -> np.ndarray:
-    """:func:`best_shift` of every column of ``S`` (J, n) against ``m`` (K,), at once.
+    """:func:`best_shift` of every column of ``S`` (J, n) against ``m`` (K,), at once
+    (numpy; the calibration runs the compiled equivalent,
+    :class:`vsi_numba.existing.misfit.RecordFit`).
 
     A coarse search on the grid thinned by ``dec`` (one FFT cross-correlation of all the
     columns: :func:`scipy.fft.rfft` along the time axis), then the sums of squares at

@@ -170,6 +170,12 @@ class Config:
         train per run."""
         return [dict(o) for o in self._resolved["train"].get("other_trains", [])]
 
+    def other_train_models(self) -> list:
+        """Per entry of :attr:`other_trains` its own train (``train.other_trains[i].train``,
+        moving forces), None where it is the run's train."""
+        own = list(self._train.others)
+        return own + [None] * (len(self.other_trains) - len(own))
+
     def bridge_on_track(self, train, track: int, direction: str = "same"):
         """:meth:`bridge_for` ``train`` on ``track`` (1-based) of the deck in space; for
         ``direction = 'opposite'`` the deck seen from its far end

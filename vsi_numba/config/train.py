@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -242,6 +243,8 @@ class _TrainSpec:
     resolved: dict
     trains: list
     explicit: bool = False
+    #: per ``train.other_trains`` entry its own train (moving forces), None: the run's
+    others: tuple = ()
 
 
 def _preset_names() -> list[str]:
@@ -281,17 +284,68 @@ def _get_preset(chk, name, path, model):
     return train
 
 
-def _other_trains(chk, items):
+def _other_trains(chk, items, base_dir: Path):
     """``train.other_trains`` (declared: :class:`~.schema.models.OtherTrain`): the list of
-    resolved ``{track, direction, offset}`` or ``_BAD``."""
-    return chk.table_list(items, "train.other_trains", _m.OtherTrain,
-                          expected="a list of 1 to 19 trains on other tracks, each "
-                                   "{ track = k, direction = \"same\" | \"opposite\", "
-                                   "offset = m }",
-                          what=" { track = k, direction, offset }", max_len=19)
+    resolved ``{track, direction, offset[, train][, speed_kmh | speed_factor]}`` and,
+    per entry, its own train (moving forces; None: the run's train), or ``_BAD``."""
+    path = "train.other_trains"
+    model = _m.OtherTrain
+    if not isinstance(items, list) or not items or len(items) > 19:
+        return chk.error(path, items, "a list of 1 to 19 trains on other tracks, each "
+                                      "{ track = k, direction = \"same\" | \"opposite\", "
+                                      "offset = m[, train = \"name\"][, speed_kmh = v | "
+                                      "speed_factor = f] }")
+    out, built = [], []
+    for i, it in enumerate(items):
+        p = f"{path}[{i}]"
+        if chk.table(it, p, keys_of(model), what=" { track = k, direction, offset, train, "
+                                                "speed_kmh | speed_factor }") is _BAD:
+            out = _BAD
+            continue
+        v = chk.fields(it, p, model, [k for k in model.model_fields if k != "train"])
+        if v["speed_kmh"] is not None and v["speed_factor"] is not None:
+            v["speed_factor"] = chk.error(
+                f"{p}.speed_factor", it["speed_factor"],
+                f"either {p}.speed_kmh or {p}.speed_factor, not both (speed_kmh = "
+                f"{it['speed_kmh']!r} is given)")
+        train, res = None, {}
+        if "train" in it:
+            train = _own_train(chk, it["train"], f"{p}.train", base_dir, res)
+        if out is _BAD or not _ok(*v.values(), train):
+            out = _BAD
+            continue
+        out.append({**{k: x for k, x in v.items() if x is not None}, **res})
+        built.append(train)
+    return _BAD if out is _BAD else (out, built)
+
+
+def _own_train(chk, value, path: str, base_dir: Path, res: dict):
+    """``train.other_trains[i].train``: a library train name or an axle-load table, built
+    as moving forces (its resolved form goes to ``res["train"]``), or ``_BAD``."""
+    if isinstance(value, str) and value.strip():
+        train = _get_preset(chk, value, path, "moving_force")
+        if _ok(train):
+            res["train"] = value
+        return train
+    if isinstance(value, Mapping):
+        got: dict = {}
+        train = _axle_train(chk, value, base_dir, got, path=path)
+        if _ok(train):
+            res["train"] = got["axles"]
+        return train
+    return chk.error(path, value, expected_of(_m.OtherTrain, "train"))
 
 
 def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
+    """The validated ``[train]``, or ``_BAD``."""
+    others: list = []
+    spec = _train_tables(chk, d, base_dir, title, others)
+    if not _ok(spec) or not others:
+        return spec
+    return dataclasses.replace(spec, others=tuple(others))
+
+
+def _train_tables(chk, d, base_dir: Path, title, others: list) -> _TrainSpec | _Sentinel:
     path = "train"
     allowed = keys_of(_m.Train)
     ignored = {"name": "it names the train of [[train.vehicles]]; presets keep their names"}
@@ -312,9 +366,10 @@ def _train_section(chk, d, base_dir: Path, title) -> _TrainSpec | _Sentinel:
     if "track" in d:  # only when given: files without it keep their resolved form
         res["track"] = chk.fields(d, path, _m.Train, ["track"])["track"]
     if "other_trains" in d:
-        others = _other_trains(chk, d["other_trains"])
-        if _ok(others):
-            res["other_trains"] = others
+        got = _other_trains(chk, d["other_trains"], base_dir)
+        if _ok(got):
+            res["other_trains"] = got[0]
+            others.extend(got[1])
     if "vehicles" in d:
         name = chk.string(d, path, "name", expected_of(_m.Train, "name"),
                           default=title if title else "custom")
@@ -404,10 +459,10 @@ def _hslm_b(chk, v, model, res):
     return _extra.hslm_b_train(int(vals["N"]), float(vals["d"]))
 
 
-def _axle_train(chk, v, base_dir, res):
-    """``train.axles = {file, load_unit, name}``: a moving-force train from an axle-load
-    CSV file (columns position, load), or ``_BAD``."""
-    path = "train.axles"
+def _axle_train(chk, v, base_dir, res, path: str = "train.axles"):
+    """``train.axles = {file, load_unit, name}`` (or the same table at ``path``): a
+    moving-force train from an axle-load CSV file (columns position, load), or ``_BAD``;
+    its resolved table goes to ``res["axles"]``."""
     if not isinstance(v, Mapping):
         return chk.error(path, v, "a table {file = \"axles.csv\", load_unit = \"kN\"} "
                                   "(CSV columns position in m behind the first axle, load)")

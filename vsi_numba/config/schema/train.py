@@ -11,6 +11,7 @@ from vsi_numba.config.schema._fields import (
     Num,
     PosNum,
     Section,
+    Speed,
     Text,
     key,
     one_of,
@@ -160,10 +161,16 @@ MAX_OTHER_OFFSET = 10_000.0
 DIRECTIONS = ("same", "opposite")
 
 
+#: Bounds of the speed of a train on another track as a multiple of the run's speed
+#: (``train.other_trains[].speed_factor``): a slower train lasts 1 / factor longer.
+SPEED_FACTOR_BOUNDS = (0.1, 10.0)
+
+
 class OtherTrain(Section):
-    """``[train] other_trains = [{ track = 2, direction = "opposite", offset = 0 }]``: the
-    run's train once more, on another track of ``bridge.tracks``, in the same run (trains
-    meeting on the deck, or side by side); moving forces only."""
+    """``[train] other_trains = [{ track = 2, direction = "opposite", offset = 0 }]``: a
+    train on another track of ``bridge.tracks``, in the same run (trains meeting on the
+    deck, or side by side): the run's train at the run's speed unless ``train`` and
+    ``speed_kmh`` / ``speed_factor`` say otherwise; moving forces only."""
 
     track: Int(ge=1) = key(required=True, doc="the track of this train (1-based, as in "
                                               "bridge.tracks; not train.track)",
@@ -176,6 +183,23 @@ class OtherTrain(Section):
                            "the deck offset / v after the run's train enters its own",
         expected=f"a distance >= 0 m (at most {MAX_OTHER_OFFSET:g} m; the runs last until "
                  "the last train has left the deck)")
+    train: Text | Axles = key(
+        None, default_text="the run's train",
+        doc="the train on this track, as moving forces: a library train name (`vsi "
+            "trains` lists them) or { file, load_unit, name }, an axle-load CSV as "
+            "train.axles",
+        expected="a library train name (`vsi trains` lists them) or a table { file = "
+                 "\"axles.csv\", load_unit = \"kN\", name = ... } (an axle-load CSV)",
+        example="HSLM-A3")
+    speed_kmh: Speed = key(
+        None, unit="km/h", default_text="the run's speed",
+        doc="its own speed, the same in every run of the study (not with speed_factor)",
+        expected="a speed > 0 km/h (the same in every run; not with speed_factor)")
+    speed_factor: Num(ge=SPEED_FACTOR_BOUNDS[0], le=SPEED_FACTOR_BOUNDS[1]) = key(
+        None, default_text="1: the run's speed",
+        doc="its speed as a multiple of the run's speed (not with speed_kmh)",
+        expected=f"a factor {SPEED_FACTOR_BOUNDS[0]:g} .. {SPEED_FACTOR_BOUNDS[1]:g} of the "
+                 "run's speed (not with speed_kmh)")
 
 
 class Train(Section):
@@ -203,7 +227,8 @@ class Train(Section):
                            expected="a track number >= 1 (1-based, as in bridge.tracks)")
     other_trains: list[OtherTrain] = key(
         None, default_text="none: one train per run",
-        doc="the same train on other tracks in the same run, each { track, direction, "
-            "offset }: the results add the envelopes with every train loaded "
+        doc="trains on other tracks in the same run, each { track, direction, offset, "
+            "train, speed_kmh | speed_factor } (default: the run's train at the run's "
+            "speed): the results add the envelopes with every train loaded "
             "(`..._all_tracks`); moving forces only",
         example=[{"track": 2, "direction": "opposite", "offset": 0.0}])

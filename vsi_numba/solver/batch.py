@@ -36,8 +36,8 @@ from vsi_numba.solver.settings import SolverSettings
 
 def run_batch(packed: Packed, profile: Profile, speeds, points, settings: SolverSettings,
               bridge: ModalBridge, keep_histories=None, deck=None,
-              modal_forces: bool = False, _ensure: bool = True, _kernel=None
-              ) -> BatchResult:
+              modal_forces: bool = False, _ensure: bool = True, _kernel=None,
+              n_steps=None) -> BatchResult:
     """Run one packed model at several speeds (m/s) in one kernel call.
 
     Parameters
@@ -61,6 +61,9 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     _ensure : bool
         First have the family's kernels compiled once per machine
         (:func:`~vsi_numba.solver.kernel_cache.ensure_compiled`); False inside that.
+    n_steps : array_like of int, optional
+        Time steps of each run (default ``packed.n_steps`` of its speed): the runs of the
+        trains on other tracks follow the run's train's time grid.
     _kernel : callable, optional
         Called with the kernel's arguments instead of running the batch (returns None):
         the tests read the arguments a study gives the kernels.
@@ -70,7 +73,9 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
         raise ModelError(f"speed = {speeds[~(speeds > 0)][0]!r} m/s: expected > 0")
     n_r = speeds.size
     keep = np.zeros(n_r, bool) if keep_histories is None else np.asarray(keep_histories, bool)
-    n_steps = np.array([packed.n_steps(v) for v in speeds], np.int64)
+    n_steps = (np.array([packed.n_steps(v) for v in speeds], np.int64) if n_steps is None
+               else np.ascontiguousarray(np.broadcast_to(np.asarray(n_steps, np.int64),
+                                                         (n_r,))))
     deck = deck if deck is not None else deck_operators(bridge, points, settings)
     deck = DeckOperators.of(deck)
     phi_d, phi_a, cutoff = deck.phi_d, deck.phi_a, deck.cutoff

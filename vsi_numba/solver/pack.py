@@ -44,6 +44,11 @@ class Packed:
     #: by the forces of the bridge's load distribution (None: ``vehicles`` itself, whose
     #: moving forces are the axles the outputs report)
     distributed: ek.VehicleArrays | None = None
+    #: trains on other tracks the runs last for (``train.other_trains`` with a train or
+    #: speed of their own): per train (m its first axle travels until its last force
+    #: leaves the deck, speed factor on the run's speed, fixed speed in m/s or 0); the
+    #: runs last until the last of them has left too
+    other_runs: tuple = ()
 
     @property
     def kernel_vehicles(self) -> ek.VehicleArrays:
@@ -53,6 +58,8 @@ class Packed:
     def n_steps(self, speed: float) -> int:
         """Time steps of a run at ``speed`` (m/s)."""
         t_exit = self.run_length / speed
+        for length, factor, fixed in self.other_runs:
+            t_exit = max(t_exit, length / (fixed if fixed > 0.0 else factor * speed))
         return int(math.ceil((t_exit + self.free_vibration) / self.params.dt - 1e-9))
 
 

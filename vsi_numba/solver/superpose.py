@@ -1,11 +1,14 @@
-"""Several trains in one run: the run's train on its track and the same train on other
-tracks (``train.other_trains``), same or opposite direction, each with a start offset.
+"""Several trains in one run: the run's train on its track and trains on other tracks
+(``train.other_trains``): the run's train or one of their own, at the run's speed or one
+of their own, same or opposite direction, each with a start offset.
 
 The kernels run one train per run.  The deck is linear and moving forces are prescribed,
 so the response to several trains is the sum of the responses to each: every train is
 run on its own track line (a train in -x on the deck seen from its far end,
 :func:`vsi_numba.model.bridge.reversed_bridge`, whose modal coordinates are the deck's
-own), over one common time grid, with its modal histories kept; their sum is the deck's
+own), at its own speed over the run's train's time grid (the run lasts until the last
+train has left, :attr:`~vsi_numba.solver.pack.Packed.other_runs`), with its modal
+histories kept; their sum is the deck's
 response to all of them, exact to round-off.  The envelopes with every train loaded
 (:data:`vsi_numba.io.schema.ALL_TRACKS`) are reduced from the summed histories as the
 kernels reduce a run's: first time (and point) of the largest |value|.  Interaction
@@ -38,6 +41,19 @@ class OtherTrain:
     reversed: bool  # runs in -x: its loads stand at length - x
     length: float  # m, the deck's length (the mirror of a reversed run)
     track: int = -1  # 0-based index of its track in bridge.tracks (-1: not known)
+    speed_factor: float = 1.0  # its speed: this times the run's speed ...
+    speed: float = 0.0  # ... or this speed (m/s) in every run (0: the factor's)
+
+    def speeds(self, speeds) -> np.ndarray:
+        """Its speed (m/s) in the runs of the run's train at ``speeds`` (m/s)."""
+        v = np.asarray(speeds, float)
+        return np.full(v.shape, self.speed) if self.speed > 0.0 else self.speed_factor * v
+
+    @property
+    def own_run(self) -> bool:
+        """Whether it runs at a speed other than the run's train's (its runs' time grid
+        is then the run's train's, :attr:`Packed.other_runs`)."""
+        return self.speed > 0.0 or self.speed_factor != 1.0
 
 
 def shifted(packed: Packed, offset: float) -> Packed:
@@ -56,13 +72,6 @@ def shifted(packed: Packed, offset: float) -> Packed:
                                run_length=packed.run_length + offset)
 
 
-def common_length(packed: Packed, others: list[OtherTrain]) -> list[Packed]:
-    """Every model with the run length of the longest (one time grid for all)."""
-    models = [packed, *(o.packed for o in others)]
-    longest = max(p.run_length for p in models)
-    return [dataclasses.replace(p, run_length=longest) for p in models]
-
-
 def run_with_others(packed: Packed, profile, speeds, points, settings, bridge,
                     others: list[OtherTrain], deck: DeckOperators
                     ) -> tuple[BatchResult, dict[str, np.ndarray]]:
@@ -72,21 +81,22 @@ def run_with_others(packed: Packed, profile, speeds, points, settings, bridge,
     keeps the histories of every run: write those asked for only) and the envelopes
     with every train loaded (:func:`all_tracks_envelopes`).
     """
-    models = common_length(packed, others)
     every = np.ones(np.size(speeds), bool)
     deck = DeckOperators.of(deck)
-    main = run_batch(models[0], profile, speeds, points, settings, bridge,
+    main = run_batch(packed, profile, speeds, points, settings, bridge,
                      keep_histories=every, deck=deck)
     # the other trains' runs give their modal histories only (their own envelopes are
     # not results): no output rows, whole-deck grid, load effects or channels for the
     # kernels to reduce; their histories are read with the run's tables
     n_m = deck.phi_d.shape[1]
     bare = DeckOperators(np.zeros((0, n_m)), np.zeros((0, n_m)), deck.cutoff)
+    # each over the run's train's time grid (its steps), at its own speed
     runs = [dataclasses.replace(
-        run_batch(p, profile, speeds, points, settings, bridge, keep_histories=every,
-                  deck=bare, modal_forces=main.effects is not None),
+        run_batch(o.packed, profile, o.speeds(speeds), points, settings, bridge,
+                  keep_histories=every, deck=bare, modal_forces=main.effects is not None,
+                  n_steps=main.n_steps),
         phi_d=main.phi_d, phi_a=main.phi_a, grid_x=main.grid_x, effects=main.effects,
-        static_deck=main.static_deck, space=main.space) for p in models[1:]]
+        static_deck=main.static_deck, space=main.space) for o in others]
     env = all_tracks_envelopes(main, [(r, o) for r, o in zip(runs, others, strict=True)],
                                deck)
     main.elapsed += sum(r.elapsed for r in runs)  # the kernel time of every train

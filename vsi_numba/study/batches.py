@@ -162,8 +162,18 @@ def _packed_train(spec, i_train: int):
     packed = pack(bridge, train, 1.0, no_irregularity(), model.settings)
     others = getattr(model.config, "other_trains", [])
     if others:
-        longer = max(float(o["offset"]) for o in others)
-        packed = dataclasses.replace(packed, run_length=packed.run_length + longer)
+        # the run's train again at the run's speed: its runs are offset m longer; a train
+        # or speed of their own: the runs last until it has left (Packed.other_runs)
+        own = _other_trains(spec, i_train)
+        same = [float(o["offset"]) for o, p in zip(others, own, strict=True)
+                if not p.own_run and p.packed.run_length == packed.run_length
+                + float(o["offset"])]
+        runs = tuple((p.packed.run_length, p.speed_factor, p.speed) for o, p in
+                     zip(others, own, strict=True)
+                     if p.own_run or p.packed.run_length != packed.run_length
+                     + float(o["offset"]))
+        packed = dataclasses.replace(packed, run_length=packed.run_length + max(
+            same, default=0.0), other_runs=runs)
     return packed
 
 
@@ -181,11 +191,17 @@ def _other_trains(spec, i_train: int) -> tuple:
     cfg = model.config
     train = model.trains[i_train]
     out = []
-    for o in getattr(cfg, "other_trains", []):
-        bridge = cfg.bridge_on_track(train, int(o["track"]), o["direction"])
-        p = pack(bridge, train, 1.0, no_irregularity(), model.settings)
+    others = list(getattr(cfg, "other_trains", []))
+    models = (cfg.other_train_models() if hasattr(cfg, "other_train_models")
+              else [None] * len(others))
+    for o, own in zip(others, models, strict=True):
+        tr = train if own is None else own
+        bridge = cfg.bridge_on_track(tr, int(o["track"]), o["direction"])
+        p = pack(bridge, tr, 1.0, no_irregularity(), model.settings)
         out.append(OtherTrain(shifted(p, float(o["offset"])), o["direction"] == "opposite",
-                              float(bridge.length), int(o["track"]) - 1))
+                              float(bridge.length), int(o["track"]) - 1,
+                              float(o.get("speed_factor", 1.0)),
+                              float(o.get("speed_kmh", 0.0)) / 3.6))
     return tuple(out)
 
 

@@ -200,7 +200,10 @@ _TORQUE = {"sign_convention": "T = GJ dtheta/dx (St-Venant), theta the rotation 
            "the left support and the load (a its abscissa) and -P e a/L beyond it; T > 0 "
            "is a moment vector along -x on the face whose outward normal is +x "
            "(right-handed x, y left, z up); at a section holding a load the value just "
-           "right of it",
+           "right of it, at an interior support the value just right of it (the span on "
+           "its right), at the right end of the deck the value just left of it; a "
+           "continuous deck is restrained in torsion at every support: each span carries "
+           "the torque of its own loads",
            "comment": "mode-acceleration method: the closed-form static St-Venant torque "
            "of the loads on the deck plus the torsional modes' inertia and damping "
            "correction; " + _Y,
@@ -247,11 +250,13 @@ SPACE_ENVELOPES = {
         ("track",), "m", "deck abscissa of the maximum absolute deck acceleration along the "
         "track centre line over the whole deck (distance from the left end of the bridge)",
         {}),
-    **{f"{pre}{ext}_torsional_moment": (
-        ("point",), "s" if pre else "N m",
-        f"time of the {word} torsional moment of the deck" if pre else
-        f"{word} St-Venant torsional moment of the deck (train on the loaded track)",
+    **{f"{pre}{ext}_torsional_moment{whole}": (
+        (dim,), "s" if pre else "N m",
+        f"time of the {word} torsional moment of the deck{where}" if pre else
+        f"{word} St-Venant torsional moment of the deck (train on the loaded track){where}",
         {} if pre else {**_TORQUE, "cell_methods": f"time: {word}"})
+       for whole, dim, where in (("", "point", ""), ("_whole_deck", "deck_x",
+                                                     " on the whole-deck grid"))
        for ext, word in (("max", "maximum"), ("min", "minimum")) for pre in ("", "time_of_")},
 }
 
@@ -287,6 +292,9 @@ ALL_TRACKS_BASES = (
                                   "max_deck_twist", "max_deck_twist_whole_deck")
       for pre in ("", "time_of_")),
     *(f"{pre}max_track_acceleration_whole_deck" for pre in ("", "time_of_", "position_of_")),
+    *(f"{pre}{ext}_{name}" for name in ("bending_moment_whole_deck", "shear_force_whole_deck",
+                                        "torsional_moment", "torsional_moment_whole_deck")
+      for ext in ("max", "min") for pre in ("", "time_of_")),
 )
 
 
@@ -295,9 +303,12 @@ def _all_tracks() -> dict:
     for base in ALL_TRACKS_BASES:
         dims, units, long_name, attrs = {**ENVELOPES, **SPACE_ENVELOPES}[base]
         out[base + ALL_TRACKS_SUFFIX] = (
-            dims, units, f"{long_name}, every train of the run loaded",
-            {**attrs, "loading": "the run's train on train.track and the same train on "
-                                 "each track of train.other_trains, superposed"})
+            dims, units, long_name.replace(" (train on the loaded track)", "")
+            + ", every train of the run loaded",
+            {**attrs, "loading": "the run's train on train.track and the trains of "
+                                 "train.other_trains on their tracks (each the run's "
+                                 "train at the run's speed unless it names its own), "
+                                 "superposed"})
     return out
 
 

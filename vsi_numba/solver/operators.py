@@ -282,7 +282,8 @@ def space_operators(space, points, deck: DeckOperators, loaded: int = 0) -> Deck
     effects = deck.effects
     from vsi_numba.solver.space_effects import space_channels
 
-    channels = (space_channels(space, points, starts, effects.w2inv, loaded)
+    channels = (space_channels(space, points, starts, effects.w2inv, loaded,
+                               grid=effects.sections[effects.grid_index])
                 if effects is not None and isinstance(space, deck3d.BeamDeck3D) else None)
     # the channels' twist replaces the rows' (SpaceLayout.split, BatchResult)
     twist_rows = not (channels is not None and channels.n_channels > 0
@@ -295,8 +296,7 @@ def space_operators(space, points, deck: DeckOperators, loaded: int = 0) -> Deck
     if channels is not None:  # twist, track displacement and torque by mode acceleration
         reason = "" if np.any(channels.torque >= 0) else (
             "the loaded track is on the deck's axis: the train does not twist the deck"
-            if channels.y_load == 0.0 else "continuous deck: the torsional moment is "
-            "verified on simply supported decks only")
+            if channels.y_load == 0.0 else "no output point on the deck")
         channel, scale = None, 0.0
     else:
         effects, channel, scale, reason = torsional_moment_tables(space, points, effects,

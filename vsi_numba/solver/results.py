@@ -163,12 +163,12 @@ class BatchResult:
                             "time_of_max_deck_twist": t[..., :n_p],
                             "max_deck_twist_whole_deck": v[..., n_p:],
                             "time_of_max_deck_twist_whole_deck": t[..., n_p:]})
-            if np.any(ch.torque >= 0):
-                c = ch.torque
-                out.update({"max_torsional_moment": red.cb_max[:, c],
-                            "time_of_max_torsional_moment": red.cb_max_t[:, c],
-                            "min_torsional_moment": red.cb_min[:, c],
-                            "time_of_min_torsional_moment": red.cb_min_t[:, c]})
+            for c, sfx in ((ch.torque, ""), (ch.torque_grid, "_whole_deck")):
+                if c.size and np.any(c >= 0):
+                    out.update({f"max_torsional_moment{sfx}": red.cb_max[:, c],
+                                f"time_of_max_torsional_moment{sfx}": red.cb_max_t[:, c],
+                                f"min_torsional_moment{sfx}": red.cb_min[:, c],
+                                f"time_of_min_torsional_moment{sfx}": red.cb_min_t[:, c]})
         elif sp.torque_channel is not None:
             e, c = sp.torque_scale, sp.torque_channel
             hi, lo = ((red.le_max, red.le_max_t), (red.le_min, red.le_min_t))[::int(
@@ -208,7 +208,7 @@ class BatchResult:
         return data
 
     def effect_histories(self, r: int, mirror: float | None = None,
-                         static=None) -> dict[str, np.ndarray]:
+                         static=None, whole: bool = False) -> dict[str, np.ndarray]:
         """Load-effect histories of run ``r`` (which must have a slot), by the same
         mode-acceleration formula as the kernel but from the stored modal coordinates,
         modal forces and contact forces (:func:`effect_series`): ``bending_moment``,
@@ -217,7 +217,8 @@ class BatchResult:
         has it (:func:`torsional_moment_tables`).  Empty when the load effects were not
         computed.  ``mirror``: the run went over the deck seen from its far end (a train
         in -x), its loads stand at ``mirror - x``; ``static``: the static deck (default
-        the run's)."""
+        the run's); ``whole``: also ``bending_moment_whole_deck`` and
+        ``shear_force_whole_deck`` (time, deck_x) on the whole-deck grid."""
         e = self.effects
         h = int(self.slots[r])
         if e is None or h < 0:
@@ -235,7 +236,7 @@ class BatchResult:
         c = self.out.q[h, :n] - self.out.fq[h, :n] * e.w2inv  # q - F / w^2
         chan = self._effect_channels()
         out = effect_series(e, self.static_deck if static is None else static, x, force, c,
-                            chan)
+                            chan, whole)
         sp = self.space
         if sp is not None and sp.channels is not None and np.any(sp.channels.torque >= 0):
             if mirror is None:  # the run's own train (not offered for the others)
@@ -342,13 +343,14 @@ class BatchResult:
 
 
 def effect_series(e: LoadEffectTables, static, x: np.ndarray, force: np.ndarray,
-                  c: np.ndarray, chan: dict) -> dict[str, np.ndarray]:
+                  c: np.ndarray, chan: dict, whole: bool = False) -> dict[str, np.ndarray]:
     """Load-effect histories by the mode-acceleration formula: the static effect of the
     forces ``force`` at ``x`` (both (n, n_load); from
     :func:`vsi_numba.model.influence.influence` of the ``static`` deck) plus ``c @ E``,
     ``c`` = q - F / w^2 (n, n_m); ``chan``: :meth:`BatchResult._effect_channels`.
     Returns ``bending_moment``, ``shear_force`` (n, point), ``support_reaction``,
-    ``rotation`` (n, support)."""
+    ``rotation`` (n, support) and, with ``whole``, ``bending_moment_whole_deck``,
+    ``shear_force_whole_deck`` (n, deck_x)."""
     from vsi_numba.model.influence import influences
 
     n = x.shape[0]
@@ -363,7 +365,11 @@ def effect_series(e: LoadEffectTables, static, x: np.ndarray, force: np.ndarray,
         ("bending_moment", "moment", points, chan["bending_moment"]),
         ("shear_force", "shear", points, chan["shear_force"]),
         ("support_reaction", "reaction", k, chan["support_reaction"]),
-        ("rotation", "rotation", k, chan["end_rotation"])) if effect in e.channels]
+        ("rotation", "rotation", k, chan["end_rotation"]),
+        *((("bending_moment_whole_deck", "moment", e.sections[e.grid_index],
+            chan["bending_moment_whole_deck"]),
+           ("shear_force_whole_deck", "shear", e.sections[e.grid_index],
+            chan["shear_force_whole_deck"])) if whole else ())) if effect in e.channels]
     lines = influences(static, [(effect, at) for _, effect, at, _ in wanted], xs)
     for (name, _, at, cols), line in zip(wanted, lines, strict=True):
         g = line * fs  # (len(at), pairs)

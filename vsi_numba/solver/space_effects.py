@@ -35,7 +35,7 @@ vibration: the torque front a load sends off at c when it enters or leaves a spa
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -58,9 +58,10 @@ TORQUE_ACCURACY = (
 class SpaceChannels:
     """The kernels' deck-in-space channels (``Reduce.cb_*``) of one loaded track.
 
-    ``twist`` (n_tracks, n_starts), ``track`` (n_tracks, n_points) and ``torque``
-    (n_points,) hold the channel index of each value (-1: none; ``twist`` is empty
-    when the deck does not twist, ``torque`` when the loaded track is on the axis).
+    ``twist`` (n_tracks, n_starts), ``track`` (n_tracks, n_points), ``torque``
+    (n_points,) and ``torque_grid`` (n_grid, the whole-deck grid) hold the channel index
+    of each value (-1: none; ``twist`` is empty when the deck does not twist, ``torque``
+    when the loaded track is on the axis).
     """
 
     supports: np.ndarray  # (n_sup,) m
@@ -77,6 +78,9 @@ class SpaceChannels:
     twist: np.ndarray
     track: np.ndarray
     torque: np.ndarray
+    #: (n_grid,) channel of the torque at each section of the whole-deck grid (empty:
+    #: none)
+    torque_grid: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     @property
     def n_channels(self) -> int:
@@ -150,11 +154,18 @@ def _theta_slope(table, x) -> np.ndarray:
 
 
 def space_channels(space, points, starts, w2inv, loaded: int = 0,
-                   torque: bool = True) -> SpaceChannels | None:
+                   torque: bool = True, grid=()) -> SpaceChannels | None:
     """The :class:`SpaceChannels` of a :class:`~vsi_numba.model.deck3d.BeamDeck3D` with
     torsion for a train on track ``loaded`` (0-based): the twist at the window ``starts``
     of every track, the displacement along every track at ``points`` and (``torque``,
-    the loaded track off the axis) the torque at ``points``.  None without torsion."""
+    the loaded track off the axis) the torque at ``points`` and at the whole-deck
+    ``grid`` (m).  None without torsion.
+
+    The torque of every span is its own (torsion restrained at every support: each span
+    a fork-supported span, simply supported or continuous deck alike): the static part
+    is ``y_l`` times the span's simply supported shear, the modal part ``GJ_s
+    theta_j'``, the slope of the element just right of the section for the FE field of a
+    continuous deck (just left of it at the deck's right end)."""
     from vsi_numba.model.deck3d import TWIST_BASE
 
     if not getattr(space, "has_torsion", False) or not hasattr(space, "theta"):
@@ -162,12 +173,15 @@ def space_channels(space, points, starts, w2inv, loaded: int = 0,
     sup = np.asarray(space.supports, float)
     points = np.atleast_1d(np.asarray(points, float))
     starts = np.atleast_1d(np.asarray(starts, float))
+    grid = np.atleast_1d(np.asarray(grid, float))
     gj = np.broadcast_to(np.asarray(space.GJ, float), (sup.size - 1,))
     ip = np.broadcast_to(np.asarray(space.polar_mass, float), (sup.size - 1,))
     c = float(np.min(np.sqrt(gj / ip)))
     y_l = float(space.tracks[loaded].eccentricity)
     on = lambda v: v[(v >= sup[0]) & (v <= sup[-1])]  # noqa: E731
-    sections = np.unique(np.concatenate([on(points), on(starts), on(starts + TWIST_BASE)]))
+    with_torque = torque and y_l != 0.0
+    sections = np.unique(np.concatenate([on(points), on(starts), on(starts + TWIST_BASE)]
+                                        + ([on(grid)] if with_torque else [])))
     span = np.clip(np.searchsorted(sup, sections, side="right") - 1, 0, sup.size - 2)
     where = {float(v): i for i, v in enumerate(sections)}
     n_cs = sections.size
@@ -207,18 +221,24 @@ def space_channels(space, points, starts, w2inv, loaded: int = 0,
             terms.append(moment(x, yk))
             eq.append(w[i])
             ef.append(yk * th[i])
-    tq = np.full(points.size, -1, np.int64)
-    if torque and y_l != 0.0 and sup.size == 2:  # verified on one span only
-        slope = _theta_slope(space.theta, points)
-        for i, x in enumerate(points):
+    def torque_at(at):  # the torque channels at the sections ``at``
+        out = np.full(at.size, -1, np.int64)
+        if not with_torque or not at.size:
+            return out
+        slope = _theta_slope(space.theta, at)
+        for i, x in enumerate(at):
             j = where.get(float(x))
             if j is None:
                 continue
-            tq[i] = len(terms)
+            out[i] = len(terms)
             terms.append([(n_cs + j, 1.0)])
             col = gj[span[j]] * slope[i]
             eq.append(col)
             ef.append(col)
+        return out
+
+    tq = torque_at(points)
+    tq_grid = torque_at(grid) if with_torque else np.zeros(0, np.int64)
     ptr = np.concatenate([[0], np.cumsum([len(t) for t in terms])]).astype(np.int64)
     flat = [p for t in terms for p in t]
     idx = np.array([p[0] for p in flat], np.int64)
@@ -228,7 +248,7 @@ def space_channels(space, points, starts, w2inv, loaded: int = 0,
                               * np.asarray(w2inv, float)[:, None])
     sec0 = np.searchsorted(span, np.arange(sup.size), side="left").astype(np.int64)
     return SpaceChannels(sup, sections, np.ascontiguousarray(sections - sup[span]), sec0,
-                         ptr, idx, coef, Eq, Ef, c, y_l, twist, track, tq)
+                         ptr, idx, coef, Eq, Ef, c, y_l, twist, track, tq, tq_grid)
 
 
 def kernel_fields(ch: SpaceChannels | None, speeds, n_r: int) -> dict:

@@ -132,7 +132,9 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
     chan: list[tuple] = []  # the deck-in-space channels' |max| and its time, per run
     # the load effects every train adds to (the torsional moment is the run's train's)
     names = {"bending_moment": "bending_moment", "shear_force": "shear_force",
-             "support_reaction": "support_reaction", "rotation": "end_rotation"}
+             "support_reaction": "support_reaction", "rotation": "end_rotation",
+             "bending_moment_whole_deck": "bending_moment_whole_deck",
+             "shear_force_whole_deck": "shear_force_whole_deck"}
     for r in range(n_r):
         n = int(main.n_steps[r]) + 1
         t = np.arange(n) * dt
@@ -154,11 +156,11 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
             k = int(np.argmax(ga))
             gacc[r], gacc_t[r], gacc_x[r] = ga.flat[k], t[k // grid.size], grid[k % grid.size]
         if main.effects is not None:
-            series = main.effect_histories(r)
+            series = main.effect_histories(r, whole=True)
             series = {k: v for k, v in series.items() if k in names}
             for res, o in others:
                 more = res.effect_histories(r, mirror=o.length if o.reversed else None,
-                                            static=main.static_deck)
+                                            static=main.static_deck, whole=True)
                 series = {k: v + more[k] for k, v in series.items()}
             for name, v in series.items():
                 hi, hi_i, lo, lo_i = first_max_min(v)
@@ -171,7 +173,9 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
                 c = c + res.space_series(r, mirror=o.length if o.reversed else None,
                                          y_load=y)
             b, bt = _first_max(c, t)
-            chan.append((b, bt))
+            tq = np.concatenate([ch.torque[ch.torque >= 0], ch.torque_grid])
+            hi, hi_i, lo, lo_i = first_max_min(c[:, tq]) if tq.size else (np.zeros(0),) * 4
+            chan.append((b, bt, (hi, t[hi_i], lo, t[lo_i]) if tq.size else None))
     stack = np.array
     out = {"max_deck_displacement": stack(rows_d)[:, :n_p],
            "time_of_max_deck_displacement": stack(rows_dt)[:, :n_p],
@@ -202,6 +206,17 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
                             "time_of_max_deck_twist": bt[:, ch.twist[:, :n_p]],
                             "max_deck_twist_whole_deck": b[:, ch.twist[:, n_p:]],
                             "time_of_max_deck_twist_whole_deck": bt[:, ch.twist[:, n_p:]]})
+            if chan[0][2] is not None:  # the torque: points, then the whole-deck grid
+                n_tp = int(np.sum(ch.torque >= 0))
+                parts = [stack([c[2][i] for c in chan]) for i in range(4)]
+                for sfx, cols in (("", slice(0, n_tp)), ("_whole_deck", slice(n_tp, None))):
+                    if sfx and not ch.torque_grid.size or not sfx and not n_tp:
+                        continue
+                    hi, hi_t, lo, lo_t = (a[:, cols] for a in parts)
+                    out.update({f"max_torsional_moment{sfx}": hi,
+                                f"time_of_max_torsional_moment{sfx}": hi_t,
+                                f"min_torsional_moment{sfx}": lo,
+                                f"time_of_min_torsional_moment{sfx}": lo_t})
         if space.grid_x.size and space.whole_from_deck:  # every track line is the axis
             out.update({f"{pre}max_track_acceleration_whole_deck": np.repeat(
                 v[:, None], space.n_tracks, axis=1) for pre, v in (

@@ -44,9 +44,13 @@ CARBODY = ("max_carbody_acceleration", "time_of_max_carbody_acceleration",
 TRACK_WHOLE_DECK_ACCELERATION = tuple(f"{pre}max_track_acceleration_whole_deck" for pre in
                                       ("", "time_of_", "position_of_"))
 
+#: The torsional moment envelopes on the whole-deck grid.
+TORSIONAL_MOMENT_WHOLE_DECK = tuple(f"{pre}{ext}_torsional_moment_whole_deck"
+                                    for ext in ("max", "min") for pre in ("", "time_of_"))
 #: The torsional moment envelopes and history of a deck in space.
 TORSIONAL_MOMENT = tuple(f"{pre}{ext}_torsional_moment" for ext in ("max", "min")
-                         for pre in ("", "time_of_")) + ("torsional_moment",)
+                         for pre in ("", "time_of_")) + ("torsional_moment",
+                                                         *TORSIONAL_MOMENT_WHOLE_DECK)
 
 #: Histories of the wheels in contact (a moving force's contact force is its load).
 CONTACT_HISTORIES = ("contact_force", "in_contact")
@@ -139,6 +143,10 @@ def not_offered(models, packed) -> dict[str, str]:
         if not any(x is not None and x.has_torque for x in layouts):
             why = next(x.torque_reason for x in layouts if x is not None)
             out.update(dict.fromkeys(TORSIONAL_MOMENT, why))
+        elif not any(x is not None and x.channels is not None
+                     and np.size(x.channels.torque_grid) for x in layouts):
+            out.update(dict.fromkeys(TORSIONAL_MOMENT_WHOLE_DECK, "the torsional moment "
+                                     "is computed at the output points only"))
     trains = [p for per in packed for p in per]
     if not any(np.asarray(p.vehicles.body_dof).size for p in trains):
         out.update(dict.fromkeys(CARBODY, "no train has a car body (moving forces only)"))

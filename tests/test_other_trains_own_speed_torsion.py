@@ -1,0 +1,285 @@
+"""Trains of their own at speeds of their own on other tracks, and the torsional moment of
+a continuous deck, through the user's path (config -> ``vsi sweep`` -> netCDF ->
+``vsi report``), each against a reference computed here:
+
+- three trains on three tracks, each its own train and speed (``train``, ``speed_kmh``,
+  ``speed_factor``): the every-train envelopes against the sum, formed here with the
+  test's own time shift, of the histories of each train alone in a one-track run;
+- the torsional moment of a two-span continuous deck restrained in torsion at every
+  support at crawl speed, at the output points and on the whole-deck grid, one train and
+  two trains, against the test's own static St-Venant finite-element solution (numpy);
+- the whole-deck bending moment and shear force with both trains at crawl against the
+  sum of each train alone.
+"""
+
+from __future__ import annotations
+
+import json
+import textwrap
+
+import numpy as np
+import pytest
+from test_space_config import TORSION, L
+from typer.testing import CliRunner
+from userpath import sweep_file
+
+from vsi_numba.cli import app
+from vsi_numba.config import ConfigError, load_config
+
+Y = (2.2, -2.2, 4.0)  # m, the three tracks' eccentricities
+TRACKS3 = "tracks = [" + ", ".join(f"{{ eccentricity = {y} }}" for y in Y) + "]"
+GJ, P = 5e9, 100e3
+
+
+def _config(train_track: str, vehicles: str, speed: float, free: float, kind: str = "ss",
+            dt: float = 5e-4, points: str = "[5.0, 10.0]") -> str:
+    bridge = ('kind = "simply_supported"\nspans = [20.0]' if kind == "ss" else
+              'kind = "continuous"\nspans = [10.0, 10.0]\nelements_per_span = 40')
+    return textwrap.dedent("""
+        title = "trains of their own"
+        [bridge]
+        {bridge}
+        EI = 2.0e10
+        mass_per_length = 15000.0
+        damping_ratio = 0.01
+        n_modes = 3
+        output_points = {points}
+        {tracks}
+        {torsion}
+        [train]
+        {train_track}
+        {vehicles}
+        [track]
+        model = "rigid"
+        [solver]
+        dt = {dt}
+        hht_alpha = 0.0
+        approach = 0.0
+        free_vibration = {free}
+        [study]
+        speeds_kmh = [{speed}]
+        output = "out.nc"
+        save_time_histories = true
+        """).format(bridge=bridge, points=points, tracks=TRACKS3, torsion=TORSION,
+                    train_track=train_track, vehicles=vehicles, dt=dt, free=free,
+                    speed=speed)
+
+
+def _forces(n, d, p):
+    return "\n".join(f'[[train.vehicles]]\nkind = "force"\noffset = {d * i}\nload = {p}'
+                     for i in range(n))
+
+
+def _axles(path, positions, loads_kn):
+    path.write_text("position,load\n" + "".join(f"{x},{q}\n" for x, q in
+                                                 zip(positions, loads_kn, strict=True)))
+
+
+def _run(tmp_path, name, text):
+    d = tmp_path / name
+    d.mkdir()
+    for csv in tmp_path.glob("*.csv"):
+        (d / csv.name).write_text(csv.read_text())
+    return sweep_file(d, text, speed=0), d
+
+
+def test_own_trains_and_speeds__against_the_sum_of_each_train_alone(tmp_path):
+    """Four 170 kN forces on track 1 at 90 km/h; an axle-CSV train on track 2 at
+    speed_kmh = 72, 4 m behind (it enters 4 / 20 = 0.2 s later); another axle-CSV train
+    on track 3 at speed_factor = 0.5 (45 km/h): the file's every-train envelopes against
+    max |h1(t) + h2(t - 0.2 s) + h3(t)| of the histories of each train alone (its own
+    one-track run, free vibration long enough to cover the run of all three)."""
+    _axles(tmp_path / "a.csv", [0.0, 2.5, 9.0], [120.0, 120.0, 150.0])
+    _axles(tmp_path / "b.csv", [0.0, 3.0], [200.0, 200.0])
+    others = ('other_trains = [{ track = 2, train = { file = "a.csv" }, speed_kmh = 72.0, '
+              'offset = 4.0 }, { track = 3, train = { file = "b.csv", name = "B" }, '
+              'speed_factor = 0.5 }]')
+    ds, _ = _run(tmp_path, "all", _config(f"track = 1\n{others}", _forces(4, 6.0, 170e3),
+                                          90.0, 0.2))
+    got = json.loads(ds.attrs["other_trains"])
+    assert got[0]["train"] == {"file": "a.csv", "load_unit": "kN"}
+    assert got[0]["speed_kmh"] == 72.0 and got[1]["speed_factor"] == 0.5
+    # the run lasts until the slowest train has left: B, (20 + 3) m at 12.5 m/s
+    n = int(np.isfinite(ds["deck_displacement"].values[:, 0]).sum())
+    assert (n - 1) * 5e-4 >= 23.0 / 12.5 + 0.2 - 1e-9
+    alone = [
+        _run(tmp_path, "one", _config("track = 1", _forces(4, 6.0, 170e3), 90.0, 3.0))[0],
+        _run(tmp_path, "two", _config('track = 2\naxles = { file = "a.csv" }', "", 72.0,
+                                      3.0))[0],
+        _run(tmp_path, "three", _config('track = 3\naxles = { file = "b.csv" }', "", 45.0,
+                                        3.0))[0]]
+    shift = [0, 400, 0]  # steps: train 2 enters 4 m / 20 m/s = 0.2 s = 400 dt later
+
+    def summed(name):
+        out = 0.0
+        for a, k in zip(alone, shift, strict=True):
+            h = a[name].values.astype(float)
+            h = np.concatenate([np.zeros((k, *h.shape[1:])), h])[:n]
+            assert h.shape[0] == n and np.isfinite(h).all(), name
+            out = out + h
+        return out
+
+    # the alone histories are stored as float32 (relative 6e-8) and summed here:
+    # measured up to 2e-7 of the envelope; tolerance 1e-6 (5x)
+    rtol = 1e-6
+    np.testing.assert_allclose(ds["max_deck_displacement_all_tracks"].values,
+                               np.abs(summed("deck_displacement")).max(axis=0), rtol=rtol)
+    m = summed("bending_moment")
+    np.testing.assert_allclose(ds["max_bending_moment_all_tracks"].values, m.max(axis=0),
+                               rtol=rtol)
+    np.testing.assert_allclose(ds["min_bending_moment_all_tracks"].values, m.min(axis=0),
+                               rtol=rtol, atol=rtol * np.abs(m).max())
+    np.testing.assert_allclose(ds["max_track_displacement_all_tracks"].values,
+                               np.abs(summed("track_displacement")).max(axis=0), rtol=rtol)
+    np.testing.assert_allclose(ds["max_deck_twist_all_tracks"].values,
+                               np.abs(summed("deck_twist")).max(axis=0), rtol=rtol)
+    tq = summed("torsional_moment")
+    np.testing.assert_allclose(ds["max_torsional_moment_all_tracks"].values, tq.max(axis=0),
+                               rtol=rtol, atol=rtol * np.abs(tq).max())
+    np.testing.assert_allclose(ds["min_torsional_moment_all_tracks"].values, tq.min(axis=0),
+                               rtol=rtol, atol=rtol * np.abs(tq).max())
+    # the one-track envelopes stay the run's train's alone, bit for bit
+    for name in ("max_deck_displacement", "max_bending_moment", "max_torsional_moment"):
+        np.testing.assert_array_equal(ds[name].values, alone[0][name].values)
+
+
+def test_own_train_by_library_name_and_config_errors(tmp_path):
+    """A library name builds that train as moving forces; speed_kmh with speed_factor,
+    an unknown name and a factor out of bounds are refused naming key and value."""
+    def load(other):
+        p = tmp_path / "c.toml"
+        p.write_text(_config(f"track = 1\nother_trains = [{other}]", _forces(1, 0.0, 1e5),
+                             100.0, 0.1))
+        return load_config(p)
+
+    cfg = load('{ track = 2, train = "HSLM-A1" }')
+    (own,) = cfg.other_train_models()
+    assert own.name == "HSLM-A1" and all(v.n_dof == 0 for v in own.vehicles)
+    from vsi_numba.model import library
+
+    ref = library.get_train("HSLM-A1", model="moving_force")
+    np.testing.assert_array_equal(own.axle_positions, ref.axle_positions)
+    assert load("{ track = 2 }").other_train_models() == [None]
+    for other, key, words in (
+            ("{ track = 2, speed_kmh = 200, speed_factor = 2 }", "speed_factor", "not both"),
+            ('{ track = 2, train = "HSLM-A99" }', "train", "library"),
+            ("{ track = 2, speed_factor = 20 }", "speed_factor", "0.1 .. 10"),
+            ("{ track = 2, speed_kmh = -5 }", "speed_kmh", "> 0 km/h")):
+        with pytest.raises(ConfigError) as exc:
+            load(other)
+        assert f"train.other_trains[0].{key}" in str(exc.value) and words in str(exc.value)
+
+
+# ------------------------------------------------------- torsion of a continuous deck
+
+
+def _fe_torque(sections, loads, supports, gj):
+    """Static St-Venant torque T = GJ dtheta/dx at ``sections`` (the value just right of
+    a section; just left at the deck's right end) of point torques ``loads`` [(a, M)] on
+    a bar restrained in rotation at ``supports``: linear finite elements with a node at
+    every support, section and load (nodally exact for point torques), solved here."""
+    nodes = np.unique(np.concatenate([supports, sections, [a for a, _ in loads]]))
+    h = np.diff(nodes)
+    n = nodes.size
+    K = np.zeros((n, n))
+    for e in range(n - 1):
+        K[e:e + 2, e:e + 2] += gj / h[e] * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    f = np.zeros(n)
+    for a, m in loads:
+        f[np.searchsorted(nodes, a)] += m
+    free = ~np.isin(nodes, supports)
+    th = np.zeros(n)
+    th[free] = np.linalg.solve(K[np.ix_(free, free)], f[free])
+    te = gj * np.diff(th) / h  # per element
+    e = np.clip(np.searchsorted(nodes, sections, side="right") - 1, 0, n - 2)
+    return te[e]
+
+
+def _crawl_reference(sections, trains, v, dt, n):
+    """max / min over the run's steps of the FE torque of every train's loads on the deck
+    (each train: eccentricity, axle offsets, load, start delay in steps)."""
+    sup = np.array([0.0, 10.0, 20.0])
+    hi = np.full(sections.size, -np.inf)
+    lo = np.full(sections.size, np.inf)
+    for i in range(n):
+        loads = []
+        for y, offsets, p, delay in trains:
+            a = v * (i - delay) * dt - np.asarray(offsets)
+            loads += [(float(x), p * y) for x in a if 0.0 <= x <= L]
+        t = _fe_torque(sections, loads, sup, GJ) if loads else np.zeros(sections.size)
+        hi, lo = np.maximum(hi, t), np.minimum(lo, t)
+    return hi, lo
+
+
+def test_torsional_moment_of_a_continuous_deck_at_crawl__against_static_fe(tmp_path):
+    """One 100 kN force on track 1 (y = 2.2 m) at 1 m/s over 10 + 10 m, torsion
+    restrained at both ends and the interior support: the torque envelopes at the output
+    points and on the whole-deck grid against the test's own static FE torque (numpy);
+    the same with a second train on track 2 (y = -2.2 m) 3 m behind, the every-train
+    torque envelopes against the FE torque of both loads; the whole-deck bending moment
+    and shear force with both trains against the sum of each train alone (their own
+    one-track runs' histories at the output points, on the grid); the report names the
+    torque's sections."""
+    v, dt, off = 1.0, 5e-3, 3.0
+    pts = "[2.5, 5.0, 7.5, 10.0, 12.5, 15.0]"
+    # free vibration long enough for the run to cover the run of both trains below
+    one = _config("track = 1", _forces(1, 0.0, P), 3.6, 3.5, "continuous", dt, pts)
+    ds, d1 = _run(tmp_path, "one", one)
+    n = ds["time"].size
+    x = ds["point"].values
+    grid = ds["deck_x"].values
+    assert "max_torsional_moment" in ds and "max_torsional_moment_whole_deck" in ds
+    assert "torsional_moment" not in json.loads(ds.attrs["not_computed"])
+    hi, lo = _crawl_reference(np.concatenate([x, grid]), [(Y[0], [0.0], P, 0)], v, dt, n)
+    scale = P * Y[0]
+    # crawl (v/c = 4e-3): the static torque plus the kept torsional modes' free
+    # vibration, which a load entering or leaving a span starts (ringing at 12.5 Hz):
+    # measured 2e-4 of P e at the output points inside the spans, 3.9e-3 over the
+    # whole-deck grid (largest at the supports, where the modes' slopes are); 2.5x
+    inside = ~np.isin(x, [0.0, 10.0, 20.0])
+    tol, tol_all = 5e-4 * scale, 1e-2 * scale
+    for ext, ref in (("max", hi), ("min", lo)):
+        np.testing.assert_allclose(ds[f"{ext}_torsional_moment"].values[inside],
+                                   ref[:x.size][inside], atol=tol)
+        np.testing.assert_allclose(ds[f"{ext}_torsional_moment"].values, ref[:x.size],
+                                   atol=tol_all)
+        np.testing.assert_allclose(ds[f"{ext}_torsional_moment_whole_deck"].values,
+                                   ref[x.size:], atol=tol_all)
+    # each span carries its own loads only: no torque in span 2 while the load is in
+    # span 1 (the interior support restrains the torsion)
+    assert ds["max_torsional_moment"].attrs["units"] == "N m"
+    both = one.replace("track = 1\n", "track = 1\nother_trains = [{ track = 2, offset = "
+                       f"{off} }}]\n", 1).replace("free_vibration = 3.5",
+                                                  "free_vibration = 0.2")
+    ds2, d2 = _run(tmp_path, "both", both)
+    n2 = ds2["time"].size
+    delay = int(round(off / v / dt))
+    hi2, lo2 = _crawl_reference(np.concatenate([x, grid]), [
+        (Y[0], [0.0], P, 0), (Y[1], [0.0], P, delay)], v, dt, n2)
+    # two loads ring together: measured 2.1e-3 of P e inside the spans, 3.9e-3 at most
+    for ext, ref in (("max", hi2), ("min", lo2)):
+        np.testing.assert_allclose(ds2[f"{ext}_torsional_moment_all_tracks"].values,
+                                   ref[:x.size], atol=tol_all)
+        np.testing.assert_allclose(
+            ds2[f"{ext}_torsional_moment_whole_deck_all_tracks"].values, ref[x.size:],
+            atol=tol_all)
+    # whole-deck M and V with both trains against the sum of each alone: the second
+    # train alone on track 2 is the first's run delayed (same force), its M and V the
+    # same on the deck's axis; the alone histories at the output points (on the grid)
+    m1 = ds["bending_moment"].values.astype(float)
+    v1 = ds["shear_force"].values.astype(float)
+    pad = np.zeros((delay, x.size))
+    msum = m1[:n2] + np.concatenate([pad, m1])[:n2]
+    vsum = v1[:n2] + np.concatenate([pad, v1])[:n2]
+    at = [int(np.flatnonzero(np.isclose(grid, p))[0]) for p in x]
+    # float32 histories summed here: relative 1e-7 of the largest value; tolerance 1e-6
+    for name, s in (("bending_moment", msum), ("shear_force", vsum)):
+        big = np.abs(s).max()
+        for ext, f in (("max", np.max), ("min", np.min)):
+            np.testing.assert_allclose(
+                ds2[f"{ext}_{name}_whole_deck_all_tracks"].values[at], f(s, axis=0),
+                atol=1e-6 * big, err_msg=f"{ext}_{name}")
+    # the report has the torsional moment's sections and the every-train grid
+    res = CliRunner().invoke(app, ["report", str(d2 / "out.nc"), "-o",
+                                   str(d2 / "report.md"), "-q"])
+    assert res.exit_code == 0, res.output

@@ -280,6 +280,13 @@ def test_torsional_moment_of_a_continuous_deck_at_crawl__against_static_fe(tmp_p
                 ds2[f"{ext}_{name}_whole_deck_all_tracks"].values[at], f(s, axis=0),
                 atol=1e-6 * big, err_msg=f"{ext}_{name}")
     # the report has the torsional moment's sections and the every-train grid
-    res = CliRunner().invoke(app, ["report", str(d2 / "out.nc"), "-o",
-                                   str(d2 / "report.md"), "-q"])
+    res = CliRunner().invoke(app, ["report", str(d2 / "out.nc"), "-o", str(d2 / "rep")])
     assert res.exit_code == 0, res.output
+    text = (d2 / "rep" / "report.md").read_text()
+    part = text[text.index("### Torsional moment"):]
+    assert "every train" in part and "whole-deck grid" in part
+    hi_all = ds2["max_torsional_moment_whole_deck_all_tracks"].values
+    x_hi = grid[int(np.argmax(hi_all))]
+    assert f"{hi_all.max() * 1e-3:.4g} kN m" in part and f"x = {x_hi:g} m" in part
+    summary = (d2 / "rep" / "summary.csv").read_text()
+    assert "torsional moment" in summary.lower()

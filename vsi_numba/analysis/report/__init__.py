@@ -56,6 +56,7 @@ from vsi_numba.analysis.report.load_effects import (
     consistent_deflection,
     load_effects_section,
     summary_with_load_effects,
+    summary_with_torque,
 )
 from vsi_numba.analysis.report.safe import clean, code, md, natural_order, write_csv
 from vsi_numba.analysis.report.text import (
@@ -208,9 +209,8 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
         results.get("dynamic_amplification"))
     le_all = (load_effect_checks(env, length=determinant_length, all_tracks=True)
               if any(str(v).endswith(ALL_TRACKS_SUFFIX) for v in env.variables) else None)
-    table = mark_unreliable(summary_with_load_effects(chk.summary_table(results), le_checks,
-                                                      le_all),
-                            records)
+    table = mark_unreliable(summary_with_torque(summary_with_load_effects(
+        chk.summary_table(results), le_checks, le_all), env), records)
     # EN 1990 A2.4.4.2.3(1) / A2.4.4.3.2: the static deflection under LM71
     deflection = deflection_checks(env, length=determinant_length,
                                    comfort_level=comfort_level, base_dir=config_dir,

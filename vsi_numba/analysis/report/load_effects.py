@@ -109,6 +109,10 @@ def load_effects_section(ds, outdir: Path | str | None = None, *, checks=None,
         blocks.append(f"Not available: {checks}.")
     else:
         blocks, tables, figure = _blocks(checks)
+        torque, torque_table = _torque_blocks(ds)
+        blocks += torque
+        if torque_table is not None:
+            tables["torsional_moment_envelopes"] = torque_table
         if any(str(v).endswith(ALL_TRACKS_SUFFIX) for v in ds.variables):
             several = checks_all if checks_all is not None else load_effect_checks(
                 ds, alpha=alpha, maintenance=maintenance, length=length, all_tracks=True)
@@ -242,11 +246,20 @@ def _several_blocks(ds, c) -> list:
     others = json.loads(ds.attrs.get("other_trains", "[]"))
     ways = {"opposite": "entering at the far end (trains meeting)",
             "same": "same direction"}
-    where = "; ".join(f"track {o['track']}, {ways[o['direction']]}"
+    def own(o):
+        tr = o.get("train")
+        name = ("the run's train" if tr is None else str(tr) if isinstance(tr, str)
+                else str(tr.get("name") or Path(str(tr.get("file", "axles"))).stem))
+        speed = (f"at {o['speed_kmh']:g} km/h" if "speed_kmh" in o else
+                 f"at {o['speed_factor']:g} × the run's speed" if "speed_factor" in o
+                 else "at the run's speed")
+        return f"{name} {speed}"
+
+    where = "; ".join(f"track {o['track']}: {own(o)}, {ways[o['direction']]}"
                       + (f", {o['offset']:g} m behind" if o["offset"] else "")
                       for o in others)
     blocks.append(
-        f"Every run also had the same train on the other tracks ({where}); tracks loaded: "
+        f"Every run also had trains on the other tracks ({where}); tracks loaded: "
         f"{fa['loaded_tracks']}. The envelopes of the trains together come from one "
         "time history (their runs superposed: exact for moving forces on the linear "
         f"deck). They are compared with {ph} × α × LM71 on each loaded track (× "
@@ -274,6 +287,62 @@ def _several_blocks(ds, c) -> list:
         blocks.append(Table(pd.DataFrame(rows), "Deck-end rotation with every train "
                                                 "loaded"))
     return blocks
+
+
+#: The torsional moment envelopes of a deck in space: (suffix, what is loaded, sections).
+_TORQUE_ROWS = (("", "the run's train", "output points"),
+                ("_whole_deck", "the run's train", "whole-deck grid"),
+                (ALL_TRACKS_SUFFIX, "every train", "output points"),
+                ("_whole_deck" + ALL_TRACKS_SUFFIX, "every train", "whole-deck grid"))
+
+
+def torque_envelopes(ds) -> pd.DataFrame:
+    """The largest and smallest St-Venant torsional moment of the file (N m), per loading
+    and set of sections, with where, the train and the speed of each; empty without
+    them."""
+    rows = []
+    for sfx, loaded, sections in _TORQUE_ROWS:
+        hi, lo = ds.get(f"max_torsional_moment{sfx}"), ds.get(f"min_torsional_moment{sfx}")
+        if hi is None or lo is None or not np.isfinite(hi.values).any():
+            continue
+        dim = "deck_x" if "whole_deck" in sfx else "point"
+        row = {"loaded": loaded, "sections": sections}
+        for ext, da, pick in (("max", hi, np.nanargmax), ("min", lo, np.nanargmin)):
+            i = np.unravel_index(pick(da.values), da.shape)
+            at = dict(zip(da.dims, i, strict=True))
+            row[f"{ext}_torsional_moment"] = float(da.values[i])
+            row[f"{ext}_x"] = float(ds[dim].values[at[dim]])
+            row[f"{ext}_train"] = str(ds["train"].values[at["train"]]) if "train" in at \
+                else ""
+            row[f"{ext}_speed_kmh"] = (float(ds["speed_kmh"].values[at["speed"]])
+                                       if "speed" in at else np.nan)
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _torque_blocks(ds) -> tuple[list, pd.DataFrame | None]:
+    """The torsional moment sub-section (a deck in space with torsion), or nothing."""
+    env = torque_envelopes(ds)
+    if env.empty:
+        return [], None
+    attrs = ds["max_torsional_moment"].attrs if "max_torsional_moment" in ds else {}
+    sign = attrs.get("sign_convention", "T = GJ dθ/dx")
+    blocks: list = ["### Torsional moment", (
+        f"St-Venant torsional moment T = GJ dθ/dx of the deck (N m; {sign}). "
+        "Dynamic envelopes of the "
+        "mode-acceleration method (static torque of the eccentric loads plus the "
+        "torsional modes' correction); no EN limit applies: the values are for the "
+        "design of the section and its bearings.")]
+    rows = [{"Loading": r.loaded, "Sections": r.sections,
+             "Largest T": _v(r.max_torsional_moment, "N m"),
+             "Where (largest)": f"x = {r.max_x:g} m", "Train, speed (largest)":
+             f"{r.max_train} at {r.max_speed_kmh:g} km/h",
+             "Smallest T": _v(r.min_torsional_moment, "N m"),
+             "Where (smallest)": f"x = {r.min_x:g} m", "Train, speed (smallest)":
+             f"{r.min_train} at {r.min_speed_kmh:g} km/h"}
+            for r in env.itertuples(index=False)]
+    blocks.append(Table(pd.DataFrame(rows), "Torsional moment envelopes"))
+    return blocks, env
 
 
 def _figure(c: LoadEffectChecks):
@@ -405,6 +474,28 @@ def consistent_deflection(c, ds, dyn, step: float = 0.05):
                       phi_dyn=replaced(c.phi_dyn, phi_rows),
                       phi_dyn_speeds=replaced(c.phi_dyn_speeds, speed_rows),
                       factors=factors)
+
+
+def summary_with_torque(table: pd.DataFrame, ds) -> pd.DataFrame:
+    """The summary table with one row per loading of the largest |torsional moment| of
+    the deck (:func:`torque_envelopes`): reported, no EN limit; ``table`` itself without
+    it."""
+    env = torque_envelopes(ds)
+    rows = []
+    for r in env.itertuples(index=False):
+        up = abs(r.max_torsional_moment) >= abs(r.min_torsional_moment)
+        ext = "max" if up else "min"
+        rows.append({
+            "check": f"Torsional moment |T| ({r.loaded}, {r.sections})",
+            "value": abs(float(getattr(r, f"{ext}_torsional_moment"))), "units": "N m",
+            "limit": np.nan, "margin": np.nan, "utilisation": np.nan,
+            "result": "reported (no EN limit)",
+            "governing_train": str(getattr(r, f"{ext}_train")),
+            "governing_speed_kmh": float(getattr(r, f"{ext}_speed_kmh")),
+            "where": f"x = {getattr(r, f'{ext}_x'):g} m", "clause": "–"})
+    if not rows:
+        return table
+    return pd.concat([table, pd.DataFrame(rows, columns=table.columns)], ignore_index=True)
 
 
 def summary_with_load_effects(table: pd.DataFrame, c, c_all=None) -> pd.DataFrame:

@@ -421,8 +421,8 @@ def test_torsional_moment_sections_leave_the_bending_load_effects_bit_for_bit():
     packed = pack(bridge, train, 40.0, no_irregularity(), settings)
     a, b = (run_batch(packed, no_irregularity(), [40.0, 60.0], pts, settings, bridge,
                       deck=d).envelopes() for d in (with_torque, without))
-    assert set(a) - set(b) == {f"{p}{e}_torsional_moment" for e in ("max", "min")
-                               for p in ("", "time_of_")}
+    assert set(a) - set(b) == {f"{p}{e}_torsional_moment{w}" for e in ("max", "min")
+                               for p in ("", "time_of_") for w in ("", "_whole_deck")}
     moved = ("max_track_displacement", "time_of_max_track_displacement", "max_deck_twist",
              "time_of_max_deck_twist")  # the channels' (tests/test_space_config.py)
     for name, value in b.items():

@@ -262,10 +262,11 @@ def test_trains_meeting_on_a_symmetric_continuous_deck_load_it_symmetrically(tmp
     np.testing.assert_allclose(r[0], r[2], rtol=1e-9)
 
 
-def test_other_trains_on_an_imported_deck_are_refused(tmp_path):
+def test_other_trains_on_an_imported_deck_take_its_track_lines(tmp_path):
     """A grillage exported as matrices with two tracks (one by its rails, one by a
-    centre line): several trains in one run are refused on imported decks, naming the
-    key."""
+    centre line): the other train goes on the second track line (the results against
+    each train alone: tests/test_other_trains_own_speed_torsion.py); a rigid deck has no
+    track lines and is refused, naming the key."""
     from test_imported_space_config import LEFT_RAIL, RIGHT_RAIL, _matrices_bridge, _write_matrices
     from test_imported_space_config import _text as _imported_text
 
@@ -274,10 +275,14 @@ def test_other_trains_on_an_imported_deck_are_refused(tmp_path):
     text = _imported_text(_matrices_bridge(
         fixed, 'tracks = [{ line = "T" }, { line = "U" }]'), [60.0]).replace(
         'name = "axles"', 'name = "axles"\nother_trains = [{ track = 2 }]')
+    assert load_config(_toml(tmp_path, text)).other_trains == [
+        {"track": 2, "direction": "same", "offset": 0.0}]
+    rigid = _text(TRACKS, "", "other_trains = [{ track = 2 }]").replace(
+        'kind = "simply_supported"', 'kind = "rigid"')
     with pytest.raises(ConfigError) as err:
-        load_config(_toml(tmp_path, text))
+        load_config(_toml(tmp_path, rigid))
     assert "train.other_trains" in str(err.value)
-    assert "not offered on imported decks yet" in str(err.value), str(err.value)
+    assert "bridge.kind = \"rigid\" has no track lines" in str(err.value), str(err.value)
 
 
 def test_trains_meeting_on_sine_modes_load_the_span_symmetrically(tmp_path):

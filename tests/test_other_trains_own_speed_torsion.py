@@ -78,8 +78,8 @@ def _axles(path, positions, loads_kn):
 def _run(tmp_path, name, text):
     d = tmp_path / name
     d.mkdir()
-    for csv in tmp_path.glob("*.csv"):
-        (d / csv.name).write_text(csv.read_text())
+    for f in (*tmp_path.glob("*.csv"), *tmp_path.glob("*.mtx")):  # the deck's data
+        (d / f.name).write_bytes(f.read_bytes())
     return sweep_file(d, text, speed=0), d
 
 
@@ -290,3 +290,51 @@ def test_torsional_moment_of_a_continuous_deck_at_crawl__against_static_fe(tmp_p
     assert f"{hi_all.max() * 1e-3:.4g} kN m" in part and f"x = {x_hi:g} m" in part
     summary = (d2 / "rep" / "summary.csv").read_text()
     assert "torsional moment" in summary.lower()
+
+
+# ------------------------------------------------------------ imported decks (lines)
+
+
+def test_other_trains_on_an_imported_decks_track_lines__against_each_alone(tmp_path):
+    """A grillage imported as matrices with two named track lines ('T' with its rails,
+    the left girder 'G'): the run's six forces on T at 100 km/h and the same train on G
+    at speed_factor = 0.8 (80 km/h), 4 m behind (0.18 s = 180 dt later): the
+    every-train envelopes against the sum, with the test's own shift, of each train
+    alone on its line; a deck without track lines is refused naming the key."""
+    import test_imported_space_config as imp
+
+    def text(train, free):
+        fixed = imp._write_matrices(tmp_path, (("T/left", imp.LEFT_RAIL),
+                                               ("T/right", imp.RIGHT_RAIL),
+                                               ("G", imp.LEFT_GIRDER)))
+        t = imp._text(imp._matrices_bridge(fixed, 'tracks = [{ line = "T" }, '
+                                                  '{ line = "G" }]'), [100.0],
+                      extra="save_time_histories = true")
+        return t.replace("[train]", f"[train]\n{train}").replace(
+            f"free_vibration = {imp.FREE}", f"free_vibration = {free}")
+
+    ds, _ = _run(tmp_path, "all", text("track = 1\nother_trains = [{ track = 2, "
+                                       "speed_factor = 0.8, offset = 4.0 }]", 0.3))
+    n = int(np.isfinite(ds["deck_displacement"].values[:, 0]).sum())
+    alone = [_run(tmp_path, f"alone{k}", text(f"track = {k}", 2.0))[0] for k in (1, 2)]
+    alone[1] = _run(tmp_path, "slow", text("track = 2", 2.0).replace(
+        "speeds_kmh = [100.0]", "speeds_kmh = [80.0]"))[0]
+    shift = [0, 180]  # 4 m at 80 km/h = 0.18 s, dt = 1e-3 s
+
+    def summed(name):
+        out = 0.0
+        for a, k in zip(alone, shift, strict=True):
+            h = a[name].values.astype(float)
+            out = out + np.concatenate([np.zeros((k, *h.shape[1:])), h])[:n]
+        return out
+
+    # float32 histories summed here (relative 6e-8 each): tolerance 1e-6 of the envelope;
+    # the deck line of an imported deck is the loaded track's (T for the run's train):
+    # the per-track lines are the ones every run shares
+    track = summed("track_displacement")
+    np.testing.assert_allclose(ds["max_track_displacement_all_tracks"].values,
+                               np.abs(track).max(axis=0), rtol=1e-6)
+    np.testing.assert_allclose(ds["max_deck_displacement_all_tracks"].values,
+                               np.abs(track[:, 0]).max(axis=0), rtol=1e-6)
+    assert np.all(ds["max_track_displacement_all_tracks"].values
+                  > ds["max_track_displacement"].values)

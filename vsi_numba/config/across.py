@@ -14,7 +14,8 @@ def _other_train_checks(chk, bridge, train) -> None:
     """``train.other_trains`` against the bridge's tracks and the trains: each on a track
     of ``bridge.tracks`` other than ``train.track`` and the others, moving forces only
     (their runs are superposed: exact for a linear deck under prescribed forces), on a
-    deck without the FE track layer."""
+    deck without the FE track layer: a built-in deck, or an imported one whose tracks are
+    named lines of its data."""
     others = train.resolved["other_trains"]
     n_tracks = len(bridge.resolved.get("tracks", [{}]))
     own = train.resolved.get("track", 1)
@@ -36,10 +37,13 @@ def _other_train_checks(chk, bridge, train) -> None:
         chk.error("train.other_trains", others, "no other trains with the FE track layer "
                   "[bridge.track] (its track is the deck's line: one track)")
     kind = bridge.resolved.get("kind")
-    if kind not in ("simply_supported", "continuous"):
-        chk.error("train.other_trains", others, "a simply_supported or continuous deck "
-                  f"(bridge.kind = \"{kind}\": several trains in one run are not offered "
-                  "on imported decks yet)")
+    lines = [t.get("line") for t in bridge.resolved.get("tracks") or [] if isinstance(t, dict)]
+    imported_lines = kind in ("matrices", "modes_file") and lines and all(lines)
+    if kind not in ("simply_supported", "continuous") and not imported_lines:
+        chk.error("train.other_trains", others, "a simply_supported or continuous deck, or "
+                  "an imported deck (matrices or modes_file) whose tracks are named lines "
+                  "of its data (bridge.tracks = [{ line = \"..\" }, ...]; bridge.kind = "
+                  f"\"{kind}\" has no track lines to put the trains on)")
     dyn = [tr.name for tr in train.trains if any(v.n_dof > 0 for v in tr.vehicles)]
     if dyn:
         chk.error("train.other_trains", others,

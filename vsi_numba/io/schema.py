@@ -209,8 +209,9 @@ _TORQUE = {"sign_convention": "T = GJ dtheta/dx (St-Venant), theta the rotation 
            "correction; " + _Y,
            "accuracy": "static part times 1 / (1 - (v/c)^2), c = sqrt(GJ / I_p); at crawl "
            "speed within 3e-4 of P e (a continuous deck at and next to its supports: "
-           "4e-3, the kept torsional modes ringing after a load enters a span); at speed the torque fronts a load sends off along "
-           "the span are carried by the kept modes only: histories off by up to 10-30 % of "
+           "4e-3, the kept torsional modes ringing after a load enters a span); at "
+           "speed the torque fronts a load sends off along the span are carried by the "
+           "kept modes only: histories off by up to 10-30 % of "
            "P e at v/c = 0.2-0.4 and envelopes by a few per cent either way against a "
            "converged reference"}
 

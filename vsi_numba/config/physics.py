@@ -456,11 +456,17 @@ def _plausibility(chk, bridge, train, irr, solver, study, contact):
     # with trains on other tracks the run lasts until the last of them has left the deck
     later = max((float(o["offset"]) for o in others), default=0.0)
     vmin = min(study["speeds_kmh"]) / 3.6
-    steps = ((solver["approach"] + model.length + length + later) / vmin
-             + solver["free_vibration"]) / dt
+    run = (solver["approach"] + model.length + length + later) / vmin
+    # a train of its own or at a speed of its own: until it has left too
+    for o, own in zip(others, getattr(train, "others", ()) or [None] * len(others),
+                      strict=False):
+        ext = length if own is None else train_extent(own)
+        v = o["speed_kmh"] / 3.6 if "speed_kmh" in o else o.get("speed_factor", 1.0) * vmin
+        run = max(run, (solver["approach"] + model.length + ext + float(o["offset"])) / v)
+    steps = (run + solver["free_vibration"]) / dt
     keys = ("solver.dt, study.speeds_kmh (slowest), solver.free_vibration, "
             "solver.approach, the train length (vehicle offsets)"
-            + (", train.other_trains[].offset" if others else ""))
+            + (", train.other_trains[].offset, .speed_kmh, .speed_factor" if others else ""))
     if not steps <= HARD_MAX_STEPS:
         chk.errors.append(f"the slowest run needs {steps:.3g} time steps, more than the hard "
                           f"budget of {HARD_MAX_STEPS:.3g} that no machine runs (solver."

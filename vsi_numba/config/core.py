@@ -25,6 +25,7 @@ from vsi_numba.config._check import (
     _refuse,
     _show,
 )
+from vsi_numba.config._errors import typed_section
 from vsi_numba.config.across import (
     _distribution_checks,
     _other_train_checks,
@@ -512,12 +513,19 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     if "train" not in data:
         chk.error("train", _MISSING, "a table [train] with preset, [[train.vehicles]] or file")
 
-    solver = _solver_section(chk, data.get("solver", _MISSING))
-    contact = _contact_section(chk, data.get("contact", _MISSING))
+    typed = {name: typed_section(chk, data, name, VsiConfig)
+             for name in ("solver", "contact", "track")}
+    solver = _solver_section(chk, typed["solver"])
+    contact = _contact_section(chk, typed["contact"])
     cutoff = solver["acceleration_cutoff"] if _ok(solver) else None
     bridge = _bridge_section(chk, data["bridge"], base, cutoff) if "bridge" in data else _BAD
     fe_layer = isinstance(data.get("bridge"), dict) and "track" in data["bridge"]
-    track = _rail_track_section(chk, data.get("track", _MISSING), fe_layer)
+    if fe_layer and isinstance(data, Mapping) and "track" in data:
+        chk.errors = [e for e in chk.errors if not e.startswith(("track.", "track "))]
+        track = chk.error("track", data["track"], "no [track] with [bridge.track]: the FE "
+                          "track layer of the deck is the track")
+    else:
+        track = _rail_track_section(chk, typed["track"], fe_layer)
     train = (
         _train_section(chk, data["train"], base, title if _ok(title) else None)
         if "train" in data else _BAD

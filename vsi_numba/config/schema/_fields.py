@@ -121,7 +121,8 @@ def number_of(tp, value) -> int | float | None:
 
 def key(default: Any = None, *, doc: str, unit: str = "", expected: str = "",
         default_text: str = "", required: bool = False, example: Any = None,
-        plausible: tuple[float, float] | None = None, typical: str = ""):
+        plausible: tuple[float, float] | None = None, typical: str = "", each: str = "",
+        note: str = ""):
     """Declare a configuration key.
 
     Parameters
@@ -148,6 +149,12 @@ def key(default: Any = None, *, doc: str, unit: str = "", expected: str = "",
         (the message names the unit slip it looks like, :data:`SLIPS`).
     typical : str
         A typical value in words, for that message ("1.435 m, standard gauge").
+    each : str
+        The expectation of one item of the key's list ("a speed > 0 km/h"), when it
+        differs from the key's.
+    note : str
+        Words after the choices of a closed set in its message (" (the dynamic
+        factor of LM71 ...)").
     """
     extra = {"unit": unit}
     if plausible is not None:
@@ -158,6 +165,10 @@ def key(default: Any = None, *, doc: str, unit: str = "", expected: str = "",
         extra["expected"] = expected
     if default_text:
         extra["default_text"] = default_text
+    if each:
+        extra["each"] = each
+    if note:
+        extra["note"] = note
     if example is not None:
         extra["example"] = example
     if required:

@@ -1,6 +1,8 @@
-"""The keys of ``[solver]``, ``[contact]`` and ``[track]``."""
+"""The keys of ``[solver]``, ``[contact]`` and ``[track]``, and their rules between keys."""
 
-from typing import Literal
+from typing import ClassVar, Literal
+
+from pydantic import model_validator
 
 from vsi_numba.config.schema._fields import (
     Int,
@@ -25,6 +27,11 @@ def _b(name):
 class Solver(Section):
     """``[solver]``: the time integration (HHT-alpha with contact iterations) and the
     escapes from the checks."""
+
+    TABLE: ClassVar[str] = "a table [solver] (dt, hht_alpha, ...)"
+    #: the escapes, never listed in the hints of an unknown key
+    HIDDEN: ClassVar[frozenset] = frozenset(
+        {"allow_coarse_dt", "allow_implausible", "allow_large_problem"})
 
     dt: Num(**_b("dt")) = key(
         SolverSettings.dt, unit="s", doc="time step",
@@ -64,11 +71,23 @@ HERTZ_MAX = 1.0
 class Contact(Section):
     """``[contact]``: the wheel-rail contact."""
 
+    TABLE: ClassVar[str] = "a table [contact] with model = 'rigid'"
+
     model: one_of(CONTACT_MODELS) = key("rigid", doc="contact model")
     hertz_coefficient: Num(gt=0, lt=HERTZ_MAX) = key(
         None, unit="m N^-2/3", default_text="required for Hertz",
         doc="G of delta = G N^(2/3), per contact force as the model carries it (axle)",
         expected="a Hertz constant G > 0 m N^-2/3 (about 4e-8 for a wheel on a rail)")
+
+    @model_validator(mode="after")
+    def _hertz_needs_its_constant(self):
+        if self.model != "rigid" and self.hertz_coefficient is None:
+            from vsi_numba.config._errors import rule_error
+            from vsi_numba.config.schema._fields import expected_of
+
+            raise rule_error("contact.hertz_coefficient: missing required key; expected "
+                             + expected_of(Contact, "hertz_coefficient"))
+        return self
 
 
 # ------------------------------------------------------------------------------ [track]
@@ -76,6 +95,8 @@ class Contact(Section):
 class Track(Section):
     """``[track]``: the rail on its foundation over the deck and the approaches, and the
     distribution of moving forces (not with ``[bridge.track]``)."""
+
+    TABLE: ClassVar[str] = "a table [track] of track values"
 
     model: Literal["elastic", "rigid"] = key(
         "elastic", doc="elastic: the rail on a Winkler foundation; rigid: the rigid-track "
@@ -115,3 +136,14 @@ class Track(Section):
         _dist.BALLAST_DEPTH_DEFAULT, unit="m", doc="ballast depth under the sleepers "
                                                    "(rail_ballast)",
         expected="a ballast depth under the sleepers >= 0 and <= 2 m (0.3-0.5 usual)")
+
+    @model_validator(mode="after")
+    def _elastic_track_needs_the_foundation(self):
+        if self.load_distribution == "elastic_track" and self.model == "rigid":
+            from vsi_numba.config._errors import rule_error
+
+            raise rule_error(
+                "track.load_distribution = \"elastic_track\": expected 'none', 'rail' or "
+                "'rail_ballast' with track.model = 'rigid' ('elastic_track' spreads the "
+                "forces by the rail on the elastic foundation)")
+        return self

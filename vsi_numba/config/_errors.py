@@ -1,0 +1,366 @@
+"""The messages of a configuration the declared models refuse: a pydantic
+``ValidationError`` of :mod:`vsi_numba.config.schema` rendered in the house style of
+:mod:`vsi_numba.config._check` (key path, value, the declared expectation; a
+did-you-mean for an unknown key or a misspelt choice; the kind a key belongs to).
+
+An error location of pydantic names the union members it tried (``spans`` ->
+``list[constrained-float]``, ``vehicles[0]`` -> ``car``): :func:`messages` follows the
+declared annotations along the location, keeps the member that fits the given value (a
+list for a list, a table for a table, the kind given) and states one message per key.
+"""
+
+from __future__ import annotations
+
+import functools
+import re
+import types
+import typing
+from collections.abc import Mapping
+from typing import Annotated, Any, Literal, Union
+
+from pydantic import BaseModel, TypeAdapter, ValidationError
+from pydantic_core import PydanticCustomError
+
+from vsi_numba.config._check import _did_you_mean
+from vsi_numba.config._show import _join, _show
+
+#: The error type of a rule of the models whose message is already in the house style
+#: (:func:`rule_error`).
+RULE = "vsi_rule"
+
+
+def rule_error(message: str) -> PydanticCustomError:
+    """An error of a rule between keys (a ``model_validator``), raised with its whole
+    message (key path, value, expectation)."""
+    return PydanticCustomError(RULE, "{message}", {"message": message})
+
+
+def _strip(tp):
+    while typing.get_origin(tp) is Annotated:
+        tp = typing.get_args(tp)[0]
+    return tp
+
+
+def _members(tp) -> list:
+    tp = _strip(tp)
+    if typing.get_origin(tp) in (Union, types.UnionType):
+        return [_strip(m) for m in typing.get_args(tp)]
+    return [tp]
+
+
+def _is_model(tp) -> bool:
+    return isinstance(tp, type) and issubclass(tp, BaseModel)
+
+
+def _kinds(member) -> tuple:
+    if not _is_model(member) or "kind" not in member.model_fields:
+        return ()
+    ann = _strip(member.model_fields["kind"].annotation)
+    return typing.get_args(ann) if typing.get_origin(ann) is Literal else ()
+
+
+def _fits(member, value) -> bool:
+    """Whether a union member is the one for this value (its shape)."""
+    if typing.get_origin(member) is list:
+        return isinstance(value, list)
+    if _is_model(member) or typing.get_origin(member) is dict:
+        return isinstance(value, Mapping)
+    return not isinstance(value, list | Mapping)
+
+
+def _tag_of(member, x) -> bool:
+    """Whether ``x`` (an element of an error location) names this union member."""
+    if not isinstance(x, str):
+        return False
+    if _is_model(member):
+        return x == member.__name__ or x in _kinds(member)
+    if typing.get_origin(member) is list:
+        return x.startswith("list[")
+    if typing.get_origin(member) is Literal:
+        return x.startswith("literal[")
+    return "-" in x or x in ("int", "float", "str", "bool") or x.startswith(
+        ("constrained", "function"))
+
+
+class _Where:
+    """Where an error is: its key path, the model and field that declare the key, whether
+    it is an item of the key's list, the value there, and whether the union members on
+    the way are those of the value."""
+
+    def __init__(self):
+        self.path = ""
+        self.model = None
+        self.field: str | None = None
+        self.item = False
+        self.value: Any = None
+        self.fits = True
+        self.union_key: str | None = None  # path of a key whose union no member fits
+        self.table = None  # the model of the table the error is in (or at)
+
+
+def _walk(loc, root, data, prefix: str) -> _Where:
+    w = _Where()
+    w.path, w.value, tp = prefix, data, root
+    if _is_model(_strip(root)):
+        w.table = _strip(root)
+    for x in loc:
+        members = _members(tp) if tp is not None else []
+        if len(members) > 1:
+            chosen = [m for m in members if _tag_of(m, x)]
+            if chosen:
+                tp = chosen[0]
+                if not _kinds(tp):
+                    w.union_key = w.path
+                    w.fits = w.fits and _fits(tp, w.value)
+                if _is_model(tp):
+                    w.table = tp
+                continue
+            # a discriminated union: the location goes on with the given kind's model
+            kind = w.value.get("kind") if isinstance(w.value, Mapping) else None
+            tagged = [m for m in members if kind in _kinds(m)]
+            tp = tagged[0] if tagged else None
+            if tp is not None:
+                w.table = tp
+        tp = _strip(tp) if tp is not None else None
+        if isinstance(x, int):
+            w.path += f"[{x}]"
+            w.value = w.value[x] if isinstance(w.value, list) and x < len(w.value) else None
+            if typing.get_origin(tp) is list:
+                tp = typing.get_args(tp)[0]
+                w.item = True
+            else:
+                tp = None
+            continue
+        w.path = _join(w.path, x)
+        w.value = w.value.get(x) if isinstance(w.value, Mapping) else None
+        if _is_model(tp) and x in tp.model_fields:
+            w.model, w.field, w.item = tp, x, False
+            tp = tp.model_fields[x].annotation
+        elif typing.get_origin(tp) is dict:
+            tp = typing.get_args(tp)[1]
+        else:
+            tp = None
+        if _is_model(_strip(tp)):
+            w.table = _strip(tp)
+    return w
+
+
+def _choices(model, name) -> tuple | None:
+    tp = _strip(model.model_fields[name].annotation)
+    return typing.get_args(tp) if typing.get_origin(tp) is Literal else None
+
+
+def _listing(choices) -> str:
+    listing = ", ".join(f"'{c}'" for c in choices)
+    return f"one of {listing}" if len(choices) > 1 else listing
+
+
+def expectation(model, name: str, *, item: bool = False) -> str:
+    """The expectation of key ``name`` of ``model`` in a message: the choices of a
+    closed set (with the field's note), the declared expectation of one item of its
+    list (``each``) or of the key."""
+    from vsi_numba.config.schema._fields import expected_of, extras
+
+    e = extras(model, name)
+    choices = _choices(model, name)
+    if choices is not None:
+        return _listing(choices) + e.get("note", "")
+    if item and e.get("each"):
+        return e["each"]
+    return expected_of(model, name)
+
+
+def _table_expectation(model) -> str:
+    return getattr(model, "TABLE", None) or "a table"
+
+
+def _unknown(w: _Where, union, key: str, value) -> str:
+    """The message of an unknown key ``key`` of the table at ``w`` (its path without
+    the key)."""
+    path = _join(w.path_table, key)
+    model = w.table
+    hidden = getattr(model, "HIDDEN", frozenset())
+    allowed = [k for k in model.model_fields if k not in hidden] if model else []
+    other = [m for m in _members(union) if _is_model(m) and m is not model
+             and key in m.model_fields] if union is not None else []
+    if other and _kinds(model):
+        mine = _kinds(model)[0]
+        return (f"{path} = {_show(value)}: expected no such key for kind = '{mine}' (it "
+                f"belongs to kind = '{_kinds(other[0])[0]}')")
+    guess = _did_you_mean(key, allowed)
+    hint = (f"did you mean '{guess}'?" if guess else
+            "expected one of " + ", ".join(f"'{a}'" for a in sorted(allowed)))
+    return f"{path} = {_show(value)}: unknown key; {hint}"
+
+
+def messages(exc: ValidationError, root, data, prefix: str = "") -> list[str]:
+    """The house-style messages of ``exc``, raised validating ``data`` (at key path
+    ``prefix``) with ``root`` (a model, or a union of models): one per key, in the
+    order of the errors."""
+    out: list[str] = []
+    seen: set[str] = set()
+    fitting: set[str] = set()
+    errors = exc.errors(include_url=False)
+    walked = []
+    for e in errors:
+        loc = e["loc"]
+        if e["type"] == "extra_forbidden":
+            w = _walk(loc[:-1], root, data, prefix)
+            w.path_table = w.path
+            walked.append((e, w))
+            continue
+        w = _walk(loc, root, data, prefix)
+        walked.append((e, w))
+        if w.union_key is not None and w.fits:
+            fitting.add(w.union_key)
+    for e, w in walked:
+        kind = e["type"]
+        if kind == "extra_forbidden":
+            union = _union_at(e["loc"][:-1], root)
+            msg = _unknown(w, union, str(e["loc"][-1]), e["input"])
+        elif not w.fits and w.union_key is not None:
+            if w.union_key in fitting:
+                continue  # another member fits the value: its errors say it
+            msg = _plain(w.union_key, _value_at(data, w.union_key, prefix), w, item=False)
+        elif kind == RULE:
+            msg = e["ctx"]["message"]
+        elif kind in ("union_tag_invalid", "union_tag_not_found"):
+            msg = _kind_message(w, e, kind)
+        elif kind == "missing":
+            if w.field is None:
+                continue
+            msg = f"{w.path}: missing required key; expected {expectation(w.model, w.field)}"
+        elif kind in ("model_type", "dict_type", "model_attributes_type") and w.table:
+            msg = f"{w.path} = {_show(e['input'])}: expected {_table_expectation(w.table)}"
+        elif kind == "literal_error" and w.field is not None:
+            msg = _plain(w.path, e["input"], w, item=w.item)
+            if isinstance(e["input"], str):
+                guess = _did_you_mean(e["input"], _choices(w.model, w.field) or ())
+                if guess:
+                    msg += f" (did you mean '{guess}'?)"
+        else:
+            msg = _plain(w.path, e["input"], w, item=w.item)
+        head = msg.split(" ", 1)[0].rstrip(":")
+        if head in seen:
+            continue
+        seen.add(head)
+        out.append(msg)
+    return [m for _, m in sorted(enumerate(out), key=lambda im: (
+        " unknown key; " not in im[1] and "no such key for kind" not in im[1], im[0]))]
+
+
+def _value_at(data, path: str, prefix: str):
+    """The value at key path ``path`` of ``data`` (whose own path is ``prefix``)."""
+    rest = path[len(prefix):].lstrip(".") if prefix and path.startswith(prefix) else path
+    v = data
+    for part in re.findall(r"[^.\[\]]+|\[\d+\]", rest):
+        if part.startswith("["):
+            i = int(part[1:-1])
+            v = v[i] if isinstance(v, list) and i < len(v) else None
+        else:
+            v = v.get(part.strip('"')) if isinstance(v, Mapping) else None
+    return v
+
+
+def _plain(path: str, value, w: _Where, *, item: bool) -> str:
+    if w.field is None:
+        exp = _table_expectation(w.table) if w.table is not None else "a valid value"
+    else:
+        exp = expectation(w.model, w.field, item=item)
+    return f"{path} = {_show(value)}: expected {exp}"
+
+
+def _kind_message(w: _Where, e, kind: str) -> str:
+    kinds = ()
+    ctx = e.get("ctx") or {}
+    if "expected_tags" in ctx:
+        kinds = tuple(t.strip().strip("'") for t in ctx["expected_tags"].split(","))
+    path = _join(w.path, "kind")
+    listing = _listing(kinds) if kinds else "a kind"
+    if kind == "union_tag_not_found":
+        return f"{path}: missing required key; expected {listing}"
+    tag = e["input"].get("kind") if isinstance(e["input"], Mapping) else None
+    hint = ""
+    if isinstance(tag, str):
+        guess = _did_you_mean(tag, kinds)
+        hint = f" (did you mean '{guess}'?)" if guess else ""
+    return f"{path} = {_show(tag)}: expected {listing}{hint}"
+
+
+def _union_at(loc, root):
+    """The union (or model) annotation of the table at ``loc`` (for the keys of the
+    other kinds of a table with a kind)."""
+    tp = root
+    for x in loc:
+        members = _members(tp)
+        if len(members) > 1:
+            chosen = [m for m in members if _tag_of(m, x)]
+            if chosen:
+                if _is_model(chosen[0]) and _kinds(chosen[0]):
+                    continue  # stay at the union: its kinds are the table's
+                tp = chosen[0]
+                continue
+        tp = _strip(tp)
+        if _is_model(tp) and isinstance(x, str) and x in tp.model_fields:
+            tp = tp.model_fields[x].annotation
+        elif isinstance(x, int) and typing.get_origin(tp) is list:
+            tp = typing.get_args(tp)[0]
+        elif len(_members(tp)) > 1:
+            kinds = [m for m in _members(tp) if _is_model(m) and isinstance(x, str)
+                     and x in m.model_fields]
+            tp = kinds[0].model_fields[x].annotation if kinds else None
+        else:
+            tp = None
+    return tp
+
+
+def implausible_of(obj, path: str) -> list[str]:
+    """The messages of the given values of a validated table ``obj`` (and the tables
+    inside it) outside the plausible range their keys declare (:func:`~vsi_numba.config.
+    schema._fields.implausible`)."""
+    from vsi_numba.config.schema._fields import implausible
+
+    out: list[str] = []
+    if isinstance(obj, list):
+        for i, it in enumerate(obj):
+            out += implausible_of(it, f"{path}[{i}]")
+        return out
+    if not isinstance(obj, BaseModel):
+        return out
+    for name in type(obj).model_fields:
+        if name not in obj.model_fields_set:
+            continue
+        v = getattr(obj, name)
+        p = _join(path, name)
+        if isinstance(v, BaseModel | list) and (not isinstance(v, list) or any(
+                isinstance(x, BaseModel) for x in v)):
+            out += implausible_of(v, p)
+        else:
+            out += implausible(type(obj), name, p, v)
+    return out
+
+
+@functools.cache
+def _table_adapter(root, name: str) -> TypeAdapter:
+    """The validator of table ``name`` of ``root`` (its models' own strict config)."""
+    return TypeAdapter(root.model_fields[name].annotation)
+
+
+def typed_section(chk, data, name: str, root):
+    """``data[name]`` validated by the declaration of table ``name`` of ``root`` (the
+    file's model): the typed table (its defaults when absent), or ``_BAD`` with the
+    messages of every error added to ``chk``; the values outside their plausible range
+    go to ``chk.implausible``."""
+    from vsi_numba.config._check import _BAD
+
+    f = root.model_fields[name]
+    if not isinstance(data, Mapping) or name not in data:
+        return _strip(f.annotation)()
+    value = data[name]
+    try:
+        typed = _table_adapter(root, name).validate_python(value)
+    except ValidationError as exc:
+        chk.errors += messages(exc, f.annotation, value, name)
+        return _BAD
+    chk.implausible += implausible_of(typed, name)
+    return typed

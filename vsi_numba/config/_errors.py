@@ -22,7 +22,7 @@ from pydantic import BaseModel, TypeAdapter, ValidationError
 from pydantic_core import PydanticCustomError
 
 from vsi_numba.config._check import _did_you_mean
-from vsi_numba.config._show import _join, _show
+from vsi_numba.config._show import _join, _key, _show
 
 #: The error type of a rule of the models whose message is already in the house style
 #: (:func:`rule_error`).
@@ -76,8 +76,12 @@ def _tag_of(member, x) -> bool:
         return x == member.__name__ or x in _kinds(member)
     if typing.get_origin(member) is list:
         return x.startswith("list[")
+    if typing.get_origin(member) is dict:
+        return x.startswith("dict[")
     if typing.get_origin(member) is Literal:
         return x.startswith("literal[")
+    if x.startswith(("list[", "dict[")):
+        return False
     return "-" in x or x in ("int", "float", "str", "bool") or x.startswith(
         ("constrained", "function"))
 
@@ -130,6 +134,12 @@ def _walk(loc, root, data, prefix: str) -> _Where:
                 w.item = True
             else:
                 tp = None
+            continue
+        if typing.get_origin(tp) is dict:  # a value of a table of free keys
+            w.path += f"[{_key(x)}]"
+            w.value = w.value.get(x) if isinstance(w.value, Mapping) else None
+            w.item = True
+            tp = typing.get_args(tp)[1]
             continue
         w.path = _join(w.path, x)
         w.value = w.value.get(x) if isinstance(w.value, Mapping) else None
@@ -208,6 +218,8 @@ def messages(exc: ValidationError, root, data, prefix: str = "") -> list[str]:
             w = _walk(loc[:-1], root, data, prefix)
             w.path_table = w.path
             walked.append((e, w))
+            if w.union_key is not None and w.fits:
+                fitting.add(w.union_key)
             continue
         w = _walk(loc, root, data, prefix)
         walked.append((e, w))
@@ -348,14 +360,15 @@ def _table_adapter(root, name: str) -> TypeAdapter:
 
 def typed_section(chk, data, name: str, root):
     """``data[name]`` validated by the declaration of table ``name`` of ``root`` (the
-    file's model): the typed table (its defaults when absent), or ``_BAD`` with the
+    file's model): the typed table (its defaults when absent; ``_MISSING`` for an
+    absent required one), or ``_BAD`` with the
     messages of every error added to ``chk``; the values outside their plausible range
     go to ``chk.implausible``."""
-    from vsi_numba.config._check import _BAD
+    from vsi_numba.config._check import _BAD, _MISSING
 
     f = root.model_fields[name]
     if not isinstance(data, Mapping) or name not in data:
-        return _strip(f.annotation)()
+        return _MISSING if f.is_required() else _strip(f.annotation)()
     value = data[name]
     try:
         typed = _table_adapter(root, name).validate_python(value)

@@ -543,8 +543,8 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     stem = path.stem if path is not None else "run"
     code_profile = _code_profile_section(chk, data.get("code_profile", _MISSING))
     profile = profile_of_section(code_profile)
-    study = _study_section(chk, data.get("study", _MISSING), f"results/{stem}.nc", base,
-                           profile)
+    study = _study_section(chk, typed_section(chk, data, "study", VsiConfig),
+                           f"results/{stem}.nc", base, profile)
     report = _report_section(chk, data.get("report", _MISSING))
     fatigue = _fatigue_section(chk, data.get("fatigue", _MISSING), profile, bridge,
                                study.axes if _ok(study) else (), base)

@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -13,16 +12,14 @@ import numpy as np
 from vsi_numba.config._check import (
     _BAD,
     _MISSING,
-    _as_list,
     _drop_none,
-    _is_number,
     _ok,
     _resolve,
     _Sentinel,
 )
 from vsi_numba.config.limits import MAX_SPEEDS
 from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import Num, expected_of, item_type, keys_of
+from vsi_numba.config.schema._fields import expected_of, item_type
 from vsi_numba.config.variants import _vary_axes
 from vsi_numba.en1991 import (
     ALPHA_CLAUSE,
@@ -65,101 +62,84 @@ def _line_speed_grid(line: float) -> list[float]:
     return grid.tolist()
 
 
-def _study_section(chk, d, default_output: str, base_dir: Path, profile=None
+def _study_section(chk, s, default_output: str, base_dir: Path, profile=None
                    ) -> _StudySpec | _Sentinel:
-    path = "study"
-    allowed = keys_of(_m.Study)
-    if d is _MISSING:
-        return chk.error(path, _MISSING, "a table [study] with speeds_kmh (km/h) or "
-                                         "line_speed_kmh")
-    if chk.table(d, path, allowed, what=" [study] with speeds_kmh") is _BAD:
+    """The study of a validated ``[study]`` (:class:`~.schema.models.Study`) and the
+    checks that are not rules of the model: the speed grid's order and size, distinct
+    speeds, the output path, the kept speeds among the study's, the variants and the
+    code profile's range of the classification factor."""
+    if s is _MISSING:
+        return chk.error("study", _MISSING, "a table [study] with speeds_kmh (km/h) or "
+                                            "line_speed_kmh")
+    if s is _BAD:
         return _BAD
-    line = chk.fields(d, path, _m.Study, ["line_speed_kmh"])["line_speed_kmh"]
+    line = s.line_speed_kmh
     speeds = _BAD
     expected = expected_of(_m.Study, "speeds_kmh")
-    if "speeds_kmh" in d:
-        raw = _as_list(d["speeds_kmh"])
-        if isinstance(raw, Mapping):
-            g = chk.table(raw, "study.speeds_kmh", keys_of(_m.SpeedGrid))
-            if g is not _BAD:
-                vals = chk.fields(raw, "study.speeds_kmh", _m.SpeedGrid)
-                if _ok(*vals.values()):
-                    if vals["stop"] < vals["start"]:
-                        chk.error("study.speeds_kmh.stop", vals["stop"],
-                                  f"a speed >= start = {vals['start']:g} km/h")
-                    elif (vals["stop"] - vals["start"]) / vals["step"] >= MAX_SPEEDS:
-                        chk.error("study.speeds_kmh.step", vals["step"],
-                                  f"a step giving at most {MAX_SPEEDS} speeds")
-                    else:
-                        speeds = _speed_grid(vals["start"], vals["stop"], vals["step"]).tolist()
+    raw = s.speeds_kmh
+    if isinstance(raw, _m.SpeedGrid):
+        if raw.stop < raw.start:
+            chk.error("study.speeds_kmh.stop", raw.stop, f"a speed >= start = {raw.start:g} km/h")
+        elif (raw.stop - raw.start) / raw.step >= MAX_SPEEDS:
+            chk.error("study.speeds_kmh.step", raw.step,
+                      f"a step giving at most {MAX_SPEEDS} speeds")
         else:
-            speeds = chk.number_list(raw, "study.speeds_kmh", _SPEED, _SPEED_EXPECTED,
-                                     expected=expected,
-                                     scalar_ok=True, max_len=MAX_SPEEDS)
-            if _is_number(speeds):
-                speeds = [speeds]
-            if isinstance(speeds, list) and len(set(speeds)) != len(speeds):
-                speeds = chk.error("study.speeds_kmh", raw, "distinct speeds")
+            speeds = _speed_grid(raw.start, raw.stop, raw.step).tolist()
+    elif raw is not None:
+        speeds = list(raw) if isinstance(raw, list) else [raw]
+        if len(set(speeds)) != len(speeds):
+            speeds = chk.error("study.speeds_kmh", raw, "distinct speeds")
         # both: the speeds are the study's, the line speed the one the EN range must
         # reach (1.2 x line speed, EN 1991-2 6.4.6.2 [R]); checked by the physics checks
     elif line is None:
         chk.error("study.speeds_kmh", _MISSING, expected + " (or give study.line_speed_kmh)")
-    elif line is not _BAD:
+    else:
         speeds = _line_speed_grid(line)
-    output = chk.string(d, path, "output", expected_of(_m.Study, "output"),
-                        default=default_output)
+    output = default_output if s.output is None else s.output
     out_full = _BAD
-    if _ok(output):
-        if "\x00" in output or not output.endswith(".nc"):
-            output = chk.error("study.output", output, expected_of(_m.Study, "output"))
-        else:
-            out_full = _resolve(base_dir, output)
-            if out_full is None:
-                output = chk.error("study.output", output, "a valid path of a netCDF file")
-            elif out_full.is_dir():
-                output = chk.error("study.output", output, f"a file path ({out_full} is a "
-                                                           "directory)")
-    save = chk.fields(d, path, _m.Study, ["save_time_histories"])["save_time_histories"]
-    hist = None
-    if "history_speeds_kmh" in d:
-        hist = chk.number_list(d["history_speeds_kmh"], "study.history_speeds_kmh", _SPEED,
-                               _SPEED_EXPECTED,
-                               expected=expected_of(_m.Study, "history_speeds_kmh"),
-                               scalar_ok=True, min_len=0)
-        if _is_number(hist):
-            hist = [hist]
-        if isinstance(hist, list) and isinstance(speeds, list):
-            for i, s in enumerate(hist):
-                if not any(abs(s - g) <= 1e-6 * max(1.0, g) for g in speeds):
-                    chk.error(f"study.history_speeds_kmh[{i}]", s,
+    if not output.strip() or "\x00" in output or not output.endswith(".nc"):
+        output = chk.error("study.output", output, expected_of(_m.Study, "output"))
+    else:
+        out_full = _resolve(base_dir, output)
+        if out_full is None:
+            output = chk.error("study.output", output, "a valid path of a netCDF file")
+        elif out_full.is_dir():
+            output = chk.error("study.output", output, f"a file path ({out_full} is a "
+                                                       "directory)")
+    hist = s.history_speeds_kmh
+    if hist is not None:
+        hist = list(hist) if isinstance(hist, list) else [hist]
+        if isinstance(speeds, list):
+            for i, v in enumerate(hist):
+                if not any(abs(v - g) <= 1e-6 * max(1.0, g) for g in speeds):
+                    chk.error(f"study.history_speeds_kmh[{i}]", v,
                               "one of the speeds of study.speeds_kmh")
                     hist = _BAD
                     break
-    axes = _vary_axes(chk, d)
-    refine = chk.fields(d, path, _m.Study, ["refine_resonance"])["refine_resonance"]
+    given = {k: getattr(s, k) for k in ("vary", "vary_together", "mass_bounds")
+             if k in s.model_fields_set}
+    axes = _vary_axes(chk, given)
     lo, hi = ALPHA_RANGE
     clause = ALPHA_CLAUSE
     if profile is not None:  # the code profile's range (a national annex may widen it)
         lo, hi = profile["classification_factor_min"], profile["classification_factor_max"]
         clause = profile.clause("classification_factor_min", "classification_factor_max")
-    alpha = chk.get_number(
-        d, path, "classification_factor", Num(ge=lo, le=hi),
-        f"a load classification factor alpha of LM71 in [{lo:g}, {hi:g}] ({clause})",
-        default=None)
-    maint = chk.fields(d, path, _m.Study, ["track_maintenance"], notes={
-        "track_maintenance": " (the dynamic factor of LM71: 'careful' maintenance Phi_2, "
-                             "'standard' Phi_3, EN 1991-2 6.4.5.2)"})["track_maintenance"]
-    effects = chk.fields(d, path, _m.Study, ["load_effects"])["load_effects"]
-    if not _ok(line, speeds, output, save, hist, out_full, axes, refine, alpha, maint,
-               effects):
+    alpha = s.classification_factor
+    if alpha is not None and not lo <= alpha <= hi:
+        alpha = chk.error("study.classification_factor", alpha,
+                          f"a load classification factor alpha of LM71 in [{lo:g}, {hi:g}] "
+                          f"({clause})")
+    if not _ok(speeds, output, hist, out_full, axes, alpha):
         return _BAD
-    vary = {k: d[k] for k in ("vary", "vary_together", "mass_bounds") if k in d}
-    if refine:
+    vary = dict(given)
+    if s.refine_resonance:
         vary["refine_resonance"] = True
     resolved = _drop_none({"speeds_kmh": speeds, "line_speed_kmh": line, "output": output,
-                           "save_time_histories": save, "history_speeds_kmh": hist,
-                           "classification_factor": alpha, "track_maintenance": maint,
-                           "load_effects": None if effects else False, **vary})
+                           "save_time_histories": s.save_time_histories,
+                           "history_speeds_kmh": hist,
+                           "classification_factor": alpha,
+                           "track_maintenance": s.track_maintenance,
+                           "load_effects": None if s.load_effects else False, **vary})
     return _StudySpec(resolved=resolved, output_path=out_full, axes=axes)
 
 

@@ -1,6 +1,8 @@
 """The keys of ``[study]``: the speeds, the output and the variants."""
 
-from typing import Any
+from typing import Annotated, Any, ClassVar
+
+from pydantic import Field
 
 from vsi_numba import en1991
 from vsi_numba.config.limits import MAX_SPEEDS
@@ -20,13 +22,20 @@ class SpeedGrid(Section):
                        expected="a step > 0 km/h")
 
 
+_SPEED_EXPECTED = f"a speed > 0 km/h (at most {SPEED_BOUND_KMH:g})"
+
+
 class Study(Section):
     """``[study]``: the speeds, the output file, what is kept and the variants."""
 
-    speeds_kmh: Speed | list[Speed] | SpeedGrid = key(
+    TABLE: ClassVar[str] = "a table [study] with speeds_kmh"
+
+    speeds_kmh: Speed | Annotated[list[Speed], Field(min_length=1, max_length=MAX_SPEEDS)] \
+            | SpeedGrid = key(
         None, unit="km/h", default_text="required (or line_speed_kmh)",
         doc=f"a list of speeds (at most {MAX_SPEEDS}), or {{start, stop, step}}",
-        expected="a list of speeds > 0 km/h, or a table {start, stop, step} in km/h")
+        expected="a list of speeds > 0 km/h, or a table {start, stop, step} in km/h",
+        each=_SPEED_EXPECTED)
     line_speed_kmh: Speed = key(
         None, unit="km/h", doc="instead of speeds_kmh: 140 km/h to 1.2 x line speed "
                                "(included), step 5; next to speeds_kmh: a warning when "
@@ -39,24 +48,30 @@ class Study(Section):
     history_speeds_kmh: Speed | list[Speed] = key(
         None, unit="km/h", default_text="every speed",
         doc="keep time histories only for these speeds",
-        expected="a list of speeds (km/h) taken from study.speeds_kmh")
-    classification_factor: Num(gt=0) = key(
-        None, default_text="1.0",
+        expected="a list of speeds (km/h) taken from study.speeds_kmh", each=_SPEED_EXPECTED)
+    classification_factor: Num() = key(
+        None, default_text="1.0", expected="a load classification factor alpha of LM71 "
+                                            "(a number in the code profile's range)",
         doc="alpha of LM71 in the load-effect checks, in the code profile's range "
             "(0.75-1.46, EN 1991-2 6.3.2(3) [R])")
     track_maintenance: one_of(en1991.TRACK_MAINTENANCE) = key(
         None, default_text="standard",
-        doc="dynamic factor of LM71: standard Phi_3, careful Phi_2 (EN 1991-2 6.4.5.2 [R])")
+        doc="dynamic factor of LM71: standard Phi_3, careful Phi_2 (EN 1991-2 6.4.5.2 [R])",
+        note=" (the dynamic factor of LM71: 'careful' maintenance Phi_2, 'standard' Phi_3, "
+             "EN 1991-2 6.4.5.2)")
     load_effects: bool = key(True, doc="reduce bending moments, shears, reactions and "
                                        "rotations in the runs (built-in decks)")
     refine_resonance: bool = key(False, doc="add the resonance speeds v = f1 D / i of every "
                                             "train (and variant) inside the grid")
-    vary: dict[str, list[Any]] = key(None, doc="variants: key paths, each with a list of "
-                                               "values")
-    vary_together: list[dict[str, Any]] = key(
-        None, doc="variants: tables of key paths varied together (optional label)")
-    mass_bounds: list[PosNum] = key(None, doc="factors on bridge.mass_per_length, e.g. "
-                                              "[0.9, 1.1] (EN 1991-2 6.4.6.3.2)",
-                                    expected="factors on bridge.mass_per_length, e.g. "
-                                             "[0.9, 1.1] (EN 1991-2 6.4.6.3.2: lower and "
-                                             "upper bound)")
+    vary: dict[str, list[Any]] = key(
+        None, doc="variants: key paths, each with a list of values",
+        expected="a table of key paths, each with a list of values, e.g. \"bridge.EI\" = "
+                 "[7e10, 8e10]", each="a non-empty list of values, one per variant")
+    vary_together: list[dict[str, Any]] | dict[str, Any] = key(
+        None, doc="variants: tables of key paths varied together (optional label)",
+        expected="tables ([[study.vary_together]]) of key paths whose value lists are "
+                 "varied together", each="a table of key paths, each with a list of values")
+    mass_bounds: Annotated[list[PosNum], Field(min_length=1)] = key(
+        None, doc="factors on bridge.mass_per_length, e.g. [0.9, 1.1] (EN 1991-2 6.4.6.3.2)",
+        expected="factors on bridge.mass_per_length, e.g. [0.9, 1.1] (EN 1991-2 6.4.6.3.2: "
+                 "lower and upper bound)", each="a factor on bridge.mass_per_length > 0")

@@ -24,6 +24,8 @@ from pydantic_core import PydanticCustomError
 from vsi_numba.config._check import _did_you_mean
 from vsi_numba.config._show import _join, _key, _show
 
+#: The errors of a value that is not a table where one is declared.
+_TABLE_ERRORS = ("model_type", "dict_type", "model_attributes_type")
 #: The error type of a rule of the models whose message is already in the house style
 #: (:func:`rule_error`).
 RULE = "vsi_rule"
@@ -236,14 +238,18 @@ def messages(exc: ValidationError, root, data, prefix: str = "") -> list[str]:
             msg = _plain(w.union_key, _value_at(data, w.union_key, prefix), w, item=False)
         elif kind == RULE:
             msg = e["ctx"]["message"]
+        elif kind in _TABLE_ERRORS or (kind == "union_tag_not_found"
+                                       and not isinstance(e["input"], Mapping)):
+            tables = [m for m in _members(_union_at(e["loc"], root)) if _is_model(m)]
+            table = tables[0] if tables else w.table
+            msg = f"{w.path} = {_show(e['input'])}: expected {_table_expectation(table)}"
         elif kind in ("union_tag_invalid", "union_tag_not_found"):
-            msg = _kind_message(w, e, kind)
+            kinds = [k for m in _members(_union_at(e["loc"], root)) for k in _kinds(m)]
+            msg = _kind_message(w, e, kind, kinds)
         elif kind == "missing":
             if w.field is None:
                 continue
             msg = f"{w.path}: missing required key; expected {expectation(w.model, w.field)}"
-        elif kind in ("model_type", "dict_type", "model_attributes_type") and w.table:
-            msg = f"{w.path} = {_show(e['input'])}: expected {_table_expectation(w.table)}"
         elif kind == "literal_error" and w.field is not None:
             msg = _plain(w.path, e["input"], w, item=w.item)
             if isinstance(e["input"], str):
@@ -282,11 +288,8 @@ def _plain(path: str, value, w: _Where, *, item: bool) -> str:
     return f"{path} = {_show(value)}: expected {exp}"
 
 
-def _kind_message(w: _Where, e, kind: str) -> str:
-    kinds = ()
-    ctx = e.get("ctx") or {}
-    if "expected_tags" in ctx:
-        kinds = tuple(t.strip().strip("'") for t in ctx["expected_tags"].split(","))
+def _kind_message(w: _Where, e, kind: str, kinds) -> str:
+    """The message of a missing or unknown ``kind`` of a table of ``kinds``."""
     path = _join(w.path, "kind")
     listing = _listing(kinds) if kinds else "a kind"
     if kind == "union_tag_not_found":
@@ -355,7 +358,8 @@ def implausible_of(obj, path: str) -> list[str]:
 @functools.cache
 def _table_adapter(root, name: str) -> TypeAdapter:
     """The validator of table ``name`` of ``root`` (its models' own strict config)."""
-    return TypeAdapter(root.model_fields[name].annotation)
+    f = root.model_fields[name]
+    return TypeAdapter(Annotated[(f.annotation, *f.metadata)] if f.metadata else f.annotation)
 
 
 def typed_section(chk, data, name: str, root):
@@ -368,7 +372,7 @@ def typed_section(chk, data, name: str, root):
 
     f = root.model_fields[name]
     if not isinstance(data, Mapping) or name not in data:
-        return _MISSING if f.is_required() else _strip(f.annotation)()
+        return _MISSING if f.is_required() else _table_adapter(root, name).validate_python({})
     value = data[name]
     try:
         typed = _table_adapter(root, name).validate_python(value)

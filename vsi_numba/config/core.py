@@ -539,7 +539,8 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
                       f"{n_tracks} track{'s' if n_tracks != 1 else ''})")
     if _ok(bridge, train) and "other_trains" in train.resolved:
         _other_train_checks(chk, bridge, train)
-    irr = _irregularity_section(chk, data.get("irregularity", _MISSING), base)
+    irr = _irregularity_section(chk, typed_section(chk, data, "irregularity", VsiConfig),
+                                base)
     stem = path.stem if path is not None else "run"
     code_profile = _code_profile_section(chk, data.get("code_profile", _MISSING))
     profile = profile_of_section(code_profile)

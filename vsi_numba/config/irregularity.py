@@ -3,23 +3,18 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from vsi_numba.config._check import (
     _BAD,
-    _MISSING,
-    _as_list,
     _drop_none,
-    _is_number,
-    _join,
     _ok,
     _Sentinel,
 )
 from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import expected_of, item_type
+from vsi_numba.config.schema._fields import expected_of
 from vsi_numba.model import irregularity as _irr
 
 IRREGULARITY_KINDS = ("none", "cosine", "step", "psd", "file")
@@ -28,31 +23,16 @@ DEFECT_KINDS = ("cosine", "step")
 #: (:mod:`vsi_numba.config.schema.models`).
 _DEFECT_FIELDS = {"cosine": ("depth", "wavelength", "position"),
                   "step": ("height", "length", "position")}
-_DEFECT_MODELS = {"cosine": _m.CosineDefect, "step": _m.StepDefect}
 _PSD_FIELDS = ("wavelength_min", "wavelength_max", "dx")
 
 
-def _defect(chk, d, path, kind) -> dict | _Sentinel:
-    """Read the keys of an isolated defect (cosine, step) at ``path``."""
-    model = _DEFECT_MODELS[kind]
-    vals = chk.fields(d, path, model, _DEFECT_FIELDS[kind])
-    amp = "depth" if kind == "cosine" else "height"
-    if _ok(vals[amp]) and vals[amp] == 0.0:
-        vals[amp] = chk.error(_join(path, amp), d[amp], expected_of(model, amp))
+def _defect(r) -> dict:
+    """The resolved keys of a validated isolated defect (cosine, step)."""
+    kind = r.kind
+    vals = {k: getattr(r, k) for k in _DEFECT_FIELDS[kind]}
     if kind == "step":
-        vals.update(chk.fields(d, path, model, ["shape"]))
-    if not _ok(*vals.values()):
-        return _BAD
+        vals["shape"] = r.shape
     return {"kind": kind, **vals}
-
-
-_IRR_KEYS = {
-    "none": {"kind", "defects"},
-    "cosine": {"kind", "depth", "wavelength", "position", "defects"},
-    "step": {"kind", "height", "length", "position", "shape", "defects"},
-    "psd": {"kind", "spectrum", "wavelength_min", "wavelength_max", "seeds", "dx", "defects"},
-    "file": {"kind", "path", "x_column", "r_column", "r_unit", "dx", "defects"},
-}
 
 
 @dataclass(frozen=True)
@@ -66,69 +46,38 @@ class _IrregularitySpec:
     file_profile: Any = None
 
 
-def _irregularity_section(chk, d, base_dir: Path) -> _IrregularitySpec | _Sentinel:
+def _irregularity_section(chk, r, base_dir: Path) -> _IrregularitySpec | _Sentinel:
+    """The profile of a validated ``[irregularity]`` (:data:`~.schema.models.Irregularity`)
+    and the checks that are not rules of the model: the profile file (it exists and
+    reads)."""
     path = "irregularity"
-    if d is _MISSING:
-        return _IrregularitySpec(resolved={"kind": "none"})
-    if not isinstance(d, Mapping):
-        return chk.error(path, d, "a table [irregularity] with kind = 'none' | 'cosine' | "
-                                  "'psd' | 'file'")
-    kind = chk.choice(d, path, "kind", IRREGULARITY_KINDS, default="none")
-    every = set().union(*_IRR_KEYS.values())
-    if kind is _BAD:
-        chk.table(d, path, every)
+    if r is _BAD:
         return _BAD
-    allowed = _IRR_KEYS[kind]
-    ignored = {k: f"not used by irregularity.kind = '{kind}'" for k in every - allowed}
-    chk.table(d, path, allowed, ignored=ignored)
+    kind = r.kind
+    for k in r._ignored:
+        chk.warn(f"{path}.{k} is ignored: not used by irregularity.kind = '{kind}'")
     res: dict[str, Any] = {"kind": kind}
     ok = True
     file = profile = None
     if kind in _DEFECT_FIELDS:
-        vals = _defect(chk, d, path, kind)
-        ok = _ok(vals)
-        if ok:
-            res.update(vals)
+        res.update(_defect(r))
     elif kind == "psd":
-        res["spectrum"] = chk.fields(d, path, _m.PsdIrregularity, ["spectrum"])["spectrum"]
-        vals = chk.fields(d, path, _m.PsdIrregularity, _PSD_FIELDS)
-        if _ok(vals["wavelength_min"], vals["wavelength_max"]) and not (
-            vals["wavelength_max"] > vals["wavelength_min"]
-        ):
-            vals["wavelength_max"] = chk.error(
-                "irregularity.wavelength_max", d["wavelength_max"],
-                f"a wavelength > wavelength_min = {vals['wavelength_min']:g} m")
-        if _ok(vals["wavelength_min"], vals["dx"]) and vals["dx"] is not None and (
-            vals["dx"] > vals["wavelength_min"] / 2
-        ):
-            vals["dx"] = chk.error("irregularity.dx", d["dx"],
-                                   f"a sample spacing <= wavelength_min / 2 = "
-                                   f"{vals['wavelength_min'] / 2:g} m (Nyquist)")
-        if "seeds" not in d:
-            seeds = chk.error("irregularity.seeds", _MISSING,
-                              "a list of integer seeds >= 0, one per realisation")
-        else:
-            seeds = chk.number_list(
-                d["seeds"], "irregularity.seeds",
-                item_type(_m.PsdIrregularity, "seeds"), "an integer seed 0 <= seed < 2^63",
-                expected=expected_of(_m.PsdIrregularity, "seeds"), max_len=10_000,
-                scalar_ok=True)
-            if _is_number(seeds):
-                seeds = [seeds]
-            if isinstance(seeds, list) and len(set(seeds)) != len(seeds):
-                seeds = chk.error("irregularity.seeds", d["seeds"], "distinct seeds")
-        res.update(_drop_none(vals), seeds=seeds)
-        ok = _ok(res["spectrum"], seeds, *vals.values())
+        res["spectrum"] = r.spectrum
+        res.update(_drop_none({k: getattr(r, k) for k in _PSD_FIELDS}))
+        res["seeds"] = list(r.seeds) if isinstance(r.seeds, list) else [r.seeds]
     elif kind == "file":
-        given, full = chk.file(d, path, "path", base_dir, "the profile (CSV, columns x and r)")
+        given, full = chk.file({"path": r.path}, path, "path", base_dir,
+                               "the profile (CSV, columns x and r)")
         res["path"] = given
-        xcol = chk.string(d, path, "x_column", expected_of(_m.FileIrregularity, "x_column"),
-                          default="x")
-        rcol = chk.string(d, path, "r_column", expected_of(_m.FileIrregularity, "r_column"),
-                          default="r")
-        unit, dx = chk.fields(d, path, _m.FileIrregularity, ["r_unit", "dx"]).values()
+        cols = {}
+        for k in ("x_column", "r_column"):
+            cols[k] = getattr(r, k)
+            if not cols[k].strip():
+                cols[k] = chk.error(f"{path}.{k}", cols[k], expected_of(_m.FileIrregularity, k))
+        xcol, rcol = cols["x_column"], cols["r_column"]
+        unit, dx = r.r_unit, r.dx
         res.update(_drop_none({"x_column": xcol, "r_column": rcol, "r_unit": unit, "dx": dx}))
-        ok = _ok(given, full, xcol, rcol, unit, dx)
+        ok = _ok(given, full, xcol, rcol)
         if ok:
             file = full
             try:
@@ -136,32 +85,8 @@ def _irregularity_section(chk, d, base_dir: Path) -> _IrregularitySpec | _Sentin
             except (ValueError, OSError) as exc:
                 msg = " ".join(str(exc).split())
                 ok = _ok(chk.error("irregularity.path", given, f"a readable profile: {msg}"))
-    defects = []
-    if "defects" in d:
-        raw = _as_list(d["defects"])
-        if not isinstance(raw, list) or not raw or len(raw) > 1000:
-            ok = _ok(chk.error("irregularity.defects", raw,
-                               "an array of tables [[irregularity.defects]] with kind = "
-                               "'cosine' | 'step'"))
-        else:
-            for i, item in enumerate(raw):
-                p = f"irregularity.defects[{i}]"
-                if not isinstance(item, Mapping):
-                    ok = _ok(chk.error(p, item, "a table with kind = 'cosine' | 'step'"))
-                    continue
-                dk = chk.choice(item, p, "kind", DEFECT_KINDS)
-                if dk is _BAD:
-                    ok = False
-                    continue
-                chk.table(item, p, {"kind", *_DEFECT_FIELDS[dk],
-                                    *(("shape",) if dk == "step" else ())})
-                vals = _defect(chk, item, p, dk)
-                if _ok(vals):
-                    defects.append(vals)
-                else:
-                    ok = False
-        if ok:
-            res["defects"] = defects
+    if r.defects is not None:
+        res["defects"] = [_defect(x) for x in r.defects]
     if not ok:
         return _BAD
     return _IrregularitySpec(resolved=res, kind=kind, file=file, file_profile=profile)

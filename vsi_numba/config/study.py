@@ -17,7 +17,6 @@ from vsi_numba.config._check import (
     _resolve,
     _Sentinel,
 )
-from vsi_numba.config.limits import MAX_SPEEDS
 from vsi_numba.config.schema import models as _m
 from vsi_numba.config.schema._fields import expected_of, item_type
 from vsi_numba.config.variants import _vary_axes
@@ -65,9 +64,8 @@ def _line_speed_grid(line: float) -> list[float]:
 def _study_section(chk, s, default_output: str, base_dir: Path, profile=None
                    ) -> _StudySpec | _Sentinel:
     """The study of a validated ``[study]`` (:class:`~.schema.models.Study`) and the
-    checks that are not rules of the model: the speed grid's order and size, distinct
-    speeds, the output path, the kept speeds among the study's, the variants and the
-    code profile's range of the classification factor."""
+    checks that are not rules of the model: the output path, the kept speeds among the
+    study's, the variants and the code profile's range of the classification factor."""
     if s is _MISSING:
         return chk.error("study", _MISSING, "a table [study] with speeds_kmh (km/h) or "
                                             "line_speed_kmh")
@@ -78,19 +76,11 @@ def _study_section(chk, s, default_output: str, base_dir: Path, profile=None
     expected = expected_of(_m.Study, "speeds_kmh")
     raw = s.speeds_kmh
     if isinstance(raw, _m.SpeedGrid):
-        if raw.stop < raw.start:
-            chk.error("study.speeds_kmh.stop", raw.stop, f"a speed >= start = {raw.start:g} km/h")
-        elif (raw.stop - raw.start) / raw.step >= MAX_SPEEDS:
-            chk.error("study.speeds_kmh.step", raw.step,
-                      f"a step giving at most {MAX_SPEEDS} speeds")
-        else:
-            speeds = _speed_grid(raw.start, raw.stop, raw.step).tolist()
+        speeds = _speed_grid(raw.start, raw.stop, raw.step).tolist()
     elif raw is not None:
-        speeds = list(raw) if isinstance(raw, list) else [raw]
-        if len(set(speeds)) != len(speeds):
-            speeds = chk.error("study.speeds_kmh", raw, "distinct speeds")
         # both: the speeds are the study's, the line speed the one the EN range must
         # reach (1.2 x line speed, EN 1991-2 6.4.6.2 [R]); checked by the physics checks
+        speeds = list(raw) if isinstance(raw, list) else [raw]
     elif line is None:
         chk.error("study.speeds_kmh", _MISSING, expected + " (or give study.line_speed_kmh)")
     else:

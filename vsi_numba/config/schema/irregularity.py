@@ -1,12 +1,20 @@
 """The keys of ``[irregularity]`` and ``[[irregularity.defects]]``: one model per kind."""
 
-from typing import Annotated, Literal
+from typing import Annotated, ClassVar, Literal
 
-from pydantic import Discriminator, Field, Tag
+from pydantic import (
+    AfterValidator,
+    Discriminator,
+    Field,
+    PrivateAttr,
+    Tag,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 
 from vsi_numba.config.schema._fields import (
     Int,
-    Num,
     PosNum,
     Section,
     Text,
@@ -17,13 +25,51 @@ from vsi_numba.model import irregularity as _irr
 
 # ------------------------------------------------------------------------ [irregularity]
 
+def _rule(path: str, value, expected: str):
+    """The error of a rule of the models (:func:`vsi_numba.config._errors.rule_error`)."""
+    from vsi_numba.config._errors import rule_error
+    from vsi_numba.config._show import _show
+
+    return rule_error(f"{path} = {_show(value)}: expected {expected}")
+
+
+def _not_zero(x: float) -> float:
+    if x == 0.0:
+        raise ValueError("zero")
+    return x
+
+
+#: A depth or level change in metres: not zero, |x| < 1 m.
+Amplitude = Annotated[float, Field(gt=-1, lt=1), AfterValidator(_not_zero)]
+
+
 class _Defects(Section):
-    defects: list["Defect"] = key(None, doc="isolated defects added to every realisation "
-                                            "([[irregularity.defects]])")
+    TABLE: ClassVar[str] = ("a table [irregularity] with kind = 'none' | 'cosine' | 'psd' | "
+                            "'file'")
+    #: the keys of the other kinds given (ignored, warned by the reader)
+    _ignored: list[str] = PrivateAttr(default_factory=list)
+
+    defects: Annotated[list["Defect"], Field(min_length=1, max_length=1000)] = key(
+        None, doc="isolated defects added to every realisation ([[irregularity.defects]])",
+        expected="an array of tables [[irregularity.defects]] with kind = 'cosine' | "
+                 "'step'")
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _ignore_the_keys_of_other_kinds(cls, data, handler):
+        """A key of another kind of profile is ignored (the reader warns): the table
+        validates without it."""
+        ignored = []
+        if isinstance(data, dict):
+            ignored = [k for k in data if k not in cls.model_fields and k in _EVERY_KEY]
+            data = {k: v for k, v in data.items() if k not in ignored}
+        out = handler(data)
+        out._ignored = ignored
+        return out
 
 
 class _CosineKeys(Section):
-    depth: Num(gt=-1, lt=1) = key(required=True, unit="m", doc="depth (> 0 dip, < 0 bump)",
+    depth: Amplitude = key(required=True, unit="m", doc="depth (> 0 dip, < 0 bump)",
                                   expected="a depth != 0 m (> 0: dip, < 0: bump), "
                                            "|depth| < 1 m")
     wavelength: PosNum = key(required=True, unit="m", doc="wavelength",
@@ -33,7 +79,7 @@ class _CosineKeys(Section):
 
 
 class _StepKeys(Section):
-    height: Num(gt=-1, lt=1) = key(required=True, unit="m",
+    height: Amplitude = key(required=True, unit="m",
                                    doc="level change (> 0: the rail ends lower)",
                                    expected="a level change != 0 m (> 0: the rail ends "
                                             "lower), |height| < 1 m")
@@ -47,11 +93,15 @@ class _StepKeys(Section):
 class CosineDefect(_CosineKeys):
     """An isolated cosine dip or bump."""
 
+    TABLE: ClassVar[str] = "a table with kind = 'cosine' | 'step'"
+
     kind: Literal["cosine"] = key(required=True, doc="defect kind")
 
 
 class StepDefect(_StepKeys):
     """A level change that persists (a settled transition)."""
+
+    TABLE: ClassVar[str] = "a table with kind = 'cosine' | 'step'"
 
     kind: Literal["step"] = key(required=True, doc="defect kind")
 
@@ -87,11 +137,38 @@ class PsdIrregularity(_Defects):
                                  expected="a wavelength > 0 m")
     wavelength_max: PosNum = key(required=True, unit="m", doc="longest wavelength",
                                  expected="a wavelength > 0 m")
-    seeds: Int(ge=0, lt=2 ** 63) | list[Int(ge=0, lt=2 ** 63)] = key(
+    seeds: Int(ge=0, lt=2 ** 63) | Annotated[list[Int(ge=0, lt=2 ** 63)],
+                                             Field(min_length=1, max_length=10_000)] = key(
         required=True, doc="random seeds, one realisation each",
-        expected="a non-empty list of distinct integer seeds >= 0")
+        expected="a non-empty list of distinct integer seeds >= 0",
+        each="an integer seed 0 <= seed < 2^63")
     dx: PosNum = key(None, unit="m", default_text="wavelength_min / 20",
                      doc="sample spacing", expected="a sample spacing > 0 m")
+
+    @field_validator("wavelength_max")
+    @classmethod
+    def _band_in_order(cls, v: float, info: ValidationInfo) -> float:
+        lo = info.data.get("wavelength_min")
+        if lo is not None and not v > lo:
+            raise _rule("irregularity.wavelength_max", v,
+                        f"a wavelength > wavelength_min = {lo:g} m")
+        return v
+
+    @field_validator("seeds")
+    @classmethod
+    def _distinct_seeds(cls, v):
+        if isinstance(v, list) and len(set(v)) != len(v):
+            raise _rule("irregularity.seeds", v, "distinct seeds")
+        return v
+
+    @field_validator("dx")
+    @classmethod
+    def _resolves_the_band(cls, v: float, info: ValidationInfo) -> float:
+        lo = info.data.get("wavelength_min")
+        if v is not None and lo is not None and v > lo / 2:
+            raise _rule("irregularity.dx", v, f"a sample spacing <= wavelength_min / 2 = "
+                                              f"{lo / 2:g} m (Nyquist)")
+        return v
 
 
 class FileIrregularity(_Defects):
@@ -115,3 +192,8 @@ Irregularity = Annotated[
     | Annotated[StepIrregularity, Tag("step")] | Annotated[PsdIrregularity, Tag("psd")]
     | Annotated[FileIrregularity, Tag("file")],
     Discriminator(_irregularity_kind)]
+
+
+#: Every key of the kinds of ``[irregularity]``.
+_EVERY_KEY = frozenset().union(*(m.model_fields for m in (
+    NoIrregularity, CosineIrregularity, StepIrregularity, PsdIrregularity, FileIrregularity)))

@@ -2,7 +2,7 @@
 
 from typing import Annotated, Any, ClassVar
 
-from pydantic import Field
+from pydantic import Field, ValidationInfo, field_validator
 
 from vsi_numba import en1991
 from vsi_numba.config.limits import MAX_SPEEDS
@@ -21,6 +21,31 @@ class SpeedGrid(Section):
     step: PosNum = key(required=True, unit="km/h", doc="speed step",
                        expected="a step > 0 km/h")
 
+    @field_validator("stop")
+    @classmethod
+    def _stop_after_start(cls, v: float, info: ValidationInfo) -> float:
+        start = info.data.get("start")
+        if start is not None and v < start:
+            raise _rule("study.speeds_kmh.stop", v, f"a speed >= start = {start:g} km/h")
+        return v
+
+    @field_validator("step")
+    @classmethod
+    def _not_too_many_speeds(cls, v: float, info: ValidationInfo) -> float:
+        start, stop = info.data.get("start"), info.data.get("stop")
+        if start is not None and stop is not None and (stop - start) / v >= MAX_SPEEDS:
+            raise _rule("study.speeds_kmh.step", v,
+                        f"a step giving at most {MAX_SPEEDS} speeds")
+        return v
+
+
+def _rule(path: str, value, expected: str):
+    """The error of a rule of the models (:func:`vsi_numba.config._errors.rule_error`)."""
+    from vsi_numba.config._errors import rule_error
+    from vsi_numba.config._show import _show
+
+    return rule_error(f"{path} = {_show(value)}: expected {expected}")
+
 
 _SPEED_EXPECTED = f"a speed > 0 km/h (at most {SPEED_BOUND_KMH:g})"
 
@@ -36,6 +61,14 @@ class Study(Section):
         doc=f"a list of speeds (at most {MAX_SPEEDS}), or {{start, stop, step}}",
         expected="a list of speeds > 0 km/h, or a table {start, stop, step} in km/h",
         each=_SPEED_EXPECTED)
+
+    @field_validator("speeds_kmh")
+    @classmethod
+    def _distinct_speeds(cls, v):
+        if isinstance(v, list) and len(set(v)) != len(v):
+            raise _rule("study.speeds_kmh", v, "distinct speeds")
+        return v
+
     line_speed_kmh: Speed = key(
         None, unit="km/h", doc="instead of speeds_kmh: 140 km/h to 1.2 x line speed "
                                "(included), step 5; next to speeds_kmh: a warning when "

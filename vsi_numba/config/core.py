@@ -65,6 +65,7 @@ from vsi_numba.config.study import (
     _study_section,
     _StudySpec,
     refined_speeds,
+    speeds_m_s,
 )
 from vsi_numba.config.toml_file import _read_toml
 from vsi_numba.config.track_physics import _track_plausibility
@@ -326,7 +327,7 @@ class Config:
     def speeds_m_s(self) -> np.ndarray:
         """Speeds of the study (m/s), shape (n_speeds,): :attr:`speeds_kmh` / 3.6, the one
         conversion of the speeds (the study and the kernels use these)."""
-        return self.speeds_kmh / 3.6
+        return speeds_m_s(self.speeds_kmh)
 
     @property
     def irregularity_seeds(self) -> tuple[int, ...] | None:
@@ -584,8 +585,8 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
         if chk.errors:
             raise ConfigError(chk.errors, source=source)
     _default_time_step(solver, data.get("solver"), bridge)
-    _physics_warnings(chk, bridge, train, irr, solver, study.resolved, contact, track)
-    _plausibility(chk, bridge, train, irr, solver, study.resolved, contact)
+    _physics_warnings(chk, bridge, train, irr, solver, study, contact, track)
+    _plausibility(chk, bridge, train, irr, solver, study, contact)
     _track_plausibility(chk, train, solver, track, bridge)
     _hslm_applicability(chk, bridge, train, solver, profile, _refuse)
     if fatigue:

@@ -120,7 +120,7 @@ def _default_time_step(solver, given, bridge) -> None:
 
 
 def _physics_warnings(chk, bridge, train, irr, solver, study, contact, track):
-    _speed_slips(chk, study, train)
+    _speed_slips(chk, study.resolved, train)
     for msg in _vehicle_unit_slips(train):
         _refuse(chk, solver, "allow_implausible", msg)
     if _deck_mass_slip(chk, bridge, solver) or _unit_slips(bridge, train, solver):
@@ -129,7 +129,7 @@ def _physics_warnings(chk, bridge, train, irr, solver, study, contact, track):
     if track["model"] == "elastic":
         f_track, where, spring = _track_warning(chk, train, dt, track, contact)
         _track_mode_warning(chk, dt, f_track, where, spring, irr,
-                            max(study["speeds_kmh"]) / 3.6)
+                            float(study.speeds_m_s.max()))
         _track_approach_warning(chk, solver, track)
         if any(v.n_wheels for tr in train.trains for v in tr.vehicles):
             # moving forces load the deck's modes directly: the track enters no run
@@ -138,7 +138,7 @@ def _physics_warnings(chk, bridge, train, irr, solver, study, contact, track):
         _hertz_warning(chk, train, dt, contact["hertz_coefficient"], contact["model"])
     else:
         _rigid_massive_warning(chk, train, solver["hht_alpha"])
-    vmax = max(study["speeds_kmh"]) / 3.6
+    vmax = float(study.speeds_m_s.max())
     model = bridge.model
     if model.n_modes:
         fmax = float(model.frequencies[-1])
@@ -217,7 +217,8 @@ def _physics_warnings(chk, bridge, train, irr, solver, study, contact, track):
         if steps < STEPS_PER_WAVELENGTH:
             chk.warn(
                 f"{key} = {lam:g} m is crossed in {steps:.3g} time steps at "
-                f"{vmax * 3.6:g} km/h (dt = {dt:g} s); fewer than {STEPS_PER_WAVELENGTH} "
+                f"{max(study.resolved['speeds_kmh']):g} km/h (dt = {dt:g} s); fewer than "
+                f"{STEPS_PER_WAVELENGTH} "
                 "steps per wavelength under-resolve the excitation (reduce solver.dt)",
                 "resolution", ["solver.dt", key, "study.speeds_kmh"])
     amps = []
@@ -252,7 +253,7 @@ def _physics_warnings(chk, bridge, train, irr, solver, study, contact, track):
                      "r = 0 outside the measured range")
     if train.trains:
         length = max(train_extent(t) for t in train.trains)
-        vmin = min(study["speeds_kmh"]) / 3.6
+        vmin = float(study.speeds_m_s.min())
         steps = ((solver["approach"] + model.length + length) / vmin
                  + solver["free_vibration"]) / dt
         if steps > 2e7:
@@ -455,7 +456,7 @@ def _plausibility(chk, bridge, train, irr, solver, study, contact):
     others = train.resolved.get("other_trains") or []
     # with trains on other tracks the run lasts until the last of them has left the deck
     later = max((float(o["offset"]) for o in others), default=0.0)
-    vmin = min(study["speeds_kmh"]) / 3.6
+    vmin = float(study.speeds_m_s.min())
     run = (solver["approach"] + model.length + length + later) / vmin
     # a train of its own or at a speed of its own: until it has left too
     for o, own in zip(others, getattr(train, "others", ()) or [None] * len(others),
@@ -475,7 +476,7 @@ def _plausibility(chk, bridge, train, irr, solver, study, contact):
         _refuse(chk, solver, "allow_large_problem",
                 f"the slowest run needs {steps:.3g} time steps, more than the budget of "
                 f"{MAX_STEPS:.3g}; check {keys}")
-    elif study["save_time_histories"] or others:
+    elif study.resolved["save_time_histories"] or others:
         n_w = max(t.n_wheels + t.n_loads for t in trains)
         n_b = max(len(t.vehicles) for t in trains)
         n_p = len(bridge.resolved.get("output_points") or []) or 1

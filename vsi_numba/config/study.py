@@ -40,6 +40,18 @@ class _StudySpec:
     output_path: Path
     axes: list
 
+    @property
+    def speeds_m_s(self) -> np.ndarray:
+        """The study's speeds in m/s: ``speeds_kmh`` / 3.6, the one conversion of the
+        speeds (:attr:`vsi_numba.config.Config.speeds_m_s` is this of its speeds)."""
+        return speeds_m_s(self.resolved["speeds_kmh"])
+
+
+def speeds_m_s(speeds_kmh) -> np.ndarray:
+    """Speeds in km/h as m/s (shape kept): the one conversion of the configuration's
+    speeds."""
+    return np.asarray(speeds_kmh, float) / 3.6
+
 
 #: A speed of the study: the declared type of one of study.speeds_kmh, and its expectation
 _SPEED = item_type(_m.Study, "speeds_kmh")

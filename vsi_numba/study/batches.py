@@ -111,7 +111,7 @@ def plan_batches(grid, packed_trains, n_points: int,
         keeps every run's histories (:mod:`vsi_numba.solver.superpose`), which both
         count.
     """
-    speeds = np.asarray(grid.speeds_kmh, float) / 3.6
+    speeds = np.asarray(grid.speeds_m_s, float)
     n_i = len(grid.irregularities)
     batches: list[Batch] = []
     for i_t, packed in enumerate(packed_trains):
@@ -243,7 +243,7 @@ def run_batch_task(spec, batch: Batch) -> dict:
     spec = _spec_of(spec, batch)
     model = study_model(spec)
     packed, profile = packed_for(spec, batch.i_train, batch.i_irregularity)
-    speeds = np.asarray(model.speeds_kmh, float)[list(batch.speeds)] / 3.6
+    speeds = np.asarray(model.speeds_m_s, float)[list(batch.speeds)]
     others = _other_trains(spec, batch.i_train)
     if not others:
         res = run_batch(packed, profile, speeds, model.output_points, model.settings,
@@ -399,7 +399,7 @@ def superpose_refusal(spec, model) -> str | None:
     if not others or cfg.resolved()["solver"].get("allow_large_problem"):
         return None
     rows = deck_rows(model)
-    vmin = float(np.min(model.speeds_kmh)) / 3.6
+    vmin = float(np.min(model.speeds_m_s))
     steps = max(p.n_steps(vmin) for p in _packed_trains(spec, model))
     need = superpose_bytes(rows, 1 + len(others), steps)
     if need <= MAX_HISTORY_BYTES:

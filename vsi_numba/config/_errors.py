@@ -362,17 +362,24 @@ def _table_adapter(root, name: str) -> TypeAdapter:
     return TypeAdapter(Annotated[(f.annotation, *f.metadata)] if f.metadata else f.annotation)
 
 
-def typed_section(chk, data, name: str, root):
+_DEFAULTS = object()
+
+
+def typed_section(chk, data, name: str, root, absent=_DEFAULTS):
     """``data[name]`` validated by the declaration of table ``name`` of ``root`` (the
-    file's model): the typed table (its defaults when absent; ``_MISSING`` for an
-    absent required one), or ``_BAD`` with the
+    file's model): the typed table (when absent: its defaults, or ``absent`` when
+    given; ``_MISSING`` for a required one), or ``_BAD`` with the
     messages of every error added to ``chk``; the values outside their plausible range
     go to ``chk.implausible``."""
     from vsi_numba.config._check import _BAD, _MISSING
 
     f = root.model_fields[name]
     if not isinstance(data, Mapping) or name not in data:
-        return _MISSING if f.is_required() else _table_adapter(root, name).validate_python({})
+        if f.is_required():
+            return _MISSING
+        if absent is not _DEFAULTS:
+            return absent
+        return _table_adapter(root, name).validate_python({})
     value = data[name]
     try:
         typed = _table_adapter(root, name).validate_python(value)

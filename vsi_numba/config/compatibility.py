@@ -18,7 +18,7 @@ configuration with this section.  Everything about the section lives here;
 
 from __future__ import annotations
 
-from vsi_numba.config._check import _BAD, _MISSING, _ok
+from vsi_numba.config._check import _BAD, _ok
 from vsi_numba.config.schema import models as _m
 from vsi_numba.config.schema._fields import expected_of, keys_of
 
@@ -26,22 +26,18 @@ from vsi_numba.config.schema._fields import expected_of, keys_of
 KEYS = keys_of(_m.Compatibility)
 
 
-def _compatibility_section(chk, d, profile, study=_BAD, train=_BAD) -> dict | None:
-    """Validate ``[compatibility]``; None without it."""
-    if d is _MISSING:
-        return None
-    if chk.table(d, "compatibility", KEYS,
-                 what=" [compatibility] with train and line_speed_kmh") is _BAD:
-        return _BAD
-    r = chk.fields(d, "compatibility", _m.Compatibility)
-    name, line, factor = r["train"], r["line_speed_kmh"], r["speed_factor"]
-    if isinstance(name, str) and not name.strip():
-        name = chk.error("compatibility.train", name, expected_of(_m.Compatibility, "train"))
+def _compatibility_section(chk, c, profile, study=_BAD, train=_BAD) -> dict | None:
+    """The resolved ``[compatibility]`` of a validated one (None without it) and the
+    checks against the rest: the train is one of the study's, the speeds reach
+    speed_factor x line speed (the factor's default is the code profile's)."""
+    if c is None or c is _BAD:
+        return c
+    name, line, factor = c.train, float(c.line_speed_kmh), c.speed_factor
     if factor is None:  # the default is the code profile's
         factor = profile["compatibility_speed_factor"]
-    line, factor = (float(v) if _ok(v) else v for v in (line, factor))
-    if not _ok(name, line, factor):
-        return _BAD
+    factor = float(factor)
+    if not name.strip():
+        return chk.error("compatibility.train", name, expected_of(_m.Compatibility, "train"))
     if _ok(train):
         names = [t.name for t in train.trains]
         if name not in names:

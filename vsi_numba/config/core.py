@@ -547,11 +547,11 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     profile = profile_of_section(code_profile)
     study = _study_section(chk, typed_section(chk, data, "study", VsiConfig),
                            f"results/{stem}.nc", base, profile)
-    report = _report_section(chk, data.get("report", _MISSING))
+    report = _report_section(chk, typed_section(chk, data, "report", VsiConfig, None))
     fatigue = _fatigue_section(chk, data.get("fatigue", _MISSING), profile, bridge,
                                study.axes if _ok(study) else (), base)
-    compat = _compatibility_section(chk, data.get("compatibility", _MISSING), profile, study,
-                                    train)
+    compat = _compatibility_section(
+        chk, typed_section(chk, data, "compatibility", VsiConfig, None), profile, study, train)
     rest_ok = not chk.errors
     calib = _existing._calibration_section(chk, data.get("calibration", _MISSING), data, base,
                                            rest_ok, _validate)

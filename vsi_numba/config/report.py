@@ -18,9 +18,8 @@ document = "VSI-V12-001"
 
 from __future__ import annotations
 
-from vsi_numba.config._check import _BAD, _MISSING, _ok
-from vsi_numba.config.schema._fields import keys_of
-from vsi_numba.config.schema.models import Report
+from vsi_numba.config._check import _BAD
+from vsi_numba.config.schema.codes import MAX_TEXT
 
 #: The keys of ``[report]``, each a string, with what the report shows for it.
 REPORT_KEYS = {
@@ -35,29 +34,12 @@ REPORT_KEYS = {
 }
 
 #: Longest value accepted (one line of a title block).
-MAX_LENGTH = 200
+MAX_LENGTH = MAX_TEXT
 
 
-def _report_section(chk, d) -> dict | None:
-    """Validate ``[report]``; return its strings (None when the file has no section)."""
-    if d is _MISSING:
-        return None
-    if chk.table(d, "report", keys_of(Report),
-                 what=" [report] of text fields (project, revision, checked_by, ...)") is _BAD:
-        return _BAD
-    out = {}
-    for key in REPORT_KEYS:
-        if key not in d:
-            continue
-        v = d[key]
-        if isinstance(v, int | float) and not isinstance(v, bool) and key in ("revision",
-                                                                              "document"):
-            v = str(v)  # revision = 2 means "2"
-        if not isinstance(v, str) or not v.strip() or len(v) > MAX_LENGTH or "\n" in v:
-            chk.error(f"report.{key}", v, f"one line of text (1 to {MAX_LENGTH} characters)")
-            out[key] = _BAD
-            continue
-        out[key] = v.strip()
-    if not _ok(*out.values()):
-        return _BAD
-    return out
+def _report_section(chk, r) -> dict | None:
+    """The strings of a validated ``[report]`` (:class:`~.schema.models.Report`: one
+    line of text each, stripped); None when the file has no section."""
+    if r is None or r is _BAD:
+        return r
+    return {k: getattr(r, k) for k in REPORT_KEYS if k in r.model_fields_set}

@@ -1,8 +1,8 @@
 """The keys of ``[report]``, ``[code_profile]``, ``[fatigue]`` and ``[compatibility]``."""
 
-from typing import Annotated
+from typing import Annotated, ClassVar
 
-from pydantic import Field
+from pydantic import AfterValidator, Field
 
 from vsi_numba.code_profile import ANNEX_D_MIXES, DEFAULT_NAME, TABLE, limits_of
 from vsi_numba.config.schema._fields import (
@@ -17,20 +17,27 @@ from vsi_numba.config.schema._fields import (
 # ---------------------------------------------------------------- [report] [code_profile]
 
 MAX_TEXT = 200
-_Line = Annotated[str, Field(min_length=1, max_length=MAX_TEXT)] | int | float
+#: One line of text, not blank (stripped).
+_Line = Annotated[str, Field(min_length=1, max_length=MAX_TEXT, pattern=r"^[^\n]*\S[^\n]*$"),
+                  AfterValidator(str.strip)]
+#: A number that stands for its text (revision = 2 means "2").
+_NumberText = Annotated[int | float, AfterValidator(str)]
+_LINE = f"one line of text (1 to {MAX_TEXT} characters)"
 
 
 class Report(Section):
     """``[report]``: the title block of the report (one line of text each)."""
 
-    project: _Line = key(None, doc="project")
-    client: _Line = key(None, doc="client")
-    document: _Line = key(None, doc="document number")
-    revision: _Line = key(None, doc="revision")
-    prepared_by: _Line = key(None, doc="prepared by")
-    checked_by: _Line = key(None, doc="checked by")
-    approved_by: _Line = key(None, doc="approved by")
-    date: _Line = key(None, doc="date")
+    TABLE: ClassVar[str] = "a table [report] of text fields (project, revision, checked_by, ...)"
+
+    project: _Line = key(None, doc="project", expected=_LINE)
+    client: _Line = key(None, doc="client", expected=_LINE)
+    document: _Line | _NumberText = key(None, doc="document number", expected=_LINE)
+    revision: _Line | _NumberText = key(None, doc="revision", expected=_LINE)
+    prepared_by: _Line = key(None, doc="prepared by", expected=_LINE)
+    checked_by: _Line = key(None, doc="checked by", expected=_LINE)
+    approved_by: _Line = key(None, doc="approved by", expected=_LINE)
+    date: _Line = key(None, doc="date", expected=_LINE)
 
 
 class SourcedValue(Section):
@@ -203,6 +210,8 @@ class Fatigue(Section):
 class Compatibility(Section):
     """``[compatibility]``: is the train compatible with this existing bridge?  The
     study's speeds must reach speed_factor x line_speed_kmh."""
+
+    TABLE: ClassVar[str] = "a table [compatibility] with train and line_speed_kmh"
 
     train: Text = key(required=True, doc="the train under check (one of the study's "
                                          "trains)",

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from vsi_numba.config._check import _BAD, _ok
 from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import expected_of, keys_of
+from vsi_numba.config.schema._fields import keys_of
 
 #: The keys of ``[compatibility]``, as declared (:class:`~.schema.models.Compatibility`).
 KEYS = keys_of(_m.Compatibility)
@@ -36,8 +36,6 @@ def _compatibility_section(chk, c, profile, study=_BAD, train=_BAD) -> dict | No
     if factor is None:  # the default is the code profile's
         factor = profile["compatibility_speed_factor"]
     factor = float(factor)
-    if not name.strip():
-        return chk.error("compatibility.train", name, expected_of(_m.Compatibility, "train"))
     if _ok(train):
         names = [t.name for t in train.trains]
         if name not in names:

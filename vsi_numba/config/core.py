@@ -548,7 +548,8 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     study = _study_section(chk, typed_section(chk, data, "study", VsiConfig),
                            f"results/{stem}.nc", base, profile)
     report = _report_section(chk, typed_section(chk, data, "report", VsiConfig, None))
-    fatigue = _fatigue_section(chk, data.get("fatigue", _MISSING), profile, bridge,
+    fatigue = _fatigue_section(chk, typed_section(chk, data, "fatigue", VsiConfig, None),
+                               profile, bridge,
                                study.axes if _ok(study) else (), base)
     compat = _compatibility_section(
         chk, typed_section(chk, data, "compatibility", VsiConfig, None), profile, study, train)

@@ -60,32 +60,28 @@ _STUD_NUMBERS = ("x", "diameter", "per_row", "row_spacing", "first_moment",
                  "second_moment", "gamma_Ff", "gamma_Mf")
 
 
-def _fatigue_section(chk, d, profile, bridge=_BAD, study_axes=(), base=None
+def _fatigue_section(chk, f, profile, bridge=_BAD, study_axes=(), base=None
                      ) -> dict | None:
-    """Validate ``[fatigue]``; return it with every default filled (None without it).
+    """The resolved ``[fatigue]`` of a validated one (:class:`~.schema.models.Fatigue`),
+    every default filled (None without it), and the checks that are not rules of the
+    model: the traffic is given without a mix, the trains exist (library, Annex D, an
+    axle-load file) with the model asked, the positions are on the deck, and the deck
+    gives the bending moments (and shear forces for studs).
 
     ``bridge`` (the validated ``[bridge]``) bounds the sections' x.  With ``study.vary``
     the fatigue runs follow the variants (each variant's own bridge); ``[fatigue]``
     itself is not a section ``study.vary`` may vary, so it is the same in every variant.
     """
-    if d is _MISSING:
-        return None
-    if chk.table(d, "fatigue", KEYS,
-                 what=" [fatigue] with design_life_years, [[fatigue.sections]] and "
-                      "[[fatigue.traffic]] or mix") is _BAD:
-        return _BAD
-    top = chk.fields(d, "fatigue", _m.Fatigue, ["design_life_years", "mix"],
-                     notes={"mix": " (EN 1991-2 Annex D traffic mix)"})
-    life, mix = top["design_life_years"], top["mix"]
-    if _ok(life):
-        life = float(life)
+    if f is None or f is _BAD:
+        return f
+    life = float(f.design_life_years)
     out = {"design_life_years": life}
-    if mix is not None:
-        out["mix"] = mix
-    out["sections"] = _sections(chk, d.get("sections", _MISSING), profile, bridge)
-    out["traffic"] = _traffic(chk, d.get("traffic", _MISSING), mix is not None, base)
-    if "studs" in d:
-        out["studs"] = _studs(chk, d["studs"], profile, bridge)
+    if f.mix is not None:
+        out["mix"] = f.mix
+    out["sections"] = _sections(chk, f.sections, profile, bridge)
+    out["traffic"] = _traffic(chk, f.traffic, f.mix is not None, base)
+    if f.studs is not None:
+        out["studs"] = _studs(chk, f.studs, profile, bridge)
     static = getattr(getattr(bridge, "model", None), "static", None) if _ok(bridge) else None
     if _ok(bridge) and bridge.kind != "rigid" and (static is None
                                                    or "moment" not in static.effects):
@@ -104,7 +100,7 @@ def _fatigue_section(chk, d, profile, bridge=_BAD, study_axes=(), base=None
                   "simply_supported, continuous or a model with load effects), not a "
                   "rigid track")
         return _BAD
-    if _ok(life) and (life < 10 or life > 200):
+    if life < 10 or life > 200:
         chk.warn(f"fatigue.design_life_years = {life:g}: looks implausible for a railway "
                  "bridge (EN 1993-2 designs for 100 years)", kind="plausibility",
                  keys=["fatigue.design_life_years"])
@@ -113,39 +109,25 @@ def _fatigue_section(chk, d, profile, bridge=_BAD, study_axes=(), base=None
     return out
 
 
-def _sections(chk, v, profile, bridge):
-    path = "fatigue.sections"
-    if v is _MISSING:
-        return chk.error(path, _MISSING, "one or more [[fatigue.sections]] with x, "
-                                         "section_modulus and detail_category")
-    if not isinstance(v, list) or not v:
-        return chk.error(path, v, "a list of tables [[fatigue.sections]] with x, "
-                                  "section_modulus and detail_category")
+def _on_deck(chk, p: str, x: float, bridge) -> bool:
+    if _ok(bridge) and x > bridge.length + 1e-9:
+        chk.error(f"{p}.x", x, f"a position on the deck, 0 to {bridge.length:g} m")
+        return False
+    return True
+
+
+def _sections(chk, sections, profile, bridge):
     out = []
-    for i, s in enumerate(v):
-        p = f"{path}[{i}]"
-        if chk.table(s, p, SECTION_KEYS, what=" with x, section_modulus, detail_category"
-                     ) is _BAD:
-            out.append(_BAD)
-            continue
-        r = chk.fields(s, p, _m.FatigueSection, _SECTION_NUMBERS)
+    for i, s in enumerate(sections):
+        p = f"fatigue.sections[{i}]"
+        r = {k: getattr(s, k) for k in _SECTION_NUMBERS}
         for g in ("gamma_Ff", "gamma_Mf"):  # their defaults are the code profile's
             if r[g] is None:
                 r[g] = profile[f"fatigue_{g}"]
-        r = {k: (float(v) if _ok(v) else v) for k, v in r.items()}
-        name = chk.fields(s, p, _m.FatigueSection, ["name"])["name"]
-        if isinstance(name, str) and not name.strip():
-            name = chk.error(f"{p}.name", name, expected_of(_m.FatigueSection, "name"))
-        if name is _BAD:
-            out.append(_BAD)
-            continue
-        if name is not None:
-            r["name"] = name.strip()
-        if not _ok(*r.values()):
-            out.append(_BAD)
-            continue
-        if _ok(bridge) and r["x"] > bridge.length + 1e-9:
-            chk.error(f"{p}.x", r["x"], f"a position on the deck, 0 to {bridge.length:g} m")
+        r = {k: float(v) for k, v in r.items()}
+        if s.name is not None:
+            r["name"] = s.name
+        if not _on_deck(chk, p, r["x"], bridge):
             out.append(_BAD)
             continue
         if int(r["detail_category"]) != r["detail_category"] or \
@@ -157,67 +139,42 @@ def _sections(chk, v, profile, bridge):
     return _BAD if any(o is _BAD for o in out) else out
 
 
-def _studs(chk, v, profile, bridge):
-    path = "fatigue.studs"
-    what = "with x, diameter, per_row, row_spacing, first_moment and second_moment"
-    if not isinstance(v, list) or not v:
-        return chk.error(path, v, f"a list of tables [[fatigue.studs]] {what}")
+def _studs(chk, studs, profile, bridge):
     out = []
-    for i, s in enumerate(v):
-        p = f"{path}[{i}]"
-        if chk.table(s, p, STUD_KEYS, what=" " + what) is _BAD:
-            out.append(_BAD)
-            continue
-        r = chk.fields(s, p, _m.FatigueStud, _STUD_NUMBERS)
+    for i, s in enumerate(studs):
+        p = f"fatigue.studs[{i}]"
+        r = {k: getattr(s, k) for k in _STUD_NUMBERS}
         if r["gamma_Ff"] is None:  # the defaults are the code profile's
             r["gamma_Ff"] = profile["fatigue_gamma_Ff"]
         if r["gamma_Mf"] is None:
             r["gamma_Mf"] = profile["fatigue_stud_gamma_Mf"]
         # numbers as floats, the count as an int (the stored configuration reloads)
-        r = {k: ((int(v) if k == "per_row" else float(v)) if _ok(v) else v)
-             for k, v in r.items()}
-        name = chk.fields(s, p, _m.FatigueStud, ["name"])["name"]
-        if isinstance(name, str) and not name.strip():
-            name = chk.error(f"{p}.name", name, expected_of(_m.FatigueStud, "name"))
-        if name is _BAD or not _ok(*r.values()):
-            out.append(_BAD)
-            continue
-        if name is not None:
-            r["name"] = name.strip()
-        if _ok(bridge) and r["x"] > bridge.length + 1e-9:
-            chk.error(f"{p}.x", r["x"], f"a position on the deck, 0 to {bridge.length:g} m")
+        r = {k: (int(v) if k == "per_row" else float(v)) for k, v in r.items()}
+        if s.name is not None:
+            r["name"] = s.name
+        if not _on_deck(chk, p, r["x"], bridge):
             out.append(_BAD)
             continue
         out.append(r)
     return _BAD if any(o is _BAD for o in out) else out
 
 
-def _traffic(chk, v, has_mix: bool, base=None):
+def _traffic(chk, traffic, has_mix: bool, base=None):
     path = "fatigue.traffic"
-    if v is _MISSING:
+    if traffic is None:
         if has_mix:
             return []
-        return chk.error(path, _MISSING, "[[fatigue.traffic]] with train, speed_kmh and "
-                                         "per_day, or fatigue.mix")
-    if not isinstance(v, list) or (not v and not has_mix):
-        return chk.error(path, v, "a list of tables [[fatigue.traffic]] with train, "
-                                  "speed_kmh and per_day")
+        return chk.error(path, _MISSING, expected_of(_m.Fatigue, "traffic"))
+    if not traffic and not has_mix:
+        return chk.error(path, traffic, "a list of tables [[fatigue.traffic]] with train, "
+                                        "speed_kmh and per_day")
     from vsi_numba.model.library import UnknownTrainError, annex_d, get_train
 
     out = []
-    for i, t in enumerate(v):
+    for i, t in enumerate(traffic):
         p = f"{path}[{i}]"
-        if chk.table(t, p, TRAFFIC_KEYS, what=" with train, speed_kmh, per_day") is _BAD:
-            out.append(_BAD)
-            continue
-        r = chk.fields(t, p, _m.FatigueTraffic)
-        name, model = r.pop("train"), r.pop("model")
-        r = {k: (float(v) if _ok(v) else v) for k, v in r.items()}
-        if isinstance(name, str) and not name.strip():
-            name = chk.error(f"{p}.train", name, expected_of(_m.FatigueTraffic, "train"))
-        if not _ok(name, model, *r.values()):
-            out.append(_BAD)
-            continue
+        name, model = t.train, t.model
+        r = {"speed_kmh": float(t.speed_kmh), "per_day": float(t.per_day)}
         if name.strip().lower().endswith(".csv"):  # the operator's axle-load list
             from pathlib import Path
 
@@ -226,9 +183,9 @@ def _traffic(chk, v, has_mix: bool, base=None):
             from vsi_numba.config.limits import MIN_RAILWAY_AXLE_LOAD
             from vsi_numba.model.library.extra import AxleFileError, axle_list_train
 
-            path = (Path(base or ".") / name.strip()).expanduser()
+            csv = (Path(base or ".") / name.strip()).expanduser()
             try:
-                axles = axle_list_train(path)
+                axles = axle_list_train(csv)
             except AxleFileError as exc:
                 chk.error(f"{p}.train", name, f"a readable axle-load CSV file ({exc})")
                 out.append(_BAD)

@@ -23,6 +23,9 @@ _Line = Annotated[str, Field(min_length=1, max_length=MAX_TEXT, pattern=r"^[^\n]
 #: A number that stands for its text (revision = 2 means "2").
 _NumberText = Annotated[int | float, AfterValidator(str)]
 _LINE = f"one line of text (1 to {MAX_TEXT} characters)"
+#: A name: not blank (stripped).
+_NotBlank = Annotated[str, Field(min_length=1, pattern=r"\S")]
+_Name = Annotated[_NotBlank, AfterValidator(str.strip)]
 
 
 class Report(Section):
@@ -95,6 +98,8 @@ class FatigueSection(Section):
     """``[[fatigue.sections]]``: a steel detail of the deck, its stress the bending moment
     at ``x`` over the section modulus."""
 
+    TABLE: ClassVar[str] = "a table with x, section_modulus, detail_category"
+
     x: Num(ge=0) = key(required=True, unit="m", doc="position of the section from the left "
                        "end of the deck", expected="a position >= 0 m along the deck",
                        example=10.0)
@@ -116,7 +121,7 @@ class FatigueSection(Section):
         None, default_text="code profile fatigue_gamma_Mf",
         doc="partial factor on the fatigue strength (EN 1993-1-9 Table 3.1 [R])",
         expected=_GAMMA_EXPECTED)
-    name: Text = key(None, default_text="its position", doc="name of the section in the "
+    name: _Name = key(None, default_text="its position", doc="name of the section in the "
                      "report", expected="a name (string)")
 
 
@@ -124,6 +129,9 @@ class FatigueStud(Section):
     """``[[fatigue.studs]]``: a row layout of headed stud shear connectors of a composite
     deck; the stud shear stress is tau = V S s / (I n pi d^2 / 4) from the vertical shear
     V at ``x`` (EN 1994-2 6.8 [R])."""
+
+    TABLE: ClassVar[str] = ("a table with x, diameter, per_row, row_spacing, first_moment and "
+                            "second_moment")
 
     x: Num(ge=0) = key(required=True, unit="m", doc="position of the studs from the left "
                        "end of the deck (the shear there)",
@@ -158,14 +166,16 @@ class FatigueStud(Section):
         None, default_text="code profile fatigue_stud_gamma_Mf",
         doc="partial factor gamma_Mf,s on the stud fatigue strength (EN 1994-2 2.4.1.2 "
             "[R])", expected=_GAMMA_EXPECTED)
-    name: Text = key(None, default_text="its position", doc="name of the stud layout in "
+    name: _Name = key(None, default_text="its position", doc="name of the stud layout in "
                      "the report", expected="a name (string)")
 
 
 class FatigueTraffic(Section):
     """``[[fatigue.traffic]]``: one train of the operator's traffic (added to the mix)."""
 
-    train: Text = key(required=True, doc="a library train, AnnexD-1 .. AnnexD-12, or an "
+    TABLE: ClassVar[str] = "a table with train, speed_kmh, per_day"
+
+    train: _NotBlank = key(required=True, doc="a library train, AnnexD-1 .. AnnexD-12, or an "
                                          "axle-load CSV file (position m, load kN; relative "
                                          "to the config)",
                       expected="a train name (`vsi trains` lists them; AnnexD-1 .. "
@@ -186,17 +196,21 @@ class Fatigue(Section):
     """``[fatigue]``: the fatigue check of steel details of the deck under the dynamic
     stress histories of a traffic (EN 1991-2 6.4.6.6 [R], EN 1993-1-9)."""
 
+    TABLE: ClassVar[str] = ("a table [fatigue] with design_life_years, [[fatigue.sections]] and "
+                            "[[fatigue.traffic]] or mix")
+
     design_life_years: Num(gt=0, le=1000) = key(
         100.0, unit="years", doc="design life: passages = per_day x 365 x years",
         expected="a design life > 0 years (at most 1000)")
     mix: one_of(ANNEX_D_MIXES) = key(
         None, doc="an EN 1991-2 Annex D traffic mix [R], each train type at its Table D.1 "
-                  "speed (added to [[fatigue.traffic]])")
-    sections: list[FatigueSection] = key(
+                  "speed (added to [[fatigue.traffic]])",
+        note=" (EN 1991-2 Annex D traffic mix)")
+    sections: Annotated[list[FatigueSection], Field(min_length=1)] = key(
         required=True, doc="the details checked ([[fatigue.sections]], one or more)",
         expected="one or more [[fatigue.sections]] with x, section_modulus and "
                  "detail_category")
-    studs: list[FatigueStud] = key(
+    studs: Annotated[list[FatigueStud], Field(min_length=1)] = key(
         None, default_text="none", doc="headed stud shear connectors checked from the "
                                        "shear histories ([[fatigue.studs]])",
         expected="[[fatigue.studs]] with x, diameter, per_row, row_spacing, first_moment "
@@ -213,7 +227,7 @@ class Compatibility(Section):
 
     TABLE: ClassVar[str] = "a table [compatibility] with train and line_speed_kmh"
 
-    train: Text = key(required=True, doc="the train under check (one of the study's "
+    train: _NotBlank = key(required=True, doc="the train under check (one of the study's "
                                          "trains)",
                       expected="the name of the train under check (one of train.preset)",
                       example="ICE3")

@@ -18,7 +18,7 @@ import typing
 from collections.abc import Mapping
 from typing import Annotated, Any, Literal, Union
 
-from pydantic import BaseModel, TypeAdapter, ValidationError
+from pydantic import BaseModel, Field, TypeAdapter, ValidationError
 from pydantic_core import PydanticCustomError
 
 from vsi_numba.config._check import _did_you_mean
@@ -388,3 +388,36 @@ def typed_section(chk, data, name: str, root, absent=_DEFAULTS):
         return _BAD
     chk.implausible += implausible_of(typed, name)
     return typed
+
+
+@functools.cache
+def _file_model(root):
+    """The top level of a file of ``root``: its declared keys (each table of any value,
+    read by its own model), required and unknown keys as ``root`` declares them."""
+    from pydantic import create_model
+
+    fields = {}
+    for name, f in root.model_fields.items():
+        sub = f.annotation
+        table = any(_is_model(m) for m in _members(sub))
+        info = dict(description=f.description, json_schema_extra=f.json_schema_extra)
+        fields[name] = (Any if table else sub,
+                        Field(**info) if f.is_required() else Field(f.default, **info))
+    return create_model(f"{root.__name__}File", __config__=root.model_config, **fields)
+
+
+def typed_file(chk, data, root=None):
+    """The top level of ``data`` validated by the keys of the file's model (default
+    :class:`~vsi_numba.config.schema.models.VsiConfig`): the missing required tables and
+    the unknown ones reported to ``chk`` (then ``_BAD``), else the validated top level
+    (``title``; the tables are read by :func:`typed_section`)."""
+    from vsi_numba.config._check import _BAD
+
+    if root is None:
+        from vsi_numba.config.schema.models import VsiConfig as root
+    model = _file_model(root)
+    try:
+        return model.model_validate(data)
+    except ValidationError as exc:
+        chk.errors += messages(exc, model, data)
+        return _BAD

@@ -25,7 +25,7 @@ from vsi_numba.config._check import (
     _refuse,
     _show,
 )
-from vsi_numba.config._errors import typed_section
+from vsi_numba.config._errors import typed_file, typed_section
 from vsi_numba.config.across import (
     _distribution_checks,
     _other_train_checks,
@@ -52,8 +52,7 @@ from vsi_numba.config.physics import (
     _plausibility,
 )
 from vsi_numba.config.report import _report_section
-from vsi_numba.config.schema import VsiConfig, keys_of
-from vsi_numba.config.schema._fields import expected_of
+from vsi_numba.config.schema import VsiConfig
 from vsi_numba.config.solver import (
     SOLVER_OVERRIDES,
     _contact_section,
@@ -504,29 +503,21 @@ def _check_run_count(cfg: Config, source: str) -> None:
 
 def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     chk = _Checker()
-    top = keys_of(VsiConfig)  # the declared tables (vsi_numba.config.schema.models)
-    chk.table(data, "", top)
+    top = typed_file(chk, data)  # the tables there are, the title
     default_title = path.stem if path is not None else "untitled"
-    title = chk.string(data, "", "title", expected_of(VsiConfig, "title"), default=None,
-                       nonempty=False)
-    if "bridge" not in data:
-        chk.error("bridge", _MISSING, "a table [bridge] with kind, spans, EI, mass_per_length")
-    if "train" not in data:
-        chk.error("train", _MISSING, "a table [train] with preset, [[train.vehicles]] or file")
+    title = top.title if top is not _BAD else _BAD
 
-    typed = {name: typed_section(chk, data, name, VsiConfig)
-             for name in ("solver", "contact", "track")}
-    solver = _solver_section(chk, typed["solver"])
-    contact = _contact_section(chk, typed["contact"])
+    solver = _solver_section(chk, typed_section(chk, data, "solver", VsiConfig))
+    contact = _contact_section(chk, typed_section(chk, data, "contact", VsiConfig))
     cutoff = solver["acceleration_cutoff"] if _ok(solver) else None
     bridge = _bridge_section(chk, data["bridge"], base, cutoff) if "bridge" in data else _BAD
     fe_layer = isinstance(data.get("bridge"), dict) and "track" in data["bridge"]
-    if fe_layer and isinstance(data, Mapping) and "track" in data:
-        chk.errors = [e for e in chk.errors if not e.startswith(("track.", "track "))]
+    if fe_layer and "track" in data:
         track = chk.error("track", data["track"], "no [track] with [bridge.track]: the FE "
                           "track layer of the deck is the track")
     else:
-        track = _rail_track_section(chk, typed["track"], fe_layer)
+        track = _rail_track_section(
+            chk, None if fe_layer else typed_section(chk, data, "track", VsiConfig), fe_layer)
     train = (
         _train_section(chk, data["train"], base, title if _ok(title) else None)
         if "train" in data else _BAD

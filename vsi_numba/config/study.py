@@ -78,10 +78,7 @@ def _study_section(chk, s, default_output: str, base_dir: Path, profile=None
     """The study of a validated ``[study]`` (:class:`~.schema.models.Study`) and the
     checks that are not rules of the model: the output path, the kept speeds among the
     study's, the variants and the code profile's range of the classification factor."""
-    if s is _MISSING:
-        return chk.error("study", _MISSING, "a table [study] with speeds_kmh (km/h) or "
-                                            "line_speed_kmh")
-    if s is _BAD:
+    if s in (_MISSING, _BAD):  # (a missing [study] is reported with the file's keys)
         return _BAD
     line = s.line_speed_kmh
     speeds = _BAD

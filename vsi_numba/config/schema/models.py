@@ -236,8 +236,10 @@ class VsiConfig(Section):
 
     title: str = key(None, default_text="the file name", doc="title of results and report",
                      expected="a title (string)")
-    bridge: Bridge = key(required=True, doc="the deck ([bridge])")
-    train: Train = key(required=True, doc="the trains ([train])")
+    bridge: Bridge = key(required=True, doc="the deck ([bridge])",
+                         expected="a table [bridge] with kind, spans, EI, mass_per_length")
+    train: Train = key(required=True, doc="the trains ([train])",
+                       expected="a table [train] with preset, [[train.vehicles]] or file")
     irregularity: Irregularity = key(None, default_text="kind = \"none\"",
                                      doc="the track profile ([irregularity])")
     solver: Solver = key(None, default_text="the defaults", doc="the time integration "
@@ -245,7 +247,8 @@ class VsiConfig(Section):
     contact: Contact = key(None, default_text="rigid", doc="the wheel-rail contact "
                                                            "([contact])")
     track: Track = key(None, default_text="elastic", doc="the track ([track])")
-    study: Study = key(required=True, doc="the speeds and the output ([study])")
+    study: Study = key(required=True, doc="the speeds and the output ([study])",
+                       expected="a table [study] with speeds_kmh (km/h) or line_speed_kmh")
     report: Report = key(None, doc="the title block of the report ([report])")
     code_profile: CodeProfile = key(None, doc="the clause values ([code_profile])")
     fatigue: Fatigue = key(None, doc="the fatigue check of steel details ([fatigue])")

@@ -19,16 +19,14 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from vsi_numba.code_profile import (
-    DEFAULT_NAME,
     KEYS,
     ORDERED,
     CodeProfile,
     default_profile,
     profile_from,
 )
-from vsi_numba.config._check import _BAD, _MISSING, _join, _show
+from vsi_numba.config._check import _BAD, _join, _show
 from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import Int, Num, keys_of
 
 #: An override further than this factor from the recommended value gets a warning.
 IMPLAUSIBLE_FACTOR = 3.0
@@ -36,60 +34,38 @@ IMPLAUSIBLE_FACTOR = 3.0
 _EXAMPLE = "{deck_acceleration_limit_ballasted = 3.0}"
 
 
-def _code_profile_section(chk, d):
-    """The validated ``[code_profile]`` as stored (``name``, ``overrides``), None when
-    the configuration has none (the recommended values), or ``_BAD``."""
-    path = "code_profile"
-    if d is _MISSING:
-        return None
-    if chk.table(d, path, keys_of(_m.CodeProfile), what=" [code_profile] with name and "
-                 f"overrides, e.g. overrides = {_EXAMPLE}") is _BAD:
-        return _BAD
-    name = chk.string(d, path, "name", "the name of the profile (a string), e.g. "
-                      "\"DE national annex\"", default=DEFAULT_NAME)
-    given = d.get("overrides", {})
-    p = _join(path, "overrides")
-    if not isinstance(given, Mapping):
-        chk.error(p, given, f"a table of code profile keys and values, e.g. {_EXAMPLE}")
-        return _BAD
-    n_errors = len(chk.errors)
-    chk.table(given, p, set(KEYS))
+def _code_profile_section(chk, c):
+    """The ``[code_profile]`` as stored (``name``, ``overrides``) of a validated one
+    (:class:`~.schema.models.CodeProfile`; None when the configuration has none: the
+    recommended values), and the checks that are not rules of the model: a fixed entry
+    is refused with the reason, the ordered pairs of entries stay ordered (with the
+    recommended values of the entries not given), an override far from the recommended
+    value is warned."""
+    if c is None or c is _BAD:
+        return c
+    p = "code_profile.overrides"
+    given = c.overrides
     base = default_profile()
     values, stored = {}, {}
-    for key, raw in given.items():
-        if key not in KEYS:
-            continue  # reported with a did-you-mean
-        kp = _join(p, key)
+    n_errors = len(chk.errors)
+    fixed = given._fixed if given is not None else {}
+    for key, raw in fixed.items():
         e = base.entry(key)
-        if e.applies == "fixed":
-            chk.error(kp, raw, f"an entry the code profile can override: {e.key} "
-                      f"({e.description}, {e.clause}) is fixed ({e.note})")
-            continue
-        clause = None
-        vp = kp
-        if isinstance(raw, Mapping):
-            if chk.table(raw, kp, keys_of(_m.SourcedValue)) is _BAD:
-                continue
-            clause = chk.string(raw, kp, "clause", "the clause or rule the value comes "
-                                "from (a string)", default=None)
-            vp = _join(kp, "value")
-            raw_value = raw.get("value", _MISSING)
-        else:
-            raw_value = raw
+        chk.error(_join(p, key), raw, f"an entry the code profile can override: {e.key} "
+                  f"({e.description}, {e.clause}) is fixed ({e.note})")
+    for key, raw in (given._given.items() if given is not None else ()):
+        v = getattr(given, key)
+        e = base.entry(key)
+        kp = _join(p, key)
+        clause, vp, value = None, kp, v
+        if isinstance(v, _m.SourcedValue):
+            clause, vp, value, raw = v.clause, _join(kp, "value"), v.value, raw["value"]
         unit = "" if e.unit == "1" else f" {e.unit}"
-        kind = "a whole number" if e.integer else "a number"
-        lim = e.limits  # the bounds of the entry (and of the keys that stand for it)
-        value = chk.number(
-            raw_value, vp, (Int if e.integer else Num)(**lim.as_dict()),
-            f"{kind} {lim.text()}{unit} ({e.description}; recommended {e.value:g}{unit}, "
-            f"{e.clause}), or a table {{value = ..., clause = \"...\"}}")
-        if value is _BAD or clause is _BAD:
-            continue
         values[key] = value
         stored[key] = value if clause is None else {"value": value, "clause": clause}
         ratio = value / e.value
         if not 1 / IMPLAUSIBLE_FACTOR <= ratio <= IMPLAUSIBLE_FACTOR:
-            chk.warn(f"{vp} = {_show(raw_value)}: {ratio:.3g} times the recommended "
+            chk.warn(f"{vp} = {_show(raw)}: {ratio:.3g} times the recommended "
                      f"{e.value:g}{unit} ({e.clause}); it looks like a slip of units or of "
                      f"the entry (the value is in{unit or ' the unit of the table, -'})",
                      "plausibility", keys=[vp])
@@ -100,9 +76,9 @@ def _code_profile_section(chk, d):
             where = hi if hi in values else lo
             chk.error(_join(p, where), values[where],
                       f"{lo} <= {hi} (they would be {a:g} and {b:g})")
-    if name is _BAD or len(chk.errors) > n_errors:
+    if len(chk.errors) > n_errors:
         return _BAD
-    return {"name": name, "overrides": stored}
+    return {"name": c.name, "overrides": stored}
 
 
 def profile_of_section(section) -> CodeProfile:

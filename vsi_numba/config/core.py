@@ -534,7 +534,8 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     irr = _irregularity_section(chk, typed_section(chk, data, "irregularity", VsiConfig),
                                 base)
     stem = path.stem if path is not None else "run"
-    code_profile = _code_profile_section(chk, data.get("code_profile", _MISSING))
+    code_profile = _code_profile_section(
+        chk, typed_section(chk, data, "code_profile", VsiConfig, None))
     profile = profile_of_section(code_profile)
     study = _study_section(chk, typed_section(chk, data, "study", VsiConfig),
                            f"results/{stem}.nc", base, profile)

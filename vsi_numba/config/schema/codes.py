@@ -2,14 +2,13 @@
 
 from typing import Annotated, ClassVar
 
-from pydantic import AfterValidator, Field
+from pydantic import AfterValidator, Field, PrivateAttr, model_validator
 
 from vsi_numba.code_profile import ANNEX_D_MIXES, DEFAULT_NAME, TABLE, limits_of
 from vsi_numba.config.schema._fields import (
     Int,
     Num,
     Section,
-    Text,
     key,
     one_of,
 )
@@ -46,8 +45,37 @@ class Report(Section):
 class SourcedValue(Section):
     """``{value, clause}``: an override with the clause or rule it comes from."""
 
-    value: float = key(required=True, doc="the value in the entry's SI unit")
-    clause: Text = key(None, doc="the clause or rule the value comes from")
+    value: float = key(required=True, doc="the value in the entry's SI unit",
+                       expected="the value in the entry's SI unit (a number)")
+    clause: _NotBlank = key(None, doc="the clause or rule the value comes from",
+                            expected="the clause or rule the value comes from (a string)")
+
+
+_EXAMPLE = "{deck_acceleration_limit_ballasted = 3.0}"
+
+
+def _entry_expected(e) -> str:
+    """The expectation of an override of entry ``e`` of the code profile."""
+    unit = "" if e.unit == "1" else f" {e.unit}"
+    kind = "a whole number" if e.integer else "a number"
+    return (f"{kind} {e.limits.text()}{unit} ({e.description}; recommended {e.value:g}"
+            f"{unit}, {e.clause}), or a table {{value = ..., clause = \"...\"}}")
+
+
+def _within_entry(e, number):
+    """The check of a ``{value, clause}`` override against the bounds of its entry (those
+    of its number)."""
+    from vsi_numba.config.schema._fields import number_of
+
+    def check(v):
+        if isinstance(v, SourcedValue) and number_of(number, v.value) is None:
+            from vsi_numba.config._errors import rule_error
+            from vsi_numba.config._show import _show
+
+            raise rule_error(f"code_profile.overrides.{e.key}.value = {_show(v.value)}: "
+                             f"expected {_entry_expected(e)}")
+        return v
+    return check
 
 
 def _override_fields():
@@ -57,16 +85,40 @@ def _override_fields():
             continue
         unit = "" if e.unit == "1" else e.unit
         number = (Int if e.integer else Num)(**e.limits.as_dict())
-        tp = number | SourcedValue
+        tp = Annotated[number | SourcedValue, AfterValidator(_within_entry(e, number))]
         out[e.key] = (tp, key(None, unit=unit, default_text=f"{e.value:g}",
-                              doc=f"{e.description} ({e.clause})"))
+                              doc=f"{e.description} ({e.clause})", expected=_entry_expected(e)))
     return out
+
+
+#: The entries of the code profile that no profile overrides.
+FIXED = frozenset(e.key for e in TABLE if e.applies == "fixed")
+
+
+class _OverridesBase(Section):
+    TABLE: ClassVar[str] = f"a table of code profile keys and values, e.g. {_EXAMPLE}"
+    #: the fixed entries given (refused by the reader, which names why)
+    _fixed: dict = PrivateAttr(default_factory=dict)
+    #: the entries as given, in the order given (the stored section keeps it)
+    _given: dict = PrivateAttr(default_factory=dict)
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _set_aside_the_fixed_entries(cls, data, handler):
+        fixed, given = {}, {}
+        if isinstance(data, dict):
+            fixed = {k: v for k, v in data.items() if k in FIXED}
+            given = {k: v for k, v in data.items() if k not in FIXED}
+            data = given
+        out = handler(data)
+        out._fixed, out._given = fixed, given
+        return out
 
 
 def _overrides_model():
     from pydantic import create_model
 
-    return create_model("Overrides", __base__=Section, **_override_fields())
+    return create_model("Overrides", __base__=_OverridesBase, **_override_fields())
 
 
 Overrides = _overrides_model()
@@ -79,12 +131,14 @@ class CodeProfile(Section):
     """``[code_profile]``: the clause values of the checks (a national annex, a client's
     rule), stored with the results."""
 
-    name: Text = key(DEFAULT_NAME, doc="the profile's name, printed in the report",
-                     expected="the name of the profile (a string), e.g. \"DE national "
-                              "annex\"")
+    TABLE: ClassVar[str] = ("a table [code_profile] with name and overrides, e.g. overrides = "
+                            + _EXAMPLE)
+
+    name: _NotBlank = key(DEFAULT_NAME, doc="the profile's name, printed in the report",
+                          expected="the name of the profile (a string), e.g. \"DE national "
+                                   "annex\"")
     overrides: Overrides = key(None, doc="entries of the code profile: a number in the "
                                          "entry's SI unit, or {value, clause}")
-
 
 
 # ---------------------------------------------------------- [fatigue] [compatibility]

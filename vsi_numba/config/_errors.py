@@ -19,24 +19,13 @@ from collections.abc import Mapping
 from typing import Annotated, Any, Literal, Union
 
 from pydantic import BaseModel, Field, TypeAdapter, ValidationError
-from pydantic_core import PydanticCustomError
 
 from vsi_numba.config._check import _did_you_mean
 from vsi_numba.config._show import _join, _key, _show
+from vsi_numba.config.schema._fields import RULE, rule_error  # noqa: F401 (re-exported)
 
 #: The errors of a value that is not a table where one is declared.
 _TABLE_ERRORS = ("model_type", "dict_type", "model_attributes_type")
-#: The error type of a rule of the models whose message is already in the house style
-#: (:func:`rule_error`).
-RULE = "vsi_rule"
-
-
-def rule_error(message: str) -> PydanticCustomError:
-    """An error of a rule between keys (a ``model_validator``), raised with its whole
-    message (key path, value, expectation)."""
-    return PydanticCustomError(RULE, "{message}", {"message": message})
-
-
 def _strip(tp):
     while typing.get_origin(tp) is Annotated:
         tp = typing.get_args(tp)[0]

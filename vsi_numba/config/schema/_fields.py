@@ -21,7 +21,7 @@ import typing
 from typing import Annotated, Any, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
-from pydantic_core import PydanticUndefined
+from pydantic_core import PydanticCustomError, PydanticUndefined
 
 from vsi_numba.model.irregularity import SPEED_BOUND_KMH
 
@@ -58,6 +58,24 @@ Matrix = list[list[float]]
 def one_of(values) -> Any:
     """``Literal[...]`` of the names a module defines (one list of choices)."""
     return Literal[tuple(values)]
+
+#: The error type of a rule of the models whose message is already in the style of the
+#: configuration's messages (:func:`rule_error`).
+RULE = "vsi_rule"
+
+
+def rule_error(message: str) -> PydanticCustomError:
+    """An error of a rule of the models (a validator of a key against another), raised
+    with its whole message (key path, value, expectation)."""
+    return PydanticCustomError(RULE, "{message}", {"message": message})
+
+
+def rule(path: str, value, expected: str) -> PydanticCustomError:
+    """:func:`rule_error` of the message ``path = value: expected ...``."""
+    from vsi_numba.config._show import _show
+
+    return rule_error(f"{path} = {_show(value)}: expected {expected}")
+
 
 #: Marks a key without a default (required, or required under a condition the
 #: description states).

@@ -11,6 +11,7 @@ from vsi_numba.config.schema._fields import (
     Section,
     key,
     one_of,
+    rule,
 )
 
 # ---------------------------------------------------------------- [report] [code_profile]
@@ -69,11 +70,7 @@ def _within_entry(e, number):
 
     def check(v):
         if isinstance(v, SourcedValue) and number_of(number, v.value) is None:
-            from vsi_numba.config._errors import rule_error
-            from vsi_numba.config._show import _show
-
-            raise rule_error(f"code_profile.overrides.{e.key}.value = {_show(v.value)}: "
-                             f"expected {_entry_expected(e)}")
+            raise rule(f"code_profile.overrides.{e.key}.value", v.value, _entry_expected(e))
         return v
     return check
 

@@ -20,17 +20,12 @@ from vsi_numba.config.schema._fields import (
     Text,
     key,
     one_of,
+    rule,
 )
 from vsi_numba.model import irregularity as _irr
 
 # ------------------------------------------------------------------------ [irregularity]
 
-def _rule(path: str, value, expected: str):
-    """The error of a rule of the models (:func:`vsi_numba.config._errors.rule_error`)."""
-    from vsi_numba.config._errors import rule_error
-    from vsi_numba.config._show import _show
-
-    return rule_error(f"{path} = {_show(value)}: expected {expected}")
 
 
 def _not_zero(x: float) -> float:
@@ -150,7 +145,7 @@ class PsdIrregularity(_Defects):
     def _band_in_order(cls, v: float, info: ValidationInfo) -> float:
         lo = info.data.get("wavelength_min")
         if lo is not None and not v > lo:
-            raise _rule("irregularity.wavelength_max", v,
+            raise rule("irregularity.wavelength_max", v,
                         f"a wavelength > wavelength_min = {lo:g} m")
         return v
 
@@ -158,7 +153,7 @@ class PsdIrregularity(_Defects):
     @classmethod
     def _distinct_seeds(cls, v):
         if isinstance(v, list) and len(set(v)) != len(v):
-            raise _rule("irregularity.seeds", v, "distinct seeds")
+            raise rule("irregularity.seeds", v, "distinct seeds")
         return v
 
     @field_validator("dx")
@@ -166,7 +161,7 @@ class PsdIrregularity(_Defects):
     def _resolves_the_band(cls, v: float, info: ValidationInfo) -> float:
         lo = info.data.get("wavelength_min")
         if v is not None and lo is not None and v > lo / 2:
-            raise _rule("irregularity.dx", v, f"a sample spacing <= wavelength_min / 2 = "
+            raise rule("irregularity.dx", v, f"a sample spacing <= wavelength_min / 2 = "
                                               f"{lo / 2:g} m (Nyquist)")
         return v
 

@@ -11,6 +11,7 @@ from vsi_numba.config.schema._fields import (
     Section,
     key,
     one_of,
+    rule_error,
 )
 from vsi_numba.model import distribution as _dist
 from vsi_numba.model import track as _track
@@ -82,7 +83,6 @@ class Contact(Section):
     @model_validator(mode="after")
     def _hertz_needs_its_constant(self):
         if self.model != "rigid" and self.hertz_coefficient is None:
-            from vsi_numba.config._errors import rule_error
             from vsi_numba.config.schema._fields import expected_of
 
             raise rule_error("contact.hertz_coefficient: missing required key; expected "
@@ -140,8 +140,6 @@ class Track(Section):
     @model_validator(mode="after")
     def _elastic_track_needs_the_foundation(self):
         if self.load_distribution == "elastic_track" and self.model == "rigid":
-            from vsi_numba.config._errors import rule_error
-
             raise rule_error(
                 "track.load_distribution = \"elastic_track\": expected 'none', 'rail' or "
                 "'rail_ballast' with track.model = 'rigid' ('elastic_track' spreads the "

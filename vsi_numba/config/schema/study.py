@@ -6,7 +6,16 @@ from pydantic import Field, ValidationInfo, field_validator
 
 from vsi_numba import en1991
 from vsi_numba.config.limits import MAX_SPEEDS
-from vsi_numba.config.schema._fields import Num, PosNum, Section, Speed, Text, key, one_of
+from vsi_numba.config.schema._fields import (
+    Num,
+    PosNum,
+    Section,
+    Speed,
+    Text,
+    key,
+    one_of,
+    rule,
+)
 from vsi_numba.model.irregularity import SPEED_BOUND_KMH
 
 # ------------------------------------------------------------------------------ [study]
@@ -26,7 +35,7 @@ class SpeedGrid(Section):
     def _stop_after_start(cls, v: float, info: ValidationInfo) -> float:
         start = info.data.get("start")
         if start is not None and v < start:
-            raise _rule("study.speeds_kmh.stop", v, f"a speed >= start = {start:g} km/h")
+            raise rule("study.speeds_kmh.stop", v, f"a speed >= start = {start:g} km/h")
         return v
 
     @field_validator("step")
@@ -34,17 +43,11 @@ class SpeedGrid(Section):
     def _not_too_many_speeds(cls, v: float, info: ValidationInfo) -> float:
         start, stop = info.data.get("start"), info.data.get("stop")
         if start is not None and stop is not None and (stop - start) / v >= MAX_SPEEDS:
-            raise _rule("study.speeds_kmh.step", v,
+            raise rule("study.speeds_kmh.step", v,
                         f"a step giving at most {MAX_SPEEDS} speeds")
         return v
 
 
-def _rule(path: str, value, expected: str):
-    """The error of a rule of the models (:func:`vsi_numba.config._errors.rule_error`)."""
-    from vsi_numba.config._errors import rule_error
-    from vsi_numba.config._show import _show
-
-    return rule_error(f"{path} = {_show(value)}: expected {expected}")
 
 
 _SPEED_EXPECTED = f"a speed > 0 km/h (at most {SPEED_BOUND_KMH:g})"
@@ -66,7 +69,7 @@ class Study(Section):
     @classmethod
     def _distinct_speeds(cls, v):
         if isinstance(v, list) and len(set(v)) != len(v):
-            raise _rule("study.speeds_kmh", v, "distinct speeds")
+            raise rule("study.speeds_kmh", v, "distinct speeds")
         return v
 
     line_speed_kmh: Speed = key(

@@ -26,6 +26,8 @@ from vsi_numba.config.schema._fields import RULE, rule_error  # noqa: F401 (re-e
 
 #: The errors of a value that is not a table where one is declared.
 _TABLE_ERRORS = ("model_type", "dict_type", "model_attributes_type")
+
+
 def _strip(tp):
     while typing.get_origin(tp) is Annotated:
         tp = typing.get_args(tp)[0]
@@ -89,7 +91,9 @@ class _Where:
         self.item = False
         self.value: Any = None
         self.fits = True
-        self.union_key: str | None = None  # path of a key whose union no member fits
+        #: the path of the last key on the way declared as a union of shapes (a number,
+        #: a list, a table), whose member the location names
+        self.union_key: str | None = None
         self.table = None  # the model of the table the error is in (or at)
 
 
@@ -137,8 +141,6 @@ def _walk(loc, root, data, prefix: str) -> _Where:
         if _is_model(tp) and x in tp.model_fields:
             w.model, w.field, w.item = tp, x, False
             tp = tp.model_fields[x].annotation
-        elif typing.get_origin(tp) is dict:
-            tp = typing.get_args(tp)[1]
         else:
             tp = None
         if _is_model(_strip(tp)):
@@ -176,9 +178,10 @@ def _table_expectation(model) -> str:
 
 
 def _unknown(w: _Where, union, key: str, value) -> str:
-    """The message of an unknown key ``key`` of the table at ``w`` (its path without
-    the key)."""
-    path = _join(w.path_table, key)
+    """The message of an unknown key ``key`` of the table at ``w``: a did-you-mean among
+    the table's keys (the ``HIDDEN`` ones of its model left out), or the kind of
+    ``union`` it belongs to."""
+    path = _join(w.path, key)
     model = w.table
     hidden = getattr(model, "HIDDEN", frozenset())
     allowed = [k for k in model.model_fields if k not in hidden] if model else []
@@ -197,7 +200,7 @@ def _unknown(w: _Where, union, key: str, value) -> str:
 def messages(exc: ValidationError, root, data, prefix: str = "") -> list[str]:
     """The house-style messages of ``exc``, raised validating ``data`` (at key path
     ``prefix``) with ``root`` (a model, or a union of models): one per key, in the
-    order of the errors."""
+    order of the errors (the unknown keys first)."""
     out: list[str] = []
     seen: set[str] = set()
     fitting: set[str] = set()
@@ -206,8 +209,7 @@ def messages(exc: ValidationError, root, data, prefix: str = "") -> list[str]:
     for e in errors:
         loc = e["loc"]
         if e["type"] == "extra_forbidden":
-            w = _walk(loc[:-1], root, data, prefix)
-            w.path_table = w.path
+            w = _walk(loc[:-1], root, data, prefix)  # the table that has the key
             walked.append((e, w))
             if w.union_key is not None and w.fits:
                 fitting.add(w.union_key)

@@ -13,8 +13,6 @@ from vsi_numba.config._check import (
     _ok,
     _Sentinel,
 )
-from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import expected_of
 from vsi_numba.model import irregularity as _irr
 
 IRREGULARITY_KINDS = ("none", "cosine", "step", "psd", "file")
@@ -69,15 +67,9 @@ def _irregularity_section(chk, r, base_dir: Path) -> _IrregularitySpec | _Sentin
         given, full = chk.file({"path": r.path}, path, "path", base_dir,
                                "the profile (CSV, columns x and r)")
         res["path"] = given
-        cols = {}
-        for k in ("x_column", "r_column"):
-            cols[k] = getattr(r, k)
-            if not cols[k].strip():
-                cols[k] = chk.error(f"{path}.{k}", cols[k], expected_of(_m.FileIrregularity, k))
-        xcol, rcol = cols["x_column"], cols["r_column"]
-        unit, dx = r.r_unit, r.dx
+        xcol, rcol, unit, dx = r.x_column, r.r_column, r.r_unit, r.dx
         res.update(_drop_none({"x_column": xcol, "r_column": rcol, "r_unit": unit, "dx": dx}))
-        ok = _ok(given, full, xcol, rcol)
+        ok = _ok(given, full)
         if ok:
             file = full
             try:

@@ -95,16 +95,12 @@ def _study_section(chk, s, default_output: str, base_dir: Path, profile=None
     else:
         speeds = _line_speed_grid(line)
     output = default_output if s.output is None else s.output
-    out_full = _BAD
-    if not output.strip() or "\x00" in output or not output.endswith(".nc"):
-        output = chk.error("study.output", output, expected_of(_m.Study, "output"))
-    else:
-        out_full = _resolve(base_dir, output)
-        if out_full is None:
-            output = chk.error("study.output", output, "a valid path of a netCDF file")
-        elif out_full.is_dir():
-            output = chk.error("study.output", output, f"a file path ({out_full} is a "
-                                                       "directory)")
+    out_full = _resolve(base_dir, output)
+    if out_full is None:
+        output = chk.error("study.output", output, "a valid path of a netCDF file")
+    elif out_full.is_dir():
+        output = chk.error("study.output", output, f"a file path ({out_full} is a "
+                                                   "directory)")
     hist = s.history_speeds_kmh
     if hist is not None:
         hist = list(hist) if isinstance(hist, list) else [hist]

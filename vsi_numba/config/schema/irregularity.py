@@ -166,13 +166,19 @@ class PsdIrregularity(_Defects):
         return v
 
 
+#: A column name of a CSV file: not blank.
+_Column = Annotated[str, Field(min_length=1, pattern=r"\S")]
+
+
 class FileIrregularity(_Defects):
     """``kind = "file"``: a measured profile (CSV)."""
 
     kind: Literal["file"] = key(required=True, doc="track profile")
     path: Text = key(required=True, doc="the profile (CSV, columns x and r)")
-    x_column: Text = key("x", doc="column of the position", expected="a column name (string)")
-    r_column: Text = key("r", doc="column of the profile", expected="a column name (string)")
+    x_column: _Column = key("x", doc="column of the position",
+                            expected="a column name (string)")
+    r_column: _Column = key("r", doc="column of the profile",
+                            expected="a column name (string)")
     r_unit: Literal["m", "mm"] = key("m", doc="unit of the profile column")
     dx: PosNum = key(None, unit="m", default_text="the file's", doc="resampling spacing",
                      expected="a sample spacing > 0 m")

@@ -11,7 +11,6 @@ from vsi_numba.config.schema._fields import (
     PosNum,
     Section,
     Speed,
-    Text,
     key,
     one_of,
     rule,
@@ -77,9 +76,10 @@ class Study(Section):
                                "(included), step 5; next to speeds_kmh: a warning when "
                                "they stop below 1.2 x line speed (EN 1991-2 6.4.6.2 [R])",
         expected=f"a line speed > 0 km/h (at most {SPEED_BOUND_KMH:g})")
-    output: Text = key(None, default_text="results/<stem>.nc",
-                       doc="the netCDF results file, relative to the config's directory",
-                       expected="a path to a netCDF file ending in .nc")
+    output: Annotated[str, Field(pattern=r"^[^\x00]*\.nc$")] = key(
+        None, default_text="results/<stem>.nc",
+        doc="the netCDF results file, relative to the config's directory",
+        expected="a path to a netCDF file ending in .nc")
     save_time_histories: bool = key(True, doc="write time histories (envelopes always are)")
     history_speeds_kmh: Speed | list[Speed] = key(
         None, unit="km/h", default_text="every speed",

@@ -9,7 +9,7 @@ from pathlib import Path
 from vsi_numba.cli.common import EXIT_USAGE, Printer, sigterm_as_interrupt
 
 
-def report_command(results: Path, outdir: Path | None = None) -> int:
+def report_command(results: Path, outdir: Path | None = None, fresh: bool = False) -> int:
     """CLI entry of ``vsi report RESULTS.nc [-o DIR]``: ``report.html``, ``report.md``
     and the tables (:func:`vsi_numba.analysis.report.write_report`). The file is read
     lazily: memory does not grow with the study.
@@ -30,14 +30,11 @@ def report_command(results: Path, outdir: Path | None = None) -> int:
         interrupted (Ctrl-C or SIGTERM, as ``vsi sweep``): the directory then holds a
         whole report, never parts of two. The reason goes to stderr as one line (no
         traceback).
+
+    A report directory written from the same results file, options and code, and left
+    as it was written, is kept as it is (:mod:`vsi_numba.cli.kept`; ``fresh`` writes it
+    again).
     """
-    import numpy as np
-    import xarray as xr
-
-    from vsi_numba.analysis.dataset import ResultsError, prepare, require
-    from vsi_numba.analysis.report import REQUIRED_VARIABLES, stored_warnings, write_report
-    from vsi_numba.analysis.report.atomic import ReportDirectoryError
-
     pr = Printer()
 
     def error(message: str) -> None:
@@ -50,6 +47,29 @@ def report_command(results: Path, outdir: Path | None = None) -> int:
     if not results.is_file():
         error(f"'{results}' is not a file")
         return EXIT_USAGE
+    from vsi_numba.cli import kept
+
+    given = outdir
+    if outdir is None:
+        outdir = results.with_name(f"{results.stem}_report")
+    sig = kept.signature("report", results, outdir)
+    record = None if fresh else kept.kept_directory("report", outdir, sig)
+    if record is not None:
+        for line in record.get("warnings", []):
+            error(f"warning: {line}")
+        html = Path(outdir) / "report.html"
+        listed = "variants.csv" if Path(outdir, "variants.csv").is_file() else "tables/"
+        pr.line(f"report up to date: {html} (and report.md, {listed}, tables.xlsx) was "
+                "written from this results file with these options and this code; kept as "
+                "it is")
+        return 0
+    import numpy as np
+    import xarray as xr
+
+    from vsi_numba.analysis.dataset import ResultsError, prepare, require
+    from vsi_numba.analysis.report import REQUIRED_VARIABLES, stored_warnings, write_report
+    from vsi_numba.analysis.report.atomic import ReportDirectoryError
+
     try:
         ds = xr.open_dataset(results)
     except Exception as exc:  # noqa: BLE001 - any reader failure means "unreadable"
@@ -62,7 +82,7 @@ def report_command(results: Path, outdir: Path | None = None) -> int:
         if kind_of(ds) is not None:  # a posterior (vsi calibrate) or reliability file
             from vsi_numba.cli.existing import existing_report
 
-            return existing_report(ds, results, outdir, pr)
+            return existing_report(ds, results, given, pr)
         # ds stays lazy: the report loads the envelopes and reads the time histories one
         # case at a time (memory independent of the study's size)
         if "variant" in ds.dims:  # a parametric study: the report over the variants
@@ -87,10 +107,9 @@ def report_command(results: Path, outdir: Path | None = None) -> int:
                   + (f"; e.g. {msgs[0]}" if msgs else "") + ". Fix the run (see the "
                   "warnings and docs/reference/troubleshooting.md) and run it again")
             return 1
-        for r in stored_warnings(data):
-            error(f"warning: {r['message']}")
-        if outdir is None:
-            outdir = results.with_name(f"{results.stem}_report")
+        warnings = [str(r["message"]) for r in stored_warnings(data)]
+        for line in warnings:
+            error(f"warning: {line}")
         try:
             with sigterm_as_interrupt():
                 path = writer(data, outdir, source_path=results)
@@ -111,6 +130,7 @@ def report_command(results: Path, outdir: Path | None = None) -> int:
             error(f"cannot write the report to '{outdir}': {describe(exc)}; nothing was "
                   "written (an earlier report there is kept)")
             return 1
+    kept.remember_directory("report", outdir, sig, warnings=warnings)
     pr.line(f"report written to {path.with_suffix('.html')} (and {path.name}, "
             f"{'variants.csv' if path.parent.joinpath('variants.csv').is_file() else 'tables/'}"
             ", tables.xlsx)")

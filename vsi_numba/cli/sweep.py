@@ -79,18 +79,20 @@ def sweep_command(config: Path, output: Path | None, workers: int | None,
                     1)
     try:  # Ctrl-C or SIGTERM between the phases: 130 as in them, no traceback
         with sigterm_as_interrupt():
-            _print_governing(out_path, pr)
+            _print_governing(out_path, pr, fresh)
     except KeyboardInterrupt:
         return fail(f"interrupted: the results file {out_path} is written"
                     + ("; no report was made" if report_dir is not None else ""), 130)
     if report_dir is not None:  # 0 or 1 here: the results file is written
-        code = code or _report(out_path, report_dir, quiet)
+        code = code or _report(out_path, report_dir, quiet, fresh)
     return code
 
 
-def _report(out_path: Path, report_dir: Path, quiet: bool) -> int:
+def _report(out_path: Path, report_dir: Path, quiet: bool, fresh: bool = False) -> int:
     """``vsi report`` of the written file; with ``quiet`` its warning lines (the
-    configuration's warnings stored in the file) are left out, its errors kept."""
+    configuration's warnings stored in the file) are left out, its errors kept; a report
+    of the same file, options and code is kept (:mod:`vsi_numba.cli.kept`) unless
+    ``fresh``."""
     import contextlib
     import io
     import sys
@@ -98,10 +100,10 @@ def _report(out_path: Path, report_dir: Path, quiet: bool) -> int:
     from vsi_numba.cli.report import report_command
 
     if not quiet:
-        return report_command(out_path, report_dir)
+        return report_command(out_path, report_dir, fresh)
     buf = io.StringIO()
     with contextlib.redirect_stderr(buf):
-        code = report_command(out_path, report_dir)
+        code = report_command(out_path, report_dir, fresh)
     kept = [line for line in buf.getvalue().splitlines()
             if not line.startswith("vsi report: warning:")]
     if kept:
@@ -109,10 +111,19 @@ def _report(out_path: Path, report_dir: Path, quiet: bool) -> int:
     return code
 
 
-def _print_governing(path: Path, pr: Printer) -> None:
+def _print_governing(path: Path, pr: Printer, fresh: bool = False) -> None:
     """The governing result of every check (:func:`vsi_numba.cli.governing.governing_lines`)
     on stdout; a results file the checks cannot read gives one error line (the sweep's
-    exit code stays that of the sweep)."""
+    exit code stays that of the sweep).  The lines of the same results file and code are
+    those recorded when they were computed (:mod:`vsi_numba.cli.kept`) unless ``fresh``."""
+    from vsi_numba.cli import kept
+
+    sig = kept.signature("governing", path)
+    record = None if fresh else kept.kept_value("governing", path, sig)
+    lines = record.get("lines") if record is not None else None
+    if isinstance(lines, list) and all(isinstance(x, str) for x in lines):
+        _show_governing(path, lines, pr)
+        return
     import xarray as xr
 
     from vsi_numba.cli.governing import governing_lines
@@ -127,6 +138,11 @@ def _print_governing(path: Path, pr: Printer) -> None:
         pr.error(f"{path}: the governing results cannot be computed ({type(exc).__name__}: "
                  f"{exc}); `vsi report {path}` shows the checks")
         return
+    kept.remember_value("governing", path, sig, lines=[str(x) for x in lines])
+    _show_governing(path, lines, pr)
+
+
+def _show_governing(path: Path, lines: list, pr: Printer) -> None:
     pr.line(f"governing results ({path}):")
     for line in lines:
         pr.line(f"  {line}")

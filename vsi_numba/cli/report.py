@@ -32,7 +32,7 @@ def report_command(results: Path, outdir: Path | None = None, fresh: bool = Fals
         traceback).
 
     A report directory written from the same results file, options and code, and left
-    as it was written, is kept as it is (:mod:`vsi_numba.cli.kept`; ``fresh`` writes it
+    as it was written, is kept as it is (:mod:`vsi_numba.io.kept`; ``fresh`` writes it
     again).
     """
     pr = Printer()
@@ -47,7 +47,7 @@ def report_command(results: Path, outdir: Path | None = None, fresh: bool = Fals
     if not results.is_file():
         error(f"'{results}' is not a file")
         return EXIT_USAGE
-    from vsi_numba.cli import kept
+    from vsi_numba.io import kept
 
     given = outdir
     if outdir is None:

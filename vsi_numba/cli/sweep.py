@@ -23,7 +23,6 @@ def sweep_command(config: Path, output: Path | None, workers: int | None,
     there (:func:`vsi_numba.cli.report.report_command`); the first non-zero code wins.
     """
     from vsi_numba.config import ConfigError
-    from vsi_numba.study import runner
     from vsi_numba.study.store import StudyError
 
     pr = Printer()
@@ -58,9 +57,14 @@ def sweep_command(config: Path, output: Path | None, workers: int | None,
         parts += ["--fresh"]
     try:
         with sigterm_as_interrupt():
-            outcome = runner.execute_study(cfg, output, workers=workers, scheduler=scheduler,
-                                           progress=not quiet, fresh=fresh, quiet=quiet,
-                                           command=" ".join(parts))
+            outcome = None if fresh else _written(cfg, out_path, quiet, " ".join(parts))
+            if outcome is None:
+                from vsi_numba.study import runner
+
+                outcome = runner.execute_study(cfg, output, workers=workers,
+                                               scheduler=scheduler, progress=not quiet,
+                                               fresh=fresh, quiet=quiet,
+                                               command=" ".join(parts))
     except ConfigError as exc:
         pr.config_error(config, exc)
         return EXIT_USAGE
@@ -88,10 +92,25 @@ def sweep_command(config: Path, output: Path | None, workers: int | None,
     return code
 
 
+def _written(cfg, out_path: Path, quiet: bool, command: str):
+    """The study's results file when it is written and its inputs are unchanged
+    (:mod:`vsi_numba.study.unchanged`), decided under the output's lock without importing
+    the engine; else None."""
+    from vsi_numba.study import unchanged
+    from vsi_numba.study.outlock import OutputLock
+    from vsi_numba.study.progress import _say
+
+    with OutputLock(out_path, command):
+        written = unchanged.finished(cfg, out_path)
+    if written is not None:
+        _say(quiet, unchanged.message(written.n_runs, out_path))
+    return written
+
+
 def _report(out_path: Path, report_dir: Path, quiet: bool, fresh: bool = False) -> int:
     """``vsi report`` of the written file; with ``quiet`` its warning lines (the
     configuration's warnings stored in the file) are left out, its errors kept; a report
-    of the same file, options and code is kept (:mod:`vsi_numba.cli.kept`) unless
+    of the same file, options and code is kept (:mod:`vsi_numba.io.kept`) unless
     ``fresh``."""
     import contextlib
     import io
@@ -115,8 +134,8 @@ def _print_governing(path: Path, pr: Printer, fresh: bool = False) -> None:
     """The governing result of every check (:func:`vsi_numba.cli.governing.governing_lines`)
     on stdout; a results file the checks cannot read gives one error line (the sweep's
     exit code stays that of the sweep).  The lines of the same results file and code are
-    those recorded when they were computed (:mod:`vsi_numba.cli.kept`) unless ``fresh``."""
-    from vsi_numba.cli import kept
+    those recorded when they were computed (:mod:`vsi_numba.io.kept`) unless ``fresh``."""
+    from vsi_numba.io import kept
 
     sig = kept.signature("governing", path)
     record = None if fresh else kept.kept_value("governing", path, sig)

@@ -8,6 +8,14 @@ variants of ``study.vary`` and the exit codes, :mod:`.store` for resume and
 :mod:`.backends` for the parallel backends.
 """
 
-from vsi_numba.study.runner import StudySpec, run_case, run_study, study_spec
-
 __all__ = ["StudySpec", "run_case", "run_study", "study_spec"]
+
+
+def __getattr__(name):
+    """The names of :data:`__all__` from :mod:`.runner`, imported when first used (a
+    command that finds its study written imports no engine: :mod:`.unchanged`)."""
+    if name in __all__:
+        from vsi_numba.study import runner
+
+        return getattr(runner, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -68,6 +68,7 @@ from vsi_numba.study.spec import (  # noqa: F401 - StudySpec, study_model: the A
     study_model,
     study_spec,
 )
+from vsi_numba.study import unchanged
 from vsi_numba.study.store import (
     CaseStore,
     OutputNotWritableError,
@@ -290,6 +291,11 @@ def execute_study(config, output=None, workers=None, scheduler=None, progress=Fa
 def _execute_locked(cfg, spec, output, workers, scheduler, progress, backend, fresh,
                     keep_cases, quiet, command, first_case) -> StudyOutcome:
     """:func:`execute_study` once the output's lock is held."""
+    if not fresh and not first_case:
+        written = unchanged.finished(cfg, output)  # by its signature: no model built
+        if written is not None:
+            _say(quiet, unchanged.message(written.n_runs, output))
+            return StudyOutcome(output, written.n_runs, written.n_failed, written.n_batches)
     config_json = spec.config_json
     sha = cfg.sha256
     variants = list(getattr(cfg, "variants", []) or []) if not first_case else []
@@ -335,8 +341,9 @@ def _execute_locked(cfg, spec, output, workers, scheduler, progress, backend, fr
         n_failed = finished_earlier(output, sha, model_sha, plan_sha)
         if n_failed is not None:  # the same study, written: nothing to recompute
             n_runs = len(grid.cases) * len(models)
-            _say(quiet, f"{n_runs} runs: {output} holds them, written for this configuration, "
-                        "model and code; nothing recomputed (--fresh recomputes them)")
+            _say(quiet, unchanged.message(n_runs, output))
+            if not first_case:
+                unchanged.remember(cfg, output, n_runs, n_failed, len(plan))
             return StudyOutcome(output, n_runs, n_failed, len(plan))
     store = CaseStore(spath, sha, config_json, fresh=fresh,
                       model_sha256=model_sha, plan_sha256=plan_sha)
@@ -344,13 +351,16 @@ def _execute_locked(cfg, spec, output, workers, scheduler, progress, backend, fr
                    config_json, sha, command)
     try:
         with store:
-            return _execute(store, study, output, backend, workers, scheduler, progress,
-                            keep_cases, quiet)
+            outcome = _execute(store, study, output, backend, workers, scheduler, progress,
+                               keep_cases, quiet)
     except BaseException:
         # a run that stored nothing leaves nothing behind (e.g. an unreachable scheduler)
         if not store_existed and store.path.is_dir() and not store.done():
             store.remove()
         raise
+    if not first_case and not keep_cases:
+        unchanged.remember(cfg, output, outcome.n_runs, outcome.n_failed, outcome.n_batches)
+    return outcome
 
 
 def _execute(store, study: _Study, output, backend, workers, scheduler, progress,

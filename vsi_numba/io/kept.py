@@ -218,3 +218,26 @@ def remember_value(kind: str, target: Path, sig: str | None, **payload) -> None:
     """Record such an output."""
     if sig is not None:
         _write(kind, target, {"signature": sig, **payload})
+
+
+def study_signature(cfg, output: Path) -> str | None:
+    """The signature of a study's results file ``output`` as the study ``cfg`` would write
+    it: the configuration's hash (:attr:`~vsi_numba.config.core.Config.sha256`), the
+    contents of the files it reads (:func:`vsi_numba.io.paths.input_files`), the package's
+    sources and the libraries' versions, and the bytes of ``output``; None when records
+    are off or something cannot be read.  Equal signatures mean that the model, the plan
+    and the code the file was written with are those the study would use now, without
+    building the model."""
+    if cache_dir() is None:
+        return None
+    from vsi_numba._jit import package_hash
+    from vsi_numba.io.paths import input_files
+
+    try:
+        output = Path(output).resolve()
+        parts = [_FORMAT, "study", str(cfg.sha256), str(output), file_sha256(output),
+                 package_hash(Path(__file__).resolve().parents[1]), *_versions()]
+        parts += [f"{what} {path} {file_sha256(path)}" for what, path in input_files(cfg)]
+    except Exception:  # noqa: BLE001 - an input that cannot be read: decide the long way
+        return None
+    return hashlib.sha256("\n".join(parts).encode("utf-8", "surrogateescape")).hexdigest()

@@ -33,13 +33,13 @@ kernels.
 
 from __future__ import annotations
 
-import hashlib
 import os
-from pathlib import Path
 
 import numba
 from numba.core import caching
 from numba.core.registry import CPUDispatcher
+
+from vsi_numba._sources import _sources, package_hash  # noqa: F401 - the API here
 
 JIT_OPTIONS = {"cache": True, "nogil": True, "fastmath": False, "error_model": "numpy",
                "_nrt": False, "no_cfunc_wrapper": True}
@@ -90,27 +90,6 @@ _PACKAGES: set[str] = set()
 
 def _package_dir(py_file: str) -> str:
     return os.path.dirname(os.path.abspath(py_file))
-
-
-def _sources(directory: str) -> list[Path]:
-    return sorted(p for p in Path(directory).rglob("*.py") if "__pycache__" not in p.parts)
-
-
-_hashes: dict[tuple, str] = {}
-
-
-def package_hash(directory: str | os.PathLike) -> str:
-    """SHA-256 of every ``.py`` file under ``directory`` (names and bytes, in name order);
-    recomputed when a file's size or modification time changes."""
-    files = _sources(str(directory))
-    key = tuple((str(p), st.st_mtime_ns, st.st_size) for p in files for st in [p.stat()])
-    if key not in _hashes:
-        h = hashlib.sha256()
-        for p in files:
-            h.update(p.relative_to(directory).as_posix().encode() + b"\0")
-            h.update(p.read_bytes() + b"\0")
-        _hashes[key] = h.hexdigest()
-    return _hashes[key]
 
 
 class PackageSourceLocator(caching._CacheLocator):

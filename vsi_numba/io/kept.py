@@ -6,7 +6,7 @@ lines the sweep prints - is the same when it is made again from the same inputs.
 *signature* is the SHA-256 of those inputs:
 
 * the bytes of the results file;
-* the package's sources (:func:`vsi_numba._jit.package_hash`: an edit of the code or
+* the package's sources (:func:`vsi_numba._sources.package_hash`: an edit of the code or
   another version of it) and the versions of Python and of the libraries whose output
   the report holds (numpy, matplotlib's PNG, openpyxl's workbook, ...);
 * where it is made: the results file's absolute path, the output's, the working
@@ -119,7 +119,7 @@ def signature(kind: str, results: Path, output: Path | None = None) -> str | Non
     module), or None when records are off or an input cannot be read."""
     if cache_dir() is None:
         return None
-    from vsi_numba._jit import package_hash
+    from vsi_numba._sources import package_hash
 
     try:
         results = Path(results).resolve()
@@ -230,7 +230,7 @@ def study_signature(cfg, output: Path) -> str | None:
     building the model."""
     if cache_dir() is None:
         return None
-    from vsi_numba._jit import package_hash
+    from vsi_numba._sources import package_hash
     from vsi_numba.io.paths import input_files
 
     try:

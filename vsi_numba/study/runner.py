@@ -39,6 +39,7 @@ from pathlib import Path
 from threadpoolctl import threadpool_limits
 
 from vsi_numba.io.paths import output_conflict
+from vsi_numba.study import unchanged
 from vsi_numba.study.backends import (
     ProcessBackend,
     SerialBackend,
@@ -68,7 +69,6 @@ from vsi_numba.study.spec import (  # noqa: F401 - StudySpec, study_model: the A
     study_model,
     study_spec,
 )
-from vsi_numba.study import unchanged
 from vsi_numba.study.store import (
     CaseStore,
     OutputNotWritableError,

@@ -30,6 +30,10 @@ if (threading.current_thread() is threading.main_thread()
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 threadpool_limits(limits=1, user_api="blas")
 
+# Every command makes its outputs again (no records of written outputs in the user's
+# cache, vsi_numba.io.kept): a test that keeps outputs sets a directory of its own.
+os.environ["VSI_OUTPUT_CACHE"] = "off"
+
 
 def pytest_configure(config):
     if hasattr(config, "workerinput"):  # a pytest-xdist worker: the controller did it

@@ -83,12 +83,12 @@ def sweep_command(config: Path, output: Path | None, workers: int | None,
                     1)
     try:  # Ctrl-C or SIGTERM between the phases: 130 as in them, no traceback
         with sigterm_as_interrupt():
-            _print_governing(out_path, pr, fresh)
+            _print_governing(out_path, pr)
     except KeyboardInterrupt:
         return fail(f"interrupted: the results file {out_path} is written"
                     + ("; no report was made" if report_dir is not None else ""), 130)
     if report_dir is not None:  # 0 or 1 here: the results file is written
-        code = code or _report(out_path, report_dir, quiet, fresh)
+        code = code or _report(out_path, report_dir, quiet)
     return code
 
 
@@ -107,11 +107,11 @@ def _written(cfg, out_path: Path, quiet: bool, command: str):
     return written
 
 
-def _report(out_path: Path, report_dir: Path, quiet: bool, fresh: bool = False) -> int:
+def _report(out_path: Path, report_dir: Path, quiet: bool) -> int:
     """``vsi report`` of the written file; with ``quiet`` its warning lines (the
     configuration's warnings stored in the file) are left out, its errors kept; a report
-    of the same file, options and code is kept (:mod:`vsi_numba.io.kept`) unless
-    ``fresh``."""
+    of the same file, options and code is kept (:mod:`vsi_numba.io.kept`: a file written
+    again, ``--fresh``, is another file)."""
     import contextlib
     import io
     import sys
@@ -119,10 +119,10 @@ def _report(out_path: Path, report_dir: Path, quiet: bool, fresh: bool = False) 
     from vsi_numba.cli.report import report_command
 
     if not quiet:
-        return report_command(out_path, report_dir, fresh)
+        return report_command(out_path, report_dir)
     buf = io.StringIO()
     with contextlib.redirect_stderr(buf):
-        code = report_command(out_path, report_dir, fresh)
+        code = report_command(out_path, report_dir)
     kept = [line for line in buf.getvalue().splitlines()
             if not line.startswith("vsi report: warning:")]
     if kept:
@@ -130,15 +130,15 @@ def _report(out_path: Path, report_dir: Path, quiet: bool, fresh: bool = False) 
     return code
 
 
-def _print_governing(path: Path, pr: Printer, fresh: bool = False) -> None:
+def _print_governing(path: Path, pr: Printer) -> None:
     """The governing result of every check (:func:`vsi_numba.cli.governing.governing_lines`)
     on stdout; a results file the checks cannot read gives one error line (the sweep's
     exit code stays that of the sweep).  The lines of the same results file and code are
-    those recorded when they were computed (:mod:`vsi_numba.io.kept`) unless ``fresh``."""
+    those recorded when they were computed (:mod:`vsi_numba.io.kept`)."""
     from vsi_numba.io import kept
 
     sig = kept.signature("governing", path)
-    record = None if fresh else kept.kept_value("governing", path, sig)
+    record = kept.kept_value("governing", path, sig)
     lines = record.get("lines") if record is not None else None
     if isinstance(lines, list) and all(isinstance(x, str) for x in lines):
         _show_governing(path, lines, pr)

@@ -289,6 +289,55 @@ CSV_FLOAT_FORMAT = f"%.{SIGNIFICANT}g"
 RESULT_DIGITS = 12
 
 
+def _text_rounded(values, digits: int) -> list[float]:
+    return [float(f"{x:.{digits}g}") for x in values]
+
+
+def rounded(a, digits: int) -> np.ndarray:
+    """``float(f"{x:.{digits}g}")`` of every element of ``a`` (float64, same shape), bit
+    for bit, computed on whole arrays.
+
+    For a finite non-zero x with decimal exponent e, the text holds the integer m =
+    x 10^k (k = digits - 1 - e) rounded half-even, read back as m / 10^k (m 10^-k for
+    k < 0): with 10^|k| a float64 (|k| <= 22) and |m| < 2^53 that is one correctly rounded
+    operation, as the reading of the text.  The product x 10^k is itself rounded (by half
+    an ulp of a number below 10^digits, far less than 1e-3 for digits <= 15), so m is
+    right wherever the product lies more than 1e-3 from a half-integer and has exactly
+    ``digits`` digits; NaN reads back as the positive NaN, infinities and zeros as
+    themselves; the other elements (near-ties, a wrong e, |k| beyond 22) are formatted
+    as text."""
+    a = np.asarray(a, dtype=np.float64)
+    flat = a.ravel()
+    out = np.empty_like(flat)
+    if digits > 15:
+        out[:] = _text_rounded(flat.tolist(), digits)
+        return out.reshape(a.shape)
+    finite = np.isfinite(flat) & (flat != 0.0)
+    mag = np.abs(np.where(finite, flat, 1.0))
+    with np.errstate(all="ignore"):
+        e = np.floor(np.log10(mag)).astype(np.int64)
+        k = digits - 1 - e
+        ok = finite & (np.abs(k) <= 22)
+        kk = np.where(ok, k, 0)
+        p10 = 10.0 ** np.abs(kk)  # exact: integer powers of ten up to 1e22
+        y = np.where(kk >= 0, flat * p10, flat / p10)
+        m = np.rint(y)
+        frac = np.abs(y - np.trunc(y))
+        am = np.abs(m)
+        ok &= (np.abs(frac - 0.5) > 1e-3) & (am >= 10.0 ** (digits - 1)) & (
+            am < 10.0 ** digits)
+        out[:] = np.where(kk >= 0, m / p10, m * p10)
+    # the text of NaN reads back as the positive quiet NaN, of +-inf and +-0 as themselves
+    nan = np.isnan(flat)
+    out[nan] = np.nan
+    same = np.isinf(flat) | (flat == 0.0)
+    out[same] = flat[same]
+    slow = ~(ok | nan | same)
+    if slow.any():
+        out[slow] = _text_rounded(flat[slow].tolist(), digits)
+    return out.reshape(a.shape)
+
+
 def significant(frame: pd.DataFrame, digits: int = SIGNIFICANT) -> pd.DataFrame:
     """``frame`` with every float cell rounded to ``digits`` significant digits (the
     decimal text of the value read back: what the CSV files hold)."""
@@ -297,8 +346,7 @@ def significant(frame: pd.DataFrame, digits: int = SIGNIFICANT) -> pd.DataFrame:
         col = out.iloc[:, j]
         if pd.api.types.is_float_dtype(col.dtype):
             vals = col.to_numpy(dtype=float)
-            out.isetitem(j, np.array([float(f"{v:.{digits}g}") if np.isfinite(v) else v
-                                      for v in vals.tolist()], dtype=float))
+            out.isetitem(j, np.where(np.isfinite(vals), rounded(vals, digits), vals))
     return out
 
 
@@ -317,9 +365,7 @@ def denoised(ds: xr.Dataset, digits: int = RESULT_DIGITS) -> xr.Dataset:
     for name, v in ds.data_vars.items():
         if v.dtype != np.float64:
             continue
-        a = np.asarray(v.values)
-        flat = [float(f"{x:.{digits}g}") for x in a.ravel().tolist()]
-        out[name] = v.copy(data=np.asarray(flat, float).reshape(a.shape))
+        out[name] = v.copy(data=rounded(v.values, digits))
     return out
 
 

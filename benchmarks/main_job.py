@@ -9,9 +9,12 @@ same load:
 * **sweep** ``vsi sweep study.toml --fresh -q``: the 627 runs computed and written, the
   governing results printed;
 * **report** ``vsi report results.nc -o DIR``: the report of that file;
-* **main job, re-run** ``vsi sweep study.toml --report DIR -q`` on the written study: the
+* **main job, re-run** ``vsi sweep study.toml --report DIR`` on the written study: the
   README's first command a second time (a checkout that leaves a written study as it is
-  computes nothing; one that does not runs the 627 runs again);
+  computes nothing; one that does not runs the 627 runs again), its report new;
+* **main job, warm** the same command once more: the study and its report written (a
+  checkout that keeps a report of unchanged inputs, :mod:`vsi_numba.io.kept`, writes
+  nothing);
 * with ``--cold``: **main job, empty cache** ``vsi sweep study.toml --report DIR -q`` on an
   empty ``NUMBA_CACHE_DIR`` (the kernels compiled in the command), once per checkout.
 
@@ -20,17 +23,22 @@ The commands run as subprocesses (``python -m vsi_numba.cli``, the checkout on
 directory, warm numba cache (``NUMBA_CACHE_DIR`` as set, else a temporary one filled by a
 first untimed run).  *CPU* is user + system time of the command and its children.
 Medians over the rounds; ratios are this checkout's median over the baseline's.  The
-section ``Main job`` of ``reports/benchmarks.md`` is replaced (``--no-write``: printed
-only).
+records of kept outputs go to a temporary directory (``VSI_OUTPUT_CACHE``).  After the
+rounds, each checkout's README command on the written study is profiled once in one
+process (:data:`STAGES`: CPU seconds of the imports, the sweep's decision, the governing
+lines and the parts of the report, the report made whole).  The section ``Main job`` of
+``reports/benchmarks.md`` is replaced (``--no-write``: printed only).
 """
 
 from __future__ import annotations
 
 import argparse
 import datetime as _dt
+import json
 import os
 import shutil
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -47,7 +55,56 @@ BEGIN, END = "<!-- main-job-benchmark:begin -->", "<!-- main-job-benchmark:end -
 #: (key, label) of the warm commands, in the order of a round.
 COMMANDS = (("sweep", "sweep (627 runs computed, `--fresh`)"),
             ("report", "report of the written file"),
-            ("rerun", "main job re-run (`sweep --report` on the written study)"))
+            ("rerun", "main job re-run (`sweep --report` on the written study, report new)"),
+            ("warm", "main job warm (`sweep --report`, study and report written)"))
+
+#: In-process CPU profile of ``vsi sweep study.toml --report DIR -q`` on a written study,
+#: the report made whole (records off): seconds per stage as JSON on stdout.  Stages are
+#: functions of both checkouts, wrapped where they exist; nested ones count inside their
+#: parents (``report`` holds the rest).
+STAGES = r"""
+import importlib, json, os, sys, time
+from pathlib import Path
+T = time.process_time
+acc = {}
+def wrap(mod, name, label):
+    try:
+        m = importlib.import_module(mod)
+        f = getattr(m, name)
+    except (ImportError, AttributeError):
+        return
+    def g(*a, **k):
+        s = T()
+        key = label if label not in acc or not label.startswith("sweep") else (
+            "report: its re-runs through the study engine")
+        try:
+            return f(*a, **k)
+        finally:
+            acc[key] = acc.get(key, 0.0) + T() - s
+    setattr(m, name, g)
+t0 = T()
+from vsi_numba.cli import sweep as sw
+from vsi_numba.study import runner
+acc["imports: the CLI and the study runner"] = T() - t0
+wrap("vsi_numba.study.runner", "execute_study", "sweep: the study found written (or run)")
+wrap("vsi_numba.cli.sweep", "_print_governing", "governing lines")
+wrap("vsi_numba.cli.sweep", "_report", "report, whole")
+s = T()
+import vsi_numba.analysis.report as R
+acc["report: imports (matplotlib, openpyxl, ...)"] = T() - s
+for name, label in [("denoised", "report: results to 12 digits"),
+                    ("write_tables", "report: CSV and XLSX tables")]:
+    wrap("vsi_numba.analysis.report.tables", name, label)
+for name, label in [("_figures", "report: figures, governing cases re-run"),
+                    ("convergence_section", "report: convergence re-runs"),
+                    ("load_effect_checks", "report: load-effect checks"),
+                    ("write_markdown", "report: Markdown + PNG rendering")]:
+    wrap("vsi_numba.analysis.report", name, label)
+wrap("vsi_numba.analysis.checks", "run_checks", "report: checks")
+code = sw.sweep_command(Path("study.toml"), None, None, None, True, False, Path(sys.argv[1]))
+acc["total (in process)"] = T() - t0
+print(json.dumps(acc))
+"""
 
 
 @dataclass
@@ -58,6 +115,7 @@ class Result:
     walls: dict = field(default_factory=dict)
     cpus: dict = field(default_factory=dict)
     cold: dict = field(default_factory=dict)  # label -> (wall, cpu)
+    stages: dict = field(default_factory=dict)  # label -> {stage: CPU s}
     notes: dict = field(default_factory=dict)  # label -> first stderr line of the re-run
     load: tuple = (float("nan"), float("nan"))
     date: str = ""
@@ -73,8 +131,10 @@ class Result:
         return statistics.median(values) if values else float("nan")
 
 
-def _env(root: Path, cache: Path | None) -> dict:
+def _env(root: Path, cache: Path | None, outputs: Path | None = None) -> dict:
     env = user_env()
+    if outputs is not None:
+        env["VSI_OUTPUT_CACHE"] = str(outputs)
     env["PYTHONPATH"] = os.pathsep.join(
         [str(root)] + [p for p in env.get("PYTHONPATH", "").split(os.pathsep) if p])
     if cache is not None:
@@ -113,10 +173,10 @@ def run_main_job_bench(baseline: Path | None = None, rounds: int = 3, cold: bool
             dirs[label] = d
             # untimed: the kernels into the cache, the results file written
             _vsi(res, label, None, ["sweep", "study.toml", "--fresh", "-q"], d,
-                 _env(trees[label], cache))
+                 _env(trees[label], cache, tmp / "outputs"))
         for r in range(rounds):
             for label, root in trees.items():
-                d, env = dirs[label], _env(root, cache)
+                d, env = dirs[label], _env(root, cache, tmp / "outputs")
                 _vsi(res, label, "sweep", ["sweep", "study.toml", "--fresh", "-q"], d, env)
                 shutil.rmtree(d / "rep", ignore_errors=True)
                 _vsi(res, label, "report", ["report", "results.nc", "-o", "rep"], d, env)
@@ -125,7 +185,20 @@ def run_main_job_bench(baseline: Path | None = None, rounds: int = 3, cold: bool
                 res.notes[label] = next((ln.replace(f"{d}{os.sep}", "")
                                          for ln in run.stderr.splitlines()
                                          if ln.startswith("627 runs")), "")
+                _vsi(res, label, "warm", ["sweep", "study.toml", "--report", "rep2"], d, env)
             echo(f"round {r + 1} of {rounds} done")
+        for label, root in trees.items():
+            d = dirs[label]
+            env = _env(root, cache, None)
+            env["VSI_OUTPUT_CACHE"] = "off"
+            shutil.rmtree(d / "rep4", ignore_errors=True)
+            done = subprocess.run([sys.executable, "-c", STAGES, "rep4"], cwd=d, env=env,
+                                  capture_output=True, text=True, timeout=3600)
+            try:
+                res.stages[label] = json.loads(done.stdout.strip().splitlines()[-1])
+            except (ValueError, IndexError):
+                res.errors.append(f"{label} stages: exit {done.returncode}\n"
+                                  f"{done.stderr[-2000:]}")
         if cold:
             for label, root in trees.items():
                 d = dirs[label]
@@ -179,6 +252,19 @@ def markdown(res: Result) -> str:
             row += " | - | -"
         lines.append(row + " |")
     lines.append("")
+    if res.stages:
+        names = list(dict.fromkeys(k for lab in labels for k in res.stages.get(lab, {})))
+        lines += ["CPU seconds by stage of the README command on the written study, the "
+                  "report made whole (records off), one run per checkout in one process "
+                  "(`STAGES` of `benchmarks/main_job.py`; a stage nested in another counts "
+                  "in both):", "",
+                  "| stage | " + " | ".join(f"{lab}: CPU" for lab in labels) + " |",
+                  "|---" * (1 + len(labels)) + "|"]
+        for n in names:
+            cells = [res.stages.get(lab, {}).get(n) for lab in labels]
+            lines.append(f"| {n} | " + " | ".join("-" if c is None else f"{c:.2f} s"
+                                                  for c in cells) + " |")
+        lines.append("")
     for lab in labels:
         if res.notes.get(lab):
             lines.append(f"The re-run of {lab} said: `{res.notes[lab]}`.  ")

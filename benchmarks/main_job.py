@@ -26,7 +26,7 @@ Medians over the rounds; ratios are this checkout's median over the baseline's. 
 records of kept outputs go to a temporary directory (``VSI_OUTPUT_CACHE``).  After the
 rounds, each checkout's README command on the written study is profiled once in one
 process (:data:`STAGES`: CPU seconds of the imports, the sweep's decision, the governing
-lines and the parts of the report, the report made whole).  The section ``Main job`` of
+lines and the parts of the report; the report made whole, then warm).  The section ``Main job`` of
 ``reports/benchmarks.md`` is replaced (``--no-write``: printed only).
 """
 
@@ -115,7 +115,7 @@ class Result:
     walls: dict = field(default_factory=dict)
     cpus: dict = field(default_factory=dict)
     cold: dict = field(default_factory=dict)  # label -> (wall, cpu)
-    stages: dict = field(default_factory=dict)  # label -> {stage: CPU s}
+    stages: dict = field(default_factory=dict)  # "label, mode" -> {stage: CPU s}
     notes: dict = field(default_factory=dict)  # label -> first stderr line of the re-run
     load: tuple = (float("nan"), float("nan"))
     date: str = ""
@@ -187,18 +187,23 @@ def run_main_job_bench(baseline: Path | None = None, rounds: int = 3, cold: bool
                                          if ln.startswith("627 runs")), "")
                 _vsi(res, label, "warm", ["sweep", "study.toml", "--report", "rep2"], d, env)
             echo(f"round {r + 1} of {rounds} done")
-        for label, root in trees.items():
-            d = dirs[label]
-            env = _env(root, cache, None)
-            env["VSI_OUTPUT_CACHE"] = "off"
-            shutil.rmtree(d / "rep4", ignore_errors=True)
-            done = subprocess.run([sys.executable, "-c", STAGES, "rep4"], cwd=d, env=env,
-                                  capture_output=True, text=True, timeout=3600)
-            try:
-                res.stages[label] = json.loads(done.stdout.strip().splitlines()[-1])
-            except (ValueError, IndexError):
-                res.errors.append(f"{label} stages: exit {done.returncode}\n"
-                                  f"{done.stderr[-2000:]}")
+        # whole: records off, a new report directory; warm: the rounds' records and
+        # report directory (rep2), as the README command finds them the next time
+        for mode, outputs, rep in (("whole", "off", "rep4"), ("warm", None, "rep2")):
+            for label, root in trees.items():
+                d = dirs[label]
+                env = _env(root, cache, tmp / "outputs")
+                if outputs is not None:
+                    env["VSI_OUTPUT_CACHE"] = outputs
+                    shutil.rmtree(d / rep, ignore_errors=True)
+                done = subprocess.run([sys.executable, "-c", STAGES, rep], cwd=d, env=env,
+                                      capture_output=True, text=True, timeout=3600)
+                try:
+                    res.stages[f"{label}, {mode}"] = json.loads(
+                        done.stdout.strip().splitlines()[-1])
+                except (ValueError, IndexError):
+                    res.errors.append(f"{label} stages ({mode}): exit {done.returncode}\n"
+                                      f"{done.stderr[-2000:]}")
         if cold:
             for label, root in trees.items():
                 d = dirs[label]
@@ -253,15 +258,18 @@ def markdown(res: Result) -> str:
         lines.append(row + " |")
     lines.append("")
     if res.stages:
-        names = list(dict.fromkeys(k for lab in labels for k in res.stages.get(lab, {})))
-        lines += ["CPU seconds by stage of the README command on the written study, the "
-                  "report made whole (records off), one run per checkout in one process "
-                  "(`STAGES` of `benchmarks/main_job.py`; a stage nested in another counts "
-                  "in both):", "",
-                  "| stage | " + " | ".join(f"{lab}: CPU" for lab in labels) + " |",
-                  "|---" * (1 + len(labels)) + "|"]
+        cols = list(res.stages)
+        names = list(dict.fromkeys(k for c in cols for k in res.stages[c]))
+        lines += ["CPU seconds by stage of the README command on the written study, one "
+                  "run per checkout in one process (`STAGES` of `benchmarks/main_job.py`; "
+                  "a stage nested in another counts in both; '-': not reached): *whole*, "
+                  "the report made whole (records of kept outputs off, a new directory); "
+                  "*warm*, the study and its report as the rounds left them (a checkout "
+                  "without records makes the report again):", "",
+                  "| stage | " + " | ".join(f"{c}: CPU" for c in cols) + " |",
+                  "|---" * (1 + len(cols)) + "|"]
         for n in names:
-            cells = [res.stages.get(lab, {}).get(n) for lab in labels]
+            cells = [res.stages[c].get(n) for c in cols]
             lines.append(f"| {n} | " + " | ".join("-" if c is None else f"{c:.2f} s"
                                                   for c in cells) + " |")
         lines.append("")

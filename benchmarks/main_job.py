@@ -58,12 +58,13 @@ COMMANDS = (("sweep", "sweep (627 runs computed, `--fresh`)"),
             ("rerun", "main job re-run (`sweep --report` on the written study, report new)"),
             ("warm", "main job warm (`sweep --report`, study and report written)"))
 
-#: In-process CPU profile of ``vsi sweep study.toml --report DIR -q`` on a written study,
-#: the report made whole (records off): seconds per stage as JSON on stdout.  Stages are
+#: In-process CPU profile of ``vsi sweep study.toml --report DIR -q`` on a written study
+#: (``argv``: DIR, then ``whole``: the report made whole, records off; ``warm``: as the
+#: records are): seconds per stage as JSON on stdout.  Stages are
 #: functions of both checkouts, wrapped where they exist; nested ones count inside their
 #: parents (``report`` holds the rest).
 STAGES = r"""
-import importlib, json, os, sys, time
+import importlib, importlib.util, json, os, sys, time
 from pathlib import Path
 T = time.process_time
 acc = {}
@@ -82,25 +83,33 @@ def wrap(mod, name, label):
         finally:
             acc[key] = acc.get(key, 0.0) + T() - s
     setattr(m, name, g)
+whole = sys.argv[2] == "whole"
 t0 = T()
 from vsi_numba.cli import sweep as sw
-from vsi_numba.study import runner
-acc["imports: the CLI and the study runner"] = T() - t0
-wrap("vsi_numba.study.runner", "execute_study", "sweep: the study found written (or run)")
+# the study runner (the engine) where the command imports it: a warm command of a
+# checkout that finds its study by its record does not
+kept = not whole and importlib.util.find_spec("vsi_numba.study.unchanged") is not None
+if not kept:
+    from vsi_numba.study import runner
+acc["imports: the CLI (and the study runner where used)"] = T() - t0
+if "vsi_numba.study.runner" in sys.modules:
+    wrap("vsi_numba.study.runner", "execute_study", "sweep: the study found written (or run)")
+wrap("vsi_numba.cli.sweep", "_written", "sweep: the study found written (or run)")
 wrap("vsi_numba.cli.sweep", "_print_governing", "governing lines")
 wrap("vsi_numba.cli.sweep", "_report", "report, whole")
-s = T()
-import vsi_numba.analysis.report as R
-acc["report: imports (matplotlib, openpyxl, ...)"] = T() - s
-for name, label in [("denoised", "report: results to 12 digits"),
-                    ("write_tables", "report: CSV and XLSX tables")]:
-    wrap("vsi_numba.analysis.report.tables", name, label)
-for name, label in [("_figures", "report: figures, governing cases re-run"),
-                    ("convergence_section", "report: convergence re-runs"),
-                    ("load_effect_checks", "report: load-effect checks"),
-                    ("write_markdown", "report: Markdown + PNG rendering")]:
-    wrap("vsi_numba.analysis.report", name, label)
-wrap("vsi_numba.analysis.checks", "run_checks", "report: checks")
+if not kept:  # (the warm command of a checkout with records imports none of the report)
+    s = T()
+    import vsi_numba.analysis.report as R
+    acc["report: imports (matplotlib, openpyxl, ...)"] = T() - s
+    for name, label in [("denoised", "report: results to 12 digits"),
+                        ("write_tables", "report: CSV and XLSX tables")]:
+        wrap("vsi_numba.analysis.report.tables", name, label)
+    for name, label in [("_figures", "report: figures, governing cases re-run"),
+                        ("convergence_section", "report: convergence re-runs"),
+                        ("load_effect_checks", "report: load-effect checks"),
+                        ("write_markdown", "report: Markdown + PNG rendering")]:
+        wrap("vsi_numba.analysis.report", name, label)
+    wrap("vsi_numba.analysis.checks", "run_checks", "report: checks")
 code = sw.sweep_command(Path("study.toml"), None, None, None, True, False, Path(sys.argv[1]))
 acc["total (in process)"] = T() - t0
 print(json.dumps(acc))
@@ -196,7 +205,7 @@ def run_main_job_bench(baseline: Path | None = None, rounds: int = 3, cold: bool
                 if outputs is not None:
                     env["VSI_OUTPUT_CACHE"] = outputs
                     shutil.rmtree(d / rep, ignore_errors=True)
-                done = subprocess.run([sys.executable, "-c", STAGES, rep], cwd=d, env=env,
+                done = subprocess.run([sys.executable, "-c", STAGES, rep, mode], cwd=d, env=env,
                                       capture_output=True, text=True, timeout=3600)
                 try:
                     res.stages[f"{label}, {mode}"] = json.loads(

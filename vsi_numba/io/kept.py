@@ -7,8 +7,9 @@ lines the sweep prints - is the same when it is made again from the same inputs.
 
 * the bytes of the results file;
 * the package's sources (:func:`vsi_numba._sources.package_hash`: an edit of the code or
-  another version of it) and the versions of Python and of the libraries whose output
-  the report holds (numpy, matplotlib's PNG, openpyxl's workbook, ...);
+  another version of it), the versions of Python and of the libraries whose output the
+  report holds (numpy, matplotlib's PNG, openpyxl's workbook, ...), the machine and
+  numba's target CPU settings;
 * where it is made: the results file's absolute path, the output's, the working
   directory (the stored configuration's relative paths resolve against them);
 * the files the stored configuration names (every string of ``config_json`` that names
@@ -60,10 +61,19 @@ def file_sha256(path: Path) -> str:
     return h.hexdigest()
 
 
+#: Environment variables that can change the bytes of a re-run (numba's target CPU).
+_ENVIRONMENT = ("NUMBA_CPU_NAME", "NUMBA_CPU_FEATURES", "NUMBA_OPT")
+
+
 def _versions() -> list[str]:
+    """Python's and the libraries' versions, the machine (its name, architecture) and
+    :data:`_ENVIRONMENT`: a record in a cache shared between machines is not another
+    machine's."""
+    import platform
     from importlib import metadata
 
-    out = [f"python {sys.version}"]
+    out = [f"python {sys.version}", f"machine {platform.node()} {platform.machine()}"]
+    out += [f"{k}={os.environ.get(k, '')}" for k in _ENVIRONMENT]
     for name in _LIBRARIES:
         try:
             out.append(f"{name} {metadata.version(name)}")

@@ -94,7 +94,7 @@ if not kept:
 acc["imports: the CLI (and the study runner where used)"] = T() - t0
 if "vsi_numba.study.runner" in sys.modules:
     wrap("vsi_numba.study.runner", "execute_study", "sweep: the study found written (or run)")
-wrap("vsi_numba.cli.sweep", "_written", "sweep: the study found written (or run)")
+wrap("vsi_numba.cli.sweep", "_written", "sweep: the study found by its record (or not)")
 wrap("vsi_numba.cli.sweep", "_print_governing", "governing lines")
 wrap("vsi_numba.cli.sweep", "_report", "report, whole")
 if not kept:  # (the warm command of a checkout with records imports none of the report)

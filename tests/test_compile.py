@@ -80,45 +80,73 @@ def test_vsi_compile__an_unknown_family_is_a_usage_error():
     assert "--family 'maglev': expected one of moving_force, interaction" in done.stderr
 
 
-def test_vsi_compile__two_processes_on_an_empty_cache_compile_once(tmp_path):
-    """Two ``vsi compile --family moving_force`` at once on an empty cache: one compiles
-    (holding the lock), the other waits and loads the kernels from the cache; a process
-    started afterwards sees the stamp (:func:`is_cached`) without compiling."""
-    cache = tmp_path / "cache"
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(cache)}
-    code = "from vsi_numba.solver import kernel_cache as kc; print(kc.is_cached({!r}))"
-    ask = [sys.executable, "-c", code.format("moving_force")]
-    assert subprocess.run(ask, env=env, capture_output=True, text=True,
-                          check=True).stdout.strip() == "False"
-    procs = [subprocess.Popen([*VSI, "compile", "--family", "moving_force"], env=env,
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+def _is_cached(family: str, cache) -> bool:
+    """``kc.is_cached(family)`` in a fresh process on the cache directory ``cache``."""
+    code = f"from vsi_numba.solver import kernel_cache as kc; print(kc.is_cached({family!r}))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env={**os.environ, "NUMBA_CACHE_DIR": str(cache)},
+                         check=True).stdout.strip()
+    assert out in ("True", "False"), out
+    return out == "True"
+
+
+def _build_generic(root) -> dict:
+    """Two ``vsi compile --family moving_force --into DIR`` at once on an empty DIR (the
+    one compilation from an empty cache of this file: the two tests below check it), with
+    what a fresh process on DIR says of the two families before and after."""
+    from vsi_numba._jit import GENERIC_MARK
+
+    built = root / "built"
+    built.mkdir()
+    (built / GENERIC_MARK).touch()  # as --into marks it: the processes asking see generic
+    before = _is_cached("moving_force", built)
+    procs = [subprocess.Popen([*VSI, "compile", "--family", "moving_force", "--into",
+                               str(built)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True)
              for _ in range(2)]
     outs = [p.communicate(timeout=900) for p in procs]
-    assert [p.returncode for p in procs] == [0, 0], outs
-    hows = sorted(out.split(":")[1].split("(")[0].strip() for out, _ in outs)
-    assert hows == ["compiled", "loaded"], outs
-    assert subprocess.run(ask, env=env, capture_output=True, text=True,
-                          check=True).stdout.strip() == "True"
-    ask = [sys.executable, "-c", code.format("interaction")]  # not compiled there
-    assert subprocess.run(ask, env=env, capture_output=True, text=True,
-                          check=True).stdout.strip() == "False"
+    return {"built": str(built), "before": before, "codes": [p.returncode for p in procs],
+            "outs": outs, "after": _is_cached("moving_force", built),
+            "interaction": _is_cached("interaction", built)}
 
 
-def test_vsi_compile_into__a_copied_generic_cache_loads_elsewhere(tmp_path):
+@pytest.fixture()
+def generic_build(tmp_path_factory) -> dict:
+    from tests.shared import shared_once
+
+    return shared_once(tmp_path_factory, "compile-generic", _build_generic)[1]
+
+
+def test_vsi_compile__two_processes_on_an_empty_cache_compile_once(generic_build):
+    """Two ``vsi compile --family moving_force`` at once on an empty cache (for a generic
+    CPU, ``--into``: the compile lock and the stamp are those of any cache): one compiles
+    (holding the lock), the other waits and loads the kernels from the cache; a process
+    started afterwards sees the stamp (:func:`is_cached`) without compiling."""
+    b = generic_build
+    assert b["before"] is False
+    assert b["codes"] == [0, 0], b["outs"]
+    hows = sorted(out.split(":")[1].split("(")[0].strip() for out, _ in b["outs"])
+    assert hows == ["compiled", "loaded"], b["outs"]
+    assert b["after"] is True
+    assert b["interaction"] is False  # not compiled there
+
+
+def test_vsi_compile_into__a_copied_generic_cache_loads_elsewhere(generic_build, tmp_path):
     """``vsi compile --into DIR`` compiles for a generic CPU into DIR (its marker file,
     the kernels under ``vsi_numba.kernels-HASH``: no path of this machine); a copy of DIR
     at another path, used as ``NUMBA_CACHE_DIR``, makes the process target the generic
     CPU and load the kernels (a host-CPU process would miss numba's index key and
     compile), and a plain cache directory gives a host-CPU process."""
     import shutil
+    from pathlib import Path
 
     from vsi_numba._jit import GENERIC_MARK
 
-    built = tmp_path / "built"
-    done = _vsi("compile", "--family", "moving_force", "--into", str(built))
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.splitlines()[0].startswith("moving_force: compiled ("), done.stdout
-    assert f"NUMBA_CACHE_DIR={built}" in done.stdout.replace("\n", "")
+    built = Path(generic_build["built"])
+    assert generic_build["codes"] == [0, 0], generic_build["outs"]
+    [out] = [o for o, _ in generic_build["outs"] if "compiled (" in o]
+    assert out.splitlines()[0].startswith("moving_force: compiled ("), out
+    assert f"NUMBA_CACHE_DIR={built}" in out.replace("\n", "")
     assert (built / GENERIC_MARK).is_file()
     subdirs = [p.name for p in built.iterdir() if p.is_dir()]
     assert len(subdirs) == 1 and subdirs[0].startswith("vsi_numba.kernels-"), subdirs

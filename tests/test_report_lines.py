@@ -402,35 +402,40 @@ def summary_rows(text: str) -> list[dict]:
 PLACE = re.compile(r"x = -?[\d.]+ ?m|\bspan \d|\bsection\b|\btrack \d|\baxle \d|vehicle")
 
 
-@pytest.mark.slow  # ten sweeps and reports (about 70 s on one core)
+BUNDLED = sorted((ROOT / "configs").glob("*.toml"))
+
+
+def test_bundled_configs__at_least_ten():
+    assert len(BUNDLED) >= 10
+
+
+@pytest.mark.slow  # a sweep and its report per bundled configuration (~7 s each)
+@pytest.mark.parametrize("cfg", BUNDLED, ids=[c.stem for c in BUNDLED])
 def test_report__every_bundled_config_states_each_verdicts_quantity_place_and_limit(
-        tmp_path):
-    configs = sorted((ROOT / "configs").glob("*.toml"))
-    assert len(configs) >= 10
+        tmp_path, cfg):
     shutil.copytree(ROOT / "configs" / "data", tmp_path / "data")
-    for cfg in configs:
-        text, rep = sweep_report(tmp_path, _toml(reduced(cfg)), cfg.stem)
-        verdicts = [r for r in summary_rows(text) if r["Result"] in VERDICTS
-                    or r["Result"].endswith(("govern", "governs"))]
-        assert verdicts, cfg.name
-        for r in verdicts:
-            where = f"{cfg.name}: {r['Check']}"
-            assert r["Value"] not in ("", "–"), where  # the quantity's value
-            assert r["Limit"] not in ("", "–"), where  # what the verdict is against
-            assert r["Where"] != "–" or PLACE.search(r["Check"]), where  # the place
-            assert PLACE.search(r["Where"]) or PLACE.search(r["Check"]) or \
-                r["Where"].startswith("the deck"), where
-        # the convergence rows name quantity and place; a check not made is listed
-        conv = section(text, "Convergence of the governing cases")
-        for row in (table_rows(conv, "Quantity and place")
-                    if "| Quantity and place |" in conv else []):
-            assert "," in row[0] and row[7] in ("converged", "**FLAG**",
-                                                "converged in dt; resonance not checked"), \
-                (cfg.name, row)
-        if "Not checked" in conv:
-            assert "- convergence of the governing cases" in section(
-                text, "Summary of checks"), cfg.name
-        if "Every governing result is converged" in conv:
-            assert "Not checked" not in conv, cfg.name
-        shutil.rmtree(rep)
-        (tmp_path / "out.nc").unlink()
+    text, rep = sweep_report(tmp_path, _toml(reduced(cfg)), cfg.stem)
+    verdicts = [r for r in summary_rows(text) if r["Result"] in VERDICTS
+                or r["Result"].endswith(("govern", "governs"))]
+    assert verdicts, cfg.name
+    for r in verdicts:
+        where = f"{cfg.name}: {r['Check']}"
+        assert r["Value"] not in ("", "–"), where  # the quantity's value
+        assert r["Limit"] not in ("", "–"), where  # what the verdict is against
+        assert r["Where"] != "–" or PLACE.search(r["Check"]), where  # the place
+        assert PLACE.search(r["Where"]) or PLACE.search(r["Check"]) or \
+            r["Where"].startswith("the deck"), where
+    # the convergence rows name quantity and place; a check not made is listed
+    conv = section(text, "Convergence of the governing cases")
+    for row in (table_rows(conv, "Quantity and place")
+                if "| Quantity and place |" in conv else []):
+        assert "," in row[0] and row[7] in ("converged", "**FLAG**",
+                                            "converged in dt; resonance not checked"), \
+            (cfg.name, row)
+    if "Not checked" in conv:
+        assert "- convergence of the governing cases" in section(
+            text, "Summary of checks"), cfg.name
+    if "Every governing result is converged" in conv:
+        assert "Not checked" not in conv, cfg.name
+    shutil.rmtree(rep)
+    (tmp_path / "out.nc").unlink()

@@ -34,6 +34,16 @@ threadpool_limits(limits=1, user_api="blas")
 # cache, vsi_numba.io.kept): a test that keeps outputs sets a directory of its own.
 os.environ["VSI_OUTPUT_CACHE"] = "off"
 
+# Python's bytecode cache on, as a default Python has it, also where the environment
+# turns it off (PYTHONDONTWRITEBYTECODE): the test modules (pytest's rewritten asserts)
+# and the package are compiled once, then read by every later process of the run - the
+# test processes, the ``vsi`` commands, the pools' and Dask's workers the tests start -
+# instead of being compiled from source in each (seconds of CPU per test process).
+# ``__pycache__`` is ignored by git; a test of unwritable files turns it off in its own
+# processes.
+if os.environ.pop("PYTHONDONTWRITEBYTECODE", None) is not None:
+    sys.dont_write_bytecode = False
+
 
 def pytest_configure(config):
     if hasattr(config, "workerinput"):  # a pytest-xdist worker: the controller did it

@@ -19,7 +19,6 @@ import shutil
 import signal
 import subprocess
 import sys
-import tempfile
 import textwrap
 import time
 from pathlib import Path
@@ -78,12 +77,12 @@ def write_study(directory: Path, name="study.toml", damping=0.02, histories="fir
 
 
 def subprocess_env() -> dict[str, str]:
-    """The test's environment (NUMBA_CACHE_DIR included), with Python bytecode cached in a
-    private directory: the sweep and each of its spawned workers import numpy, xarray,
-    numba and dask, which takes seconds per process when nothing is byte-compiled."""
+    """The test's environment (NUMBA_CACHE_DIR included), with Python's bytecode cache
+    on (tests/conftest.py): the sweep and each of its spawned workers import numpy,
+    xarray, numba and dask, which takes seconds per process when nothing is
+    byte-compiled."""
     env = os.environ.copy()
     env.pop("PYTHONDONTWRITEBYTECODE", None)
-    env["PYTHONPYCACHEPREFIX"] = str(Path(tempfile.gettempdir()) / "vsi_numba_test_pycache")
     return env
 
 

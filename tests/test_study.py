@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import textwrap
 from pathlib import Path
 
@@ -186,12 +185,8 @@ def test_run_case__equals_simulate(study_config):
 # ------------------------------------------------------------------------------- backends
 
 
-def test_run_study__processes_and_dask_equal_serial(study_config, serial_result, monkeypatch):
+def test_run_study__processes_and_dask_equal_serial(study_config, serial_result):
     """Envelopes are bit-identical whichever backend ran the cases."""
-    # spawned workers inherit the environment: let them reuse byte-compiled imports
-    monkeypatch.delenv("PYTHONDONTWRITEBYTECODE", raising=False)
-    monkeypatch.setenv("PYTHONPYCACHEPREFIX",
-                       str(Path(tempfile.gettempdir()) / "vsi_numba_test_pycache"))
     d = study_config.parent
     procs = run_study(study_config, d / "processes.nc", workers=2, backend="processes")
     dask = run_study(study_config, d / "dask.nc", workers=2, backend="dask")
@@ -205,14 +200,11 @@ def test_run_study__processes_and_dask_equal_serial(study_config, serial_result,
     assert not store_path(d / "dask.nc").exists()  # store removed after success
 
 
-def test_run_study__existing_dask_scheduler(tmp_path, serial_result, monkeypatch):
+def test_run_study__existing_dask_scheduler(tmp_path, serial_result):
     """--scheduler: an existing cluster runs the cases; a study of one speed gives the
     same envelopes as that speed of the 3-speed study (same realisation per seed)."""
     from dask.distributed import LocalCluster
 
-    monkeypatch.delenv("PYTHONDONTWRITEBYTECODE", raising=False)
-    monkeypatch.setenv("PYTHONPYCACHEPREFIX",
-                       str(Path(tempfile.gettempdir()) / "vsi_numba_test_pycache"))
     config = write_study(tmp_path, speeds=(150.0,))
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
                       dashboard_address="127.0.0.1:0",

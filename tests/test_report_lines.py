@@ -75,6 +75,13 @@ def section(text: str, title: str) -> str:
     return s if end < 0 else s[:end]
 
 
+def cells(row: str) -> list[str]:
+    """The cells of a Markdown table row; a ``\\|`` inside a cell (an escaped bar, as in
+    ``|T|``) is the cell's text, not a separator."""
+    parts = re.split(r"(?<!\\)\|", row.strip().strip("|"))
+    return [c.strip().replace("\\|", "|") for c in parts]
+
+
 def table_rows(text: str, first: str) -> list[list[str]]:
     """The rows (cells) of the Markdown table whose header starts with ``first``."""
     lines = text.splitlines()
@@ -84,7 +91,7 @@ def table_rows(text: str, first: str) -> list[list[str]]:
             for row in lines[i + 2:]:
                 if not row.startswith("|"):
                     break
-                out.append([c.strip() for c in row.strip().strip("|").split("|")])
+                out.append(cells(row))
             return out
     raise AssertionError(f"no table starting with {first!r}")
 
@@ -395,7 +402,7 @@ def reduced(config: Path) -> dict:
 def summary_rows(text: str) -> list[dict]:
     """The summary table's rows as {header: cell}."""
     summary = section(text, "Summary of checks")
-    header = [c.strip() for c in summary.splitlines()[2].strip().strip("|").split("|")]
+    header = cells(summary.splitlines()[2])
     return [dict(zip(header, r, strict=True)) for r in table_rows(summary, "Check")]
 
 

@@ -74,8 +74,7 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     n_r = speeds.size
     keep = np.zeros(n_r, bool) if keep_histories is None else np.asarray(keep_histories, bool)
     n_steps = (np.array([packed.n_steps(v) for v in speeds], np.int64) if n_steps is None
-               else np.ascontiguousarray(np.broadcast_to(np.asarray(n_steps, np.int64),
-                                                         (n_r,))))
+               else np.array(np.broadcast_to(np.asarray(n_steps, np.int64), (n_r,))))
     deck = deck if deck is not None else deck_operators(bridge, points, settings)
     deck = DeckOperators.of(deck)
     phi_d, phi_a, cutoff = deck.phi_d, deck.phi_a, deck.cutoff

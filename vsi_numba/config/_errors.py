@@ -127,6 +127,8 @@ def _walk(loc, root, data, prefix: str) -> _Where:
             if typing.get_origin(tp) is list:
                 tp = typing.get_args(tp)[0]
                 w.item = True
+                if _is_model(_strip(tp)):  # a table of a list of tables
+                    w.table = _strip(tp)
             else:
                 tp = None
             continue
@@ -229,6 +231,8 @@ def messages(exc: ValidationError, root, data, prefix: str = "") -> list[str]:
             msg = _plain(w.union_key, _value_at(data, w.union_key, prefix), w, item=False)
         elif kind == RULE:
             msg = e["ctx"]["message"]
+            if e["ctx"].get("here"):  # keys of the table at the error's location
+                msg = "\n".join(f"{w.path}.{m}" if w.path else m for m in msg.split("\n"))
         elif kind in _TABLE_ERRORS or (kind == "union_tag_not_found"
                                        and not isinstance(e["input"], Mapping)):
             tables = [m for m in _members(_union_at(e["loc"], root)) if _is_model(m)]
@@ -249,11 +253,12 @@ def messages(exc: ValidationError, root, data, prefix: str = "") -> list[str]:
                     msg += f" (did you mean '{guess}'?)"
         else:
             msg = _plain(w.path, e["input"], w, item=w.item)
-        head = msg.split(" ", 1)[0].rstrip(":")
-        if head in seen:
-            continue
-        seen.add(head)
-        out.append(msg)
+        for line in msg.split("\n"):  # a rule may state several errors
+            head = line.split(" ", 1)[0].rstrip(":")
+            if head in seen:
+                continue
+            seen.add(head)
+            out.append(line)
     return [m for _, m in sorted(enumerate(out), key=lambda im: (
         " unknown key; " not in im[1] and "no such key for kind" not in im[1], im[0]))]
 

@@ -17,7 +17,6 @@ import numpy as np
 from vsi_numba.config import existing as _existing
 from vsi_numba.config._check import (
     _BAD,
-    _MISSING,
     ConfigError,
     _Checker,
     _drop_none,
@@ -546,10 +545,12 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     compat = _compatibility_section(
         chk, typed_section(chk, data, "compatibility", VsiConfig, None), profile, study, train)
     rest_ok = not chk.errors
-    calib = _existing._calibration_section(chk, data.get("calibration", _MISSING), data, base,
-                                           rest_ok, _validate)
-    relia = _existing._reliability_section(chk, data.get("reliability", _MISSING), data, base,
-                                           rest_ok, _validate)
+    calib = _existing._calibration_section(
+        chk, typed_section(chk, data, "calibration", VsiConfig, None), data,
+        data.get("calibration"), base, rest_ok, _validate)
+    relia = _existing._reliability_section(
+        chk, typed_section(chk, data, "reliability", VsiConfig, None), data, base, rest_ok,
+        _validate)
 
     if _ok(bridge, solver, irr) and irr.file_profile is not None:
         _check_file_coverage(chk, irr, -solver["approach"], bridge.length)

@@ -24,11 +24,12 @@ variables = [
 
 The keys are declared in :mod:`vsi_numba.config.schema.models` (``Calibration``,
 ``CalibrationParameter``, ``CalibrationRecord``, ``Reliability``,
-``ReliabilityVariable``); the readers here keep the cross-key rules: the parameters a
-distribution needs, a key path that names a numeric key of the configuration (the
-configuration with the key set to its central value must validate), readable records.
-:mod:`vsi_numba.config.core` calls :func:`_calibration_section` and
-:func:`_reliability_section`.
+``ReliabilityVariable``), with the rules between keys of one table (the parameters a
+distribution needs, the walkers, the block of runs); the builders here take the validated
+tables and check what needs context: a key path that names a numeric key of the
+configuration (the configuration with the key set to its central value must validate),
+readable records, the records' tracks and trains.  :mod:`vsi_numba.config.core` calls
+:func:`_calibration_section` and :func:`_reliability_section`.
 """
 
 from __future__ import annotations
@@ -36,21 +37,16 @@ from __future__ import annotations
 import copy
 from pathlib import Path
 
-from vsi_numba.config._check import _BAD, _MISSING, ConfigError, _ok, _show
-from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import keys_of
+from pydantic import BaseModel, ValidationError
 
-#: The parameters each distribution takes.
-NEEDS = {"uniform": ("lower", "upper"), "normal": ("mean", "std"),
-         "lognormal": ("median", "cov")}
+from vsi_numba.config._check import _BAD, ConfigError, _show
+from vsi_numba.config.schema import models as _m
+from vsi_numba.config.schema.models import MAX_PARAMETERS, MAX_RECORDS, NEEDS  # noqa: F401
+
 #: Sections whose numeric keys may be parameters or random variables.
 KEY_SECTIONS = ("bridge", "train", "solver", "track", "contact", "irregularity")
 #: Sections a trial configuration (the base with a key set) leaves out.
 OWN_SECTIONS = ("calibration", "reliability")
-#: Largest number of parameters (and of random variables).
-MAX_PARAMETERS = 20
-#: Largest number of records of a calibration.
-MAX_RECORDS = 50
 
 
 def central_value(spec: dict) -> float:
@@ -66,27 +62,6 @@ def central_value(spec: dict) -> float:
 def base_data(data: dict) -> dict:
     """A deep copy of the configuration's mapping without its own sections."""
     return {k: copy.deepcopy(v) for k, v in data.items() if k not in OWN_SECTIONS}
-
-
-def _distribution(chk, item: dict, path: str, kind_key: str) -> dict | object:
-    """Check the parameters of one distribution (those its kind needs, no others)."""
-    kind = item[kind_key]
-    need = NEEDS[kind]
-    bad = False
-    for k in need:
-        if item.get(k) is None:
-            chk.error(f"{path}.{k}", _MISSING, f"the {k} of a {kind} distribution")
-            bad = True
-    for k in sorted(set().union(*NEEDS.values()) - set(need)):
-        if item.get(k) is not None:
-            chk.error(f"{path}.{k}", item[k], f"no {k} for a {kind} distribution (it takes "
-                      f"{' and '.join(need)})")
-            bad = True
-    if not bad and kind == "uniform" and not item["lower"] < item["upper"]:
-        chk.error(f"{path}.upper", item["upper"], f"an upper bound > lower = "
-                  f"{item['lower']:g}")
-        bad = True
-    return _BAD if bad else item
 
 
 def _trial(data, base, set_keys: dict, validate):
@@ -135,62 +110,64 @@ def _key_checks(chk, data, base, items, path: str, validate) -> None:
                       f"{central_value(it):g}: {errors[0]})")
 
 
+def _table(m: BaseModel) -> dict:
+    """The keys of a validated table, defaults filled, those without a value left out."""
+    return {k: getattr(m, k) for k in type(m).model_fields if getattr(m, k) is not None
+            and not isinstance(getattr(m, k), list)}
+
+
 def _records(chk, items, base: Path):
+    """The records (as written: each file resolved against base_dir by its reader) whose
+    files are readable records; ``_BAD`` when one is not (reported)."""
     from vsi_numba.io.records import RecordError, read_record
 
     out = []
     for i, r in enumerate(items):
-        p = f"calibration.records[{i}]"
+        if r is None:  # (refused by the model: reported)
+            continue
         f = Path(r["file"])
         f = f if f.is_absolute() else base / f
         try:
             read_record(f)
         except RecordError as exc:
-            chk.error(f"{p}.file", r["file"], f"a readable record: {exc}")
+            chk.error(f"calibration.records[{i}].file", r["file"],
+                      f"a readable record: {exc}")
             out = _BAD
             continue
         if out is not _BAD:
-            out.append(dict(r))  # the file as written: resolved against base_dir by its reader
+            out.append(r)
     return out
 
 
-def _calibration_section(chk, d, data, base: Path, ok: bool, validate) -> dict | None:
-    """Validate ``[calibration]``; None without it.  ``ok``: the rest of the
-    configuration validated (the key paths and trains are checked against it then, with
-    ``validate``, the validator of :mod:`vsi_numba.config.core`)."""
-    if d is _MISSING:
+def _valid_records(d) -> list:
+    """The records of a ``[calibration]`` the model refused that are valid themselves
+    (their files are checked with the table's other errors), ``None`` for the others."""
+    items = d.get("records") if isinstance(d, dict) else None
+    out = []
+    for r in items if isinstance(items, list) else []:
+        try:
+            out.append(_table(_m.CalibrationRecord.model_validate(r)))
+        except ValidationError:
+            out.append(None)
+    return out
+
+
+def _calibration_section(chk, c, data, raw, base: Path, ok: bool, validate
+                         ) -> dict | None:
+    """The resolved ``[calibration]`` of a validated one (:class:`~.schema.models.
+    Calibration`), defaults filled (None without it), and the checks that need context:
+    readable records, and when the rest of the configuration validated (``ok``) the key
+    paths and the records' tracks and trains against it (with ``validate``, the validator
+    of :mod:`vsi_numba.config.core`).  ``raw``: the table as given (a refused one's valid
+    records are still checked for their files)."""
+    if c is None:
         return None
-    M = _m.Calibration
-    if chk.table(d, "calibration", keys_of(M),
-                 what=" [calibration] with parameters and records") is _BAD:
+    if c is _BAD:
+        _records(chk, _valid_records(raw), base)
         return _BAD
-    r = chk.fields(d, "calibration", M, [k for k in M.model_fields
-                                          if k not in ("parameters", "records")])
-    params = chk.table_list(d.get("parameters", _MISSING), "calibration.parameters",
-                            _m.CalibrationParameter,
-                            expected=f"a list of 1 to {MAX_PARAMETERS} tables {{key, prior, "
-                                     "...}}", what=" {key, prior, ...}",
-                            max_len=MAX_PARAMETERS)
-    if _ok(params):
-        params = [_distribution(chk, it, f"calibration.parameters[{i}]", "prior")
-                  for i, it in enumerate(params)]
-        params = params if _ok(*params) else _BAD
-    records = chk.table_list(d.get("records", _MISSING), "calibration.records",
-                             _m.CalibrationRecord,
-                             expected=f"1 to {MAX_RECORDS} [[calibration.records]] tables "
-                                      "{file, quantity, point, train[, speed_kmh]}",
-                             what=" {file, quantity, point, train[, speed_kmh]}",
-                             max_len=MAX_RECORDS)
-    if _ok(records):
-        records = _records(chk, records, base)
-    n_par = len(params) if _ok(params) else 1
-    if _ok(r["n_walkers"]) and r["n_walkers"] is not None:
-        n_dim = n_par + (0 if r["noise_std"] is not None else 1)
-        if r["n_walkers"] % 2 or r["n_walkers"] < 2 * n_dim:
-            chk.error("calibration.n_walkers", r["n_walkers"],
-                      f"an even number of walkers >= {2 * n_dim} (2 x the {n_dim} "
-                      "parameters)")
-    if not _ok(params, records, *r.values()):
+    params = [_table(p) for p in c.parameters]
+    records = _records(chk, [_table(r) for r in c.records], base)
+    if records is _BAD:
         return _BAD
     if ok:
         _key_checks(chk, data, base, params, "calibration.parameters", validate)
@@ -213,8 +190,7 @@ def _calibration_section(chk, d, data, base: Path, ok: bool, validate) -> dict |
             if errors:
                 chk.error(f"calibration.records[{i}].train", rec["train"],
                           f"a library train (vsi trains) or an axle CSV file ({errors[0]})")
-    return {**{k: v for k, v in r.items() if v is not None}, "parameters": params,
-            "records": records}
+    return {**_table(c), "parameters": params, "records": records}
 
 
 def record_train_data(data: dict, train: str, base: Path, track: int | None = None) -> dict:
@@ -237,32 +213,16 @@ def record_train_data(data: dict, train: str, base: Path, track: int | None = No
     return out
 
 
-def _reliability_section(chk, d, data, base: Path, ok: bool, validate) -> dict | None:
-    """Validate ``[reliability]``; None without it."""
-    if d is _MISSING:
-        return None
-    M = _m.Reliability
-    if chk.table(d, "reliability", keys_of(M),
-                 what=" [reliability] with check and variables") is _BAD:
-        return _BAD
-    r = chk.fields(d, "reliability", M, [k for k in M.model_fields if k != "variables"])
-    var = chk.table_list(d.get("variables", _MISSING), "reliability.variables",
-                         _m.ReliabilityVariable,
-                         expected=f"a list of 1 to {MAX_PARAMETERS} tables {{key, "
-                                  "distribution, ...}}", what=" {key, distribution, ...}",
-                         max_len=MAX_PARAMETERS)
-    if _ok(var):
-        var = [_distribution(chk, it, f"reliability.variables[{i}]", "distribution")
-               for i, it in enumerate(var)]
-        var = var if _ok(*var) else _BAD
-    if _ok(r["block_size"], r["max_runs"]) and r["block_size"] > r["max_runs"]:
-        chk.error("reliability.block_size", r["block_size"],
-                  f"at most reliability.max_runs = {r['max_runs']}")
-    if not _ok(var, *r.values()):
-        return _BAD
+def _reliability_section(chk, r, data, base: Path, ok: bool, validate) -> dict | None:
+    """The resolved ``[reliability]`` of a validated one (:class:`~.schema.models.
+    Reliability`), defaults filled (None without it); its key paths checked against the
+    rest of the configuration when that validated (``ok``)."""
+    if r is None or r is _BAD:
+        return r
+    variables = [_table(v) for v in r.variables]
     if ok:
-        _key_checks(chk, data, base, var, "reliability.variables", validate)
-    return {**{k: v for k, v in r.items() if v is not None}, "variables": var}
+        _key_checks(chk, data, base, variables, "reliability.variables", validate)
+    return {**_table(r), "variables": variables}
 
 
 __all__ = ["_calibration_section", "_reliability_section", "central_value", "_show"]

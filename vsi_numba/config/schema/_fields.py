@@ -70,6 +70,22 @@ def rule_error(message: str) -> PydanticCustomError:
     return PydanticCustomError(RULE, "{message}", {"message": message})
 
 
+def rules_here(problems) -> PydanticCustomError:
+    """The errors of a rule of a table met wherever the table is (an item of a list):
+    ``problems`` are ``(key, value, expected)`` of its keys (``value`` :data:`MISSING`
+    for a missing key), each reported at the table's key path (:func:`~vsi_numba.config.
+    _errors.messages` adds it), all at once."""
+    from vsi_numba.config._show import _show
+
+    lines = [f"{k}: missing required key; expected {exp}" if v is MISSING else
+             f"{k} = {_show(v)}: expected {exp}" for k, v, exp in problems]
+    return PydanticCustomError(RULE, "{message}", {"message": "\n".join(lines), "here": True})
+
+
+#: The value of a missing key in :func:`rules_here`.
+MISSING = "<missing>"
+
+
 def rule(path: str, value, expected: str) -> PydanticCustomError:
     """:func:`rule_error` of the message ``path = value: expected ...``."""
     from vsi_numba.config._show import _show

@@ -18,11 +18,12 @@ a field of :class:`VsiConfig`.
 """
 
 # ruff: noqa: F401 (the models of every table, imported from here)
-from typing import Annotated, Any
+from typing import Annotated, Any, ClassVar
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from vsi_numba.config.schema._fields import (
+    MISSING,
     Int,
     Matrix,
     Num,
@@ -32,6 +33,8 @@ from vsi_numba.config.schema._fields import (
     Text,
     key,
     one_of,
+    rule,
+    rules_here,
 )
 from vsi_numba.config.schema.bridge import (
     Bridge,
@@ -102,6 +105,13 @@ RECORD_QUANTITIES = ("deck_acceleration", "deck_displacement")
 RELIABILITY_CHECKS = ("deck_acceleration", "deck_displacement")
 #: Estimators of [reliability].
 RELIABILITY_METHODS = ("subset", "monte_carlo")
+#: The parameters each distribution takes.
+NEEDS = {"uniform": ("lower", "upper"), "normal": ("mean", "std"),
+         "lognormal": ("median", "cov")}
+#: Largest number of parameters (and of random variables).
+MAX_PARAMETERS = 20
+#: Largest number of records of a calibration.
+MAX_RECORDS = 50
 #: ``key`` is a field name of the tables below: the declaration under another name.
 _declare = key
 KeyPath = Annotated[str, Field(min_length=3, pattern=r"^[A-Za-z_]\w*(\[\d+\])?"
@@ -119,10 +129,32 @@ class _Distribution(Section):
                       expected="a standard deviation > 0")
     lower: Num() = _declare(None, doc="lower bound (uniform)", expected="a lower bound")
     upper: Num() = _declare(None, doc="upper bound (uniform)", expected="an upper bound > lower")
+    #: the key naming the distribution (``prior``, ``distribution``)
+    KIND: ClassVar[str] = ""
+
+    @model_validator(mode="after")
+    def _the_parameters_of_its_kind(self):
+        """The parameters its kind needs (and no others); a uniform's bounds in order."""
+        kind = getattr(self, self.KIND)
+        need = NEEDS[kind]
+        problems = [(k, MISSING, f"the {k} of a {kind} distribution") for k in need
+                    if getattr(self, k) is None]
+        problems += [(k, getattr(self, k), f"no {k} for a {kind} distribution (it takes "
+                      f"{' and '.join(need)})")
+                     for k in sorted(set().union(*NEEDS.values()) - set(need))
+                     if getattr(self, k) is not None]
+        if not problems and kind == "uniform" and not self.lower < self.upper:
+            problems = [("upper", self.upper, f"an upper bound > lower = {self.lower:g}")]
+        if problems:
+            raise rules_here(problems)
+        return self
 
 
 class CalibrationParameter(_Distribution):
     """``calibration.parameters[i]``: a numeric configuration key and its prior."""
+
+    TABLE: ClassVar[str] = "a table {key, prior, ...}"
+    KIND: ClassVar[str] = "prior"
 
     key: KeyPath = _declare(required=True, doc="the dotted key path of a numeric configuration "
                                           "key, e.g. bridge.EI or bridge.damping_ratio[0]",
@@ -133,6 +165,8 @@ class CalibrationParameter(_Distribution):
 
 class CalibrationRecord(Section):
     """``[[calibration.records]]``: one measured passage."""
+
+    TABLE: ClassVar[str] = "a table {file, quantity, point, train[, speed_kmh]}"
 
     file: Text = _declare(required=True, doc="CSV file with columns t (s) and value ('#' "
                                         "comments), relative to the configuration",
@@ -157,11 +191,17 @@ class Calibration(Section):
     """``[calibration]``: Bayesian updating of configuration keys from measured records
     (``vsi calibrate``)."""
 
-    parameters: list[CalibrationParameter] = _declare(
+    TABLE: ClassVar[str] = "a table [calibration] with parameters and records"
+
+    parameters: Annotated[list[CalibrationParameter],
+                          Field(min_length=1, max_length=MAX_PARAMETERS)] = _declare(
         required=True, doc="the keys to update, each with its prior",
-        expected="a list of tables {key, prior, ...}")
-    records: list[CalibrationRecord] = _declare(required=True, doc="the measured passages",
-                                           expected="[[calibration.records]] tables")
+        expected=f"a list of 1 to {MAX_PARAMETERS} tables {{key, prior, ...}}")
+    records: Annotated[list[CalibrationRecord],
+                       Field(min_length=1, max_length=MAX_RECORDS)] = _declare(
+        required=True, doc="the measured passages",
+        expected=f"1 to {MAX_RECORDS} [[calibration.records]] tables {{file, quantity, point, "
+                 "train[, speed_kmh]}")
     noise_std: PosNum = _declare(None, default_text="a parameter of the calibration",
                             doc="standard deviation of the records' measurement noise (unit "
                                 "of the records); absent: estimated with the parameters",
@@ -192,9 +232,23 @@ class Calibration(Section):
         200, doc="posterior samples run for the check and the predictive records",
         expected="an integer number of samples, 10 .. 100000")
 
+    @model_validator(mode="after")
+    def _walkers_span_the_parameters(self):
+        """An even number of walkers, at least 2 x the parameters (the noise one too
+        when it is estimated)."""
+        n = self.n_walkers
+        n_dim = len(self.parameters) + (0 if self.noise_std is not None else 1)
+        if n is not None and (n % 2 or n < 2 * n_dim):
+            raise rule("calibration.n_walkers", n, f"an even number of walkers >= "
+                       f"{2 * n_dim} (2 x the {n_dim} parameters)")
+        return self
+
 
 class ReliabilityVariable(_Distribution):
     """``reliability.variables[i]``: a numeric configuration key as a random variable."""
+
+    TABLE: ClassVar[str] = "a table {key, distribution, ...}"
+    KIND: ClassVar[str] = "distribution"
 
     key: KeyPath = _declare(required=True, doc="the dotted key path of a numeric configuration "
                                           "key, e.g. bridge.damping_ratio",
@@ -206,6 +260,8 @@ class ReliabilityVariable(_Distribution):
 class Reliability(Section):
     """``[reliability]``: the probability that a check is exceeded (``vsi reliability``)."""
 
+    TABLE: ClassVar[str] = "a table [reliability] with check and variables"
+
     check: one_of(RELIABILITY_CHECKS) = _declare("deck_acceleration",
                                             doc="the check (its limit from the code profile "
                                                 "or reliability.limit)")
@@ -214,9 +270,10 @@ class Reliability(Section):
     target_cov: Num(gt=0, lt=1) = _declare(0.1, doc="stop when the estimate's coefficient of "
                                                "variation is below this",
                                       expected="a coefficient of variation in (0, 1)")
-    variables: list[ReliabilityVariable] = _declare(required=True, doc="the random inputs",
-                                               expected="a list of tables {key, "
-                                                        "distribution, ...}")
+    variables: Annotated[list[ReliabilityVariable],
+                         Field(min_length=1, max_length=MAX_PARAMETERS)] = _declare(
+        required=True, doc="the random inputs",
+        expected=f"a list of 1 to {MAX_PARAMETERS} tables {{key, distribution, ...}}")
     limit: PosNum = _declare(None, default_text="the code profile's limit of the check",
                         doc="limit of the check (m s-2 or m)", expected="a limit > 0")
     max_runs: Int(ge=100, le=10_000_000) = _declare(
@@ -227,6 +284,13 @@ class Reliability(Section):
         expected="an integer number of runs, 10 .. 100000")
     seed: Int(ge=0) = _declare(0, doc="seed (same seed, same estimate)",
                           expected="an integer seed >= 0")
+
+    @model_validator(mode="after")
+    def _a_block_within_the_runs(self):
+        if self.block_size > self.max_runs:
+            raise rule("reliability.block_size", self.block_size,
+                       f"at most reliability.max_runs = {self.max_runs}")
+        return self
 
 
 # ------------------------------------------------------------------------------- a file

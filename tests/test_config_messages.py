@@ -120,3 +120,27 @@ def test_messages__the_top_level():
         "titel = \"x\": unknown key; did you mean 'title'?",
         "train: missing required key; expected a table [train] with preset, "
         "[[train.vehicles]] or file"]
+
+
+def test_messages__a_table_declared_as_a_union_of_kinds_is_read_by_its_kind():
+    """A table whose declaration is ``Annotated[A | B, Field(discriminator="kind")]`` (the
+    discriminator on the table's field) is validated by the model of the kind given: a
+    key of another kind is named with its kind, a misspelt kind guessed, and no member
+    of the union speaks for another's keys."""
+    from vsi_numba.config._check import _Checker
+    from vsi_numba.config._errors import typed_section
+    from vsi_numba.config.schema import VsiConfig
+
+    def bridge_errors(**change):
+        chk = _Checker()
+        typed_section(chk, {"bridge": {**BASE["bridge"], **change}}, "bridge", VsiConfig)
+        return chk.errors
+
+    assert bridge_errors(elements_per_span=10) == [
+        "bridge.elements_per_span = 10: expected no such key for kind = 'simply_supported' "
+        "(it belongs to kind = 'continuous')"]
+    assert bridge_errors(kind="simply_suported") == [
+        "bridge.kind = \"simply_suported\": expected one of 'simply_supported', "
+        "'continuous', 'rigid', 'modes_file', 'matrices' (did you mean 'simply_supported'?)"]
+    assert bridge_errors(EI=-1.0) == ["bridge.EI = -1.0: expected a bending stiffness EI > 0 "
+                                      "N m^2"]

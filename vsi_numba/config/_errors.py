@@ -355,7 +355,10 @@ def implausible_of(obj, path: str) -> list[str]:
 def _table_adapter(root, name: str) -> TypeAdapter:
     """The validator of table ``name`` of ``root`` (its models' own strict config)."""
     f = root.model_fields[name]
-    return TypeAdapter(Annotated[(f.annotation, *f.metadata)] if f.metadata else f.annotation)
+    meta = [*f.metadata]
+    if isinstance(f.discriminator, str):  # Annotated[A | B, Field(discriminator=...)]
+        meta.append(Field(discriminator=f.discriminator))
+    return TypeAdapter(Annotated[(f.annotation, *meta)] if meta else f.annotation)
 
 
 _DEFAULTS = object()

@@ -207,8 +207,8 @@ def _build():
         for _k in range(n):
             nl = 0
             if red.le_E.shape[1] > 0:
-                nl = le_list(red, veh.wheel_x0, st.X, veh.load_x0, veh.load_p, t,
-                                prm.speed)
+                nl = le_list(red, veh.wheel_x0, veh.wheel_sf, st.X, veh.load_x0,
+                             veh.load_sf, veh.load_p, t, prm.speed)
             record(step_arrays(veh, st, wk), red, 0, prm.n_steps, t, prm.speed, out, -1, 1,
                    nl)
 
@@ -217,7 +217,8 @@ def _build():
         t = prm.n_steps * prm.dt
         for _k in range(n):
             if red.le_E.shape[1] > 0:
-                nl = le_list(red, veh.wheel_x0, st.X, veh.load_x0, veh.load_p, t, prm.speed)
+                nl = le_list(red, veh.wheel_x0, veh.wheel_sf, st.X, veh.load_x0,
+                             veh.load_sf, veh.load_p, t, prm.speed)
                 le_static(red.le_sup, red.le_L, red.le_Linv, red.le_c6, red.le_A, red.le_B,
                           red.le_X, red.le_xi, red.le_sec0, red.le_val, red.le_Ms,
                           red.le_acc, red.le_lx, red.le_lp, red.le_ls, nl)
@@ -268,7 +269,8 @@ def _build():
             state_is_finite(st)
             nl = 0
             if red.le_E.shape[1] > 0:
-                nl = le_list(red, veh.wheel_x0, st.X, veh.load_x0, veh.load_p, t1,
+                nl = le_list(red, veh.wheel_x0, veh.wheel_sf, st.X, veh.load_x0,
+                             veh.load_sf, veh.load_p, t1,
                                 prm.speed)
             record(step_arrays(veh, st, wk), red, 0, prm.n_steps + 1, t1, prm.speed, out,
                    -1, 1, nl)

@@ -98,7 +98,8 @@ def project_velocities(br, veh, wk, st, speed, dt, alpha, max_iter, tol_force, t
     with the rail, with compressive impulses only.
 
     Design note 1.4: with the pre-impact separation velocity q = rdot_rel - G udot
-    (rdot_rel = v (r' + sum_j phi_j' q_j) the convective rail velocity) and the
+    (rdot_rel = v_i (r' + sum_j phi_j' q_j) the convective rail velocity, v_i the
+    wheel's signed speed) and the
     compressive impulses P (udot += -M^-1 G^T P), the post-impact separation velocity is
     w = q + G M^-1 G^T P.  The LCP  P_i + b_i >= 0, w_i >= 0, (P_i + b_i) w_i = 0  over
     the active massive wheels (:func:`solve_lcp`, shifted by the allowance b of
@@ -116,10 +117,11 @@ def project_velocities(br, veh, wk, st, speed, dt, alpha, max_iter, tol_force, t
     for i in range(n_w):
         if wk.active[i] == 1 and veh.wheel_massless[i] == 0:
             g = st.ud[veh.wheel_dof[i]]
-            rd = speed * wk.rr[i, 1]
+            v = veh.wheel_sf[i] * speed  # the wheel's own (signed) speed
+            rd = v * wk.rr[i, 1]
             for j in range(n_m):
                 g -= wk.phi[i, j] * st.qd[j]
-                rd += speed * wk.dphi[i, j] * st.q[j]
+                rd += v * wk.dphi[i, j] * st.q[j]
             wk.cand[m] = i
             wk.lq[i] = rd - g
             wk.lin[i] = 1
@@ -157,9 +159,10 @@ def project_velocities(br, veh, wk, st, speed, dt, alpha, max_iter, tol_force, t
                 wk.active[i] = 0  # separating: released
     for i in range(n_w):
         if wk.active[i] == 1 and veh.wheel_massless[i] == 1:
-            rd = speed * wk.rr[i, 1]
+            v = veh.wheel_sf[i] * speed
+            rd = v * wk.rr[i, 1]
             for j in range(n_m):
-                rd += speed * wk.dphi[i, j] * st.q[j] + wk.phi[i, j] * st.qd[j]
+                rd += v * wk.dphi[i, j] * st.q[j] + wk.phi[i, j] * st.qd[j]
             st.ud[veh.wheel_dof[i]] = rd
     return OK
 
@@ -202,11 +205,12 @@ def consistent_accelerations(br, veh, wk, st, speed, scale, dt, max_iter, tol_fo
     for i in range(n_w):
         if wk.active[i] == 1 and veh.wheel_massless[i] == 0:
             ga = st.udd[veh.wheel_dof[i]]
-            c = speed * speed * wk.rr[i, 2]
+            v = veh.wheel_sf[i] * speed
+            c = v * v * wk.rr[i, 2]
             for j in range(n_m):
                 ga -= wk.phi[i, j] * st.qdd[j]
-                c += (speed * speed * wk.d2phi[i, j] * st.q[j]
-                      + 2.0 * speed * wk.dphi[i, j] * st.qd[j])
+                c += (v * v * wk.d2phi[i, j] * st.q[j]
+                      + 2.0 * v * wk.dphi[i, j] * st.qd[j])
             wk.cand[m] = i
             wk.lq[i] = (c - ga) / scale
             wk.lin[i] = 1
@@ -233,10 +237,11 @@ def consistent_accelerations(br, veh, wk, st, speed, scale, dt, max_iter, tol_fo
                 st.qdd[j] += scale * wk.phi[i, j] * xi
     for i in range(n_w):
         if wk.active[i] == 1 and veh.wheel_massless[i] == 1:
-            a = speed * speed * wk.rr[i, 2]
+            v = veh.wheel_sf[i] * speed
+            a = v * v * wk.rr[i, 2]
             for j in range(n_m):
-                a += (speed * speed * wk.d2phi[i, j] * st.q[j]
-                      + 2.0 * speed * wk.dphi[i, j] * st.qd[j] + wk.phi[i, j] * st.qdd[j])
+                a += (v * v * wk.d2phi[i, j] * st.q[j]
+                      + 2.0 * v * wk.dphi[i, j] * st.qd[j] + wk.phi[i, j] * st.qdd[j])
             st.udd[veh.wheel_dof[i]] = a
     return OK
 

@@ -186,7 +186,8 @@ def time_loop(br, veh, pr, prm, st, bk, wk, red, r, out, h):
         tn = float(n + 1) * dt
         nl = np.int64(0)
         if red.le_E.shape[1] > 0:
-            nl = le_list(red, veh.wheel_x0, st.X, veh.load_x0, veh.load_p, tn, prm.speed)
+            nl = le_list(red, veh.wheel_x0, veh.wheel_sf, st.X, veh.load_x0, veh.load_sf,
+                         veh.load_p, tn, prm.speed)
         record(step_arrays(veh, st, wk), red, r, n + 1, tn, prm.speed, out, h, iters, nl)
     for i in range(n_w):
         if red.run_len[i] > 0:

@@ -163,7 +163,7 @@ def run_batch_mf(br, veh, prm, speeds, n_steps, init, st, wk, red, out, slots, s
                         if n < on[k] or n >= off[k]:
                             continue
                         x = load_x0[k] + speed * t1
-                        eval_modes(br, x, wk.phil, wk.yq, wk.vq)
+                        eval_modes(br, x, wk.phil, wk.yq, wk.vq, np.int64(0))
                         p = load_p[k]
                         for j in range(n_m):
                             fq[j] += p * wk.phil[j]
@@ -184,7 +184,8 @@ def run_batch_mf(br, veh, prm, speeds, n_steps, init, st, wk, red, out, slots, s
             nl = np.int64(0)
             if le_on:
                 if n < 0:  # the loads on the deck at t = 0
-                    nl = le_list(red, veh.wheel_x0, st.X, load_x0, load_p, t, speed)
+                    nl = le_list(red, veh.wheel_x0, veh.wheel_sf, st.X, load_x0, veh.load_sf,
+                                 load_p, t, speed)
                 else:  # the window of loads on the bridge, ascending
                     while lo > 0 and on[order[lo - 1]] <= n:
                         lo -= 1

@@ -9,6 +9,8 @@ a study never compiles one.
 
 from __future__ import annotations
 
+import numpy as np
+
 from vsi_numba._jit import njit
 from vsi_numba.kernels import linalg, schur, shapes, step
 
@@ -16,13 +18,13 @@ from vsi_numba.kernels import linalg, schur, shapes, step
 @njit
 def eval_modes(br, x, out, dout, d2out):
     """:func:`~vsi_numba.kernels.shapes.eval_modes`."""
-    return shapes.eval_modes(br, x, out, dout, d2out)
+    return shapes.eval_modes(br, x, out, dout, d2out, np.int64(0))
 
 
 @njit
 def eval_profile(pr, x, out):
     """:func:`~vsi_numba.kernels.shapes.eval_profile`."""
-    shapes.eval_profile(pr, x, out)
+    shapes.eval_profile(pr, x, out, np.int64(0))
 
 
 @njit

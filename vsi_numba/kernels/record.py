@@ -13,7 +13,8 @@ from vsi_numba.kernels.types import StepArrays
 @njit(inline="always")
 def step_arrays(veh, st, wk):
     """The :class:`~vsi_numba.kernels.types.StepArrays` of a model, state and workspace."""
-    return StepArrays(veh.wheel_x0, veh.body_dof, veh.body_pt_start, veh.body_pt_pitch,
+    return StepArrays(veh.wheel_x0, veh.wheel_sf, veh.body_dof, veh.body_pt_start,
+                      veh.body_pt_pitch,
                       veh.body_pt_d, veh.body_end_start, veh.body_end_pitch, veh.body_end_d,
                       st.q, st.qdd, st.udd, st.fq_tot, wk.xout, wk.active)
 
@@ -30,7 +31,7 @@ def record(sa, red, r, n, t, speed, out, h, iters, nl):
         x = sa.xout[i]
         if n == 0 or x < red.xmin[r, i]:
             red.xmin[r, i] = x
-            red.xmin_x[r, i] = sa.wheel_x0[i] + speed * t
+            red.xmin_x[r, i] = sa.wheel_x0[i] + (sa.wheel_sf[i] * speed) * t
         if n == 0 or x > red.xmax[r, i]:
             red.xmax[r, i] = x
         if sa.active[i] == 0:
@@ -151,22 +152,23 @@ def close_separation(red, r, i):
 
 
 @njit(kernel_only=True)
-def le_list(red, wheel_x0, X, load_x0, load_p, t, speed):
+def le_list(red, wheel_x0, wheel_sf, X, load_x0, load_sf, load_p, t, speed):
     """The point loads on the deck at time ``t`` into ``red.le_lx``/``red.le_lp``,
     ascending: the contact forces ``X`` of the wheels in contact on the deck (at the deck
-    line) and the moving forces.  Returns their number."""
+    line) and the moving forces (each at x0 + sf v t, its own speed factor ``sf``).
+    Returns their number."""
     lx = red.le_lx
     lp = red.le_lp
     length = red.le_sup[red.le_sup.shape[0] - 1]
     nl = 0
     for i in range(wheel_x0.shape[0] - 1, -1, -1):
-        x = wheel_x0[i] + speed * t
+        x = wheel_x0[i] + (wheel_sf[i] * speed) * t
         if X[i] != 0.0 and x >= 0.0 and x <= length:
             lx[nl] = x
             lp[nl] = X[i]
             nl += 1
     for k in range(load_x0.shape[0] - 1, -1, -1):
-        x = load_x0[k] + speed * t
+        x = load_x0[k] + (load_sf[k] * speed) * t
         if x >= 0.0 and x <= length:
             lx[nl] = x
             lp[nl] = load_p[k]

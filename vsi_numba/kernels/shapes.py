@@ -17,8 +17,9 @@ def off_modes(br, x):
 
 
 @njit(kernel_only=True)
-def eval_modes(br, x, out, dout, d2out):
-    """Mode shapes and their first two x-derivatives at ``x`` (zero off the bridge).
+def eval_modes(br, x, out, dout, d2out, line):
+    """Mode shapes and their first two x-derivatives at ``x`` (zero off the bridge) on
+    track line ``line`` (the row block of a Hermite table; sine modes: every line).
 
     Returns 1 if ``x`` is on the bridge (0 <= x <= length), else 0.
     """
@@ -45,14 +46,16 @@ def eval_modes(br, x, out, dout, d2out):
             d2out[j] = -a * k * k * s
             s, c = s * c1 + c * s1, c * c1 - s * s1
         return 1
-    eval_hermite(br.nodes, br.values, br.slopes, x, out, dout, d2out)
+    eval_hermite(br.nodes, br.values, br.slopes, x, out, dout, d2out,
+                 line * br.nodes.shape[0])
     return 1
 
 
 @njit(inline="always")
-def eval_hermite(nodes, values, slopes, x, out, dout, d2out):
+def eval_hermite(nodes, values, slopes, x, out, dout, d2out, base):
     """Values and two x-derivatives at ``x`` of a Hermite table (values and slopes at
-    ``nodes``), with the cubic Hermite shape functions of the element holding ``x``."""
+    ``nodes``, in rows ``base ..`` of ``values``/``slopes``), with the cubic Hermite shape
+    functions of the element holding ``x``."""
     e = np.searchsorted(nodes, x, side="right") - 1
     if e < 0:
         e = 0
@@ -74,20 +77,26 @@ def eval_hermite(nodes, values, slopes, x, out, dout, d2out):
     e2 = (-4.0 + 6.0 * s) / h
     e3 = -e1
     e4 = (-2.0 + 6.0 * s) / h
+    r = base + e
     for j in range(values.shape[1]):
-        w1 = values[e, j]
-        t1 = slopes[e, j]
-        w2 = values[e + 1, j]
-        t2 = slopes[e + 1, j]
+        w1 = values[r, j]
+        t1 = slopes[r, j]
+        w2 = values[r + 1, j]
+        t2 = slopes[r + 1, j]
         out[j] = n1 * w1 + n2 * t1 + n3 * w2 + n4 * t2
         dout[j] = d1 * w1 + d2 * t1 + d3 * w2 + d4 * t2
         d2out[j] = e1 * w1 + e2 * t1 + e3 * w2 + e4 * t2
 
 
 @njit(kernel_only=True)
-def eval_profile(pr, x, out):
-    """Irregularity r, r', r'' at ``x`` into ``out[0:3]`` (zero outside the profile)."""
+def eval_profile(pr, x, out, line):
+    """Irregularity r, r', r'' at ``x`` of track line ``line`` (``pr.n_int`` > 0: the
+    line's own profile) into ``out[0:3]`` (zero outside the profile)."""
     n = pr.coef.shape[0]
+    base = 0
+    if pr.n_int > 0:
+        n = pr.n_int
+        base = line * n
     out[0] = 0.0
     out[1] = 0.0
     out[2] = 0.0
@@ -100,6 +109,7 @@ def eval_profile(pr, x, out):
     if k > n - 1:
         k = n - 1
     s = x - (pr.x0 + k * pr.dx)
+    k += base
     c0 = pr.coef[k, 0]
     c1 = pr.coef[k, 1]
     c2 = pr.coef[k, 2]

@@ -19,7 +19,15 @@ NL_BUMP_STOP, NL_BLOWOFF = 0, 1
 
 
 class BridgeArrays(NamedTuple):
-    """Bridge data for the kernels (see ``vsi_numba.model.bridge.ModalBridge``)."""
+    """Bridge data for the kernels (see ``vsi_numba.model.bridge.ModalBridge``).
+
+    Several track lines (a deck in space with trains on several tracks): the Hermite
+    tables ``values``/``slopes`` (and ``t_values``/``t_slopes``) hold one block of
+    ``nodes.shape[0]`` (``t_nodes.shape[0]``) rows per line, line ``k`` in rows
+    ``k n_nodes .. (k + 1) n_nodes - 1``; a wheel reads the block of its line
+    (``VehicleArrays.wheel_line``).  Sine modes are the same on every line (a deck
+    without torsion).
+    """
 
     kind: int  # 0 rigid, 1 sine, 2 hermite
     length: float  # m
@@ -109,14 +117,27 @@ class VehicleArrays(NamedTuple):
     blk_col: np.ndarray = np.zeros((4, 0, 1), np.int64)  # (4, n_veh, nb^2)
     comp_ptr: np.ndarray = np.zeros(1, np.int64)  # (n_w + 1,), or (1,) without compliance
     comp_col: np.ndarray = np.zeros(0, np.int64)  # (nnz,)
+    # several trains in one run: wheel i is at x_i = wheel_x0[i] + v_i t with
+    # v_i = wheel_sf[i] * speed (the signed speed factor of its train: 1 for the run's
+    # train, < 0 for a train running in -x) on the track line wheel_line[i] (the row
+    # block of the bridge's tables and of the profile it reads); the point loads the
+    # same way (load_sf, load_line); set by the packing for every wheel and load
+    wheel_sf: np.ndarray = np.zeros(0)  # (n_w,)
+    wheel_line: np.ndarray = np.zeros(0, np.int64)  # (n_w,)
+    load_sf: np.ndarray = np.zeros(0)  # (n_l,)
+    load_line: np.ndarray = np.zeros(0, np.int64)  # (n_l,)
 
 
 class ProfileArrays(NamedTuple):
-    """Irregularity as a uniform-grid cubic spline."""
+    """Irregularity as a uniform-grid cubic spline.
+
+    ``n_int`` > 0: one profile per track line on the same grid, line ``k`` in rows
+    ``k n_int .. (k + 1) n_int - 1`` of ``coef``; 0: one profile, every line's."""
 
     x0: float
     dx: float
-    coef: np.ndarray  # (n_int, 4) ascending powers
+    coef: np.ndarray  # (n_int, 4) ascending powers (n_lines n_int with n_int > 0)
+    n_int: int = 0
 
 
 class Params(NamedTuple):
@@ -229,6 +250,7 @@ class StepArrays(NamedTuple):
     names)."""
 
     wheel_x0: np.ndarray
+    wheel_sf: np.ndarray
     body_dof: np.ndarray
     body_pt_start: np.ndarray
     body_pt_pitch: np.ndarray

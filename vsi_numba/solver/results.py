@@ -228,9 +228,10 @@ class BatchResult:
         t = np.arange(n) * pk.params.dt
         veh = pk.kernel_vehicles  # the forces on the deck (distributed moving forces)
         x0 = np.concatenate([veh.wheel_x0, veh.load_x0])
+        sf = np.concatenate([veh.wheel_sf, veh.load_sf])  # each train's speed factor
         force = np.concatenate([self.out.X[h, :n],
                                 np.broadcast_to(veh.load_p, (n, veh.load_p.size))], axis=1)
-        x = x0[None, :] + self.speeds[r] * t[:, None]  # (n, n_load)
+        x = x0[None, :] + (sf * self.speeds[r])[None, :] * t[:, None]  # (n, n_load)
         if mirror is not None:
             x = mirror - x
         c = self.out.q[h, :n] - self.out.fq[h, :n] * e.w2inv  # q - F / w^2
@@ -311,9 +312,10 @@ class BatchResult:
         t = np.arange(n) * pk.params.dt
         veh = pk.kernel_vehicles
         x0 = np.concatenate([veh.wheel_x0, veh.load_x0])
+        sf = np.concatenate([veh.wheel_sf, veh.load_sf])
         force = np.concatenate([self.out.X[h, :n],
                                 np.broadcast_to(veh.load_p, (n, veh.load_p.size))], axis=1)
-        x = x0[None, :] + self.speeds[r] * t[:, None]
+        x = x0[None, :] + (sf * self.speeds[r])[None, :] * t[:, None]
         if mirror is not None:
             x = mirror - x
         return ch.series(self.out.q[h, :n], self.out.fq[h, :n], x, force,

@@ -204,3 +204,43 @@ def test_pack_trains__bad_input_names_the_train():
     with pytest.raises(ModelError, match=r"trains\[1\]\.direction = 0"):
         pack_trains([line], [TrainOnTrack(train), TrainOnTrack(train, direction=0)], V,
                     None, settings)
+
+
+def test_config__interaction_trains_on_other_tracks_run_together(tmp_path):
+    """``[train] other_trains`` with an interaction train through ``vsi sweep``: the file
+    holds both trains' wheels and bodies, equal to the Python API's run of the same
+    model (:func:`pack_trains` on the config's track lines, to round-off), and its
+    ``_all_tracks`` envelopes are the run's own (every train is in the run)."""
+    from test_space_config import SPRUNG, TORSION, TRACKS, _text
+    from userpath import sweep_file
+
+    from vsi_numba.config import load_config
+
+    others = 'other_trains = [{ track = 2, direction = "opposite", offset = 3.0 }]'
+    text = _text(TRACKS, TORSION, "track = 1\n" + others, SPRUNG)
+    ds = sweep_file(tmp_path, text, speed=0)
+    assert ds.sizes["wheel"] == 2 and ds.sizes["vehicle"] == 2
+    cfg = load_config(tmp_path / "deck.toml")
+    train = cfg.trains()[0]
+    settings = cfg.solver_settings()
+    lines = [cfg.bridge_for(train, k) for k in (1, 2)]
+    packed = pack_trains(lines, [TrainOnTrack(train, 0),
+                                 TrainOnTrack(train, 1, direction=-1, offset=3.0)],
+                         1.0, None, settings)
+    v = float(ds.speed)
+    res = run_batch(packed, no_irregularity(), [v], [10.0], settings, lines[0],
+                    keep_histories=[True])
+    n = int(res.n_steps[0]) + 1
+    assert ds.sizes["time"] == n
+    got = ds["carbody_acceleration"].values
+    want = res.out.body_acc[0, :n]
+    # float32 histories in the file: 1e-6 of the peak
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-6 * np.abs(want).max())
+    for k in ("max_deck_displacement", "max_deck_acceleration"):
+        np.testing.assert_array_equal(ds[k].values, ds[k + "_all_tracks"].values)
+    # the second train is in the run: the first one's body differs from a run alone
+    (tmp_path / "alone").mkdir()
+    alone = sweep_file(tmp_path / "alone", _text(TRACKS, TORSION, "track = 1", SPRUNG),
+                       speed=0)
+    a1 = alone["carbody_acceleration"].values[:, 0]
+    assert np.max(np.abs(a1 - got[:a1.size, 0])) > 0.05 * np.max(np.abs(a1))

@@ -249,7 +249,8 @@ def torsional_moment_tables(space, points, effects: LoadEffectTables | None,
     return tables, (n_new + where[n_s:]).astype(np.int64), e, ""
 
 
-def space_operators(space, points, deck: DeckOperators, loaded: int = 0) -> DeckOperators:
+def space_operators(space, points, deck: DeckOperators, loaded: int = 0,
+                    one_track_loaded: bool = True) -> DeckOperators:
     """``deck`` (:func:`deck_operators`) with the rows of the deck in space
     (:func:`vsi_numba.model.deck3d.output_rows`) stacked under ``phi_d`` / ``phi_a``:
     the kernels' envelopes of every row are then the per-track displacement,
@@ -257,7 +258,10 @@ def space_operators(space, points, deck: DeckOperators, loaded: int = 0) -> Deck
     whole-deck grid :func:`deck_grid`) and twist, no kernel change.  With torsion, the
     load-effect tables gain the torsional moment at the points for a train on track
     ``loaded`` (0-based; :func:`torsional_moment_tables`).  Returns the operators with
-    these rows and their :class:`SpaceLayout` (``layout``)."""
+    these rows and their :class:`SpaceLayout` (``layout``).  ``one_track_loaded``
+    False (interaction trains on several tracks in one run): no torsional moment and
+    no mode-acceleration channels (their static part puts every load on track
+    ``loaded``); the twist and the track lines come from the modes."""
     from vsi_numba.model import deck3d
 
     points = np.atleast_1d(np.asarray(points, float))
@@ -284,7 +288,8 @@ def space_operators(space, points, deck: DeckOperators, loaded: int = 0) -> Deck
 
     channels = (space_channels(space, points, starts, effects.w2inv, loaded,
                                grid=effects.sections[effects.grid_index])
-                if effects is not None and isinstance(space, deck3d.BeamDeck3D) else None)
+                if effects is not None and isinstance(space, deck3d.BeamDeck3D)
+                and one_track_loaded else None)
     # the channels' twist replaces the rows' (SpaceLayout.split, BatchResult)
     twist_rows = not (channels is not None and channels.n_channels > 0
                       and channels.twist.size > 0)
@@ -298,6 +303,10 @@ def space_operators(space, points, deck: DeckOperators, loaded: int = 0) -> Deck
             "the loaded track is on the deck's axis: the train does not twist the deck"
             if channels.y_load == 0.0 else "no output point on the deck")
         channel, scale = None, 0.0
+    elif not one_track_loaded:
+        channel, scale = None, 0.0
+        reason = ("interaction trains on several tracks in one run: the torsional moment "
+                  "is not offered")
     else:
         effects, channel, scale, reason = torsional_moment_tables(space, points, effects,
                                                                   loaded)

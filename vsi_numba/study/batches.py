@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vsi_numba.io.schema import HISTORIES, SPACE_HISTORIES
+from vsi_numba.io.schema import ALL_TRACKS_BASES, ALL_TRACKS_SUFFIX, HISTORIES, SPACE_HISTORIES
 
 #: Estimated kernel seconds per batch (see :func:`run_cost`).
 BATCH_SECONDS = 0.5
@@ -158,9 +158,11 @@ def _packed_train(spec, i_train: int):
 
     model = study_model(spec)
     train = model.trains[i_train]
+    others = getattr(model.config, "other_trains", [])
+    if others and interacting(train):
+        return _packed_together(model, train, others)
     bridge = model.config.bridge_for(train)
     packed = pack(bridge, train, 1.0, no_irregularity(), model.settings)
-    others = getattr(model.config, "other_trains", [])
     if others:
         # the run's train again at the run's speed: its runs are offset m longer; a train
         # or speed of their own: the runs last until it has left (Packed.other_runs)
@@ -177,6 +179,28 @@ def _packed_train(spec, i_train: int):
     return packed
 
 
+def interacting(train) -> bool:
+    """``train`` has vehicles that interact with the deck (not moving forces only)."""
+    return any(v.n_dof > 0 for v in train.vehicles)
+
+
+def _packed_together(model, train, others):
+    """An interaction train and the same train on the tracks of ``train.other_trains``
+    in one run (:func:`~vsi_numba.solver.pack.pack_trains`): every wheel and the deck
+    in one contact problem per step."""
+    from vsi_numba.model.irregularity import no_irregularity
+    from vsi_numba.solver.pack import TrainOnTrack, pack_trains
+
+    cfg = model.config
+    n_tracks = max([int(cfg.train_track), *(int(o["track"]) for o in others)])
+    lines = [cfg.bridge_for(train, k) for k in range(1, n_tracks + 1)]
+    trains = [TrainOnTrack(train, line=int(cfg.train_track) - 1)]
+    trains += [TrainOnTrack(train, line=int(o["track"]) - 1,
+                            direction=-1 if o["direction"] == "opposite" else 1,
+                            offset=float(o["offset"])) for o in others]
+    return pack_trains(lines, trains, 1.0, no_irregularity(), model.settings)
+
+
 @functools.lru_cache(maxsize=256)
 def _other_trains(spec, i_train: int) -> tuple:
     """The trains on the other tracks of train ``i_train``'s runs
@@ -190,6 +214,8 @@ def _other_trains(spec, i_train: int) -> tuple:
     model = study_model(spec)
     cfg = model.config
     train = model.trains[i_train]
+    if interacting(train):  # in the run itself (_packed_together)
+        return ()
     out = []
     others = list(getattr(cfg, "other_trains", []))
     models = (cfg.other_train_models() if hasattr(cfg, "other_train_models")
@@ -248,7 +274,12 @@ def run_batch_task(spec, batch: Batch) -> dict:
     if not others:
         res = run_batch(packed, profile, speeds, model.output_points, model.settings,
                         model.bridge, keep_histories=batch.histories, deck=model.deck)
-        return _task_output(res, {}, packed, speeds, list(batch.histories))
+        extra = {}
+        if getattr(model.config, "other_trains", []):  # every train in the run itself
+            env = res.envelopes()
+            extra = {k + ALL_TRACKS_SUFFIX: np.ascontiguousarray(env[k])
+                     for k in ALL_TRACKS_BASES if k in env}
+        return _task_output(res, extra, packed, speeds, list(batch.histories))
     from vsi_numba.solver.superpose import run_with_others
 
     # every run of every train keeps its histories until they are summed: a few runs
@@ -396,7 +427,8 @@ def superpose_refusal(spec, model) -> str | None:
 
     cfg = model.config
     others = list(getattr(cfg, "other_trains", []) or [])
-    if not others or cfg.resolved()["solver"].get("allow_large_problem"):
+    if (not others or cfg.resolved()["solver"].get("allow_large_problem")
+            or all(interacting(t) for t in model.trains)):  # one run: nothing summed
         return None
     rows = deck_rows(model)
     vmin = float(np.min(model.speeds_m_s))
@@ -415,9 +447,11 @@ def superpose_refusal(spec, model) -> str | None:
 
 def study_plan(spec, model, grid, variant: int | None = None, start: int = 0) -> list[Batch]:
     """The batch plan of a study (deterministic, see :func:`plan_batches`)."""
+    others = getattr(model.config, "other_trains", [])
+    # interaction trains run together (their packed model has every train's wheels)
+    per_run = 1 if all(interacting(t) for t in model.trains) else 1 + len(others)
     return plan_batches(grid, _packed_trains(spec, model), model.output_points.size,
-                        variant=variant, start=start,
-                        trains_per_run=1 + len(getattr(model.config, "other_trains", [])))
+                        variant=variant, start=start, trains_per_run=per_run)
 
 
 def plan_fingerprint(plan: list[Batch]) -> str:

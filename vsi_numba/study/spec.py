@@ -123,6 +123,11 @@ def _build_model(cfg, first_realisation: bool = False) -> StudyModel:
     x_range = profile_range(bridge.length, [train_extent(t) for t in trains],
                             settings.approach,
                             settings.free_vibration)
+    others = getattr(cfg, "other_trains", []) or []
+    together = bool(others) and any(v.n_dof > 0 for t in trains for v in t.vehicles)
+    if together:  # interaction trains on other tracks run in the same run: the profile
+        # covers where each starts and ends (an offset further back, from either end)
+        x_range = several_trains_range(x_range, bridge.length, trains, settings, others)
     profiles = dict((_first_realisation(cfg) if first_realisation else cfg).irregularities(
         *x_range))
     points = default_points(bridge, cfg.output_points)
@@ -131,10 +136,24 @@ def _build_model(cfg, first_realisation: bool = False) -> StudyModel:
     if space is not None:  # per-track rows under the deck's (solver.batch.SpaceLayout)
         from vsi_numba.solver.batch import space_operators
 
-        deck = space_operators(space, points, deck, int(cfg.train_track) - 1)
+        deck = space_operators(space, points, deck, int(cfg.train_track) - 1,
+                               one_track_loaded=not together)
     return StudyModel(cfg, bridge, trains, settings, points, profiles, x_range,
                       np.asarray(cfg.speeds_kmh, float), deck,
                       np.asarray(cfg.speeds_m_s, float))
+
+
+def several_trains_range(x_range, length, trains, settings, others) -> tuple[float, float]:
+    """The profile range of a run with interaction trains on several tracks: ``x_range``
+    widened to where the trains start (``offset`` further back, a train in -x beyond the
+    far end) and end (the free vibration at the speed bound, in either direction)."""
+    from vsi_numba.config.physics import train_extent
+    from vsi_numba.model.irregularity import SPEED_BOUND_KMH
+
+    ext = max(train_extent(t) for t in trains)
+    back = settings.approach + max(float(o["offset"]) for o in others) + ext + 1.0
+    run = SPEED_BOUND_KMH / 3.6 * settings.free_vibration + ext + 1.0
+    return (min(x_range[0], -back, -run), max(x_range[1], length + back, length + run))
 
 
 def model_fingerprint(model: StudyModel) -> str:

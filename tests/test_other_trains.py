@@ -187,11 +187,6 @@ def _toml(tmp_path, text):
     (TRACKS, "[{ track = 2, speed = 3.0 }]", "", "train.other_trains[0]"),
     (TRACKS, "{ track = 2 }", "", "train.other_trains"),
     ("", "[{ track = 2 }]", "", "the bridge has 1 track"),
-    (TRACKS, "[{ track = 2 }]", """[[train.vehicles]]
-kind = "sprung_mass"
-offset = 0.0
-mass = 20000.0
-stiffness = 4e6""", "expected moving-force trains (train.model = \"moving_force\")"),
 ])
 def test_bad_other_trains_name_the_key(tmp_path, tracks, others, vehicle, message):
     text = _text(tracks, TORSION if tracks else "", f"other_trains = {others}", vehicle)

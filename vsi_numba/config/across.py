@@ -12,10 +12,12 @@ from vsi_numba.model import distribution as _dist
 
 def _other_train_checks(chk, bridge, train) -> None:
     """``train.other_trains`` against the bridge's tracks and the trains: each on a track
-    of ``bridge.tracks`` other than ``train.track`` and the others, moving forces only
-    (their runs are superposed: exact for a linear deck under prescribed forces), on a
-    deck without the FE track layer: a built-in deck, or an imported one whose tracks are
-    named lines of its data."""
+    of ``bridge.tracks`` other than ``train.track`` and the others, on a deck without the
+    FE track layer. Moving-force trains: their runs are superposed (exact for a linear
+    deck under prescribed forces), on a built-in deck or an imported one whose tracks are
+    named lines of its data, each with its own train and speed if given. Interaction
+    trains: every train in the same run, the run's train on a built-in deck, at its own
+    ``speed_factor`` if given (no ``train`` or ``speed_kmh`` of its own)."""
     others = train.resolved["other_trains"]
     n_tracks = len(bridge.resolved.get("tracks", [{}]))
     own = train.resolved.get("track", 1)
@@ -39,18 +41,38 @@ def _other_train_checks(chk, bridge, train) -> None:
     kind = bridge.resolved.get("kind")
     lines = [t.get("line") for t in bridge.resolved.get("tracks") or [] if isinstance(t, dict)]
     imported_lines = kind in ("matrices", "modes_file") and lines and all(lines)
-    if kind not in ("simply_supported", "continuous") and not imported_lines:
+    dyn = [tr.name for tr in train.trains if any(v.n_dof > 0 for v in tr.vehicles)]
+    if dyn:
+        _interaction_other_train_checks(chk, kind, others, dyn)
+    elif kind not in ("simply_supported", "continuous") and not imported_lines:
         chk.error("train.other_trains", others, "a simply_supported or continuous deck, or "
                   "an imported deck (matrices or modes_file) whose tracks are named lines "
                   "of its data (bridge.tracks = [{ line = \"..\" }, ...]; bridge.kind = "
                   f"\"{kind}\" has no track lines to put the trains on)")
-    dyn = [tr.name for tr in train.trains if any(v.n_dof > 0 for v in tr.vehicles)]
-    if dyn:
-        chk.error("train.other_trains", others,
-                  "moving-force trains (train.model = \"moving_force\"): the trains on "
-                  "the other tracks are added by superposing their runs, which is exact "
-                  "for prescribed forces on the linear deck only, not for vehicles that "
-                  f"interact with it ({', '.join(dyn[:3])}{' ...' if len(dyn) > 3 else ''})")
+
+
+def _interaction_other_train_checks(chk, kind, others, dyn) -> None:
+    """``train.other_trains`` of interaction trains (``dyn``: their names): every train in
+    one run, so the run's train again on a simply_supported or continuous deck, at the
+    run's speed times ``speed_factor``."""
+    names = f"{', '.join(dyn[:3])}{' ...' if len(dyn) > 3 else ''}"
+    if kind not in ("simply_supported", "continuous"):
+        chk.error("train.other_trains", others, "a simply_supported or continuous deck "
+                  f"with interaction trains ({names}; bridge.kind = \"{kind}\": several "
+                  "interaction trains in one run are not offered on imported decks; "
+                  "moving-force trains, train.model = \"moving_force\", are superposed "
+                  "there)")
+    for i, o in enumerate(others):
+        p = f"train.other_trains[{i}]"
+        if "train" in o:
+            chk.error(f"{p}.train", o["train"], "no train of its own with interaction "
+                      f"trains ({names}: the run's train again, every train in one run; "
+                      "own trains are for moving-force trains, train.model = "
+                      "\"moving_force\")")
+        if "speed_kmh" in o:
+            chk.error(f"{p}.speed_kmh", o["speed_kmh"], "a speed_factor instead with "
+                      f"interaction trains ({names}: every train in one run, its speed a "
+                      "multiple of the run's speed)")
 
 
 def _distribution_checks(chk, track, solver, train) -> None:

@@ -170,7 +170,9 @@ class OtherTrain(Section):
     """``[train] other_trains = [{ track = 2, direction = "opposite", offset = 0 }]``: a
     train on another track of ``bridge.tracks``, in the same run (trains meeting on the
     deck, or side by side): the run's train at the run's speed unless ``train`` and
-    ``speed_kmh`` / ``speed_factor`` say otherwise; moving forces only."""
+    ``speed_kmh`` / ``speed_factor`` say otherwise. Moving-force trains: their runs are
+    superposed; interaction trains: every wheel and the deck in one run, the run's train
+    again (``speed_factor`` only)."""
 
     track: Int(ge=1) = key(required=True, doc="the track of this train (1-based, as in "
                                               "bridge.tracks; not train.track)",
@@ -187,13 +189,14 @@ class OtherTrain(Section):
         None, default_text="the run's train",
         doc="the train on this track, as moving forces: a library train name (`vsi "
             "trains` lists them) or { file, load_unit, name }, an axle-load CSV as "
-            "train.axles",
+            "train.axles (moving-force runs only)",
         expected="a library train name (`vsi trains` lists them) or a table { file = "
                  "\"axles.csv\", load_unit = \"kN\", name = ... } (an axle-load CSV)",
         example="HSLM-A3")
     speed_kmh: Speed = key(
         None, unit="km/h", default_text="the run's speed",
-        doc="its own speed, the same in every run of the study (not with speed_factor)",
+        doc="its own speed, the same in every run of the study (not with speed_factor; "
+            "moving-force runs only)",
         expected="a speed > 0 km/h (the same in every run; not with speed_factor)")
     speed_factor: Num(ge=SPEED_FACTOR_BOUNDS[0], le=SPEED_FACTOR_BOUNDS[1]) = key(
         None, default_text="1: the run's speed",
@@ -230,5 +233,6 @@ class Train(Section):
         doc="trains on other tracks in the same run, each { track, direction, offset, "
             "train, speed_kmh | speed_factor } (default: the run's train at the run's "
             "speed): the results add the envelopes with every train loaded "
-            "(`..._all_tracks`); moving forces only",
+            "(`..._all_tracks`); moving forces superposed, interaction trains in the "
+            "same run (the run's train, speed_factor only)",
         example=[{"track": 2, "direction": "opposite", "offset": 0.0}])

@@ -201,6 +201,10 @@ def test_pack_trains__bad_input_names_the_train():
     with pytest.raises(ModelError, match=r"trains\[1\]\.line = 3"):
         pack_trains([line], [TrainOnTrack(train), TrainOnTrack(train, line=3)], V, None,
                     settings)
+    forces = Train("forces", (vh.point_loads([0.0, 3.0], [1e5, 1e5], name="f"),), (0.0,))
+    with pytest.raises(ModelError, match="superposed"):
+        pack_trains([line], [TrainOnTrack(forces), TrainOnTrack(forces, direction=-1)], V,
+                    None, settings)
     with pytest.raises(ModelError, match=r"trains\[1\]\.direction = 0"):
         pack_trains([line], [TrainOnTrack(train), TrainOnTrack(train, direction=0)], V,
                     None, settings)
@@ -244,3 +248,69 @@ def test_config__interaction_trains_on_other_tracks_run_together(tmp_path):
                        speed=0)
     a1 = alone["carbody_acceleration"].values[:, 0]
     assert np.max(np.abs(a1 - got[:a1.size, 0])) > 0.05 * np.max(np.abs(a1))
+
+
+def _car_with_wheel():
+    """A sprung mass on a wheel of 1 t: the wheel meets the kinks of the running surface
+    at the deck ends (impacts, crossing pieces of the step)."""
+    return Train("sprung mass on a wheel", (vh.sprung_mass(MV, KV, CV, 1000.0),), (0.0,))
+
+
+def test_pack_trains__a_train_in_minus_x_is_the_mirror_of_one_in_plus_x():
+    """On a planar simply supported span (symmetric: mode n is (-1)^(n+1) itself
+    mirrored), a train in -x from beyond the far end is the +x run mirrored: the same
+    body acceleration and contact force histories (to round-off: the shapes are
+    evaluated at L - x), the deck-end impacts included."""
+    from vsi_numba.model import bridge as br
+
+    deck = br.simply_supported(L, EI, MASS, n_modes=4, damping_ratio=0.02)
+    train = _car_with_wheel()
+    settings = SolverSettings(dt=1e-3, approach=APPROACH, free_vibration=0.2)
+    prof = no_irregularity()
+    runs = []
+    for d in (1, -1):
+        packed = pack_trains([deck], [TrainOnTrack(train, direction=d, offset=1e-9)], V, None,
+                             settings)
+        res = run_batch(packed, prof, [V], [0.5 * L], settings, deck, keep_histories=[True])
+        assert res.status[0] == 0, res.message(0)
+        n = int(res.n_steps[0]) + 1
+        runs.append((res.out.body_acc[0, :n], res.out.X[0, :n], res.out.q[0, :n]))
+    (a1, x1, q1), (a2, x2, q2) = runs
+    sign = (-1.0) ** np.arange(4)  # q_n of the mirrored run: (-1)^(n+1) q_n
+    # round-off of the mirrored abscissae (1e-15 m) through the impacts: 1e-9 of the peak
+    np.testing.assert_allclose(a2, a1, rtol=0, atol=1e-9 * np.abs(a1).max())
+    np.testing.assert_allclose(x2, x1, rtol=0, atol=1e-9 * np.abs(x1).max())
+    np.testing.assert_allclose(q2 * sign, q1, rtol=0, atol=1e-9 * np.abs(q1).max())
+
+
+def test_pack_trains__each_line_its_own_profile():
+    """One profile per track line: a train alone on line 1 of two (line 0 smooth, line 1
+    a cosine dip) is the single-train run on line 1 with the dip, bit for bit; the same
+    train on line 0 sees no dip."""
+    from vsi_numba.model import irregularity as irr
+
+    deck, _ = _model()
+    train = _car_with_wheel()
+    settings = SolverSettings(dt=1e-3, approach=APPROACH, free_vibration=0.2)
+    lines = [deck.track_bridge(0), deck.track_bridge(1)]
+    dip = irr.cosine_defect(0.004, 3.0, 10.0)
+    flat = irr.Profile(dip.x0, dip.dx, np.zeros_like(dip.coef), "none")
+
+    def run(packed, prof, line):
+        res = run_batch(packed, prof, [V], [0.5 * L], settings, line, keep_histories=[True])
+        assert res.status[0] == 0
+        n = int(res.n_steps[0]) + 1
+        return res.out.body_acc[0, :n], res.out.X[0, :n]
+
+    single = run(pack(lines[1], train, V, dip, settings), dip, lines[1])
+    on1 = run(pack_trains(lines, [TrainOnTrack(train, line=1)], V, [flat, dip], settings),
+              [flat, dip], lines[1])
+    for a, b in zip(single, on1, strict=True):
+        np.testing.assert_array_equal(a, b)
+    # train 1 on the smooth line 0, train 2 on line 1 far behind (200 m): until train 2
+    # reaches the deck, train 1 runs as alone on smooth track (not on line 1's dip)
+    smooth = run(pack(lines[0], train, V, None, settings), no_irregularity(), lines[0])
+    two = [TrainOnTrack(train, line=0), TrainOnTrack(train, line=1, offset=200.0)]
+    on0 = run(pack_trains(lines, two, V, [flat, dip], settings), [flat, dip], lines[0])
+    k = min(int((APPROACH + 200.0) / V / 1e-3) - 10, smooth[0].shape[0])
+    np.testing.assert_array_equal(on0[0][:k, 0], smooth[0][:k, 0])

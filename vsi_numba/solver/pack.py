@@ -614,6 +614,11 @@ def pack_trains(lines, trains, speed: float, profile, settings: SolverSettings) 
              for t in trains]
     if len(parts) == 1 and trains[0] == TrainOnTrack(trains[0].train, trains[0].line):
         return parts[0]
+    if not any(p.vehicles.wheel_dof.size for p in parts):
+        # the moving-force kernel runs one train on line 0 in +x
+        raise ModelError("pack_trains: moving-force trains on several tracks or in -x are "
+                         "run one by one and superposed (vsi_numba.solver.superpose); "
+                         "expected a train with vehicles that interact with the deck")
     length = float(lines[0].length)
     nb = max(int(p.vehicles.M.shape[1]) for p in parts)
     f64, i64 = np.float64, np.int64

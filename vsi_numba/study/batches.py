@@ -185,9 +185,10 @@ def interacting(train) -> bool:
 
 
 def _packed_together(model, train, others):
-    """An interaction train and the same train on the tracks of ``train.other_trains``
-    in one run (:func:`~vsi_numba.solver.pack.pack_trains`): every wheel and the deck
-    in one contact problem per step."""
+    """An interaction train and the same train on the tracks of ``train.other_trains``,
+    each at its ``speed_factor`` times the run's speed, in one run
+    (:func:`~vsi_numba.solver.pack.pack_trains`): every wheel and the deck in one contact
+    problem per step."""
     from vsi_numba.model.irregularity import no_irregularity
     from vsi_numba.solver.pack import TrainOnTrack, pack_trains
 
@@ -197,7 +198,8 @@ def _packed_together(model, train, others):
     trains = [TrainOnTrack(train, line=int(cfg.train_track) - 1)]
     trains += [TrainOnTrack(train, line=int(o["track"]) - 1,
                             direction=-1 if o["direction"] == "opposite" else 1,
-                            offset=float(o["offset"])) for o in others]
+                            offset=float(o["offset"]),
+                            speed_factor=float(o.get("speed_factor", 1.0))) for o in others]
     return pack_trains(lines, trains, 1.0, no_irregularity(), model.settings)
 
 

@@ -146,13 +146,18 @@ def _build_model(cfg, first_realisation: bool = False) -> StudyModel:
 def several_trains_range(x_range, length, trains, settings, others) -> tuple[float, float]:
     """The profile range of a run with interaction trains on several tracks: ``x_range``
     widened to where the trains start (``offset`` further back, a train in -x beyond the
-    far end) and end (the free vibration at the speed bound, in either direction)."""
+    far end) and end (the free vibration at the speed bound, in either direction; with
+    ``speed_factor`` s the fastest train travels max s / min s times the slowest one's
+    way on the deck, and its free vibration at max s times the bound)."""
     from vsi_numba.config.physics import train_extent
     from vsi_numba.model.irregularity import SPEED_BOUND_KMH
 
     ext = max(train_extent(t) for t in trains)
     back = settings.approach + max(float(o["offset"]) for o in others) + ext + 1.0
-    run = SPEED_BOUND_KMH / 3.6 * settings.free_vibration + ext + 1.0
+    factors = [1.0, *(float(o.get("speed_factor", 1.0)) for o in others)]
+    fast, ratio = max(factors), max(factors) / min(factors)
+    run = ((ratio - 1.0) * (length + back)
+           + fast * SPEED_BOUND_KMH / 3.6 * settings.free_vibration + ext + 1.0)
     return (min(x_range[0], -back, -run), max(x_range[1], length + back, length + run))
 
 

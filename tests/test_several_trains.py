@@ -8,6 +8,8 @@ integrated by ``scipy.integrate.solve_ivp`` piecewise between the deck-end event
 
 from __future__ import annotations
 
+import textwrap
+
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -314,3 +316,101 @@ def test_pack_trains__each_line_its_own_profile():
     on0 = run(pack_trains(lines, two, V, [flat, dip], settings), [flat, dip], lines[0])
     k = min(int((APPROACH + 200.0) / V / 1e-3) - 10, smooth[0].shape[0])
     np.testing.assert_array_equal(on0[0][:k, 0], smooth[0][:k, 0])
+
+
+def test_config__an_interaction_train_on_track_2_at_its_own_speed_factor(tmp_path):
+    """``other_trains = [{ track = 2, speed_factor = 1.4, offset = 3 }]`` with an
+    interaction train through ``vsi sweep``: the file's body accelerations equal the
+    Python API's run of :func:`pack_trains` with that speed factor (to the float32 of the
+    file), the run lasts until the slower train has left, and a factor of 1 gives a
+    different second body (the factor reaches the run)."""
+    from test_space_config import SPRUNG, TORSION, TRACKS, _text
+    from userpath import sweep_file
+
+    from vsi_numba.config import load_config
+
+    def text(factor):
+        return _text(TRACKS, TORSION, "track = 1\nother_trains = [{ track = 2, "
+                     f"offset = 3.0, speed_factor = {factor} }}]", SPRUNG)
+
+    ds = sweep_file(tmp_path, text(1.4), speed=0)
+    cfg = load_config(tmp_path / "deck.toml")
+    train = cfg.trains()[0]
+    settings = cfg.solver_settings()
+    lines = [cfg.bridge_for(train, k) for k in (1, 2)]
+    packed = pack_trains(lines, [TrainOnTrack(train, 0),
+                                 TrainOnTrack(train, 1, offset=3.0, speed_factor=1.4)],
+                         1.0, None, settings)
+    v = float(ds.speed)
+    res = run_batch(packed, no_irregularity(), [v], [10.0], settings, lines[0],
+                    keep_histories=[True])
+    n = int(res.n_steps[0]) + 1
+    assert ds.sizes["time"] == n
+    # the run's train (1.0 v, no offset) is the last to leave: its own run length
+    alone = pack(lines[0], train, 1.0, None, settings)
+    t_end = alone.run_length / v + settings.free_vibration
+    assert (n - 1) * settings.dt == pytest.approx(t_end, abs=settings.dt)
+    got = ds["carbody_acceleration"].values
+    want = res.out.body_acc[0, :n]
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-6 * np.abs(want).max())
+    (tmp_path / "one").mkdir()
+    same = sweep_file(tmp_path / "one", text(1.0), speed=0)["carbody_acceleration"].values
+    m = min(same.shape[0], n)
+    assert np.max(np.abs(same[:m, 1] - got[:m, 1])) > 0.05 * np.max(np.abs(got[:, 1]))
+
+
+@pytest.mark.parametrize("entry, message", [
+    ('{ track = 2, train = "HSLM-A1" }',
+     'train.other_trains[0].train = "HSLM-A1": expected no train of its own with '
+     'interaction trains'),
+    ("{ track = 2, speed_kmh = 90.0 }",
+     "train.other_trains[0].speed_kmh = 90"),
+])
+def test_config__an_interaction_runs_other_train_of_its_own_is_refused(tmp_path, entry,
+                                                                       message):
+    """An interaction run's other train with a train or a speed in km/h of its own: a
+    message naming the key and what is offered (speed_factor, moving-force trains)."""
+    from test_space_config import SPRUNG, TORSION, TRACKS, _text
+
+    from vsi_numba.config import ConfigError, load_config
+
+    path = tmp_path / "deck.toml"
+    path.write_text(_text(TRACKS, TORSION, f"track = 1\nother_trains = [{entry}]", SPRUNG))
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    text = str(err.value)
+    assert message in text, text
+    assert ("speed_factor" in text) if "speed_kmh" in entry else ("moving_force" in text)
+
+
+def test_config__interaction_trains_on_an_imported_decks_lines_are_refused(tmp_path):
+    """An imported deck with two named track lines takes moving-force trains on its other
+    line (superposed); an interaction train there is refused with a message naming the
+    key, the deck's kind and what is offered."""
+    import test_imported_space_config as imp
+
+    from vsi_numba.config import ConfigError, load_config
+
+    fixed = imp._write_matrices(tmp_path, (("T/left", imp.LEFT_RAIL),
+                                           ("T/right", imp.RIGHT_RAIL),
+                                           ("G", imp.LEFT_GIRDER)))
+    forces = imp._text(imp._matrices_bridge(fixed, 'tracks = [{ line = "T" }, '
+                                                   '{ line = "G" }]'), [100.0])
+    forces = forces.replace("[train]", "[train]\ntrack = 1\nother_trains = [{ track = 2 }]")
+    path = tmp_path / "deck.toml"
+    path.write_text(forces)
+    assert load_config(path).other_trains == [{"track": 2, "direction": "same",
+                                               "offset": 0.0}]
+    head, _, rest = forces.partition('name = "axles"')
+    sprung = "\n" + textwrap.dedent("""
+        [[train.vehicles]]
+        kind = "sprung_mass"
+        offset = 0.0
+        mass = 20000.0
+        stiffness = 4e6""")
+    path.write_text(head + sprung + "\n[track]" + rest.partition("[track]")[2])
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    text = str(err.value)
+    assert "train.other_trains = " in text and "bridge.kind = \"matrices\"" in text, text
+    assert "not offered on imported decks" in text and "moving_force" in text, text

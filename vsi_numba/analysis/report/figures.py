@@ -7,7 +7,6 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from vsi_numba.analysis import plots
 from vsi_numba.analysis.dataset import (
     DETERMINISTIC,
     nanargmax_case,
@@ -84,6 +83,8 @@ def _recompute_note(case, ds, name, envelope, where: dict, train, speed, irr, un
 
 def _deck_history(ds, results, hist: _Histories, applicable):
     """(figure, caption) of the governing deck acceleration case, or (None, reason)."""
+    from vsi_numba.analysis import plots  # matplotlib: imported when a figure is made
+
     acc = results.get("deck_acceleration")
     gov = governing_case(acc)
     if gov is None:
@@ -142,6 +143,8 @@ def _deck_history(ds, results, hist: _Histories, applicable):
 
 def _wheel_history(ds, results, hist: _Histories):
     """(figure, caption) of the governing wheel unloading case, or (None, reason)."""
+    from vsi_numba.analysis import plots  # matplotlib: imported when a figure is made
+
     wu = results.get("wheel_unloading")
     gov = governing_case(wu)
     if gov is None:
@@ -191,6 +194,8 @@ def _figures(ds: xr.Dataset, results: dict, runner: CaseRunner | None = None,
     ``histories`` the whole prepared file, read lazily (default ``ds``): the time-history
     figures read one case from it.
     """
+    from vsi_numba.analysis import plots  # matplotlib: imported when the figures are made
+
     made, notes = [], []
     histories = ds if histories is None else histories
 

@@ -119,3 +119,20 @@ def test_kept__the_warm_main_job_imports_no_engine_nor_plotting(tmp_path):
         assert done.returncode == 0, done.stderr
     assert "report up to date" in done.stdout, done.stdout
     assert done.stdout.strip().splitlines()[-1] == "[]", done.stdout
+
+
+def test_report_package__imports_no_plotting_nor_spreadsheet_until_used():
+    """Importing the report package (what ``vsi report`` does before it knows whether the
+    file is usable) in a fresh interpreter imports neither matplotlib nor openpyxl; the
+    figures' module does when a report is drawn."""
+    env = {**os.environ,
+           "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])}
+    code = ("import sys\nimport vsi_numba.analysis.report\n"
+            "print(sorted({m.split('.')[0] for m in sys.modules} & {'matplotlib', "
+            "'openpyxl'}))\n"
+            "import vsi_numba.analysis.plots\n"
+            "print('matplotlib' in sys.modules)\n")
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                          text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["[]", "True"], done.stdout

@@ -124,8 +124,8 @@ def write_case(directory, speeds=SPEEDS_KMH, n_samples: int = 4000, extra: str =
         f = f"passage_{i:02d}.csv"
         lines = [f"# synthetic deck acceleration at x = {POINT:g} m, HSLM-A1 at {s:g} km/h,",
                  f"# m s-2 positive down; truth EI = {TRUTH['bridge.EI']:g} N m2, damping "
-                 f"{TRUTH['bridge.damping_ratio']:g}; noise {noise_std:g} m s-2 (seed {seed})",
-                 "t,value"]
+                 f"{TRUTH['bridge.damping_ratio']:g}; noise {noise_std:g} m s-2"
+                 + ("" if seed == NOISE_SEED else f" (seed {seed})"), "t,value"]
         lines += [f"{ti:.6f},{ai:.6e}" for ti, ai in zip(t, a, strict=True)]
         write_text_atomic(d / f, "\n".join(lines) + "\n")
         blocks.append(RECORD.format(file=f, point=POINT, speed=float(s)))

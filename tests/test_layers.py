@@ -105,3 +105,15 @@ def test_the_timed_test_command_uses_the_readme_pytest_options():
     command = re.findall(r"```bash\n(.*?)```", readme, flags=re.S)[1].strip()
     assert command.endswith("-m pytest " + readme_pytest_options())
     assert readme_pytest_options().startswith("-q")
+
+
+#: The longest a module of the package may be: a module over it does several jobs.
+MODULE_LINES_MAX = 700
+
+
+def test_no_module_of_the_package_is_over_its_line_limit():
+    sizes = {p.relative_to(ROOT).as_posix(): len(p.read_text(encoding="utf-8").splitlines())
+             for p in (ROOT / "vsi_numba").rglob("*.py")}
+    assert len(sizes) > 100  # the package was found
+    over = {k: v for k, v in sizes.items() if v > MODULE_LINES_MAX}
+    assert not over, f"modules over {MODULE_LINES_MAX} lines: {over}"

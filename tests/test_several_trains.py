@@ -1,4 +1,4 @@
-"""Several interaction trains in one run (``solver.pack.pack_trains``): the wheels of every
+"""Several interaction trains in one run (``solver.trains.pack_trains``): the wheels of every
 train and the deck in one contact problem per step.
 
 The reference is written here: the coupled ODEs of the deck's bending and torsion modes
@@ -19,8 +19,9 @@ from vsi_numba.model import vehicle as vh
 from vsi_numba.model.irregularity import no_irregularity
 from vsi_numba.model.vehicle import Train
 from vsi_numba.solver.batch import run_batch
-from vsi_numba.solver.pack import ModelError, TrainOnTrack, pack, pack_trains
+from vsi_numba.solver.pack import ModelError, pack
 from vsi_numba.solver.settings import SolverSettings
+from vsi_numba.solver.trains import TrainOnTrack, pack_trains
 
 # deck: 25 m simply supported, 3 bending modes (2.8, 11.2, 25.3 Hz) and the torsional
 # modes below the highest of them (5, 10, 15, 20, 25 Hz... up to 25.3 Hz)

@@ -187,10 +187,10 @@ def interacting(train) -> bool:
 def _packed_together(model, train, others):
     """An interaction train and the same train on the tracks of ``train.other_trains``,
     each at its ``speed_factor`` times the run's speed, in one run
-    (:func:`~vsi_numba.solver.pack.pack_trains`): every wheel and the deck in one contact
+    (:func:`~vsi_numba.solver.trains.pack_trains`): every wheel and the deck in one contact
     problem per step."""
     from vsi_numba.model.irregularity import no_irregularity
-    from vsi_numba.solver.pack import TrainOnTrack, pack_trains
+    from vsi_numba.solver.trains import TrainOnTrack, pack_trains
 
     cfg = model.config
     n_tracks = max([int(cfg.train_track), *(int(o["track"]) for o in others)])

@@ -6,6 +6,7 @@ reported with its other errors; a key of another kind is named as such."""
 from __future__ import annotations
 
 import copy
+from pathlib import Path
 
 import pytest
 
@@ -125,22 +126,130 @@ def test_messages__the_top_level():
 def test_messages__a_table_declared_as_a_union_of_kinds_is_read_by_its_kind():
     """A table whose declaration is ``Annotated[A | B, Field(discriminator="kind")]`` (the
     discriminator on the table's field) is validated by the model of the kind given: a
-    key of another kind is named with its kind, a misspelt kind guessed, and no member
-    of the union speaks for another's keys."""
+    key of another kind is set aside (as in [irregularity]), a misspelt kind guessed, and
+    no member of the union speaks for another's keys."""
     from vsi_numba.config._check import _Checker
     from vsi_numba.config._errors import typed_section
     from vsi_numba.config.schema import VsiConfig
 
-    def bridge_errors(**change):
+    def typed(**change):
         chk = _Checker()
-        typed_section(chk, {"bridge": {**BASE["bridge"], **change}}, "bridge", VsiConfig)
-        return chk.errors
+        out = typed_section(chk, {"bridge": {**BASE["bridge"], **change}}, "bridge", VsiConfig)
+        return out, chk.errors
 
-    assert bridge_errors(elements_per_span=10) == [
-        "bridge.elements_per_span = 10: expected no such key for kind = 'simply_supported' "
-        "(it belongs to kind = 'continuous')"]
+    def bridge_errors(**change):
+        return typed(**change)[1]
+
+    deck, errs = typed(elements_per_span=10, file="modes.csv")
+    assert errs == [] and type(deck).__name__ == "SimplySupported"
+    assert deck._ignored == ["elements_per_span", "file"]
+    cfg = load_config({**copy.deepcopy(BASE), "bridge": {**BASE["bridge"],
+                                                         "elements_per_span": 10}})
+    assert cfg.warnings == ["bridge.elements_per_span is ignored: not used by bridge.kind = "
+                            "'simply_supported'"]
     assert bridge_errors(kind="simply_suported") == [
         "bridge.kind = \"simply_suported\": expected one of 'simply_supported', "
         "'continuous', 'rigid', 'modes_file', 'matrices' (did you mean 'simply_supported'?)"]
     assert bridge_errors(EI=-1.0) == ["bridge.EI = -1.0: expected a bending stiffness EI > 0 "
                                       "N m^2"]
+
+
+def test_messages__bridge_rules_are_reported_with_the_keys_errors():
+    """[bridge]: the rules between its keys (one value per span, a percentage as damping,
+    deck_type only with Table 6.6, the elements in all, points on the deck) come with the
+    errors of its keys, each once; a number given for a number-or-list key is named with
+    the expectation of one number."""
+    deck = {"kind": "continuous", "spans": [20.0, 25.0], "EI": [1e10, 2e10, 3e10],
+            "mass_per_length": -1.0, "n_modes": 0, "damping_ratio": [0.02, 1.5],
+            "deck_type": "steel_composite", "elements_per_span": 400,
+            "output_points": [10.0, 46.0]}
+    got = errors(bridge=deck)
+    assert set(got) == {
+        "bridge.output_points[1] = 46.0: expected a position on the bridge, 0 <= x <= 45 m",
+        "bridge.damping_ratio[1] = 1.5: expected a damping ratio 0 <= zeta < 1 (a fraction "
+        "of critical, not a percentage): did you mean 0.015 (1.5 %)?",
+        "bridge.n_modes = 0: expected an integer number of modes 1 <= n_modes <= 1000",
+        "bridge.mass_per_length = -1.0: expected a mass per length > 0 kg/m",
+        "bridge.EI = [10000000000.0, 20000000000.0, 30000000000.0]: expected one value per "
+        "span (2 spans) or a single number",
+        "bridge.deck_type = \"steel_composite\": expected only with damping_ratio = "
+        "'EN1991-2' (the Table 6.6 lower bound of that deck type)"}, got
+    many = dict(deck, EI=1e10, mass_per_length=1e4, n_modes=3, damping_ratio=0.02,
+                output_points=[10.0], spans=[10.0] * 3)
+    many.pop("deck_type")
+    assert errors(bridge=many) == [
+        "bridge.elements_per_span = 400: expected at most 1000 elements in all (3 spans x "
+        "400 = 1200)"]
+    assert errors(bridge={**BASE["bridge"], "spans": [10.0, 15.0], "EI": "stiff"}) == [
+        "bridge.EI = \"stiff\": expected a bending stiffness EI > 0 N m^2 (a number, or a "
+        "list with one value per span)",
+        "bridge.spans = [10.0, 15.0]: expected one span length for kind = "
+        "'simply_supported' (use kind = 'continuous' for several spans)"]
+    assert errors(bridge={**BASE["bridge"], "spans": -3}) == [
+        "bridge.spans = -3: expected a span length > 0 m"]
+    assert errors(bridge={**BASE["bridge"], "damping_ratio": "EN1991-2"}) == [
+        "bridge.deck_type: missing required key; expected one of 'steel_composite', "
+        "'prestressed_concrete', 'filler_beam_reinforced_concrete'"]
+
+
+def test_messages__bridge_kinds_tracks_and_dofs():
+    """The keys of another kind of deck are set aside (warned); [bridge.track] of another
+    kind, Table 6.6 and additional damping on an imported deck are refused; a table
+    without kind names its unknown keys; the tables of an imported deck's tracks are
+    named by its own kind; DOF numbers from dof_base."""
+    rigid = {"kind": "rigid", "spans": 30.0, "EI": 1e10, "damping_ratio": "garbage"}
+    cfg = load_config({**copy.deepcopy(BASE), "bridge": rigid})
+    assert cfg.warnings[:2] == [
+        "bridge.EI is ignored: not used by bridge.kind = 'rigid'",
+        "bridge.damping_ratio is ignored: not used by bridge.kind = 'rigid'"]
+    assert errors(bridge={**rigid, "track": {"rail_EI": 1.0}})[0].startswith(
+        "bridge.track = {rail_EI = 1.0}: expected no [bridge.track] with kind = 'rigid'")
+    assert errors(bridge={"knd": "rigid", "spans": 30.0}) == [
+        "bridge.knd = \"rigid\": unknown key; did you mean 'kind'?",
+        "bridge.kind: missing required key; expected one of 'simply_supported', "
+        "'continuous', 'rigid', 'modes_file', 'matrices'"]
+    modes = {"kind": "modes_file", "file": "missing.nc", "damping_ratio": "EN1991-2",
+             "additional_damping": True, "tracks": [3, {"line": "A"}, {"line": "A"}]}
+    assert errors(bridge=modes) == [
+        "bridge.tracks[0] = 3: expected a table { line = \"T\" }",
+        "bridge.damping_ratio = \"EN1991-2\": expected a number for bridge.kind = "
+        "'modes_file' (Table 6.6 is for simply supported and continuous decks)",
+        "bridge.additional_damping = true: expected false for bridge.kind = 'modes_file' "
+        "(the rule is for simply supported and continuous decks)",
+        f"bridge.file = \"missing.nc\": expected an existing file with the deck modes "
+        f"(frequencies, modal masses, mode shapes at stations) (looked for "
+        f"{Path.cwd() / 'missing.nc'})"]
+    assert errors(bridge={"kind": "modes_file", "file": "m.nc", "track_line": "A",
+                          "tracks": [{"line": "A"}]})[0] == (
+        "bridge.track_line = \"A\": expected no track_line with bridge.tracks: each track "
+        "names its line ({ line = \"T\" })")
+    mats = {"kind": "matrices", "stiffness_matrix": "K.mtx", "mass_matrix": "M.mtx",
+            "station_map": "s.csv", "dof_base": 1, "fixed_dofs": [0, 3],
+            "vertical_dofs": {"start": 0}, "rotation_sign": True}
+    got = errors(bridge=mats)
+    assert set(got[:3]) == {
+        "bridge.rotation_sign = true: expected 1 (rotation DOF = +dw/dx) or -1 (= -dw/dx)",
+        "bridge.fixed_dofs[0] = 0: expected an integer DOF number >= dof_base (1)",
+        "bridge.vertical_dofs.start = 0: expected an integer DOF number >= dof_base (1)"}, got
+    assert errors(bridge={**mats, "fixed_dofs": [0, -1], "vertical_dofs": [1]})[0] == (
+        "bridge.fixed_dofs[1] = -1: expected an integer DOF number >= dof_base (0, or 1 "
+        "with dof_base = 1)")
+    assert all(e.startswith("bridge.") and "existing file" in e for e in got[3:]), got
+
+
+def test_messages__a_deck_with_torsion_and_absurd_values_is_refused_not_crashed():
+    """A simply supported deck with torsion whose bending or torsional frequencies are far
+    apart (EI = 1e30, or a polar mass of 1e30) is refused by the plausibility check, or
+    loads; its torsional spectrum is bounded (it took all the memory
+    before)."""
+    from vsi_numba.config import MAX_MODES
+
+    deck = {**BASE["bridge"], "tracks": [{"eccentricity": 2.0}],
+            "torsion": {"GJ": 1e10, "polar_mass": 1e30}}
+    assert errors(bridge=deck) == [
+        "bridge.torsion.polar_mass = 1e+30 kg m^2/m: expected 100 .. 1e+08 kg m^2/m on a "
+        "railway bridge (about 4e5 for a double-track box girder); set "
+        "solver.allow_implausible = true to run it anyway"]
+    deck["torsion"]["polar_mass"] = 4e4
+    cfg = load_config({**copy.deepcopy(BASE), "bridge": {**deck, "EI": 1e30}})
+    assert 0 < cfg._bridge.torsional_frequencies.size <= 2 * MAX_MODES

@@ -95,6 +95,8 @@ class _Where:
         #: a list, a table), whose member the location names
         self.union_key: str | None = None
         self.table = None  # the model of the table the error is in (or at)
+        #: the number member of a key declared as a number or a list was chosen
+        self.scalar = False
 
 
 def _walk(loc, root, data, prefix: str) -> _Where:
@@ -111,6 +113,7 @@ def _walk(loc, root, data, prefix: str) -> _Where:
                 if not _kinds(tp):
                     w.union_key = w.path
                     w.fits = w.fits and _fits(tp, w.value)
+                    w.scalar = not (_is_model(tp) or typing.get_origin(tp) in (list, dict))
                 if _is_model(tp):
                     w.table = tp
                 continue
@@ -160,18 +163,21 @@ def _listing(choices) -> str:
     return f"one of {listing}" if len(choices) > 1 else listing
 
 
-def expectation(model, name: str, *, item: bool = False) -> str:
+def expectation(model, name: str, *, item: bool = False, scalar: bool = False) -> str:
     """The expectation of key ``name`` of ``model`` in a message: the choices of a
     closed set (with the field's note), the declared expectation of one item of its
-    list (``each``) or of the key."""
+    list (``each``), of the key given as one number (``scalar``) or of the key."""
     from vsi_numba.config.schema._fields import expected_of, extras
 
     e = extras(model, name)
     choices = _choices(model, name)
-    if choices is not None:
+    if choices is not None and not (e.get("expected") and not all(
+            isinstance(c, str) for c in choices)):  # (numbers: the declared words)
         return _listing(choices) + e.get("note", "")
     if item and e.get("each"):
         return e["each"]
+    if scalar and e.get("scalar"):
+        return e["scalar"]
     return expected_of(model, name)
 
 
@@ -239,8 +245,11 @@ def messages(exc: ValidationError, root, data, prefix: str = "") -> list[str]:
             table = tables[0] if tables else w.table
             msg = f"{w.path} = {_show(e['input'])}: expected {_table_expectation(table)}"
         elif kind in ("union_tag_invalid", "union_tag_not_found"):
-            kinds = [k for m in _members(_union_at(e["loc"], root)) for k in _kinds(m)]
+            members = [m for m in _members(_union_at(e["loc"], root)) if _is_model(m)]
+            kinds = [k for m in members for k in _kinds(m)]
             msg = _kind_message(w, e, kind, kinds)
+            if kind == "union_tag_not_found":  # no kind: the keys no kind declares
+                msg = "\n".join([msg, *_unknown_of_every_kind(w.path, members, e["input"])])
         elif kind == "missing":
             if w.field is None:
                 continue
@@ -280,8 +289,25 @@ def _plain(path: str, value, w: _Where, *, item: bool) -> str:
     if w.field is None:
         exp = _table_expectation(w.table) if w.table is not None else "a valid value"
     else:
-        exp = expectation(w.model, w.field, item=item)
+        number = isinstance(value, int | float) and not isinstance(value, bool)
+        exp = expectation(w.model, w.field, item=item,
+                          scalar=w.scalar and number and w.path == w.union_key)
     return f"{path} = {_show(value)}: expected {exp}"
+
+
+def _unknown_of_every_kind(path: str, members, table) -> list[str]:
+    """The messages of the keys of ``table`` (a table without its kind) that no kind of
+    ``members`` declares, each with a did-you-mean among the keys of every kind."""
+    allowed = sorted({k for m in members for k in m.model_fields
+                      if k not in getattr(m, "HIDDEN", frozenset())})
+    out = []
+    for k, v in table.items():
+        if isinstance(k, str) and not any(k in m.model_fields for m in members):
+            guess = _did_you_mean(k, allowed)
+            hint = (f"did you mean '{guess}'?" if guess else
+                    "expected one of " + ", ".join(f"'{a}'" for a in allowed))
+            out.append(f"{_join(path, k)} = {_show(v)}: unknown key; {hint}")
+    return out
 
 
 def _kind_message(w: _Where, e, kind: str, kinds) -> str:
@@ -301,13 +327,14 @@ def _kind_message(w: _Where, e, kind: str, kinds) -> str:
 def _union_at(loc, root):
     """The union (or model) annotation of the table at ``loc`` (for the keys of the
     other kinds of a table with a kind)."""
-    tp = root
+    tp, kind = root, None
     for x in loc:
         members = _members(tp)
         if len(members) > 1:
             chosen = [m for m in members if _tag_of(m, x)]
             if chosen:
                 if _is_model(chosen[0]) and _kinds(chosen[0]):
+                    kind = chosen[0]  # the kind the location names
                     continue  # stay at the union: its kinds are the table's
                 tp = chosen[0]
                 continue
@@ -319,6 +346,7 @@ def _union_at(loc, root):
         elif len(_members(tp)) > 1:
             kinds = [m for m in _members(tp) if _is_model(m) and isinstance(x, str)
                      and x in m.model_fields]
+            kinds = [kind] if kind in kinds else kinds
             tp = kinds[0].model_fields[x].annotation if kinds else None
         else:
             tp = None

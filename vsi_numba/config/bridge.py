@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -20,11 +19,9 @@ from vsi_numba import en1990, en1991
 from vsi_numba.code_profile import damping_span
 from vsi_numba.config._check import (
     _BAD,
-    _MISSING,
     _Checker,
     _drop_none,
     _is_number,
-    _join,
     _ok,
     _Sentinel,
 )
@@ -37,22 +34,15 @@ from vsi_numba.config.limits import (
     DT_RESOLUTION,
     MAX_DAMPING_RATIO,
     MAX_ECCENTRICITY,
-    MAX_ELEMENTS,
     MAX_MODES,
-    MAX_OUTPUT_POINTS,
+    MAX_TRACK_DOFS,  # noqa: F401 (re-exported)
 )
 from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import (
-    Num,
-    PosNum,
-    expected_of,
-    implausible,
-    keys_of,
-    kinds_of,
-)
+from vsi_numba.config.schema._fields import kinds_of
+from vsi_numba.config.schema.bridge import EN_DAMPING
 from vsi_numba.model import bridge as _bridge
 
-BRIDGE_KINDS = ("simply_supported", "continuous", "rigid", "modes_file", "matrices")
+BRIDGE_KINDS = tuple(kinds_of(_m.Bridge))
 
 
 @dataclass(frozen=True)
@@ -96,150 +86,83 @@ class _BridgeSpec:
         return np.sort(np.asarray(out, float))
 
 
-def _per_span(chk, tbl, path, key, expected, n_spans, model=None):
-    """EI / mass_per_length: a number > 0 or one per span (outside the plausible range
-    that ``model`` declares for ``key``: :attr:`_Checker.implausible`)."""
-    p = _join(path, key)
-    if key not in tbl:
-        return chk.error(p, _MISSING, f"{expected} (a number, or one per span)")
-    v = chk.number_list(
-        tbl[key], p, PosNum, expected, scalar_ok=True,  # the item type of PerSpan
-        expected=f"{expected} (a number, or a list with one value per span)",
-    )
-    if isinstance(v, list) and n_spans is not None and len(v) != n_spans:
-        return chk.error(
-            p, tbl[key],
-            f"one value per span ({n_spans} span{'s' if n_spans != 1 else ''}) or a single number",
-        )
-    if model is not None and v is not _BAD:
-        chk.implausible += implausible(model, key, p, v)
-    return v
-
-
 #: The track forms of EN 1990 A2.4.4.2.1(4)P (each with its deck-acceleration limit).
 TRACK_TYPES = tuple(en1990.DECK_ACCELERATION_LIMITS)
 
 
-def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeSpec | _Sentinel:
-    path = "bridge"
-    used = {kind: keys_of(m) for kind, m in kinds_of(_m.Bridge).items()}  # declared
-    allowed_all = set().union(*used.values())
-    if not isinstance(d, Mapping):
-        return chk.error(path, d, "a table [bridge] with kind, spans, EI, mass_per_length")
-    kind = chk.choice(d, path, "kind", BRIDGE_KINDS)
-    if kind is _BAD:
-        chk.table(d, path, allowed_all)
+def _bridge_section(chk: _Checker, b, base_dir: Path, solver_cutoff) -> _BridgeSpec | _Sentinel:
+    """The deck of a validated ``[bridge]`` (:data:`~.schema.models.Bridge`, the rules
+    between its keys checked there) and the checks that need more than the table: the
+    modes (built or read now), the files of an imported deck, the output points on an
+    imported deck."""
+    if isinstance(b, _Sentinel):  # refused (reported) or missing
         return _BAD
-    ignored = {k: f"not used by bridge.kind = '{kind}'" for k in allowed_all - used[kind]}
-    ignored.pop("track", None)
-    chk.table(d, path, used[kind], ignored=ignored, elsewhere={"track": (
-        f"no [bridge.track] with kind = '{kind}': the track layer is assembled into the FE "
-        "model of kind = 'continuous' (use it with a single span for one span)")})
-
-    # spans
-    spans = _BAD
-    one_span = kind in ("simply_supported", "rigid")
-    span_expect = (
-        "a span length > 0 m (one value)" if one_span
-        else "a list of span lengths > 0 m (one per span)"
-    )
-    if "spans" in d:
-        spans = chk.number_list(
-            d["spans"], "bridge.spans", PosNum, expected_of(_m.Continuous, "spans"),
-            expected=span_expect, scalar_ok=True, min_len=1, max_len=200,
-        )
-        if _is_number(spans):
-            spans = [spans]
-        if isinstance(spans, list) and one_span and len(spans) != 1:
-            more = " (use kind = 'continuous' for several spans)" if kind != "rigid" else ""
-            spans = chk.error("bridge.spans", d["spans"], f"one span length for kind = "
-                              f"'{kind}'{more}")
-    elif kind not in _IMPORTED:
-        chk.error("bridge.spans", _MISSING, span_expect)
-    if kind in _IMPORTED and "spans" not in d:
-        spans = None  # optional: the track line's length comes from the file
-    n_spans = len(spans) if isinstance(spans, list) else None
-    length = float(sum(spans)) if isinstance(spans, list) else None
+    kind = b.kind
+    for k in b._ignored:
+        chk.warn(f"bridge.{k} is ignored: not used by bridge.kind = '{kind}'")
+    spans = b.spans
+    if _is_number(spans):
+        spans = [spans]
+    length = float(sum(spans)) if spans is not None else None
 
     res: dict[str, Any] = {"kind": kind}
     # EN 1990 A2.4.4.2.1(4)P: the deck-acceleration limit depends on the track form
-    res["track_type"] = chk.fields(d, path, _m.Rigid, ["track_type"])["track_type"]
-    if isinstance(spans, list):
+    res["track_type"] = b.track_type
+    if spans is not None:
         res["spans"] = spans
     flexible = kind in ("simply_supported", "continuous")
-    ei = mass = damping = n_modes = fmax = _BAD
-    eps = None
+    ei = mass = damping = n_modes = fmax = eps = track = None
     if flexible:
-        ei = _per_span(chk, d, path, "EI", expected_of(_m.Continuous, "EI"), n_spans)
-        mass = _per_span(chk, d, path, "mass_per_length",
-                         expected_of(_m.Continuous, "mass_per_length"), n_spans)
+        ei, mass = b.EI, b.mass_per_length
         res.update(EI=ei, mass_per_length=mass)
     if kind != "rigid":
-        damping = 0.0
-        if d.get("damping_ratio") == EN_DAMPING:
-            damping = _en_damping(chk, d, kind, spans, res)
-        elif "damping_ratio" in d:
-            damping = _damping_ratio(chk, d["damping_ratio"])
-        if "deck_type" in d and d.get("damping_ratio") != EN_DAMPING:
-            chk.error("bridge.deck_type", d["deck_type"], "only with damping_ratio = "
-                      f"'{EN_DAMPING}' (the Table 6.6 lower bound of that deck type)")
-        if "additional_damping" in d:
-            _additional_damping(chk, d, kind, spans, res)
-        n_modes, fmax = chk.fields(d, path, _m.Continuous, ["n_modes", "max_frequency"]
-                                   ).values()
-        if n_modes is None and fmax is None and (kind == "matrices" or "track" in d):
+        if b.damping_ratio == EN_DAMPING:
+            damping = _en_damping(b, spans, res)
+        else:
+            damping = _damping_ratio(chk, b.damping_ratio)
+        if flexible and b.additional_damping:
+            _additional_damping(spans, res)
+        n_modes, fmax = b.n_modes, b.max_frequency
+        layer = kind == "continuous" and b.track is not None
+        if n_modes is None and fmax is None and (kind == "matrices" or layer):
             n_modes = DEFAULT_N_MODES  # modes_file: default every mode of the file
         # simply supported and continuous decks: by default every mode up to the cut-off
         # (_flexible_bridge), n_modes and max_frequency left out of the resolved config
         res.update(damping_ratio=damping, n_modes=n_modes, max_frequency=fmax)
     if kind == "continuous":
-        eps = chk.fields(d, path, _m.Continuous, ["elements_per_span"])["elements_per_span"]
-        if _ok(eps) and n_spans is not None and n_spans * eps > MAX_ELEMENTS:
-            eps = chk.error("bridge.elements_per_span", eps,
-                            f"at most {MAX_ELEMENTS} elements in all ({n_spans} spans x "
-                            f"{eps} = {n_spans * eps})")
-        res["elements_per_span"] = eps
-    track = None
-    if kind == "continuous" and "track" in d:
-        track = _track_section(chk, d["track"], spans)
-        res["track"] = track
+        eps = res["elements_per_span"] = b.elements_per_span
+        if b.track is not None:
+            track = res["track"] = b.track.model_dump()
     tracks = torsion = None
     if flexible:
-        tracks, torsion = _space_keys(chk, d, n_spans, res)
-        if torsion is not None and "track" in d:
-            torsion = chk.error("bridge.torsion", d["torsion"], "no torsion with the FE "
-                                "track layer [bridge.track] (the layer is planar): leave "
-                                "out one of them")
+        tracks, torsion = _space_keys(chk, b, res)
     imported = None
     if kind in _IMPORTED:
-        tracks = _imported_track_keys(chk, d, res)
-        imported = _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes,
-                                    fmax, solver_cutoff, tracks)
+        tracks = _imported_track_keys(chk, b, res)
+        imported = _imported_bridge(chk, b, base_dir, res, spans, damping, n_modes, fmax,
+                                    solver_cutoff, tracks)
         if imported is not _BAD:
             length = imported.bridge.length
 
-    # output points
+    # output points (on a beam or rigid deck: within it, a rule of the model)
     points = _BAD
-    if "output_points" in d:
-        points = chk.number_list(d["output_points"], "bridge.output_points",
-                                 float, "a position x (m)", scalar_ok=True,
-                                 expected=f"a list of at most {MAX_OUTPUT_POINTS} positions "
-                                          "on the deck (m)", max_len=MAX_OUTPUT_POINTS)
+    if b.output_points is not None:
+        points = b.output_points
         if _is_number(points):
             points = [points]
-        if isinstance(points, list) and length is not None:
+        if kind in _IMPORTED and length is not None:
             for i, x in enumerate(points):
                 if not -1e-9 <= x <= length + 1e-9:
                     chk.error(f"bridge.output_points[{i}]", x,
                               f"a position on the bridge, 0 <= x <= {length:g} m")
                     points = _BAD
-    elif isinstance(spans, list) and kind not in _IMPORTED:
+    elif spans is not None and kind not in _IMPORTED:
         edges = np.concatenate([[0.0], np.cumsum(spans)])
         points = (0.5 * (edges[:-1] + edges[1:])).tolist()
     elif imported is not None and imported is not _BAD:
         edges = np.asarray(imported.bridge.supports, float)
         points = (0.5 * (edges[:-1] + edges[1:])).tolist()
-        if edges.size == 2 and not isinstance(spans, list):
+        if edges.size == 2 and spans is None:
             chk.warn(f"bridge.output_points: the supports along the track line are unknown "
                      f"(give bridge.spans); the default output point is the middle of the "
                      f"{edges[-1]:g} m line, x = {points[0]:g} m")
@@ -247,8 +170,7 @@ def _bridge_section(chk: _Checker, d, base_dir: Path, solver_cutoff) -> _BridgeS
         res["output_points"] = points
 
     resolved = _drop_none(res)
-    if not _ok(spans, points) or (flexible and not _ok(ei, mass, damping, n_modes, fmax, eps,
-                                                       track, tracks, torsion)):
+    if not _ok(points):
         return _BAD
     allf = None
     space = None
@@ -304,7 +226,7 @@ def _torsional_spectrum(kind, spans, ei, mass, torsion, eps, allf, solver_cutoff
             if kind == "simply_supported":  # f_j = j sqrt(GJ / I_p) / (2 L)
                 gj, ip = (float(v[0]) for v in tor.per_span(1))
                 f1 = np.sqrt(gj / ip) / (2.0 * float(spans[0]))
-                n = int(np.floor(cap * (1 + 1e-9) / f1)) + 1
+                n = min(int(np.floor(cap * (1 + 1e-9) / f1)) + 1, 2 * MAX_MODES)
                 return f1 * np.arange(1, n + 1)
             deck = deck3d.continuous(spans, ei, mass, tor, None, 1, cap, 0.0, eps)
     except (ValueError, ArithmeticError, np.linalg.LinAlgError):  # SpaceModelError too
@@ -313,35 +235,18 @@ def _torsional_spectrum(kind, spans, ei, mass, torsion, eps, allf, solver_cutoff
     return np.sort(np.asarray(deck.frequencies, float)[share > 0.5])
 
 
-def _space_keys(chk, d, n_spans, res):
-    """``bridge.tracks`` and ``bridge.torsion`` (declared:
-    :class:`~.schema.models.TrackLine`, :class:`~.schema.models.Torsion`): their resolved
+def _space_keys(chk, b, res):
+    """``bridge.tracks`` and ``bridge.torsion`` of a validated beam deck: their resolved
     values (None when not given; only given keys enter ``res``, so a file without them
-    keeps its resolved configuration and hash) or ``_BAD``."""
+    keeps its resolved configuration and hash) and the warnings about them."""
     tracks = torsion = None
-    if "tracks" in d:
-        tracks = chk.table_list(d["tracks"], "bridge.tracks", _m.TrackLine,
-                                expected="a list of 1 to 20 tracks, each "
-                                         "{ eccentricity = y } (m)",
-                                what=" { eccentricity = y } (m)", max_len=20)
-        if _ok(tracks):
-            res["tracks"] = tracks
-    if "torsion" in d:
-        t = d["torsion"]
-        p = "bridge.torsion"
-        if chk.table(t, p, keys_of(_m.Torsion),
-                     what=" { GJ, polar_mass, damping_ratio }") is _BAD:
-            torsion = _BAD
-        else:
-            v = chk.fields(t, p, _m.Torsion, ["damping_ratio", "n_modes"])
-            for key, what in (("GJ", "a torsional stiffness GJ > 0 N m^2"),
-                              ("polar_mass", "a polar mass moment per length > 0 kg m^2/m")):
-                v[key] = _per_span(chk, t, p, key, what, n_spans, _m.Torsion)
-            torsion = _drop_none(v) if _ok(*v.values()) else _BAD
-        if _ok(torsion):
-            res["torsion"] = torsion
-    if not _ok(tracks, torsion):
-        return tracks, torsion
+    if b.tracks is not None:
+        tracks = res["tracks"] = [t.model_dump(exclude_none=True) for t in b.tracks]
+    if b.torsion is not None:
+        t = b.torsion
+        torsion = res["torsion"] = _drop_none({"damping_ratio": t.damping_ratio,
+                                               "n_modes": t.n_modes, "GJ": t.GJ,
+                                               "polar_mass": t.polar_mass})
     for i, tr in enumerate(tracks or []):
         y = tr["eccentricity"]
         if abs(y) > MAX_ECCENTRICITY:
@@ -392,37 +297,17 @@ def _space_deck(chk, kind, spans, ei, mass, planar, tracks, torsion, eps):
         return chk.error("bridge.torsion", torsion, f"a buildable deck with torsion ({exc})")
 
 
-#: The keys of ``[bridge.track]`` (declared: :class:`~.schema.models.BridgeTrack`).
-_TRACK_FIELDS = tuple(_m.BridgeTrack.model_fields)
-MAX_TRACK_DOFS = 4000  # deck + rail + sleepers (dense eigensolution at load time)
 FLEXIBILITY_WARNING = 0.95  # share of the static rail flexibility kept by the modes
 
 
-EN_DAMPING = "EN1991-2"
-
-
-def _damping_ratio(chk, value):
-    """``bridge.damping_ratio`` as a number or one per mode: a fraction of critical
-    0 <= zeta < 1.  A value >= 1 is refused as a percentage (1.5 -> did you mean
-    0.015?); one >= :data:`MAX_DAMPING_RATIO` is legal but warned (railway decks have
-    0.5-4 %, EN 1991-2 Table 6.6 [R])."""
+def _damping_ratio(chk, got):
+    """``bridge.damping_ratio`` as a number or one per mode (validated: fractions of
+    critical 0 <= zeta < 1, a value >= 1 refused as a percentage by the model): one >=
+    :data:`MAX_DAMPING_RATIO` is legal but warned (railway decks have 0.5-4 %, EN 1991-2
+    Table 6.6 [R])."""
     path = "bridge.damping_ratio"
-    expected = ("a damping ratio 0 <= zeta < 1, a list with one per mode, or "
-                f"'{EN_DAMPING}' (Table 6.6 with bridge.deck_type)")
-    got = chk.number_list(value, path, Num(ge=0), "a damping ratio 0 <= zeta < 1",
-                          scalar_ok=True, expected=expected)
-    if not _ok(got):
-        return got
     items = [(path, got)] if _is_number(got) else [
         (f"{path}[{i}]", z) for i, z in enumerate(got)]
-    bad = False
-    for p, z in items:
-        if z >= 1.0:
-            chk.error(p, z, f"a damping ratio 0 <= zeta < 1 (a fraction of critical, not a "
-                            f"percentage): did you mean {z / 100:g} ({z:g} %)?")
-            bad = True
-    if bad:
-        return _BAD
     high = [(p, z) for p, z in items if z >= MAX_DAMPING_RATIO]
     if high:
         p, z = max(high, key=lambda t: t[1])
@@ -438,15 +323,11 @@ def _span_for_damping(kind, spans):
     return damping_span(spans)
 
 
-def _en_damping(chk, d, kind, spans, res):
-    """``damping_ratio = 'EN1991-2'``: the Table 6.6 lower bound of ``deck_type``."""
-    deck = chk.choice(d, "bridge", "deck_type", tuple(en1991.DECK_TYPES))
-    if kind not in ("simply_supported", "continuous"):
-        return chk.error("bridge.damping_ratio", EN_DAMPING, "a number for bridge.kind = "
-                         f"'{kind}' (Table 6.6 is for simply supported and continuous decks)")
-    if not _ok(deck) or not isinstance(spans, list):
-        return _BAD
-    span = _span_for_damping(kind, spans)
+def _en_damping(b, spans, res):
+    """``damping_ratio = 'EN1991-2'``: the Table 6.6 lower bound of ``deck_type`` (given:
+    a rule of the model)."""
+    deck = b.deck_type
+    span = _span_for_damping(b.kind, spans)
     zeta = en1991.damping_lower_bound(deck, span)
     res["damping_rule"] = (f"EN 1991-2 Table 6.6, {deck.replace('_', ' ')}, L = {span:g} m: "
                            f"zeta = {100 * zeta:.4g} %")
@@ -454,44 +335,13 @@ def _en_damping(chk, d, kind, spans, res):
     return zeta
 
 
-def _additional_damping(chk, d, kind, spans, res):
+def _additional_damping(spans, res):
     """``additional_damping = true``: EN 1991-2 §6.4.6.3.1 for moving-force trains."""
-    on = chk.boolean(d, "bridge", "additional_damping", False)
-    if not _ok(on) or not on:
-        return
-    if kind not in ("simply_supported", "continuous"):
-        chk.error("bridge.additional_damping", True, "false for bridge.kind = "
-                  f"'{kind}' (the rule is for simply supported and continuous decks)")
-        return
-    if isinstance(spans, list):
-        span = _span_for_damping(kind, spans)
-        res["additional_damping"] = en1991.additional_damping(span)
-        res["additional_damping_rule"] = (
-            f"EN 1991-2 6.4.6.3.1, L = {span:g} m: dzeta = "
-            f"{100 * res['additional_damping']:.4g} % added for moving-force trains only")
-
-
-def _track_section(chk, t, spans):
-    """[bridge.track]: the track layer of a continuous deck (values per track)."""
-    path = "bridge.track"
-    if chk.table(t, path, set(_TRACK_FIELDS), what=" [bridge.track] of track-layer values") \
-            is _BAD:
-        return _BAD
-    vals = chk.fields(t, path, _m.BridgeTrack)
-    if not _ok(*vals.values()):
-        return _BAD
-    if isinstance(spans, list):
-        a, n_e = vals["sleeper_spacing"], vals["rail_elements_per_bay"]
-        if a > 0.5 * min(spans):
-            return chk.error(f"{path}.sleeper_spacing", a,
-                             f"a spacing of at most half the shortest span ({min(spans):g} m)")
-        n_rail = 2 * n_e * (sum(spans) / a + 1)
-        if n_rail + sum(spans) / a > MAX_TRACK_DOFS:
-            return chk.error(f"{path}.sleeper_spacing", a,
-                             f"a track layer of at most {MAX_TRACK_DOFS} rail and sleeper DOFs "
-                             f"(this one has about {n_rail + sum(spans) / a:.0f}: fewer "
-                             "rail_elements_per_bay, or a shorter deck)")
-    return vals
+    span = _span_for_damping("", spans)
+    res["additional_damping"] = en1991.additional_damping(span)
+    res["additional_damping_rule"] = (
+        f"EN 1991-2 6.4.6.3.1, L = {span:g} m: dzeta = "
+        f"{100 * res['additional_damping']:.4g} % added for moving-force trains only")
 
 
 def _track_bridge(chk, spans, ei, mass, n_modes, fmax, eps, damping, track):

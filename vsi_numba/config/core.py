@@ -38,6 +38,7 @@ from vsi_numba.config.code_profile import (
 )
 from vsi_numba.config.compatibility import _compatibility_section
 from vsi_numba.config.fatigue import _fatigue_section, fatigue_budget
+from vsi_numba.config.imported_bridge import _files_of_a_refused_deck
 from vsi_numba.config.irregularity import (
     _check_file_coverage,
     _defect_profile,
@@ -509,7 +510,10 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     solver = _solver_section(chk, typed_section(chk, data, "solver", VsiConfig))
     contact = _contact_section(chk, typed_section(chk, data, "contact", VsiConfig))
     cutoff = solver["acceleration_cutoff"] if _ok(solver) else None
-    bridge = _bridge_section(chk, data["bridge"], base, cutoff) if "bridge" in data else _BAD
+    bridge = typed_section(chk, data, "bridge", VsiConfig)
+    if bridge is _BAD:  # its files are checked with its other errors
+        _files_of_a_refused_deck(chk, data["bridge"], base)
+    bridge = _bridge_section(chk, bridge, base, cutoff)
     fe_layer = isinstance(data.get("bridge"), dict) and "track" in data["bridge"]
     if fe_layer and "track" in data:
         track = chk.error("track", data["track"], "no [track] with [bridge.track]: the FE "

@@ -4,7 +4,6 @@ freedom and tracks, read and checked at load time."""
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -13,44 +12,31 @@ import numpy as np
 from vsi_numba.config._check import (
     _BAD,
     _MISSING,
-    _as_list,
     _join,
     _ok,
 )
-from vsi_numba.config.limits import MAX_ECCENTRICITY
-from vsi_numba.config.schema import models as _m
-from vsi_numba.config.schema._fields import Int, expected_of
+from vsi_numba.config.limits import MAX_ECCENTRICITY, MAX_FIXED_DOFS  # noqa: F401
 from vsi_numba.model import bridge as _bridge
 
 _IMPORTED = ("modes_file", "matrices")
-_IMPORT_KEYS = ("track_line", "mass_normalised", "stiffness_matrix", "mass_matrix",
-                "station_map", "fixed_dofs", "dof_base", "rotation_sign", "vertical_dofs")
 _IMPORT_FILES = {
     "file": "the deck modes (frequencies, modal masses, mode shapes at stations)",
     "stiffness_matrix": "the stiffness matrix K (Matrix Market)",
     "mass_matrix": "the mass matrix M (Matrix Market)",
     "station_map": "the station map (CSV: x, dof, rotation_dof, line)",
 }
-MAX_FIXED_DOFS = 100_000
 
 
-def _dof_indices(chk, d, key, base, allow_pattern=False):
-    """A list of DOF numbers >= dof_base (or, when allowed, a {start, step} table)."""
-    p = _join("bridge", key)
-    v = _as_list(d[key])
-    if allow_pattern and isinstance(v, Mapping):
-        chk.table(v, p, {"start", "step"})
-        start = chk.get_number(v, p, "start", Int(ge=base),
-                               f"an integer DOF number >= dof_base ({base})", default=base)
-        step = chk.get_number(v, p, "step", Int(ge=1), "an integer step >= 1", default=1)
-        return {"start": start, "step": step} if _ok(start, step) else _BAD
-    expected = f"a list of integer DOF numbers >= dof_base ({base})" + (
-        ", or {start = i, step = s}" if allow_pattern else "")
-    if not isinstance(v, list) or len(v) > MAX_FIXED_DOFS:
-        return chk.error(p, d[key], expected)
-    out = [chk.number(x, f"{p}[{i}]", Int(ge=base),
-                      f"an integer DOF number >= dof_base ({base})") for i, x in enumerate(v)]
-    return out if _ok(*out) else _BAD
+def _files_of_a_refused_deck(chk, d, base_dir) -> None:
+    """The files of an imported deck whose table the model refused: each given path is
+    checked (it exists) with the table's other errors."""
+    from collections.abc import Mapping
+
+    if not isinstance(d, Mapping) or d.get("kind") not in _IMPORTED:
+        return
+    for key, what in _IMPORT_FILES.items():
+        if isinstance(d.get(key), str) and (key == "file") == (d["kind"] == "modes_file"):
+            chk.file(d, "bridge", key, base_dir, what)
 
 
 @dataclass(frozen=True)
@@ -64,28 +50,14 @@ class _Imported:
     space: Any = None
 
 
-def _imported_track_keys(chk, d, res):
-    """``bridge.tracks`` of an imported deck (declared:
-    :class:`~.schema.models.ImportedTrack`): the list of resolved tracks, None when not
-    given, or ``_BAD``."""
-    if "tracks" not in d:
+def _imported_track_keys(chk, b, res):
+    """``bridge.tracks`` of a validated imported deck (each its own line, not with
+    track_line: rules of the model): the list of resolved tracks, None when not given;
+    the warnings about them."""
+    if b.tracks is None:
         return None
-    tracks = chk.table_list(d["tracks"], "bridge.tracks", _m.ImportedTrack,
-                            expected="a list of 1 to 20 tracks, each { line = \"T\" } (a "
-                                     "track of the data)",
-                            what=" { line = \"T\" }", max_len=20)
-    if not _ok(tracks):
-        return _BAD
-    if "track_line" in d:
-        return chk.error("bridge.track_line", d["track_line"], "no track_line with "
-                         "bridge.tracks: each track names its line ({ line = \"T\" })")
-    seen: dict[str, int] = {}
+    tracks = [t.model_dump(exclude_none=True) for t in b.tracks]
     for i, tr in enumerate(tracks):
-        if tr["line"] in seen:
-            return chk.error(f"bridge.tracks[{i}].line", tr["line"],
-                             f"a track of its own (bridge.tracks[{seen[tr['line']]}] is "
-                             "that track already)")
-        seen[tr["line"]] = i
         y = tr.get("eccentricity")
         if y is not None and abs(y) > MAX_ECCENTRICITY:
             chk.warn(f"bridge.tracks[{i}].eccentricity = {y:g} m: farther than "
@@ -103,44 +75,35 @@ def _imported_track_keys(chk, d, res):
     return tracks
 
 
-def _imported_bridge(chk, d, base_dir, kind, res, spans, damping, n_modes, fmax, cutoff,
+def _imported_bridge(chk, b, base_dir, res, spans, damping, n_modes, fmax, cutoff,
                      tracks=None):
     """kind = modes_file | matrices: read the files now (errors join the others); with
     ``tracks`` (:func:`_imported_track_keys`), the deck with its tracks."""
     from vsi_numba.model import imported as _imp
 
-    path = "bridge"
+    path, kind = "bridge", b.kind
     files = ("file",) if kind == "modes_file" else ("stiffness_matrix", "mass_matrix",
                                                     "station_map")
     given, full = {}, {}
     for key in files:
-        given[key], full[key] = chk.file(d, path, key, base_dir, _IMPORT_FILES[key])
+        given[key], full[key] = chk.file({key: getattr(b, key)}, path, key, base_dir,
+                                         _IMPORT_FILES[key])
         res[key] = given[key]
-    line = chk.string(d, path, "track_line", expected_of(_m.Matrices, "track_line"),
-                      default=None)
-    res["track_line"] = line
+    line = res["track_line"] = b.track_line
     extra: dict[str, Any] = {}
     if kind == "modes_file":
-        extra["mass_normalised"] = chk.boolean(d, path, "mass_normalised", None)
-        res["mass_normalised"] = extra["mass_normalised"]
+        extra["mass_normalised"] = res["mass_normalised"] = b.mass_normalised
     else:
-        base = chk.get_number(d, path, "dof_base", Int(ge=0, le=1),
-                              expected_of(_m.Matrices, "dof_base"), default=0)
-        sign_expected = expected_of(_m.Matrices, "rotation_sign")
-        sign = chk.get_number(d, path, "rotation_sign", float, sign_expected, default=1.0)
-        if _ok(sign) and sign not in (1, -1):
-            sign = chk.error("bridge.rotation_sign", d["rotation_sign"], sign_expected)
-        b0 = base if _ok(base) else 0
-        fixed = _dof_indices(chk, d, "fixed_dofs", b0) if "fixed_dofs" in d else []
-        vert = (_dof_indices(chk, d, "vertical_dofs", b0, allow_pattern=True)
-                if "vertical_dofs" in d else None)
+        base, sign, fixed, vert = b.dof_base, float(b.rotation_sign), list(b.fixed_dofs), \
+            b.vertical_dofs
+        if vert is not None and not isinstance(vert, list):  # {start, step}
+            vert = {"start": base if vert.start is None else vert.start, "step": vert.step}
         res.update(dof_base=base, rotation_sign=sign, fixed_dofs=fixed, vertical_dofs=vert)
-        extra = {"dof_base": base, "rotation_sign": float(sign) if _ok(sign) else sign,
-                 "fixed_dofs": fixed, "vertical_dofs": vert}
-    if not _ok(*full.values(), line, spans, damping, n_modes, fmax, tracks,
-               *extra.values()):
+        extra = {"dof_base": base, "rotation_sign": sign, "fixed_dofs": fixed,
+                 "vertical_dofs": vert}
+    if not _ok(*full.values()):
         return _BAD
-    zeta = damping if "damping_ratio" in d else None
+    zeta = damping if "damping_ratio" in b.model_fields_set else None
     span_list = spans if isinstance(spans, list) else None
     names = {"stiffness": given["stiffness_matrix"], "mass": given["mass_matrix"],
              "stations": given["station_map"]} if kind == "matrices" else None

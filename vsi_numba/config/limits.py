@@ -22,6 +22,10 @@ HARD_MAX_STEPS = 100_000_000_000
 #: Longest free vibration of a fatigue run (s): an undamped deck never decays
 MAX_FATIGUE_FREE_VIBRATION = 120.0
 MAX_OUTPUT_POINTS = 5000  # cap on bridge.output_points
+MAX_SPANS = 200  # cap on the number of bridge.spans
+MAX_TRACKS = 20  # cap on bridge.tracks
+MAX_FIXED_DOFS = 100_000  # cap on bridge.fixed_dofs and vertical_dofs (imported matrices)
+MAX_TRACK_DOFS = 4000  # [bridge.track]: deck + rail + sleepers (dense eigensolution at load time)
 MAX_HISTORY_BYTES = 2 * 1024**3  # time histories of one run kept in memory: at most 2 GiB
 MAX_PROFILE_SAMPLES = MAX_SAMPLES  # samples of one irregularity profile (its FFT included)
 MAX_STATIC_DEFLECTION = 1.0 / 50.0  # static deck deflection / span: above this, error

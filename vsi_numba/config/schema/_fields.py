@@ -156,7 +156,7 @@ def number_of(tp, value) -> int | float | None:
 def key(default: Any = None, *, doc: str, unit: str = "", expected: str = "",
         default_text: str = "", required: bool = False, example: Any = None,
         plausible: tuple[float, float] | None = None, typical: str = "", each: str = "",
-        note: str = ""):
+        scalar: str = "", note: str = ""):
     """Declare a configuration key.
 
     Parameters
@@ -186,6 +186,9 @@ def key(default: Any = None, *, doc: str, unit: str = "", expected: str = "",
     each : str
         The expectation of one item of the key's list ("a speed > 0 km/h"), when it
         differs from the key's.
+    scalar : str
+        The expectation of the key given as one number, for a key that takes a number or
+        a list ("a span length > 0 m"), when it differs from the key's.
     note : str
         Words after the choices of a closed set in its message (" (the dynamic
         factor of LM71 ...)").
@@ -201,6 +204,8 @@ def key(default: Any = None, *, doc: str, unit: str = "", expected: str = "",
         extra["default_text"] = default_text
     if each:
         extra["each"] = each
+    if scalar:
+        extra["scalar"] = scalar
     if note:
         extra["note"] = note
     if example is not None:

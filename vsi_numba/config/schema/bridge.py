@@ -76,8 +76,9 @@ class BridgeTrack(Section):
         expected="an integer number of rail elements between sleepers, 1 .. 8")
 
 
+#: A number > 0, or one per span (at most :data:`MAX_SPANS`).
 PerSpan = PosNum | Annotated[list[PosNum], Field(min_length=1, max_length=MAX_SPANS)]
-Spans = PosNum | Annotated[list[PosNum], Field(min_length=1, max_length=MAX_SPANS)]
+Spans = PerSpan
 Ratio = Num(ge=0, lt=1)
 Damping = Ratio | Annotated[list[Ratio], Field(min_length=1)] | Literal["EN1991-2"]
 Points = float | Annotated[list[float], Field(min_length=1, max_length=MAX_OUTPUT_POINTS)]

@@ -250,6 +250,10 @@ class CaseRunner:
             re-run failed numerically.
         """
         bridge, trains, settings, profiles = self.model()
+        if self._data().get("train", {}).get("other_trains"):
+            # the file's case had every train of train.other_trains in it
+            raise RecomputeError("the case has trains on other tracks (train.other_trains), "
+                                 "which a re-run of one train alone leaves out")
         if str(train) not in trains:
             raise RecomputeError(f"train {train!r} is not in the stored configuration "
                                  f"({', '.join(trains)})")

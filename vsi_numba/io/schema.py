@@ -320,6 +320,46 @@ def _all_tracks() -> dict:
 #: train alone (one track loaded).
 ALL_TRACKS = _all_tracks()
 
+#: How the trains of ``train.other_trains`` are in the results (:func:`loading_attrs`):
+#: superposed runs of moving forces, or interaction trains together in one run.
+SUPERPOSED, TOGETHER = "superposed", "together"
+
+
+def loading_attrs(name: str, attrs: dict, trains: str | None) -> dict:
+    """``attrs`` of variable ``name`` saying which trains load it: ``trains`` None (one
+    train per run: unchanged), :data:`SUPERPOSED` (moving forces on other tracks: the
+    variables without the suffix are the run's train alone, one track loaded) or
+    :data:`TOGETHER` (interaction trains on other tracks in the same run: every
+    variable holds every train, the ``_all_tracks`` twins repeat the values)."""
+    if trains is None:
+        return attrs
+    out = dict(attrs)
+    twin = name.endswith(ALL_TRACKS_SUFFIX)
+    base = name[:-len(ALL_TRACKS_SUFFIX)] if twin else name
+    deckwise = base in ALL_TRACKS_BASES or name in SPACE_HISTORIES or name in (
+        "deck_displacement", "deck_acceleration", "bending_moment", "shear_force",
+        "support_reaction", "rotation")
+    if trains == TOGETHER:
+        every = ("every train of the run: the run's train on train.track and the trains "
+                 "of train.other_trains on their tracks, interaction trains in one run")
+        if twin:
+            out["loading"] = every + f" (the same values as {base})"
+        elif deckwise:
+            out["long_name"] = str(out.get("long_name", "")).replace(
+                " (train on the loaded track)", " (every train of the run loaded)")
+            out["loading"] = every + (f" (repeated as {base}{ALL_TRACKS_SUFFIX})"
+                                      if base in ALL_TRACKS_BASES else "")
+        elif name in ENVELOPES or name in HISTORIES:
+            out["loading"] = every + ("; the wheels and vehicles of every train (those of "
+                                      "the other trains named 'train k: ...')")
+    elif deckwise and not twin:
+        out["loading"] = ("the run's train alone on train.track (one track loaded); "
+                          "every train of the run loaded: "
+                          + (f"{base}{ALL_TRACKS_SUFFIX}" if base in ALL_TRACKS_BASES
+                             else "not in the file"))
+    return out
+
+
 #: Per-case diagnostics.
 DIAGNOSTICS = {
     "status": (

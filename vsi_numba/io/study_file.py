@@ -34,6 +34,7 @@ from vsi_numba.io.schema import (
     SPACE_ENVELOPES,
     SPACE_HISTORIES,
     attrs_for,
+    loading_attrs,
 )
 
 #: Non-dimension coordinates and their dims.
@@ -90,13 +91,18 @@ class StudyFile:
         (per mode) and the moving-force trains' additional damping; written as
         ``damping_ratio`` (mode) and ``additional_damping`` () without variants (with
         variants they come from ``variants``).
+    loading : str, optional
+        How the trains of ``train.other_trains`` are in the runs
+        (:func:`~vsi_numba.io.schema.loading_attrs`: None, ``"superposed"`` or
+        ``"together"``): the variables' ``loading`` attribute says what each holds.
     """
 
     def __init__(self, path, speeds_kmh, trains, irregularities, points, frequencies,
                  n_wheel, n_vehicle, n_time, dt, trains_info, variants=None, deck_x=None,
-                 supports=None, omit=None, space=None, damping=None):
+                 supports=None, omit=None, space=None, damping=None, loading=None):
         import netCDF4
 
+        self.loading = loading
         #: variables not written (the study's model does not compute them) -> reason
         self.omit = dict(omit or {})
         #: written case variables -> whether a finite value went in (see :meth:`close`)
@@ -260,17 +266,17 @@ class StudyFile:
         for name, (dims, *_rest) in ENVELOPES.items():
             if name in self.omit:
                 continue
-            self.vars[name] = self._float(name, (*case, *dims), attrs_for(name))
+            self.vars[name] = self._float(name, (*case, *dims), self._attrs(name))
             self.found[name] = False
         for name, (dims, *_rest) in SPACE_ENVELOPES.items():
             if self.space is None or name in self.omit:
                 continue
-            self.vars[name] = self._float(name, (*case, *dims), attrs_for(name))
+            self.vars[name] = self._float(name, (*case, *dims), self._attrs(name))
             self.found[name] = False
         for name, (dims, *_rest) in ALL_TRACKS.items():
             if name in self.omit or not set(dims) <= set(sizes):  # per-track: a deck in space
                 continue
-            self.vars[name] = self._float(name, (*case, *dims), attrs_for(name))
+            self.vars[name] = self._float(name, (*case, *dims), self._attrs(name))
             self.found[name] = False
         for name in DIAGNOSTICS:
             var = nc.createVariable(name, "i4", case)
@@ -286,7 +292,7 @@ class StudyFile:
                 chunks = tuple(1 if d in case else
                                max(1, min(sizes[d], MAX_TIME_CHUNK)) if d == "time" else
                                max(1, sizes[d]) for d in full)
-                attrs = attrs_for(name)
+                attrs = self._attrs(name)
                 if name == "in_contact":
                     attrs = {**attrs, "flag_values": np.array([0.0, 1.0], np.float32),
                              "comment": "NaN where the train has no such wheel (or the wheel "
@@ -318,6 +324,10 @@ class StudyFile:
                 per_variant(ratios, (n_m,))
             self._float("additional_damping", (), attrs_for("additional_damping"))[...] = \
                 float(np.ravel(np.asarray(additional, float))[0])
+
+    def _attrs(self, name: str) -> dict:
+        """The CF attributes of a case variable, with what loads it (``loading``)."""
+        return loading_attrs(name, attrs_for(name), self.loading)
 
     def _coords_attr(self, dims) -> str:
         """CF ``coordinates`` attribute: the auxiliary coordinates a variable spans."""

@@ -73,6 +73,11 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
         raise ModelError(f"speed = {speeds[~(speeds > 0)][0]!r} m/s: expected > 0")
     n_r = speeds.size
     keep = np.zeros(n_r, bool) if keep_histories is None else np.asarray(keep_histories, bool)
+    layout = getattr(deck, "layout", None) if deck is not None else None
+    per_line = (layout is not None and layout.channels is not None
+                and layout.channels.per_line and getattr(deck, "effects", None) is not None)
+    if per_line:  # the channels are reduced from every run's histories (reduce_channels)
+        keep = np.ones(n_r, bool)
     n_steps = (np.array([packed.n_steps(v) for v in speeds], np.int64) if n_steps is None
                else np.array(np.broadcast_to(np.asarray(n_steps, np.int64), (n_r,))))
     deck = deck if deck is not None else deck_operators(bridge, points, settings)
@@ -125,10 +130,15 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
                  st, bk, wk, red, out, slots, status, reached)
     elapsed = _time.perf_counter() - t0
     _flag_non_finite(status, reached, n_steps, slots, red, out)
-    return BatchResult(packed, speeds, n_steps, status, reached, slots, red, out, phi_d,
-                       phi_a, cutoff, elapsed, np.asarray(grid_x, float), eff,
-                       bridge.static if eff is not None else None,
-                       deck.layout)
+    res = BatchResult(packed, speeds, n_steps, status, reached, slots, red, out, phi_d,
+                      phi_a, cutoff, elapsed, np.asarray(grid_x, float), eff,
+                      bridge.static if eff is not None else None,
+                      deck.layout)
+    if per_line:  # trains on several tracks: each load's own eccentricity
+        from vsi_numba.solver.space_effects import reduce_channels
+
+        reduce_channels(res)
+    return res
 
 
 #: Largest magnitude a result may have: histories are stored as float32.

@@ -250,7 +250,7 @@ def torsional_moment_tables(space, points, effects: LoadEffectTables | None,
 
 
 def space_operators(space, points, deck: DeckOperators, loaded: int = 0,
-                    one_track_loaded: bool = True) -> DeckOperators:
+                    one_track_loaded: bool = True, lines=None) -> DeckOperators:
     """``deck`` (:func:`deck_operators`) with the rows of the deck in space
     (:func:`vsi_numba.model.deck3d.output_rows`) stacked under ``phi_d`` / ``phi_a``:
     the kernels' envelopes of every row are then the per-track displacement,
@@ -259,9 +259,11 @@ def space_operators(space, points, deck: DeckOperators, loaded: int = 0,
     load-effect tables gain the torsional moment at the points for a train on track
     ``loaded`` (0-based; :func:`torsional_moment_tables`).  Returns the operators with
     these rows and their :class:`SpaceLayout` (``layout``).  ``one_track_loaded``
-    False (interaction trains on several tracks in one run): no torsional moment and
-    no mode-acceleration channels (their static part puts every load on track
-    ``loaded``); the twist and the track lines come from the modes."""
+    False (interaction trains on several tracks in one run): the mode-acceleration
+    channels take each load's own track, ``lines`` (0-based tracks of the run's track
+    lines, the kernels' ``wheel_line``), and are reduced from the runs' histories
+    (:func:`~vsi_numba.solver.space_effects.reduce_channels`); without ``lines`` no
+    channels and no torsional moment (the twist and the track lines from the modes)."""
     from vsi_numba.model import deck3d
 
     points = np.atleast_1d(np.asarray(points, float))
@@ -287,9 +289,10 @@ def space_operators(space, points, deck: DeckOperators, loaded: int = 0,
     from vsi_numba.solver.space_effects import space_channels
 
     channels = (space_channels(space, points, starts, effects.w2inv, loaded,
-                               grid=effects.sections[effects.grid_index])
+                               grid=effects.sections[effects.grid_index],
+                               lines=None if one_track_loaded else list(lines))
                 if effects is not None and isinstance(space, deck3d.BeamDeck3D)
-                and one_track_loaded else None)
+                and (one_track_loaded or lines is not None) else None)
     # the channels' twist replaces the rows' (SpaceLayout.split, BatchResult)
     twist_rows = not (channels is not None and channels.n_channels > 0
                       and channels.twist.size > 0)
@@ -300,13 +303,18 @@ def space_operators(space, points, deck: DeckOperators, loaded: int = 0,
                               np.zeros((twist_p.shape[0] + twist_g.shape[0], n_m)), whole])
     if channels is not None:  # twist, track displacement and torque by mode acceleration
         reason = "" if np.any(channels.torque >= 0) else (
+            "no output point on the deck" if np.any(channels.torque_grid >= 0) else
+            "every loaded track is on the deck's axis: the trains do not twist the deck"
+            if channels.per_line else
             "the loaded track is on the deck's axis: the train does not twist the deck"
             if channels.y_load == 0.0 else "no output point on the deck")
         channel, scale = None, 0.0
     elif not one_track_loaded:
         channel, scale = None, 0.0
         reason = ("interaction trains on several tracks in one run: the torsional moment "
-                  "is not offered")
+                  "needs the load effects of a beam deck (bridge.kind simply_supported "
+                  "or continuous) with every train at the run's speed "
+                  "(train.other_trains[].speed_factor = 1)")
     else:
         effects, channel, scale, reason = torsional_moment_tables(space, points, effects,
                                                                   loaded)

@@ -318,8 +318,10 @@ class BatchResult:
         x = x0[None, :] + (sf * self.speeds[r])[None, :] * t[:, None]
         if mirror is not None:
             x = mirror - x
+        line = (np.concatenate([veh.wheel_line, veh.load_line]) if ch.per_line
+                else None)  # trains on several tracks: each load on its own line
         return ch.series(self.out.q[h, :n], self.out.fq[h, :n], x, force,
-                         float(self.speeds[r]), y_load)
+                         float(self.speeds[r]), y_load, line)
 
     def _space_histories(self, q: np.ndarray, qdd: np.ndarray,
                          r: int | None = None) -> dict[str, np.ndarray]:

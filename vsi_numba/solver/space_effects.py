@@ -81,6 +81,18 @@ class SpaceChannels:
     #: (n_grid,) channel of the torque at each section of the whole-deck grid (empty:
     #: none)
     torque_grid: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    #: (n_lines,) m: the eccentricity of each track line a load may stand on (the
+    #: kernels' ``wheel_line`` / ``load_line``) when the run carries trains on several
+    #: tracks: the static part then takes each load's own eccentricity, and the channels
+    #: are reduced from the run's histories (:func:`reduce_channels`), not by the
+    #: kernels (whose static part has one eccentricity for every load).  None: every
+    #: load on the loaded track (``y_load``), reduced by the kernels.
+    line_y: np.ndarray | None = None
+
+    @property
+    def per_line(self) -> bool:
+        """Whether the loads stand on several track lines (see ``line_y``)."""
+        return self.line_y is not None
 
     @property
     def n_channels(self) -> int:
@@ -115,13 +127,22 @@ class SpaceChannels:
                    np.zeros(2 * self.sections.size), out)
         return out
 
-    def series(self, q, fq, x, force, speed, y_load=None) -> np.ndarray:
-        """Channel histories (n, n_cb) of one train: modal coordinates ``q`` and forces
+    def series(self, q, fq, x, force, speed, y_load=None, line=None) -> np.ndarray:
+        """Channel histories (n, n_cb) of one run: modal coordinates ``q`` and forces
         ``fq`` (n, n_m), its loads ``force`` at ``x`` (n, n_load) on a track at ``y_load``
-        (default the loaded track's), at ``speed`` (m/s)."""
-        y = self.y_load if y_load is None else float(y_load)
+        (default the loaded track's) or, with ``line`` (n_load,) and ``line_y``, each
+        load on its own track line (eccentricity ``line_y[line]``), at ``speed`` (m/s)."""
         d = self.speed_factor([speed])[0]
-        static = self.static_unit(x, force) * y if y != 0.0 else 0.0
+        if line is not None and self.per_line:
+            line = np.asarray(line, np.int64)
+            static = 0.0
+            for k, y in enumerate(np.asarray(self.line_y, float)):
+                sel = np.flatnonzero(line == k)
+                if y != 0.0 and sel.size:
+                    static = static + self.static_unit(x[:, sel], force[:, sel]) * y
+        else:
+            y = self.y_load if y_load is None else float(y_load)
+            static = self.static_unit(x, force) * y if y != 0.0 else 0.0
         return d * (static - fq @ self.Ef) + q @ self.Eq
 
     def modal_series(self, q) -> np.ndarray:
@@ -154,12 +175,16 @@ def _theta_slope(table, x) -> np.ndarray:
 
 
 def space_channels(space, points, starts, w2inv, loaded: int = 0,
-                   torque: bool = True, grid=()) -> SpaceChannels | None:
+                   torque: bool = True, grid=(), lines=None) -> SpaceChannels | None:
     """The :class:`SpaceChannels` of a :class:`~vsi_numba.model.deck3d.BeamDeck3D` with
     torsion for a train on track ``loaded`` (0-based): the twist at the window ``starts``
     of every track, the displacement along every track at ``points`` and (``torque``,
     the loaded track off the axis) the torque at ``points`` and at the whole-deck
-    ``grid`` (m).  None without torsion.
+    ``grid`` (m).  None without torsion.  ``lines``: trains on several tracks in one
+    run, the tracks (0-based) of the run's track lines in order (the kernels'
+    ``wheel_line``): each load takes its own track's eccentricity
+    (``SpaceChannels.line_y``) and the torque is computed when any of them is off the
+    axis.
 
     The torque of every span is its own (torsion restrained at every support: each span
     a fork-supported span, simply supported or continuous deck alike): the static part
@@ -178,8 +203,10 @@ def space_channels(space, points, starts, w2inv, loaded: int = 0,
     ip = np.broadcast_to(np.asarray(space.polar_mass, float), (sup.size - 1,))
     c = float(np.min(np.sqrt(gj / ip)))
     y_l = float(space.tracks[loaded].eccentricity)
+    line_y = (None if lines is None else
+              np.array([float(space.tracks[int(k)].eccentricity) for k in lines]))
     on = lambda v: v[(v >= sup[0]) & (v <= sup[-1])]  # noqa: E731
-    with_torque = torque and y_l != 0.0
+    with_torque = torque and (y_l != 0.0 if line_y is None else bool(np.any(line_y != 0.0)))
     sections = np.unique(np.concatenate([on(points), on(starts), on(starts + TWIST_BASE)]
                                         + ([on(grid)] if with_torque else [])))
     span = np.clip(np.searchsorted(sup, sections, side="right") - 1, 0, sup.size - 2)
@@ -248,12 +275,36 @@ def space_channels(space, points, starts, w2inv, loaded: int = 0,
                               * np.asarray(w2inv, float)[:, None])
     sec0 = np.searchsorted(span, np.arange(sup.size), side="left").astype(np.int64)
     return SpaceChannels(sup, sections, np.ascontiguousarray(sections - sup[span]), sec0,
-                         ptr, idx, coef, Eq, Ef, c, y_l, twist, track, tq, tq_grid)
+                         ptr, idx, coef, Eq, Ef, c, y_l, twist, track, tq, tq_grid, line_y)
+
+
+def reduce_channels(res) -> None:
+    """The channels' envelopes of a batch whose loads stand on several track lines
+    (``SpaceChannels.per_line``), reduced from every run's histories as the kernels
+    reduce them (the first time of the largest and of the smallest value) into
+    ``res.red``'s ``cb_max``, ``cb_max_t``, ``cb_min``, ``cb_min_t``; NaN for a run
+    that failed.  ``res``: a :class:`~vsi_numba.solver.results.BatchResult` whose
+    every run kept its histories with the modal forces."""
+    from vsi_numba import kernels as ek
+    from vsi_numba.solver.reductions import first_max_min
+
+    ch = res.space.channels
+    n_r, n_cb = res.speeds.size, ch.n_channels
+    hi, hi_t = np.full((n_r, n_cb), np.nan), np.full((n_r, n_cb), np.nan)
+    lo, lo_t = np.full((n_r, n_cb), np.nan), np.full((n_r, n_cb), np.nan)
+    dt = res.packed.params.dt
+    for r in range(n_r):
+        if int(res.status[r]) != ek.OK or int(res.slots[r]) < 0:
+            continue
+        c = res.space_series(r)
+        a, ai, b, bi = first_max_min(c)
+        hi[r], hi_t[r], lo[r], lo_t[r] = a, ai * dt, b, bi * dt
+    res.red = res.red._replace(cb_max=hi, cb_max_t=hi_t, cb_min=lo, cb_min_t=lo_t)
 
 
 def kernel_fields(ch: SpaceChannels | None, speeds, n_r: int) -> dict:
     """The ``cb_`` fields of :class:`~vsi_numba.kernels.types.Reduce` (none: off)."""
-    if ch is None or ch.n_channels == 0:
+    if ch is None or ch.n_channels == 0 or ch.per_line:  # per line: reduce_channels
         return {}
     n_cb = ch.n_channels
     return dict(

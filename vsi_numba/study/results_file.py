@@ -227,7 +227,8 @@ def write_results(output: Path, store: CaseStore, study,
                       supports=[m.bridge.supports for m in models], omit=omit,
                       space=[m.deck.layout for m in models],
                       damping=([m.bridge.damping for m in models],
-                               [m.config.additional_damping for m in models]))
+                               [m.config.additional_damping for m in models]),
+                      loading=_loading(model))
         holding = hold_after() == "write"
         try:
             for b in plan:
@@ -294,6 +295,17 @@ def write_results(output: Path, store: CaseStore, study,
         tmp.unlink(missing_ok=True)
         raise
     return len(failed)
+
+
+def _loading(model) -> str | None:
+    """How the trains of ``train.other_trains`` are in the runs: None (none), in the
+    same run (interaction trains) or superposed (moving forces)."""
+    from vsi_numba.io.schema import SUPERPOSED, TOGETHER
+    from vsi_numba.study.batches import interacting
+
+    if not getattr(model.config, "other_trains", []):
+        return None
+    return TOGETHER if all(interacting(t) for t in model.trains) else SUPERPOSED
 
 
 def _bridge_rules(attrs: dict, cfg) -> None:

@@ -137,10 +137,23 @@ def _build_model(cfg, first_realisation: bool = False) -> StudyModel:
         from vsi_numba.solver.batch import space_operators
 
         deck = space_operators(space, points, deck, int(cfg.train_track) - 1,
-                               one_track_loaded=not together)
+                               one_track_loaded=not together,
+                               lines=together_lines(cfg, others) if together else None)
     return StudyModel(cfg, bridge, trains, settings, points, profiles, x_range,
                       np.asarray(cfg.speeds_kmh, float), deck,
                       np.asarray(cfg.speeds_m_s, float))
+
+
+def together_lines(cfg, others) -> list[int] | None:
+    """The tracks (0-based) of the track lines of a run with interaction trains on
+    several tracks (:func:`~vsi_numba.study.batches._packed_together`: line k is track
+    k + 1), for the mode-acceleration channels with each load on its own track; None
+    when a train runs at a speed of its own (the moving torque's speed factor of the
+    static part is the run's speed's for every load)."""
+    if any(float(o.get("speed_factor", 1.0)) != 1.0 for o in others):
+        return None
+    n_tracks = max([int(cfg.train_track), *(int(o["track"]) for o in others)])
+    return list(range(n_tracks))
 
 
 def several_trains_range(x_range, length, trains, settings, others) -> tuple[float, float]:

@@ -75,6 +75,7 @@ def test_sweep__meeting_interaction_trains_torque_and_twist_at_crawl_speed(tmp_p
     assert "every train of the run" in ds["max_torsional_moment"].attrs["loading"]
     assert "loaded track" not in ds["max_torsional_moment"].attrs["long_name"]
     assert "same values" in ds["max_deck_twist_all_tracks"].attrs["loading"]
+    assert ds.attrs["other_trains_loading"] == "together"
 
 
 STUDY = Path(__file__).resolve().parents[1] / "studies" / "ice3_meeting_viaduct" / "study.toml"
@@ -155,8 +156,14 @@ def test_sweep__two_ice3_meeting_on_the_viaduct_against_each_alone(tmp_path):
     md = (tmp_path / "report" / "report.md").read_text()
     for section in ("Peak deck acceleration", "Wheel unloading", "Car-body acceleration",
                     "tracks 1, 2 loaded", "Torsional moment |T| (every train",
-                    "Deck twist and tracks", "every train of a run loaded"):
+                    "Deck twist and tracks", "Dynamic: every train of the run",
+                    "every train of the run against LM71 on track 1 alone (on the safe side)",
+                    "come from one run (interaction trains"):
         assert section.replace("|", "\\|") in md or section in md, section
+    # one value per quantity: the twins that repeat the values are not shown again
+    assert "every train of a run loaded (train.other_trains)" not in md
+    assert "their runs superposed" not in md
+    assert md.count("Torsional moment |T|".replace("|", "\\|")) == 2
     assert not re.search(r"\bnan\b", md, re.IGNORECASE)
     names = [str(v) for v in np.ravel(both["vehicle_name"].values)]
     assert sum(n.startswith("train 2: ") for n in names) == n_v  # both trains named

@@ -132,6 +132,8 @@ def global_attrs(model: StudyModel, config_json: str, sha: str, grid: StudyGrid,
         attrs["other_trains"] = json.dumps(others)
         attrs["loaded_tracks_all"] = " ".join(
             str(k) for k in sorted([int(cfg.train_track), *(int(o["track"]) for o in others)]))
+        # "together": every train in one run (interaction); "superposed": moving forces
+        attrs["other_trains_loading"] = _loading(model)
     return attrs
 
 

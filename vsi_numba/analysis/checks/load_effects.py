@@ -638,7 +638,9 @@ def load_effect_checks(ds, alpha: float | None = None, maintenance: str | None =
                "phi2_max": float(_nanmax(phi2, 0)) if phi2.size else np.nan,
                "phi2_note": note, "n_loaded": n_loaded, "lm71_factor": lm_factor,
                "loaded_tracks": ", ".join(str(ds.attrs.get(
-                   "loaded_tracks_all" if all_tracks else "loaded_track", 1)).split())}
+                   "loaded_tracks_all" if all_tracks else "loaded_track", 1)).split()),
+               # interaction trains on other tracks: every variable holds every train
+               "together": ds.attrs.get("other_trains_loading") == "together"}
     return LoadEffectChecks(envelopes, pd.DataFrame(phi_rows), pd.DataFrame(speed_rows),
                             pd.DataFrame(ver_rows), pd.DataFrame(rot), deck, factors)
 

@@ -171,7 +171,12 @@ def _blocks(c: LoadEffectChecks):
                Table(pd.DataFrame(rows), "Load effects: EN 1991-2 6.4.6.5(3) verdict"),
                "Ratio = (1 + φ'dyn + φ''/2) × train / (Φ × α × LM71), its largest value over "
                "the locations; margin = how many times the governing model exceeds the "
-               "other (≥ 1)."]
+               "other (≥ 1)."
+               + (f" The trains' effects are every train of the run (interaction trains on "
+                  f"the other tracks in the same run), against LM71 on track "
+                  f"{fa['loaded_tracks']} alone: on the safe side; the verdict with every "
+                  "track loaded is under *Several tracks loaded*."
+                  if fa.get("together") else "")]
 
     rows = [{"Effect": EFFECTS[r.effect][4], "Location": _where(r.effect, r.location),
              "Dynamic max |E|": _v(r.dynamic, r.units),
@@ -261,8 +266,12 @@ def _several_blocks(ds, c) -> list:
     blocks.append(
         f"Every run also had trains on the other tracks ({where}); tracks loaded: "
         f"{fa['loaded_tracks']}. The envelopes of the trains together come from one "
-        "time history (their runs superposed: exact for moving forces on the linear "
-        f"deck). They are compared with {ph} × α × LM71 on each loaded track (× "
+        + ("run (interaction trains: every wheel of every train and the deck solved "
+           "together, each axle load at its own track's eccentricity)"
+           if ds.attrs.get("other_trains_loading") == "together" else
+           "time history (their runs superposed: exact for moving forces on the linear "
+           "deck)")
+        + f". They are compared with {ph} × α × LM71 on each loaded track (× "
         f"{_limit(c, 'lm71_factor_several_tracks'):g}, "
         f"{fa['profile'].clause('lm71_factor_several_tracks')}); the φ''/2 term takes the "
         "trains' static envelopes added (an upper bound). A beam deck's bending does not "
@@ -301,7 +310,12 @@ def torque_envelopes(ds) -> pd.DataFrame:
     and set of sections, with where, the train and the speed of each; empty without
     them."""
     rows = []
+    together = ds.attrs.get("other_trains_loading") == "together"
     for sfx, loaded, sections in _TORQUE_ROWS:
+        if together:  # every variable holds every train; the twins repeat the values
+            if sfx.endswith(ALL_TRACKS_SUFFIX):
+                continue
+            loaded = "every train of the run"
         hi, lo = ds.get(f"max_torsional_moment{sfx}"), ds.get(f"min_torsional_moment{sfx}")
         if hi is None or lo is None or not np.isfinite(hi.values).any():
             continue
@@ -509,7 +523,9 @@ def summary_with_load_effects(table: pd.DataFrame, c, c_all=None) -> pd.DataFram
         return table
     rows = []
     ph = c.factors["phi_name"]
-    verdicts = [(r, "") for r in c.verdict.itertuples(index=False)]
+    alone = (f", every train of the run against LM71 on track {c.factors['loaded_tracks']} "
+             "alone (on the safe side)" if c.factors.get("together") else "")
+    verdicts = [(r, alone) for r in c.verdict.itertuples(index=False)]
     if c_all is not None and not isinstance(c_all, str):
         tracks = c_all.factors["loaded_tracks"]
         verdicts += [(r, f", tracks {tracks} loaded") for r in

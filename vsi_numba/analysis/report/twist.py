@@ -81,9 +81,13 @@ def twist_section(env, config_dir=None, source_path=None,
         lines.append("")
     else:
         lines += [f"Static twist under LM71: not computed ({md(res.static_note)}).", ""]
-    for dyn, what in ((res.dynamic, f"the study's trains on track {res.loaded_track}"),
+    together = env.attrs.get("other_trains_loading") == "together"
+    alone = (f"every train of the run (the study's trains on track {res.loaded_track} and "
+             "train.other_trains, interaction trains in one run)" if together
+             else f"the study's trains on track {res.loaded_track}")
+    for dyn, what in ((res.dynamic, alone),
                       (res.dynamic_all, "every train of a run loaded (train.other_trains)")):
-        if not dyn:
+        if not dyn or (together and dyn is res.dynamic_all):  # the same values again
             continue
         lines += [f"**Dynamic: {what}**, largest |twist| over the speeds "
                   "(whole-deck grid of window starts and the output points):", ""]

@@ -32,6 +32,22 @@ from vsi_numba.en1990 import (
 from vsi_numba.en1991 import irregularity_allowance
 
 
+
+def _not_together(ds, what: str) -> None:
+    """Refuse ``what`` for interaction trains that ran in one run with the trains of
+    ``train.other_trains`` (``other_trains_loading = "together"``): the deck
+    displacement is then that of every train loaded, ``max_static_deck_displacement``
+    the static deflection of one train, and their ratio no dynamic increment."""
+    from vsi_numba.io.schema import TOGETHER
+
+    if ds.attrs.get("other_trains_loading") == TOGETHER:
+        raise ResultsError(
+            f"{what}: train.other_trains: the interaction trains ran in one run with the "
+            "trains on the other tracks, so the deck displacement holds every train "
+            "loaded and the static deflection one train, whose ratio is no dynamic "
+            "increment; the load effects give the dynamic increments with every train "
+            "loaded (Several tracks loaded)")
+
 def deck_acceleration_check(
     ds: xr.Dataset, limit: float | None = None, q: float = DEFAULT_Q, n_boot: int = 2000,
     seed: int = 0, profile=None,
@@ -241,6 +257,7 @@ def dynamic_amplification(
     ds = prepare(ds)
     require(ds, ["max_deck_displacement", "max_static_deck_displacement"],
             "the dynamic increment φ'dyn")
+    _not_together(ds, "the dynamic increment φ'dyn")
     dyn = ds["max_deck_displacement"]
     irr = np.asarray(ds["irregularity"].values)
     if (irr == DETERMINISTIC).any():

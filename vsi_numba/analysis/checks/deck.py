@@ -32,7 +32,6 @@ from vsi_numba.en1990 import (
 from vsi_numba.en1991 import irregularity_allowance
 
 
-
 def _not_together(ds, what: str) -> None:
     """Refuse ``what`` for interaction trains that ran in one run with the trains of
     ``train.other_trains`` (``other_trains_loading = "together"``): the deck

@@ -22,7 +22,12 @@ from pydantic import BaseModel, Field, TypeAdapter, ValidationError
 
 from vsi_numba.config._check import _did_you_mean
 from vsi_numba.config._show import _join, _key, _show
-from vsi_numba.config.schema._fields import RULE, rule_error  # noqa: F401 (re-exported)
+from vsi_numba.config.schema._fields import (  # noqa: F401 (rule_error re-exported)
+    RULE,
+    TABLE_PATH,
+    extras,
+    rule_error,
+)
 
 #: The errors of a value that is not a table where one is declared.
 _TABLE_ERRORS = ("model_type", "dict_type", "model_attributes_type")
@@ -97,6 +102,7 @@ class _Where:
         self.table = None  # the model of the table the error is in (or at)
         #: the number member of a key declared as a number or a list was chosen
         self.scalar = False
+        self.tp = None  # the declared type at the error's location (None: unknown)
 
 
 def _walk(loc, root, data, prefix: str) -> _Where:
@@ -150,6 +156,7 @@ def _walk(loc, root, data, prefix: str) -> _Where:
             tp = None
         if _is_model(_strip(tp)):
             w.table = _strip(tp)
+    w.tp = tp
     return w
 
 
@@ -167,7 +174,7 @@ def expectation(model, name: str, *, item: bool = False, scalar: bool = False) -
     """The expectation of key ``name`` of ``model`` in a message: the choices of a
     closed set (with the field's note), the declared expectation of one item of its
     list (``each``), of the key given as one number (``scalar``) or of the key."""
-    from vsi_numba.config.schema._fields import expected_of, extras
+    from vsi_numba.config.schema._fields import expected_of
 
     e = extras(model, name)
     choices = _choices(model, name)
@@ -237,8 +244,12 @@ def messages(exc: ValidationError, root, data, prefix: str = "") -> list[str]:
             msg = _plain(w.union_key, _value_at(data, w.union_key, prefix), w, item=False)
         elif kind == RULE:
             msg = e["ctx"]["message"]
-            if e["ctx"].get("here"):  # keys of the table at the error's location
-                msg = "\n".join(f"{w.path}.{m}" if w.path else m for m in msg.split("\n"))
+            here = e["ctx"].get("here")
+            if here:  # keys of the table at the error's location (or of the key's table)
+                at = _walk(e["loc"][:-1], root, data, prefix).path if here == "field" \
+                    else w.path
+                msg = "\n".join(f"{at}.{m}" if at else m for m in msg.split("\n"))
+                msg = msg.replace(TABLE_PATH, at)
         elif kind in _TABLE_ERRORS or (kind == "union_tag_not_found"
                                        and not isinstance(e["input"], Mapping)):
             tables = [m for m in _members(_union_at(e["loc"], root)) if _is_model(m)]
@@ -253,15 +264,17 @@ def messages(exc: ValidationError, root, data, prefix: str = "") -> list[str]:
         elif kind == "missing":
             if w.field is None:
                 continue
-            msg = f"{w.path}: missing required key; expected {expectation(w.model, w.field)}"
+            what = extras(w.model, w.field).get("missing") or expectation(w.model, w.field)
+            msg = f"{w.path}: missing required key; expected {what}"
         elif kind == "literal_error" and w.field is not None:
             msg = _plain(w.path, e["input"], w, item=w.item)
             if isinstance(e["input"], str):
                 guess = _did_you_mean(e["input"], _choices(w.model, w.field) or ())
                 if guess:
                     msg += f" (did you mean '{guess}'?)"
-        else:
-            msg = _plain(w.path, e["input"], w, item=w.item)
+        else:  # (an item that is a list itself, a row of a matrix: the key's expectation)
+            row = typing.get_origin(_strip(w.tp)) is list
+            msg = _plain(w.path, e["input"], w, item=w.item and not row)
         for line in msg.split("\n"):  # a rule may state several errors
             head = line.split(" ", 1)[0].rstrip(":")
             if head in seen:

@@ -177,6 +177,13 @@ class Config:
         own = list(self._train.others)
         return own + [None] * (len(self.other_trains) - len(own))
 
+    def other_train_speeds_m_s(self) -> list[float | None]:
+        """Per entry of :attr:`other_trains` its own speed in m/s
+        (``train.other_trains[i].speed_kmh``, converted by the configuration), None where
+        it runs at the run's speed (times its ``speed_factor``)."""
+        own = list(self._train.other_speeds_m_s)
+        return own + [None] * (len(self.other_trains) - len(own))
+
     def bridge_on_track(self, train, track: int, direction: str = "same"):
         """:meth:`bridge_for` ``train`` on ``track`` (1-based) of the deck in space; for
         ``direction = 'opposite'`` the deck seen from its far end
@@ -521,10 +528,8 @@ def _validate(data, path: Path | None, base: Path, source: str) -> Config:
     else:
         track = _rail_track_section(
             chk, None if fe_layer else typed_section(chk, data, "track", VsiConfig), fe_layer)
-    train = (
-        _train_section(chk, data["train"], base, title if _ok(title) else None)
-        if "train" in data else _BAD
-    )
+    train = _train_section(chk, typed_section(chk, data, "train", VsiConfig), base,
+                           title if _ok(title) else None)
     _distribution_checks(chk, track, solver, train)
     if _ok(bridge, train) and "track" in train.resolved and _ok(train.resolved["track"]):
         n_tracks = len(bridge.resolved.get("tracks", [{}]))

@@ -459,10 +459,11 @@ def _plausibility(chk, bridge, train, irr, solver, study, contact):
     vmin = float(study.speeds_m_s.min())
     run = (solver["approach"] + model.length + length + later) / vmin
     # a train of its own or at a speed of its own: until it has left too
-    for o, own in zip(others, getattr(train, "others", ()) or [None] * len(others),
-                      strict=False):
+    speeds = getattr(train, "other_speeds_m_s", ()) or [None] * len(others)
+    for o, own, speed in zip(others, getattr(train, "others", ()) or [None] * len(others),
+                             speeds, strict=False):
         ext = length if own is None else train_extent(own)
-        v = o["speed_kmh"] / 3.6 if "speed_kmh" in o else o.get("speed_factor", 1.0) * vmin
+        v = speed if speed is not None else o.get("speed_factor", 1.0) * vmin
         run = max(run, (solver["approach"] + model.length + ext + float(o["offset"])) / v)
     steps = (run + solver["free_vibration"]) / dt
     keys = ("solver.dt, study.speeds_kmh (slowest), solver.free_vibration, "

@@ -222,14 +222,16 @@ def _other_trains(spec, i_train: int) -> tuple:
     others = list(getattr(cfg, "other_trains", []))
     models = (cfg.other_train_models() if hasattr(cfg, "other_train_models")
               else [None] * len(others))
-    for o, own in zip(others, models, strict=True):
+    speeds = (cfg.other_train_speeds_m_s() if hasattr(cfg, "other_train_speeds_m_s")
+              else [None] * len(others))
+    for o, own, speed in zip(others, models, speeds, strict=True):
         tr = train if own is None else own
         bridge = cfg.bridge_on_track(tr, int(o["track"]), o["direction"])
         p = pack(bridge, tr, 1.0, no_irregularity(), model.settings)
         out.append(OtherTrain(shifted(p, float(o["offset"])), o["direction"] == "opposite",
                               float(bridge.length), int(o["track"]) - 1,
                               float(o.get("speed_factor", 1.0)),
-                              float(o.get("speed_kmh", 0.0)) / 3.6))
+                              0.0 if speed is None else float(speed)))
     return tuple(out)
 
 

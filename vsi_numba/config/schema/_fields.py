@@ -70,20 +70,25 @@ def rule_error(message: str) -> PydanticCustomError:
     return PydanticCustomError(RULE, "{message}", {"message": message})
 
 
-def rules_here(problems) -> PydanticCustomError:
+def rules_here(problems, *, field: bool = False) -> PydanticCustomError:
     """The errors of a rule of a table met wherever the table is (an item of a list):
     ``problems`` are ``(key, value, expected)`` of its keys (``value`` :data:`MISSING`
     for a missing key), each reported at the table's key path (:func:`~vsi_numba.config.
-    _errors.messages` adds it), all at once."""
+    _errors.messages` adds it, and puts it for :data:`TABLE_PATH` in an expectation), all
+    at once. ``field``: raised by a validator of one key (the table is the key's)."""
     from vsi_numba.config._show import _show
 
     lines = [f"{k}: missing required key; expected {exp}" if v is MISSING else
              f"{k} = {_show(v)}: expected {exp}" for k, v, exp in problems]
-    return PydanticCustomError(RULE, "{message}", {"message": "\n".join(lines), "here": True})
+    return PydanticCustomError(RULE, "{message}", {"message": "\n".join(lines),
+                                                   "here": "field" if field else True})
 
 
 #: The value of a missing key in :func:`rules_here`.
 MISSING = "<missing>"
+#: Stands for the key path of the table in an expectation of :func:`rules_here`
+#: ("a symmetric matrix (<table>.K[1][0] = ...)").
+TABLE_PATH = "<table>"
 
 
 def rule(path: str, value, expected: str) -> PydanticCustomError:
@@ -156,7 +161,7 @@ def number_of(tp, value) -> int | float | None:
 def key(default: Any = None, *, doc: str, unit: str = "", expected: str = "",
         default_text: str = "", required: bool = False, example: Any = None,
         plausible: tuple[float, float] | None = None, typical: str = "", each: str = "",
-        scalar: str = "", note: str = ""):
+        scalar: str = "", note: str = "", missing: str = ""):
     """Declare a configuration key.
 
     Parameters
@@ -192,6 +197,9 @@ def key(default: Any = None, *, doc: str, unit: str = "", expected: str = "",
     note : str
         Words after the choices of a closed set in its message (" (the dynamic
         factor of LM71 ...)").
+    missing : str
+        The expectation of the message of a missing required key, when it differs from
+        ``expected`` (what to give, rather than what a given value must be).
     """
     extra = {"unit": unit}
     if plausible is not None:
@@ -208,6 +216,8 @@ def key(default: Any = None, *, doc: str, unit: str = "", expected: str = "",
         extra["scalar"] = scalar
     if note:
         extra["note"] = note
+    if missing:
+        extra["missing"] = missing
     if example is not None:
         extra["example"] = example
     if required:

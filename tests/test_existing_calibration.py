@@ -115,9 +115,10 @@ def test_check__calibration_estimate(tmp_path):
     cfg = syn.write_case(tmp_path, speeds=(305.0,), n_samples=64, extra=SMALL)
     res = _cli("check", cfg)
     assert res.exit_code == 0, res.output
-    # 4 x 8 start draws + 60 x 3 Nelder-Mead + 8 walkers x (4 + 8) steps + 2 x 10
+    # 4 x 8 start draws + 60 x 3 Nelder-Mead + 1 + 2 x 3 x 4 Laplace + 8 walkers x
+    # (4 + 8) steps + 2 x 10
     line = next(x for x in res.output.splitlines() if x.startswith("calibration:"))
-    assert line.startswith("calibration: 328 forward runs") and "ms a forward run" in line
+    assert line.startswith("calibration: 353 forward runs") and "ms a forward run" in line
 
 
 def test_calibrate__same_seed_same_posterior(posterior):

@@ -168,3 +168,27 @@ def test_predictive_and_check_run_on_the_worker_processes(case):
     assert np.array_equal(pred, prep.predictive_rows(rows))
     assert np.array_equal(val, check.values(rows))
     assert np.all(pred[:, 0] == 1.0) and np.all(np.isfinite(val))
+
+
+@pytest.mark.parametrize("d", [4, 6, 12])
+def test_kept_correlation__equals_the_aliased_spectrum(d):
+    """kappa = sum_k rho(k d) of the filtered noise, from the impulse response, against
+    Poisson's sum on the filter's frequency response: sum_k r[k d] = (1 / d) sum_m
+    S(2 pi m / d), S = |H|^4 (the low-pass applied forward and backward), r[0] = mean S."""
+    from vsi_numba.existing.signal import kept_correlation
+
+    fs, fc = 500.0, 40.8
+    sos, _ = lowpass_sections(fs, fc)
+    w_all = 2.0 * np.pi * np.arange(2 ** 16) / 2 ** 16
+    s_all = np.abs(scipy.signal.sosfreqz(sos, worN=w_all)[1]) ** 4
+    w_m = 2.0 * np.pi * np.arange(d) / d
+    s_m = np.abs(scipy.signal.sosfreqz(sos, worN=w_m)[1]) ** 4
+    expected = s_m.mean() / s_all.mean()
+    assert kept_correlation(fs, fc, d / fs) == pytest.approx(expected, rel=1e-6)
+
+
+def test_kept_correlation__one_without_filter_and_for_far_samples():
+    from vsi_numba.existing.signal import kept_correlation
+
+    assert kept_correlation(50.0, 40.0, 0.01) == 1.0  # cut-off above Nyquist: no filter
+    assert kept_correlation(500.0, 40.8, 1.0) == pytest.approx(1.0, abs=1e-9)

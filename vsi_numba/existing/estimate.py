@@ -48,7 +48,8 @@ def lines(cfg) -> list[str]:
         w = int(c.get("n_walkers") or max(16, 4 * n_dim + (4 * n_dim) % 2))
         steps = math.ceil(int(c["n_samples"]) / w)
         burn = int(c["burn_in"]) if c.get("burn_in") is not None else steps
-        n = (cal.START_DRAWS * w + cal.POLISH_EVALUATIONS * n_dim + w * (burn + steps)
+        n = (cal.START_DRAWS * w + cal.POLISH_EVALUATIONS * n_dim
+             + cal.laplace_evaluations(n_dim) + w * (burn + steps)
              + 2 * int(c["check_samples"]))
         from vsi_numba.existing.forward import CHUNK_ROWS
 

@@ -56,6 +56,28 @@ def noise_gain(n: int, fs: float, cutoff: float, seed: int = 12345) -> float:
     return float(np.std(lowpass(e, fs, cutoff)))
 
 
+def kept_correlation(fs: float, cutoff: float, spacing: float) -> float:
+    """The factor ``kappa = sum_k rho(k spacing)`` (all integers ``k``) of white noise
+    sampled at ``fs`` after :func:`lowpass`, ``rho`` its autocorrelation: the ratio of
+    the spectral density at low frequency of the filtered noise taken every ``spacing``
+    seconds to that of independent samples of the same variance (1 without a filter).
+
+    ``rho`` from the filter's zero-phase impulse response ``y`` (``rho(j) = sum_n y[n]
+    y[n + j] / sum_n y[n]^2`` at the lags ``j / fs``), linearly interpolated at the
+    multiples of ``spacing``.
+    """
+    if not cutoff < 0.5 * fs * 0.999:
+        return 1.0
+    half = int(math.ceil(64.0 * fs / cutoff))  # the response is below 1e-12 of its peak
+    x = np.zeros(2 * half + 1)
+    x[half] = 1.0
+    y = lowpass(x, fs, cutoff)
+    r = np.correlate(y, y, mode="full")[y.size - 1:]
+    r = r / r[0]
+    lags = np.arange(1, int(r.size / (spacing * fs)) + 1) * spacing * fs
+    return float(1.0 + 2.0 * np.sum(np.interp(lags, np.arange(r.size), r)))
+
+
 def resample(t: np.ndarray, x: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """``x(t)`` on the grid ``t[0] + k dt`` inside ``[t[0], t[-1]]`` (cubic spline: its
     error on a component of frequency f sampled every h is of order (2 pi f h)^4 / 384,

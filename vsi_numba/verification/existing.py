@@ -269,14 +269,24 @@ def _reliability_file(cfg_path: Path, out: Path):
 
 
 #: The coverage of the 90 % intervals: the noise's seeds of the realisations (the first
-#: is the seed of the median rows, its full chain reused), the chain of the others, the
-#: least count of intervals holding the truth (P(count <= 6 | binomial(10, 0.9)) = 1.3 %)
-#: and the largest RMS of the standardized errors (sqrt of the 99.5 % quantile of
-#: chi-square(10) / 10 = 1.59).
+#: is the seed of the median rows, its chain reused), the chain of every realisation
+#: (samples and burn-in: 16 walkers x 500 kept steps, about 40 autocorrelation times, for
+#: a split R-hat of 1.02-1.04), the least count of intervals holding the truth
+#: (P(count <= 6 | binomial(10, 0.9)) = 1.3 %) and the largest RMS of the standardized
+#: errors (sqrt of the 99.5 % quantile of chi-square(10) / 10 = 1.59).
 COVERAGE_SEEDS = (NOISE_SEED,) + tuple(100000 + 10000 * k for k in range(1, 10))
-COVERAGE_SAMPLES, COVERAGE_MIN, COVERAGE_RMS_MAX = 1600, 7, 1.59
-#: The noise of the model-bias check (m s-2) and its tolerance on the medians.
-BIAS_NOISE, BIAS_TOL = 0.003, 1e-3
+COVERAGE_SAMPLES, COVERAGE_BURN_IN = 8000, 40
+COVERAGE_MIN, COVERAGE_RMS_MAX = 7, 1.59
+#: The largest split R-hat of a chain the coverage rows accept.
+RHAT_MAX = 1.05
+#: The noise of the model-bias check (m s-2), its tolerance on the medians and its
+#: chain's samples (medians only: 100 steps).
+BIAS_NOISE, BIAS_TOL, BIAS_SAMPLES = 0.003, 1e-3, 1600
+
+
+def _burn() -> str:
+    """The ``[calibration]`` line of the burn-in of V21's chains."""
+    return f"burn_in = {COVERAGE_BURN_IN}\n"
 
 
 def v21_calibration(workdir: Path, Row, quick: bool = False) -> list:  # noqa: N803
@@ -288,7 +298,7 @@ def v21_calibration(workdir: Path, Row, quick: bool = False) -> list:  # noqa: N
         cfg = write_case(workdir, speeds=(305.0,), n_samples=320,
                          extra="n_walkers = 8\nburn_in = 40\ncheck_samples = 10\n")
     else:
-        cfg = write_case(workdir)
+        cfg = write_case(workdir, n_samples=COVERAGE_SAMPLES, extra=_burn())
     ds = _calibrate_file(cfg, workdir / "posterior.nc")
     title = ("Calibration of EI and damping on synthetic HSLM-A1 records "
              f"({'one passage, short chain' if quick else 'three passages'})")
@@ -300,18 +310,37 @@ def v21_calibration(workdir: Path, Row, quick: bool = False) -> list:  # noqa: N
     rows = []
     for key, tol, why in keys:
         x = ds["posterior"].sel(parameter=key).values
+        lo, hi = np.percentile(x, [5, 95])
+        qt = float(np.mean(x < TRUTH[key]))
         rows.append(Row(f"V21-{key.split('.')[1]}-median", title, src, model,
-                        f"posterior median of {key} (noise seed {NOISE_SEED})", "1",
+                        f"posterior median of {key} (noise seed {NOISE_SEED}; 90 % "
+                        f"interval {lo:.6g} - {hi:.6g}, the truth at its quantile {qt:.3f}: "
+                        f"{'inside' if 0.05 <= qt <= 0.95 else 'outside'}; R-hat "
+                        f"{float(np.nanmax(ds['r_hat'].values)):.3f})", "1",
                         TRUTH[key], float(np.median(x)), tol, why))
     if quick:
         return rows
     # the coverage over independent noise realisations
-    posts = [ds["posterior"]]
+    sets = [ds]
     for seed in COVERAGE_SEEDS[1:]:
         d = workdir / f"coverage_{seed}"
-        c = write_case(d, n_samples=COVERAGE_SAMPLES, seed=seed)
-        posts.append(_calibrate_file(c, d / "posterior.nc")["posterior"])
+        c = write_case(d, n_samples=COVERAGE_SAMPLES, seed=seed, extra=_burn())
+        sets.append(_calibrate_file(c, d / "posterior.nc"))
+    posts = [p["posterior"] for p in sets]
     n = len(posts)
+    rhat = max(float(np.nanmax(p["r_hat"].values)) for p in sets)
+    ess = min(float(np.nanmin(p["effective_sample_size"].values)) for p in sets)
+    converged = rhat <= RHAT_MAX
+    chains = (f"{n} chains of {int(sets[0].attrs['n_walkers'])} walkers x "
+              f"{int(sets[0].attrs['n_steps'])} steps: max R-hat {rhat:.3f}, min ESS "
+              f"{ess:.0f}" + ("" if converged else f"; R-hat above {RHAT_MAX}: not "
+                              "converged, the row fails"))
+    rows.append(Row(
+        "V21-convergence", title, "a converged chain: split R-hat 1", model,
+        f"largest split R-hat over the parameters of the {n} chains ({chains})", "1",
+        1.0, rhat, RHAT_MAX - 1.0,
+        f"R-hat <= {RHAT_MAX}: the chains' halves agree (the coverage rows count only "
+        "then)"))
     for key, _, _ in keys:
         truth = TRUTH[key]
         name = key.split(".")[1]
@@ -326,7 +355,9 @@ def v21_calibration(workdir: Path, Row, quick: bool = False) -> list:  # noqa: N
             f"interval holds the truth", model,
             f"share of the 90 % intervals of {key} holding the truth over the noise "
             f"seeds {', '.join(map(str, COVERAGE_SEEDS))} (the truth's quantiles: "
-            f"{quantiles})", "1", 0.9, inside / n, 1.0 - (COVERAGE_MIN - 0.5) / (0.9 * n),
+            f"{quantiles}; {chains})", "1", 0.9,
+            inside / n if converged else float("nan"),
+            1.0 - (COVERAGE_MIN - 0.5) / (0.9 * n),
             f"at least {COVERAGE_MIN} of {n}: P(<= {COVERAGE_MIN - 1} | p = 0.9) = "
             f"{_binom_cdf(COVERAGE_MIN - 1, n, 0.9):.1%}"))
         rows.append(Row(
@@ -334,13 +365,14 @@ def v21_calibration(workdir: Path, Row, quick: bool = False) -> list:  # noqa: N
             f"chi-square({n}): (median - truth) / posterior std of a calibrated posterior "
             "is standard normal", model,
             f"RMS over the {n} noise realisations of (median - truth) / posterior std of "
-            f"{key} (values: {', '.join(f'{v:+.2f}' for v in z)})", "1", 1.0,
-            float(np.sqrt(np.mean(z ** 2))), COVERAGE_RMS_MAX - 1.0,
+            f"{key} (values: {', '.join(f'{v:+.2f}' for v in z)}; {chains})", "1", 1.0,
+            float(np.sqrt(np.mean(z ** 2))) if converged else float("nan"),
+            COVERAGE_RMS_MAX - 1.0,
             f"RMS <= {COVERAGE_RMS_MAX}: sqrt of the 99.5 % quantile of chi-square({n}) "
             f"/ {n}"))
     # the model's bias: nearly noise-free records
     d = workdir / "noise_free"
-    c = write_case(d, n_samples=COVERAGE_SAMPLES, noise_std=BIAS_NOISE)
+    c = write_case(d, n_samples=BIAS_SAMPLES, noise_std=BIAS_NOISE, extra=_burn())
     post = _calibrate_file(c, d / "posterior.nc")["posterior"]
     for key, _, _ in keys:
         rows.append(Row(

@@ -35,9 +35,10 @@ The sampler
     Goodman & Weare (2010): no tuning of a proposal per parameter, which suits parameters
     of very different scales (EI in N m2, damping ratios), and every step evaluates all
     walkers at once (``vectorize=True``), which is the batch the forward runs are made in.
-    The moves are emcee's differential evolution (:func:`moves`): on a standard normal
-    target it mixes as the earlier mixture with 20 % of emcee's snooker moves, which
-    narrowed the posterior (standard deviations 0.978 of the target's), and much faster
+    The moves are emcee's differential evolution
+    (:func:`~vsi_numba.existing.sampling.moves`): on a standard normal target it mixes
+    as the earlier mixture with 20 % of emcee's snooker moves, which narrowed the
+    posterior (standard deviations 0.978 of the target's), and much faster
     than the default stretch move (about 30 steps on the synthetic case).
     It samples in the priors' standard normal space (:mod:`vsi_numba.existing.distributions`).
     The walkers start as draws of the Laplace approximation at the maximum a posteriori
@@ -68,6 +69,7 @@ import numpy as np
 
 from vsi_numba.existing.distributions import Marginals, describe
 from vsi_numba.existing.forward import Forward, Group, record_path
+from vsi_numba.existing.sampling import laplace_covariance, laplace_evaluations, moves
 from vsi_numba.existing.signal import (
     decimation,
     kept_correlation,
@@ -88,9 +90,6 @@ NOISE_PRIOR_FRACTION = 0.1
 #: shrink one (records pin stiffness to 1e-4 of its value, 5e-4 prior standard
 #: deviations of a 20 % prior).
 START_BALL = 1e-4
-#: First step (prior standard deviations) of the finite differences of the Laplace
-#: approximation at the maximum a posteriori point, from which the walkers are drawn.
-LAPLACE_PROBE = 1e-3
 #: Evaluations of the Nelder-Mead search of the maximum a posteriori point.
 POLISH_EVALUATIONS = 60
 #: Prior draws searched for the start: this many times the number of walkers.
@@ -307,64 +306,6 @@ def _polish(f, u, n_dim: int) -> np.ndarray:
     return res.x if np.isfinite(res.fun) and res.fun <= -f(u) else np.asarray(u)
 
 
-def moves():
-    """The sampler's moves: emcee's differential evolution alone (ter Braak 2006).
-    Without its snooker variant: emcee's (3.1) steps along the line through the walker
-    and a third one by the distance to it, for which its acceptance factor does not
-    correct (20 % of snooker moves gave a standard normal target standard deviations
-    0.978, 60 chains of 16 walkers x 1000 steps, against 1.001 for differential
-    evolution alone)."""
-    import emcee
-
-    return [(emcee.moves.DEMove(), 1.0)]
-
-
-def laplace_evaluations(n_dim: int) -> int:
-    """Evaluations of the Laplace approximation of :func:`_laplace` (n_dim parameters)."""
-    return 1 + 2 * n_dim * (n_dim + 1)
-
-
-def _laplace(f, u: np.ndarray) -> np.ndarray | None:
-    """The covariance ``(-H)^-1`` of the Laplace approximation at the maximum ``u`` of
-    the log posterior ``f`` (rows (n, n_dim) -> (n,)), ``H`` by central differences of
-    one standard deviation (from a first pass of steps ``LAPLACE_PROBE``), in three
-    batches of 1, ``2 n_dim`` and ``2 n_dim^2`` evaluations; None when ``H`` is not
-    negative definite."""
-    n = u.size
-    eye = np.eye(n)
-    f0 = float(f(u[None])[0])
-    h = np.full(n, LAPLACE_PROBE)
-    v = f(np.concatenate([u + h[:, None] * eye, u - h[:, None] * eye]))
-    curv = (v[:n] + v[n:] - 2.0 * f0) / h ** 2
-    if not np.all(np.isfinite(curv)) or np.any(curv >= 0.0):
-        return None
-    h = 1.0 / np.sqrt(-curv)
-    pts, idx = [], []
-    for i in range(n):
-        pts += [u + h[i] * eye[i], u - h[i] * eye[i]]
-        idx.append((i, i))
-        for j in range(i + 1, n):
-            a, b = h[i] * eye[i], h[j] * eye[j]
-            pts += [u + a + b, u + a - b, u - a + b, u - a - b]
-            idx.append((i, j))
-    v = f(np.array(pts))
-    H = np.zeros((n, n))
-    k = 0
-    for i, j in idx:
-        if i == j:
-            H[i, i] = (v[k] + v[k + 1] - 2.0 * f0) / h[i] ** 2
-            k += 2
-        else:
-            H[i, j] = H[j, i] = (v[k] - v[k + 1] - v[k + 2] + v[k + 3]) / (4 * h[i] * h[j])
-            k += 4
-    if not np.all(np.isfinite(H)):
-        return None
-    w, q = np.linalg.eigh(-H)
-    if np.any(w <= 0.0):
-        return None
-    return (q / w) @ q.T
-
-
 def _r_hat(chain: np.ndarray) -> np.ndarray:
     """Split Gelman-Rubin R-hat per parameter of a chain (steps, walkers, n)."""
     n = chain.shape[0] // 2
@@ -477,7 +418,7 @@ def _sample(cfg, c, prep, ev, progress, command, predict, check):
         raise CalibrationError("no prior draw gives a model that runs: check the priors")
     best = _polish(lambda u: float(log_prob(np.atleast_2d(u))[0, 0]),
                    u0[int(np.argmax(lp0))], n_dim)
-    cov = _laplace(lambda u: log_prob(u)[:, 0], best)
+    cov = laplace_covariance(lambda u: log_prob(u)[:, 0], best)
     if cov is not None:
         start = rng.multivariate_normal(best, cov, n_walkers, method="eigh")
     else:
@@ -492,7 +433,11 @@ def _sample(cfg, c, prep, ev, progress, command, predict, check):
     lp = sampler.get_log_prob()[burn:]
     flat_u = chain_u.reshape(-1, n_dim)
     post = prep.marginals.from_u(flat_u)
-    tau = sampler.get_autocorr_time(discard=burn, quiet=True, tol=0)
+    # emcee's estimator over the walkers that moved (a walker that stayed put through a
+    # short chain has no autocorrelation function)
+    moved = np.ptp(chain_u, axis=0).min(axis=1) > 0.0
+    tau = (emcee.autocorr.integrated_time(chain_u[:, moved], quiet=True, tol=0)
+           if moved.any() else np.full(n_dim, np.nan))
     ess = flat_u.shape[0] / np.maximum(tau, 1.0)
     rhat = _r_hat(chain_u)
     diag = dict(acceptance=np.asarray(sampler.acceptance_fraction, float), tau=tau, ess=ess,

@@ -66,6 +66,9 @@ def report_command(results: Path, outdir: Path | None = None, fresh: bool = Fals
     import numpy as np
     import xarray as xr
 
+    from vsi_numba.io.lazy_dask import defer_dask_array_import
+
+    defer_dask_array_import()
     from vsi_numba.analysis.dataset import ResultsError, prepare, require
     from vsi_numba.analysis.report import REQUIRED_VARIABLES, stored_warnings, write_report
     from vsi_numba.analysis.report.atomic import ReportDirectoryError

@@ -146,6 +146,9 @@ def _print_governing(path: Path, pr: Printer) -> None:
     import xarray as xr
 
     from vsi_numba.cli.governing import governing_lines
+    from vsi_numba.io.lazy_dask import defer_dask_array_import
+
+    defer_dask_array_import()
 
     try:
         with xr.open_dataset(path) as ds:

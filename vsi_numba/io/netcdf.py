@@ -103,6 +103,9 @@ def open_results(path: str | os.PathLike) -> xr.Dataset:
     """
     import xarray as xr
 
+    from vsi_numba.io.lazy_dask import defer_dask_array_import
+
+    defer_dask_array_import()  # no dask array in the file: dask.array is not imported
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no results file {path}")

@@ -29,7 +29,6 @@ Exit codes of ``vsi sweep`` (:func:`vsi_numba.cli.sweep.sweep_command`)
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import hashlib
 import traceback
@@ -434,19 +433,21 @@ def _stop_helper(proc):
 
 
 def _import_results_readers(order) -> None:
-    """Import what reads the results file afterwards (xarray, which imports dask.array
-    when it sees an array; ~0.6 s) while the batches run, when they are long enough: the
-    batches run in worker threads (kernels that release the GIL) or processes, so the
-    import takes a share of the cores instead of a serial wait after the last batch
-    (the sweep's governing results, a report).  In this thread, once, after the first
+    """Import what reads the results file afterwards (xarray; ``dask.array`` is not
+    imported, :mod:`vsi_numba.io.lazy_dask`) while the batches run, when they are long
+    enough: the batches run in worker threads (kernels that release the GIL) or
+    processes, so the import takes a share of the cores instead of a serial wait after
+    the last batch (the sweep's governing results, a report).  In this thread, once, after the first
     batch is stored: no second thread that imports while an interrupted sweep shuts
     down.  Not for a study that keeps time histories: the imports' ~65 MB would then add
     to the peak of the batches' history buffers."""
     if sum(b.cost for b in order) < PREFETCH_COST or any(any(b.histories) for b in order):
         return
-    with contextlib.suppress(ImportError):  # dask is installed with the package
-        import dask.array  # noqa: F401
     import xarray  # noqa: F401
+
+    from vsi_numba.io.lazy_dask import defer_dask_array_import
+
+    defer_dask_array_import()
 
 
 def _run_pending(be, spec, pending, store, progress, n_runs, n_done, quiet=True) -> None:

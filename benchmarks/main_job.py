@@ -24,9 +24,10 @@ directory, warm numba cache (``NUMBA_CACHE_DIR`` as set, else a temporary one fi
 first untimed run).  *CPU* is user + system time of the command and its children.
 Medians over the rounds; ratios are this checkout's median over the baseline's.  The
 records of kept outputs go to a temporary directory (``VSI_OUTPUT_CACHE``).  After the
-rounds, each checkout's README command on the written study is profiled once in one
-process (:data:`STAGES`: CPU seconds of the imports, the sweep's decision, the governing
-lines and the parts of the report; the report made whole, then warm).  The section ``Main job`` of
+rounds, each checkout's fresh sweep and its README command on the written study are
+profiled once each in one process (:data:`STAGES`: CPU seconds of the imports, the
+sweep's parts or its decision, the governing lines and the parts of the report; the
+sweep computed, the report made whole, then warm).  The section ``Main job`` of
 ``reports/benchmarks.md`` is replaced (``--no-write``: printed only).
 """
 
@@ -60,7 +61,9 @@ COMMANDS = (("sweep", "sweep (627 runs computed, `--fresh`)"),
 
 #: In-process CPU profile of ``vsi sweep study.toml --report DIR -q`` on a written study
 #: (``argv``: DIR, then ``whole``: the report made whole, records off; ``warm``: as the
-#: records are): seconds per stage as JSON on stdout.  Stages are
+#: records are), or of ``vsi sweep study.toml --fresh -q`` (``fresh``: the 627 runs
+#: computed and written, the governing lines; no report): seconds per stage as JSON on
+#: stdout.  Stages are
 #: functions of both checkouts, wrapped where they exist; nested ones count inside their
 #: parents (``report`` holds the rest).
 STAGES = r"""
@@ -83,7 +86,8 @@ def wrap(mod, name, label):
         finally:
             acc[key] = acc.get(key, 0.0) + T() - s
     setattr(m, name, g)
-whole = sys.argv[2] == "whole"
+whole = sys.argv[2] in ("whole", "fresh")
+fresh = sys.argv[2] == "fresh"
 t0 = T()
 from vsi_numba.cli import sweep as sw
 # the study runner (the engine) where the command imports it: a warm command of a
@@ -94,10 +98,18 @@ if not kept:
 acc["imports: the CLI (and the study runner where used)"] = T() - t0
 if "vsi_numba.study.runner" in sys.modules:
     wrap("vsi_numba.study.runner", "execute_study", "sweep: the study found written (or run)")
+if fresh:  # the study computed again: its parts
+    wrap("vsi_numba.cli.sweep", "load_config_and_output", "sweep: configuration read")
+    for name, label in [("_build_model", "sweep: model built"),
+                        ("study_plan", "sweep: batches planned"),
+                        ("_run_pending", "sweep: batches run (kernels loaded, runs)"),
+                        ("write_results", "sweep: results file written")]:
+        wrap("vsi_numba.study.runner", name, label)
+    wrap("xarray", "open_dataset", "governing: the results file opened (xarray)")
 wrap("vsi_numba.cli.sweep", "_written", "sweep: the study found by its record (or not)")
 wrap("vsi_numba.cli.sweep", "_print_governing", "governing lines")
 wrap("vsi_numba.cli.sweep", "_report", "report, whole")
-if not kept:  # (the warm command of a checkout with records imports none of the report)
+if not kept and not fresh:  # (the warm command with records imports none of the report)
     s = T()
     import vsi_numba.analysis.report as R
     acc["report: imports (matplotlib, openpyxl, ...)"] = T() - s
@@ -110,7 +122,8 @@ if not kept:  # (the warm command of a checkout with records imports none of the
                         ("write_markdown", "report: Markdown + PNG rendering")]:
         wrap("vsi_numba.analysis.report", name, label)
     wrap("vsi_numba.analysis.checks", "run_checks", "report: checks")
-code = sw.sweep_command(Path("study.toml"), None, None, None, True, False, Path(sys.argv[1]))
+code = sw.sweep_command(Path("study.toml"), None, None, None, True, fresh,
+                        None if fresh else Path(sys.argv[1]))
 acc["total (in process)"] = T() - t0
 print(json.dumps(acc))
 """
@@ -198,13 +211,15 @@ def run_main_job_bench(baseline: Path | None = None, rounds: int = 3, cold: bool
             echo(f"round {r + 1} of {rounds} done")
         # whole: records off, a new report directory; warm: the rounds' records and
         # report directory (rep2), as the README command finds them the next time
-        for mode, outputs, rep in (("whole", "off", "rep4"), ("warm", None, "rep2")):
+        for mode, outputs, rep in (("fresh", "off", "-"), ("whole", "off", "rep4"),
+                                   ("warm", None, "rep2")):
             for label, root in trees.items():
                 d = dirs[label]
                 env = _env(root, cache, tmp / "outputs")
                 if outputs is not None:
                     env["VSI_OUTPUT_CACHE"] = outputs
-                    shutil.rmtree(d / rep, ignore_errors=True)
+                    if rep != "-":
+                        shutil.rmtree(d / rep, ignore_errors=True)
                 done = subprocess.run([sys.executable, "-c", STAGES, rep, mode], cwd=d, env=env,
                                       capture_output=True, text=True, timeout=3600)
                 try:
@@ -269,9 +284,11 @@ def markdown(res: Result) -> str:
     if res.stages:
         cols = list(res.stages)
         names = list(dict.fromkeys(k for c in cols for k in res.stages[c]))
-        lines += ["CPU seconds by stage of the README command on the written study, one "
-                  "run per checkout in one process (`STAGES` of `benchmarks/main_job.py`; "
-                  "a stage nested in another counts in both; '-': not reached): *whole*, "
+        lines += ["CPU seconds by stage, one run per checkout in one process (`STAGES` "
+                  "of `benchmarks/main_job.py`; a stage nested in another counts in both; "
+                  "'-': not reached): *fresh*, `vsi sweep study.toml --fresh -q` (the 627 "
+                  "runs computed and written, the governing lines, no report); and the "
+                  "README command on the written study: *whole*, "
                   "the report made whole (records of kept outputs off, a new directory); "
                   "*warm*, the study and its report as the rounds left them (a checkout "
                   "without records makes the report again):", "",

@@ -398,3 +398,31 @@ def test_main_job_section__cold_run_with_its_ratio():
     res.cold.pop("baseline")
     row = next(ln for ln in MJ.markdown(res).splitlines() if ln.startswith("| main job, empty"))
     assert row.endswith("| - | - | - | - |")
+
+
+def test_main_job_stages__the_fresh_sweep_by_its_parts(tmp_path):
+    """The in-process profile of a fresh sweep (``STAGES`` with ``fresh``) times each part
+    of the command: a part renamed in the package would leave its row out."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    from benchmarks import main_job as MJ
+
+    text = (MJ.REPO / "configs" / "quickstart.toml").read_text()
+    (tmp_path / "study.toml").write_text(
+        text.replace('output = "results/quickstart.nc"', 'output = "results.nc"'))
+    env = {**os.environ, "VSI_OUTPUT_CACHE": "off",
+           "PYTHONPATH": os.pathsep.join([str(MJ.REPO), os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run([sys.executable, "-c", MJ.STAGES, "-", "fresh"], cwd=tmp_path,
+                          env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    stages = json.loads(done.stdout.strip().splitlines()[-1])
+    parts = ["sweep: configuration read", "sweep: model built", "sweep: batches planned",
+             "sweep: batches run (kernels loaded, runs)", "sweep: results file written",
+             "governing: the results file opened (xarray)", "governing lines"]
+    assert all(stages.get(p, 0.0) > 0.0 for p in parts), stages
+    assert not any(k.startswith("report") for k in stages), stages
+    assert sum(stages[p] for p in parts[:5]) <= stages["total (in process)"]
+    assert (tmp_path / "results.nc").is_file() and not (tmp_path / "-").exists()

@@ -211,8 +211,9 @@ def run_main_job_bench(baseline: Path | None = None, rounds: int = 3, cold: bool
             echo(f"round {r + 1} of {rounds} done")
         # whole: records off, a new report directory; warm: the rounds' records and
         # report directory (rep2), as the README command finds them the next time
-        for mode, outputs, rep in (("fresh", "off", "-"), ("whole", "off", "rep4"),
-                                   ("warm", None, "rep2")):
+        # (fresh last: it writes the results file again, a new file for the records)
+        for mode, outputs, rep in (("whole", "off", "rep4"), ("warm", None, "rep2"),
+                                   ("fresh", "off", "-")):
             for label, root in trees.items():
                 d = dirs[label]
                 env = _env(root, cache, tmp / "outputs")

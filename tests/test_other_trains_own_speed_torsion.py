@@ -291,6 +291,10 @@ def test_torsional_moment_of_a_continuous_deck_at_crawl__against_static_fe(tmp_p
     assert f"{hi_all.max() * 1e-3:.4g} kN m" in part and f"x = {x_hi:g} m" in part
     summary = (d2 / "rep" / "summary.csv").read_text()
     assert "torsional moment" in summary.lower()
+    # one value per quantity: the summary shows it as the torque table does, in kN m
+    lines = [ln for ln in text.splitlines() if ln.startswith("| Torsional moment \\|T\\|")]
+    assert lines and all(" kN m |" in ln for ln in lines), lines
+    assert f"| {hi_all.max() * 1e-3:.4g} kN m |" in "\n".join(lines)
 
 
 # ------------------------------------------------------------ imported decks (lines)

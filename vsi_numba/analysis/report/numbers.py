@@ -29,11 +29,13 @@ def _fmt(value, units: str = "", digits: int = 3) -> str:
         return f"{v:.3g} s"
     if units == "rad":
         return f"{v * 1e3:.{digits}g} mrad"
+    if units == "N m":  # as the load-effect tables show it
+        return f"{v / 1e3:.4g} kN m"
     return f"{v:.{digits}g}"
 
 
 #: Scale of a unit to the number the report shows (``_fmt``: kN, mm, mrad).
-_SHOWN_SCALE = {"N": 1e-3, "m": 1e3, "rad": 1e3}
+_SHOWN_SCALE = {"N": 1e-3, "N m": 1e-3, "m": 1e3, "rad": 1e3}
 
 
 def fmt_against(value, threshold, units: str = "", digits: int = 3) -> str:

@@ -40,6 +40,7 @@ def test_files_read_without_dask_array_and_dask_arrays_still_recognised(tmp_path
             m = ds["a"].where(ds["a"] > 2).max("x").values
         assert np.array_equal(m, a.max(axis=1)), m
         assert "dask.array" not in sys.modules, "dask.array imported by reading a file"
+        assert "dask" not in sys.modules, "dask imported by reading a file"
         assert defer_dask_array_import()  # already there: True, nothing changed
         import dask.array as da
         from xarray.namedarray.pycompat import array_type, is_chunked_array
@@ -87,3 +88,31 @@ def test_an_xarray_without_the_cache_is_left_alone(monkeypatch):
 
     monkeypatch.delattr(pycompat, "_cached_duck_array_modules")
     assert lazy_dask.defer_dask_array_import() is False
+
+
+def test_the_dask_collection_test_asks_dask_only_for_objects_with_a_graph():
+    import numpy as np
+
+    from vsi_numba.io import lazy_dask
+
+    asked = []
+
+    def real(x):
+        asked.append(x)
+        return True
+
+    test = lazy_dask._not_dask_first(real)
+
+    class Graph:
+        def __dask_graph__(self):
+            return {}
+
+    assert test(np.zeros(3)) is False and test(Graph) is False and not asked
+    g = Graph()
+    assert test(g) is True and asked == [g]
+    da = pytest.importorskip("dask.array")
+    from xarray.namedarray import utils
+
+    lazy_dask.defer_dask_array_import()
+    assert hasattr(utils.is_dask_collection, "_vsi_real")
+    assert utils.is_dask_collection(da.ones(2)) and not utils.is_dask_collection(np.ones(2))

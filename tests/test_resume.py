@@ -32,7 +32,7 @@ from vsi_numba.cli.sweep import sweep_command
 from vsi_numba.config import load_config
 from vsi_numba.io.netcdf import open_results
 from vsi_numba.study.runner import HOLD_ENV, run_study
-from vsi_numba.study.store import CaseStore, store_path
+from vsi_numba.study.store import HISTORY_MEMORY_BUDGET, CaseStore, store_path
 
 SPEEDS = [60.0 + 10.0 * i for i in range(12)]  # 12 speeds x 2 trains x 2 seeds = 48 runs
 
@@ -319,7 +319,8 @@ def test_resume__full_disk_clear_error_cases_kept(tmp_path):
 def test_store__final_write_reads_batches_of_this_process_from_memory(tmp_path):
     """A batch the store wrote is loaded once from its copy in memory - equal to its
     file, unaffected by later changes of the caller's arrays - then from the file;
-    batches with time histories always come from their files."""
+    batches with time histories are kept up to their own budget, the others come from
+    their files."""
     import numpy as np
 
     store = CaseStore(tmp_path / "s.cases", "0" * 64, "{}").open()
@@ -342,10 +343,21 @@ def test_store__final_write_reads_batches_of_this_process_from_memory(tmp_path):
                 np.testing.assert_array_equal(got[k], v)
             for k, v in expected.items():
                 np.testing.assert_array_equal(got[k], v)
+        # time histories: in memory up to their own budget, then from their files
         hist = {**expected, "hist_runs": np.array([0]), "deflection": np.zeros((1, 5, 2))}
         store.write("t000_i001_s0000-0002", hist)
-        assert not store._memory  # read back from its file at the final write
-        np.testing.assert_array_equal(store.load("t000_i001_s0000-0002")["hist_runs"], [0])
+        assert list(store._memory) == ["t000_i001_s0000-0002"]
+        n_big = HISTORY_MEMORY_BUDGET // 8 - 10
+        big = {**hist, "deflection": np.ones((1, n_big, 1))}
+        store.write("t000_i002_s0000-0002", big)  # over the history budget: not kept
+        assert list(store._memory) == ["t000_i001_s0000-0002"]
+        assert store._memory_history_bytes == store._memory_bytes > 0
+        for key, want in (("t000_i001_s0000-0002", hist), ("t000_i002_s0000-0002", big)):
+            got = store.load(key)
+            assert sorted(got) == sorted([*want, "batch_key"])
+            for k, v in want.items():
+                np.testing.assert_array_equal(got[k], v)
+        assert store._memory_bytes == store._memory_history_bytes == 0 and not store._memory
     finally:
         store.close()
 

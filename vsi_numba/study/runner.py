@@ -82,6 +82,9 @@ BACKENDS = ("serial", "threads", "processes", "dask")
 #: estimated kernel seconds of a study's batches above which the readers of its results
 #: are imported while they run (:func:`_import_results_readers`)
 PREFETCH_COST = 2.0
+#: raw history bytes of a batch above which they are not imported then (a study that
+#: keeps time histories at a few speeds is below; one that keeps every run's is above)
+PREFETCH_HISTORY_BYTES = 16 * 2**20
 
 
 class CaseErrors(StudyError):
@@ -432,22 +435,41 @@ def _stop_helper(proc):
     return stop_helper(proc)
 
 
-def _import_results_readers(order) -> None:
+def _import_results_readers(spec, order) -> None:
     """Import what reads the results file afterwards (xarray; ``dask.array`` is not
     imported, :mod:`vsi_numba.io.lazy_dask`) while the batches run, when they are long
     enough: the batches run in worker threads (kernels that release the GIL) or
     processes, so the import takes a share of the cores instead of a serial wait after
     the last batch (the sweep's governing results, a report).  In this thread, once, after the first
     batch is stored: no second thread that imports while an interrupted sweep shuts
-    down.  Not for a study that keeps time histories: the imports' ~65 MB would then add
-    to the peak of the batches' history buffers."""
-    if sum(b.cost for b in order) < PREFETCH_COST or any(any(b.histories) for b in order):
+    down.  Not for a study whose batches keep large time histories (more than
+    :data:`PREFETCH_HISTORY_BYTES` in a batch): the imports' ~65 MB would then add to the
+    peak of the batches' history buffers."""
+    if (sum(b.cost for b in order) < PREFETCH_COST
+            or _largest_history_bytes(spec, order) > PREFETCH_HISTORY_BYTES):
         return
     import xarray  # noqa: F401
 
     from vsi_numba.io.lazy_dask import defer_dask_array_import
 
     defer_dask_array_import()
+
+
+def _largest_history_bytes(spec, order) -> int:
+    """The raw history buffers of the batch of ``order`` that keeps the most
+    (:func:`~vsi_numba.study.batches.history_bytes`; 0 without histories)."""
+    from vsi_numba.study.batches import _packed_train, _spec_of, history_bytes
+
+    largest = 0
+    for b in order:
+        if not any(b.histories):
+            continue
+        sp = _spec_of(spec, b)
+        packed = _packed_train(sp, b.i_train)
+        speeds = study_model(sp).speeds_m_s
+        largest = max(largest, sum(history_bytes(packed, packed.n_steps(float(speeds[s])))
+                                   for s, h in zip(b.speeds, b.histories, strict=True) if h))
+    return largest
 
 
 def _run_pending(be, spec, pending, store, progress, n_runs, n_done, quiet=True) -> None:
@@ -478,7 +500,7 @@ def _run_pending(be, spec, pending, store, progress, n_runs, n_done, quiet=True)
                         store.write(batch.key, result)
                         stored += 1
                         if stored == 1:  # the other batches are under way
-                            _import_results_readers(order)
+                            _import_results_readers(spec, order)
                     bar.advance(batch.n_runs)
                     if isinstance(hold, int) and stored >= hold:
                         hold_store(store)

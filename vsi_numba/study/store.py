@@ -64,8 +64,12 @@ STORE_FORMAT = 2
 MANIFEST = "store.json"
 LOCK = ".lock"
 #: bytes of finished batches a store keeps in memory for the final write (envelopes: a few
-#: kB per batch; batches with time histories are always read back from their files)
+#: kB per batch)
 MEMORY_BUDGET = 64 * 2**20
+#: of which batches with time histories (a study that keeps histories at a few speeds:
+#: its history batches are not read back; larger ones come from their files, so that the
+#: held histories do not add to the peak memory of the batches' own buffers)
+HISTORY_MEMORY_BUDGET = 16 * 2**20
 _BATCH_FILE = re.compile(r"^batch_((?:v\d{4,}_)?t\d{3,}_i\d{3,}_s\d{4,}-\d{4,})\.npz$")
 
 
@@ -202,6 +206,7 @@ class CaseStore:
         # record a resume reads)
         self._memory: dict[str, tuple[dict, int]] = {}  # key -> (arrays, bytes)
         self._memory_bytes = 0
+        self._memory_history_bytes = 0
 
     # -------------------------------------------------------------- life cycle
     def open(self) -> CaseStore:
@@ -341,9 +346,13 @@ class CaseStore:
             raise _write_error(exc, target, self) from exc
         self._forget(key)
         size = sum(v.nbytes for v in data.values())
-        if "hist_runs" not in data and self._memory_bytes + size <= MEMORY_BUDGET:
-            self._memory[key] = ({k: np.array(v, copy=True) for k, v in data.items()}, size)
+        hist = size if "hist_runs" in data else 0
+        if (self._memory_bytes + size <= MEMORY_BUDGET
+                and self._memory_history_bytes + hist <= HISTORY_MEMORY_BUDGET):
+            self._memory[key] = ({k: np.array(v, copy=True) for k, v in data.items()}, size,
+                                 hist)
             self._memory_bytes += size
+            self._memory_history_bytes += hist
         return path
 
     def check(self, key: str) -> None:
@@ -383,8 +392,9 @@ class CaseStore:
     # -------------------------------------------------------------- helpers
     def _forget(self, key: str) -> dict | None:
         """Drop the copy in memory of batch ``key``; returns it (None if there is none)."""
-        data, size = self._memory.pop(key, (None, 0))
+        data, size, hist = self._memory.pop(key, (None, 0, 0))
         self._memory_bytes -= size
+        self._memory_history_bytes -= hist
         return data
 
     def _check_ours(self, allow_other_config: bool) -> None:

@@ -7,6 +7,7 @@ it as it is).  :mod:`.runner` runs the batches and calls :func:`write_results`."
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from pathlib import Path
@@ -189,64 +190,117 @@ def write_results(output: Path, store: CaseStore, study,
     """Stream the stored batches of ``study`` (``runner._Study``) into the results file
     ``output``, written to a temporary file in the store and renamed over ``output``;
     returns the failed-run count."""
-    from vsi_numba.io.study_file import StudyFile
-    from vsi_numba.solver.batch import deck_grid
+    writer = ResultsWriter(output, store, study, need_bytes)
+    holding = hold_after() == "write"
+    with writer.guard():
+        for b in study.plan:
+            writer.add(b, store.load(b.key))
+            if holding:
+                writer.hold()
+    return writer.finish()
 
-    specs, models, grid, plan, labels = (study.specs, study.models, study.grid, study.plan,
-                                         study.labels)
-    infos = [trains_info(sp, m) for sp, m in zip(specs, models, strict=True)]
-    packed = [_packed_trains(sp, m) for sp, m in zip(specs, models, strict=True)]
-    hist_steps = [packed[b.variant or 0][b.i_train].n_steps(grid.speeds_kmh[s] / 3.6) + 1
-                  for b in plan for s, h in zip(b.speeds, b.histories, strict=True) if h]
-    n_time = max(hist_steps) if hist_steps else None
-    model = models[0]
-    variants = None
-    if labels is not None:
-        rules = [{k: getattr(m.config, k, None) for k in ("damping_rule",
-                                                          "additional_damping_rule")}
-                 for m in models]
-        variants = {"coords": variant_coords(labels),
-                    "bridge_length": [m.bridge.length for m in models],
-                    "acceleration_cutoff": [m.deck.cutoff for m in models],
-                    "config_json": [sp.config_json for sp in specs],
-                    "damping": [m.bridge.damping for m in models],
-                    "additional_damping": [m.config.additional_damping for m in models],
-                    "damping_rule": [" ; ".join(r[k] for k in ("damping_rule",
-                                                               "additional_damping_rule")
-                                                if r.get(k)) for r in rules]}
-    n_wheel = max(max(i["n_wheel"], default=0) for i in infos)
-    n_vehicle = max(max(i["n_vehicle"], default=0) for i in infos)
-    omit = not_offered(models, packed)
-    tmp = store.temp_path(output.name)
-    failed: list[str] = []
-    try:
-        f = StudyFile(tmp, grid.speeds_kmh, grid.trains, grid.irregularities,
-                      [m.output_points for m in models], [m.bridge.frequencies for m in models],
-                      n_wheel, n_vehicle, n_time,
-                      [m.settings.dt for m in models] if labels is not None else
-                      model.settings.dt, infos, variants,
-                      deck_x=[deck_grid(m.bridge, m.output_points) for m in models],
-                      supports=[m.bridge.supports for m in models], omit=omit,
-                      space=[m.deck.layout for m in models],
-                      damping=([m.bridge.damping for m in models],
-                               [m.config.additional_damping for m in models]),
-                      loading=_loading(model))
-        holding = hold_after() == "write"
+
+class ResultsWriter:
+    """The results file of a study being written, batch by batch, in any order: the
+    temporary file in the store is created with every variable (:class:`StudyFile`),
+    :meth:`add` writes a finished batch into its slices, :meth:`finish` writes the
+    global attributes and renames the file over the output (:meth:`abort` removes it).
+
+    The runner feeds it the batches as they finish (the file is written while the other
+    batches run, :func:`~vsi_numba.study.runner._run_pending`), then the batches stored
+    earlier; :func:`write_results` the stored batches in plan order.  The values are
+    the same whatever the order (each run has its own slice; the failed runs are sorted).
+    Errors of the file (a full disk) are raised as
+    :func:`~vsi_numba.study.store.final_write_error` says, the temp file removed."""
+
+    def __init__(self, output: Path, store: CaseStore, study, need_bytes: int | None = None):
+        from vsi_numba.io.study_file import StudyFile
+        from vsi_numba.solver.batch import deck_grid
+
+        self.output, self.store, self.study, self.need_bytes = output, store, study, need_bytes
+        specs, models, grid, plan, labels = (study.specs, study.models, study.grid,
+                                             study.plan, study.labels)
+        self.infos = infos = [trains_info(sp, m) for sp, m in zip(specs, models, strict=True)]
+        packed = [_packed_trains(sp, m) for sp, m in zip(specs, models, strict=True)]
+        hist_steps = [packed[b.variant or 0][b.i_train].n_steps(grid.speeds_kmh[s] / 3.6) + 1
+                      for b in plan for s, h in zip(b.speeds, b.histories, strict=True) if h]
+        n_time = max(hist_steps) if hist_steps else None
+        model = models[0]
+        variants = None
+        if labels is not None:
+            rules = [{k: getattr(m.config, k, None) for k in ("damping_rule",
+                                                              "additional_damping_rule")}
+                     for m in models]
+            variants = {"coords": variant_coords(labels),
+                        "bridge_length": [m.bridge.length for m in models],
+                        "acceleration_cutoff": [m.deck.cutoff for m in models],
+                        "config_json": [sp.config_json for sp in specs],
+                        "damping": [m.bridge.damping for m in models],
+                        "additional_damping": [m.config.additional_damping for m in models],
+                        "damping_rule": [" ; ".join(r[k] for k in ("damping_rule",
+                                                                   "additional_damping_rule")
+                                                    if r.get(k)) for r in rules]}
+        n_wheel = max(max(i["n_wheel"], default=0) for i in infos)
+        n_vehicle = max(max(i["n_vehicle"], default=0) for i in infos)
+        self.omit = not_offered(models, packed)
+        self.tmp = tmp = store.temp_path(output.name)
+        self.failed: list[str] = []
+        self.file = None
+        with self.guard():
+            self.file = StudyFile(
+                tmp, grid.speeds_kmh, grid.trains, grid.irregularities,
+                [m.output_points for m in models], [m.bridge.frequencies for m in models],
+                n_wheel, n_vehicle, n_time,
+                [m.settings.dt for m in models] if labels is not None else model.settings.dt,
+                infos, variants, deck_x=[deck_grid(m.bridge, m.output_points) for m in models],
+                supports=[m.bridge.supports for m in models], omit=self.omit,
+                space=[m.deck.layout for m in models],
+                damping=([m.bridge.damping for m in models],
+                         [m.config.additional_damping for m in models]),
+                loading=_loading(model))
+
+    @contextlib.contextmanager
+    def guard(self):
+        """Any error inside: the file closed and removed; a file error (OSError, HDF5's
+        RuntimeError) raised as :func:`final_write_error`."""
         try:
-            for b in plan:
-                data = store.load(b.key)
-                info = infos[b.variant or 0]
-                f.write_batch(b, data, info["n_wheel"][b.i_train], info["n_vehicle"][b.i_train])
-                if holding:
-                    f.flush()
-                    f.nc.sync()
-                    hold(store)
-                for r, st in enumerate(data["status"]):
-                    if st != 0:
-                        key = Case(0, b.speeds[r], b.i_train, b.i_irregularity, 0.0, "", 0,
-                                   False).key
-                        failed.append(key if b.variant is None else f"v{b.variant:04d}_{key}")
-                del data
+            yield self
+        except (OSError, RuntimeError) as exc:
+            error = final_write_error(exc, self.output, self.store, self.need_bytes, self.tmp)
+            self.abort()
+            raise error from exc
+        except BaseException:
+            self.abort()
+            raise
+
+    def add(self, batch, data: dict) -> None:
+        """Write one finished batch (:func:`~vsi_numba.study.batches.run_batch_task`
+        output) into its slices."""
+        with self.guard():
+            info = self.infos[batch.variant or 0]
+            self.file.write_batch(batch, data, info["n_wheel"][batch.i_train],
+                                  info["n_vehicle"][batch.i_train])
+            for r, st in enumerate(data["status"]):
+                if st != 0:
+                    key = Case(0, batch.speeds[r], batch.i_train, batch.i_irregularity, 0.0,
+                               "", 0, False).key
+                    self.failed.append(key if batch.variant is None
+                                       else f"v{batch.variant:04d}_{key}")
+
+    def hold(self) -> None:
+        """Test hook (``hold_after() == "write"``): the file as written so far on disk,
+        then hold (sleep until interrupted or killed)."""
+        with self.guard():
+            self.file.flush()
+            self.file.nc.sync()
+            hold(self.store)
+
+    def finish(self) -> int:
+        """Write the global attributes, close the file and rename it over the output;
+        returns the failed-run count."""
+        study, model, grid, f = self.study, self.study.models[0], self.study.grid, self.file
+        models, labels, failed, tmp = study.models, study.labels, self.failed, self.tmp
+        with self.guard():
             failed.sort()
             if labels is None:
                 attrs = global_attrs(model, study.config_json, study.sha, grid, len(failed),
@@ -271,32 +325,30 @@ def write_results(output: Path, store: CaseStore, study,
             empty = no_values(f.found, not failed)
             if empty:
                 raise StudyError(
-                    f"not written: {output} would hold no value of {', '.join(empty)}, which "
-                    "this model computes; this is a defect of vsi_numba (the finished runs "
-                    "are kept), please report it with the configuration")
-            attrs["not_computed"] = not_computed_attr(omit)
+                    f"not written: {self.output} would hold no value of {', '.join(empty)}, "
+                    "which this model computes; this is a defect of vsi_numba (the finished "
+                    "runs are kept), please report it with the configuration")
+            attrs["not_computed"] = not_computed_attr(self.omit)
             # what a re-run compares to leave a file of the same study as it is
-            attrs.update(identity_attrs(store.model_sha256, store.plan_sha256))
+            attrs.update(identity_attrs(self.store.model_sha256, self.store.plan_sha256))
             f.close(attrs)
+            self.file = None
             if "fatigue" in study.config.resolved():  # the traffic's runs, counted
                 from vsi_numba.study import fatigue
 
                 fatigue.write(tmp, fatigue.fatigue_runs(study.config))
-        except BaseException:
-            f.abort()
-            raise
-        with open(tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
-        os.replace(tmp, output)
-        _fsync_dir(output.parent)
-    except (OSError, RuntimeError) as exc:
-        error = final_write_error(exc, output, store, need_bytes, tmp)
-        tmp.unlink(missing_ok=True)
-        raise error from exc
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return len(failed)
+            with open(tmp, "rb+") as fh:
+                os.fsync(fh.fileno())
+            os.replace(tmp, self.output)
+            _fsync_dir(self.output.parent)
+        return len(failed)
+
+    def abort(self) -> None:
+        """Close the file without finishing it and remove it."""
+        if self.file is not None:
+            self.file.abort()
+            self.file = None
+        self.tmp.unlink(missing_ok=True)
 
 
 def _loading(model) -> str | None:

@@ -57,7 +57,7 @@ from vsi_numba.study.hold import HOLD_ENV, hold_after  # noqa: F401 - HOLD_ENV: 
 from vsi_numba.study.hold import hold as hold_store
 from vsi_numba.study.outlock import OutputLock
 from vsi_numba.study.progress import _Progress, _say
-from vsi_numba.study.results_file import finished_earlier, write_results
+from vsi_numba.study.results_file import ResultsWriter, finished_earlier, write_results
 from vsi_numba.study.spec import (  # noqa: F401 - StudySpec, study_model: the API
     StudySpec,
     _build_model,
@@ -388,11 +388,28 @@ def _execute(store, study: _Study, output, backend, workers, scheduler, progress
                     f"trains x {n_i} irregularities): {n_runs - n_todo} done earlier, "
                     f"{n_todo} to run ({be.name}"
                     f"{_workers_note(be, workers, scheduler)})")
-        _run_pending(be, study.task_spec, pending, store, progress, n_runs, n_runs - n_todo,
-                     quiet)
+        # the results file is written while the batches run: each as it is stored, then
+        # those stored earlier (a resumed study); the test hook that holds inside the
+        # final write reads them all back from the store, as a resume does
+        writer = (ResultsWriter(output, store, study, need.final_max)
+                  if hold_after() != "write" else None)
+        try:
+            _run_pending(be, study.task_spec, pending, store, progress, n_runs,
+                         n_runs - n_todo, quiet, writer)
+            if writer is not None:
+                with writer.guard():
+                    for b in study.plan:
+                        if b.key in done:
+                            writer.add(b, store.load(b.key))
+        except BaseException:
+            if writer is not None:
+                writer.abort()
+            raise
+        n_failed = (writer.finish() if writer is not None else
+                    write_results(output, store, study, need.final_max))
     else:
         _say(quiet, f"{n_runs} runs: all done earlier, writing {output}")
-    n_failed = write_results(output, store, study, need.final_max)
+        n_failed = write_results(output, store, study, need.final_max)
     if not keep_cases:
         store.remove()
     _say(quiet, f"wrote {output}: {n_runs} runs, {n_failed} failed")
@@ -472,7 +489,11 @@ def _largest_history_bytes(spec, order) -> int:
     return largest
 
 
-def _run_pending(be, spec, pending, store, progress, n_runs, n_done, quiet=True) -> None:
+def _run_pending(be, spec, pending, store, progress, n_runs, n_done, quiet=True,
+                 writer=None) -> None:
+    """Run the batches ``pending`` on the backend ``be``, each stored as it finishes and,
+    with a ``writer`` (:class:`~vsi_numba.study.results_file.ResultsWriter`), written
+    into the results file at once (by this thread, while the workers run the others)."""
     errors: list[tuple[Batch, BaseException]] = []
     order = sorted(pending, key=lambda b: (-b.cost, b.index))
     hold = hold_after()
@@ -497,7 +518,9 @@ def _run_pending(be, spec, pending, store, progress, n_runs, n_done, quiet=True)
                     if isinstance(result, BaseException):
                         errors.append((batch, result))
                     else:
-                        store.write(batch.key, result)
+                        store.write(batch.key, result, remember=writer is None)
+                        if writer is not None:
+                            writer.add(batch, result)
                         stored += 1
                         if stored == 1:  # the other batches are under way
                             _import_results_readers(spec, order)

@@ -330,8 +330,9 @@ class CaseStore:
         return self.path / fitting_name(name, prefix=".", suffix=f".{os.getpid()}.tmp",
                                         limit=name_max(self.path))
 
-    def write(self, key: str, arrays: dict) -> Path:
-        """Store one finished batch atomically (``arrays``: name -> numpy array)."""
+    def write(self, key: str, arrays: dict, remember: bool = True) -> Path:
+        """Store one finished batch atomically (``arrays``: name -> numpy array); with
+        ``remember``, a copy stays in memory for the final write (within the budgets)."""
         target = self.batch_path(key)
         data = {"batch_key": np.array(key)}
         data.update({k: v for k, v in arrays.items() if v is not None})
@@ -347,7 +348,7 @@ class CaseStore:
         self._forget(key)
         size = sum(v.nbytes for v in data.values())
         hist = size if "hist_runs" in data else 0
-        if (self._memory_bytes + size <= MEMORY_BUDGET
+        if (remember and self._memory_bytes + size <= MEMORY_BUDGET
                 and self._memory_history_bytes + hist <= HISTORY_MEMORY_BUDGET):
             self._memory[key] = ({k: np.array(v, copy=True) for k, v in data.items()}, size,
                                  hist)

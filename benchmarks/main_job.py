@@ -71,20 +71,23 @@ import importlib, importlib.util, json, os, sys, time
 from pathlib import Path
 T = time.process_time
 acc = {}
-def wrap(mod, name, label):
+def wrap(mod, name, label, clock=None, cls=None):
     try:
         m = importlib.import_module(mod)
+        if cls is not None:
+            m = getattr(m, cls)
         f = getattr(m, name)
     except (ImportError, AttributeError):
         return
+    tick = clock or T
     def g(*a, **k):
-        s = T()
-        key = label if label not in acc or not label.startswith("sweep") else (
+        s = tick()
+        key = label if label not in acc or not label.startswith("sweep") or cls else (
             "report: its re-runs through the study engine")
         try:
             return f(*a, **k)
         finally:
-            acc[key] = acc.get(key, 0.0) + T() - s
+            acc[key] = acc.get(key, 0.0) + tick() - s
     setattr(m, name, g)
 whole = sys.argv[2] in ("whole", "fresh")
 fresh = sys.argv[2] == "fresh"
@@ -105,6 +108,16 @@ if fresh:  # the study computed again: its parts
                         ("_run_pending", "sweep: batches run (kernels loaded, runs)"),
                         ("write_results", "sweep: results file written")]:
         wrap("vsi_numba.study.runner", name, label)
+    # the results file written while the batches run: the main thread's share (its own
+    # CPU clock: the batch threads run beside it), then the rest after the last batch
+    rf = "vsi_numba.study.results_file"
+    wrap(rf, "__init__", "sweep: results file created (main thread, during the batches)",
+         time.thread_time, cls="ResultsWriter")
+    wrap(rf, "add", "sweep: batches written into it as they finish (main thread, during "
+         "the batches)", time.thread_time, cls="ResultsWriter")
+    wrap(rf, "finish", "sweep: results file written", cls="ResultsWriter")
+    wrap("vsi_numba.study.runner", "_import_results_readers", "sweep: results readers "
+         "imported (main thread, during the batches)", time.thread_time)
     wrap("xarray", "open_dataset", "governing: the results file opened (xarray)")
 wrap("vsi_numba.cli.sweep", "_written", "sweep: the study found by its record (or not)")
 wrap("vsi_numba.cli.sweep", "_print_governing", "governing lines")

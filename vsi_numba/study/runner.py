@@ -391,16 +391,15 @@ def _execute(store, study: _Study, output, backend, workers, scheduler, progress
         # the results file is written while the batches run: each as it is stored, then
         # those stored earlier (a resumed study); the test hook that holds inside the
         # final write reads them all back from the store, as a resume does
-        writer = (ResultsWriter(output, store, study, need.final_max)
+        writer = (_LazyWriter(lambda: ResultsWriter(output, store, study, need.final_max))
                   if hold_after() != "write" else None)
         try:
             _run_pending(be, study.task_spec, pending, store, progress, n_runs,
                          n_runs - n_todo, quiet, writer)
             if writer is not None:
-                with writer.guard():
-                    for b in study.plan:
-                        if b.key in done:
-                            writer.add(b, store.load(b.key))
+                for b in study.plan:
+                    if b.key in done:
+                        writer.add(b, store.load(b.key))
         except BaseException:
             if writer is not None:
                 writer.abort()
@@ -414,6 +413,31 @@ def _execute(store, study: _Study, output, backend, workers, scheduler, progress
         store.remove()
     _say(quiet, f"wrote {output}: {n_runs} runs, {n_failed} failed")
     return StudyOutcome(output, n_runs, n_failed, len(study.plan))
+
+
+class _LazyWriter:
+    """A :class:`~vsi_numba.study.results_file.ResultsWriter` made at the first batch
+    added (``make()``): the file is created once a batch is stored (a disk without room
+    for a batch says so about the batch), by the thread that stores the batches while the
+    workers run the others, not before the batches start."""
+
+    def __init__(self, make):
+        self._make = make
+        self.writer = None
+
+    def add(self, batch, data: dict) -> None:
+        if self.writer is None:
+            self.writer = self._make()
+        self.writer.add(batch, data)
+
+    def finish(self) -> int:
+        if self.writer is None:  # nothing added: every batch was stored earlier
+            self.writer = self._make()
+        return self.writer.finish()
+
+    def abort(self) -> None:
+        if self.writer is not None:
+            self.writer.abort()
 
 
 def _workers_note(be, workers, scheduler) -> str:

@@ -207,17 +207,22 @@ class ResultsWriter:
     global attributes and renames the file over the output (:meth:`abort` removes it).
 
     The runner feeds it the batches as they finish (the file is written while the other
-    batches run, :func:`~vsi_numba.study.runner._run_pending`), then the batches stored
-    earlier; :func:`write_results` the stored batches in plan order.  The values are
+    batches run, :func:`~vsi_numba.study.runner._run_pending`; ``sync_histories``: each
+    batch's time histories compressed and written to disk at once), then the batches
+    stored earlier; :func:`write_results` the stored batches in plan order.  The values are
     the same whatever the order (each run has its own slice; the failed runs are sorted).
     Errors of the file (a full disk) are raised as
     :func:`~vsi_numba.study.store.final_write_error` says, the temp file removed."""
 
-    def __init__(self, output: Path, store: CaseStore, study, need_bytes: int | None = None):
+    def __init__(self, output: Path, store: CaseStore, study, need_bytes: int | None = None,
+                 sync_histories: bool = False):
         from vsi_numba.io.study_file import StudyFile
         from vsi_numba.solver.batch import deck_grid
 
         self.output, self.store, self.study, self.need_bytes = output, store, study, need_bytes
+        #: a batch's time histories to disk when it is added (compressed then, while the
+        #: other batches run, instead of all at the close)
+        self.sync_histories = sync_histories
         specs, models, grid, plan, labels = (study.specs, study.models, study.grid,
                                              study.plan, study.labels)
         self.infos = infos = [trains_info(sp, m) for sp, m in zip(specs, models, strict=True)]
@@ -280,6 +285,9 @@ class ResultsWriter:
             info = self.infos[batch.variant or 0]
             self.file.write_batch(batch, data, info["n_wheel"][batch.i_train],
                                   info["n_vehicle"][batch.i_train])
+            if self.sync_histories and "hist_runs" in data:
+                self.file.flush()
+                self.file.nc.sync()
             for r, st in enumerate(data["status"]):
                 if st != 0:
                     key = Case(0, batch.speeds[r], batch.i_train, batch.i_irregularity, 0.0,

@@ -391,7 +391,8 @@ def _execute(store, study: _Study, output, backend, workers, scheduler, progress
         # the results file is written while the batches run: each as it is stored, then
         # those stored earlier (a resumed study); the test hook that holds inside the
         # final write reads them all back from the store, as a resume does
-        writer = (_LazyWriter(lambda: ResultsWriter(output, store, study, need.final_max))
+        writer = (_LazyWriter(lambda: ResultsWriter(output, store, study, need.final_max,
+                                                    sync_histories=True))
                   if hold_after() != "write" else None)
         try:
             _run_pending(be, study.task_spec, pending, store, progress, n_runs,

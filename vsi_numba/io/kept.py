@@ -26,6 +26,7 @@ added makes the report again); anything unreadable makes the output again.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -70,16 +71,26 @@ def _versions() -> list[str]:
     :data:`_ENVIRONMENT`: a record in a cache shared between machines is not another
     machine's."""
     import platform
-    from importlib import metadata
 
     out = [f"python {sys.version}", f"machine {platform.node()} {platform.machine()}"]
     out += [f"{k}={os.environ.get(k, '')}" for k in _ENVIRONMENT]
+    return out + list(library_versions())
+
+
+@functools.lru_cache(maxsize=1)
+def library_versions() -> tuple[str, ...]:
+    """``name version`` of each of :data:`_LIBRARIES` (``name -``: not installed), looked
+    up once per process (the installed distributions, ~50 ms the first time; a study
+    looks them up while its batches run, :func:`vsi_numba.study.runner._run_pending`)."""
+    from importlib import metadata
+
+    out = []
     for name in _LIBRARIES:
         try:
             out.append(f"{name} {metadata.version(name)}")
         except metadata.PackageNotFoundError:
             out.append(f"{name} -")
-    return out
+    return tuple(out)
 
 
 def _stored_config(results: Path) -> tuple[str, str]:

@@ -482,13 +482,18 @@ def _import_results_readers(spec, order) -> None:
     imported, :mod:`vsi_numba.io.lazy_dask`) while the batches run, when they are long
     enough: the batches run in worker threads (kernels that release the GIL) or
     processes, so the import takes a share of the cores instead of a serial wait after
-    the last batch (the sweep's governing results, a report).  In this thread, once, after the first
-    batch is stored: no second thread that imports while an interrupted sweep shuts
-    down.  Not for a study whose batches keep large time histories (more than
-    :data:`PREFETCH_HISTORY_BYTES` in a batch): the imports' ~65 MB would then add to the
-    peak of the batches' history buffers."""
-    if (sum(b.cost for b in order) < PREFETCH_COST
-            or _largest_history_bytes(spec, order) > PREFETCH_HISTORY_BYTES):
+    the last batch (the sweep's governing results, a report); also the libraries'
+    versions the records of kept outputs are signed with (:mod:`vsi_numba.io.kept`).  In
+    this thread, once, after the first batch is stored: no second thread that imports
+    while an interrupted sweep shuts down.  xarray not for a study whose batches keep
+    large time histories (more than :data:`PREFETCH_HISTORY_BYTES` in a batch): the
+    imports' ~65 MB would then add to the peak of the batches' history buffers."""
+    if sum(b.cost for b in order) < PREFETCH_COST:
+        return
+    from vsi_numba.io import kept
+
+    kept.library_versions()  # the records' signatures after the study (~50 ms)
+    if _largest_history_bytes(spec, order) > PREFETCH_HISTORY_BYTES:
         return
     import xarray  # noqa: F401
 

@@ -110,6 +110,7 @@ from __future__ import annotations
 import functools
 import weakref
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -205,6 +206,62 @@ def foundation_for(wheel_stiffness: float, rail_EI_one: float) -> float:
 FOUNDATION_DEFAULT = 2.0 * foundation_for(WHEEL_STIFFNESS_DEFAULT, RAIL_EI_UIC60 / 2.0)
 
 
+def nnls(A, b):
+    """``scipy.optimize.nnls(A, b)`` (x, residual norm): scipy's compiled routine
+    (``scipy.optimize._slsqplib.nnls``, what ``scipy.optimize.nnls`` calls with these
+    arguments) loaded without importing ``scipy.optimize`` (~0.2 s of CPU: the whole
+    optimisation package, for one 480 x 3 problem per track); ``scipy.optimize.nnls``
+    itself when that module is not where it is expected (another scipy)."""
+    lib = _slsqplib()
+    if lib is None:
+        import scipy.optimize
+
+        return scipy.optimize.nnls(A, b)
+    A = np.asarray_chkfinite(A, dtype=np.float64, order="C")
+    b = np.asarray_chkfinite(b, dtype=np.float64)
+    if A.ndim != 2 or b.ndim != 1 or A.shape[0] != b.shape[0]:
+        raise ValueError(f"nnls: A {A.shape} and b {b.shape} do not match")
+    x, rnorm, info = lib.nnls(A, b, 3 * A.shape[1])  # scipy's default maxiter, 3 n
+    if info == 3:
+        raise RuntimeError("Maximum number of iterations reached.")
+    return x, rnorm
+
+
+@functools.lru_cache(maxsize=1)
+def _slsqplib():
+    """scipy's ``scipy.optimize._slsqplib`` extension (the one in ``sys.modules`` if
+    ``scipy.optimize`` is imported, else loaded from its file for this module alone:
+    scipy's import state is left as it is), or None when this scipy has none (its
+    version's ``nnls`` is then used)."""
+    import importlib.machinery
+    import importlib.util
+    import sys
+
+    name = "scipy.optimize._slsqplib"
+    if name in sys.modules:
+        return sys.modules[name] if hasattr(sys.modules[name], "nnls") else None
+    try:
+        import scipy
+
+        folder = Path(scipy.__file__).parent / "optimize"
+        files = [folder / f"_slsqplib{sfx}" for sfx in importlib.machinery.EXTENSION_SUFFIXES]
+        path = next((f for f in files if f.is_file()), None)
+        if path is None or not (folder / "_nnls.py").is_file():
+            return None
+        if "_slsqplib import nnls as _nnls" not in (folder / "_nnls.py").read_text():
+            return None  # scipy.optimize.nnls calls something else
+        loader = importlib.machinery.ExtensionFileLoader(name, str(path))
+        spec = importlib.util.spec_from_file_location(name, str(path), loader=loader)
+        module = importlib.util.module_from_spec(spec)
+        loader.exec_module(module)
+    except (ImportError, OSError, ValueError):
+        return None
+    finally:
+        if sys.modules.get(name) is not None and "scipy.optimize" not in sys.modules:
+            del sys.modules[name]  # (an extension of single-phase init puts itself there)
+    return module if callable(getattr(module, "nnls", None)) else None
+
+
 @functools.lru_cache(maxsize=64)
 def fit_element(foundation_stiffness: float, rail_EI: float, foundation_damping: float,
                 rail_mass: float, band_hz: float | None = None) -> tuple[float, float, float]:
@@ -214,9 +271,8 @@ def fit_element(foundation_stiffness: float, rail_EI: float, foundation_damping:
     (k_t + i w c_t - w^2 m_t) G(w) - 1 at :data:`FIT_POINTS` frequencies spread evenly
     over (0, band], non-negative (a negative mass would make the kernel's element
     unstable), solved as an NNLS problem in the scaled unknowns
-    (k_t / K0, c_t w_b / K0, m_t w_b^2 / K0), K0 = 1 / G(0), w_b = 2 pi band."""
-    import scipy.optimize
-
+    (k_t / K0, c_t w_b / K0, m_t w_b^2 / K0), K0 = 1 / G(0), w_b = 2 pi band
+    (:func:`nnls`)."""
     band = FIT_BAND_HZ if band_hz is None else float(band_hz)
     k, ei, c, m = foundation_stiffness, rail_EI, foundation_damping, rail_mass
     w = 2.0 * np.pi * band * np.arange(1, FIT_POINTS + 1) / FIT_POINTS
@@ -225,8 +281,8 @@ def fit_element(foundation_stiffness: float, rail_EI: float, foundation_damping:
     K0 = 2.0 * k / (k / (4.0 * ei)) ** 0.25
     wb = 2.0 * np.pi * band
     A = np.column_stack([np.ones_like(w), 1j * w / wb, -((w / wb) ** 2)]) * (K0 * G)[:, None]
-    p, _ = scipy.optimize.nnls(np.vstack([A.real, A.imag]),
-                               np.concatenate([np.ones_like(w), np.zeros_like(w)]))
+    p, _ = nnls(np.vstack([A.real, A.imag]),
+                np.concatenate([np.ones_like(w), np.zeros_like(w)]))
     return float(p[0] * K0), float(p[1] * K0 / wb), float(p[2] * K0 / wb**2)
 
 

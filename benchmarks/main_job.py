@@ -91,7 +91,7 @@ def wrap(mod, name, label, clock=None, cls=None):
     setattr(m, name, g)
 whole = sys.argv[2] in ("whole", "fresh")
 fresh = sys.argv[2] == "fresh"
-t0 = T()
+t0, m0 = T(), time.thread_time()
 from vsi_numba.cli import sweep as sw
 # the study runner (the engine) where the command imports it: a warm command of a
 # checkout that finds its study by its record does not
@@ -119,6 +119,22 @@ if fresh:  # the study computed again: its parts
     wrap("vsi_numba.study.runner", "_import_results_readers", "sweep: results readers "
          "imported (main thread, during the batches)", time.thread_time)
     wrap("xarray", "open_dataset", "governing: the results file opened (xarray)")
+    # the critical path: the CPU of each batch thread and of the main thread (its share
+    # during the batches), each on its own clock
+    import threading
+    per_thread = {}
+    rn = importlib.import_module("vsi_numba.study.runner")
+    task0 = rn.run_batch_task
+    def task(*a, **k):
+        s = time.thread_time()
+        try:
+            return task0(*a, **k)
+        finally:
+            name = threading.current_thread().name
+            per_thread[name] = per_thread.get(name, 0.0) + time.thread_time() - s
+    rn.run_batch_task = task
+    wrap("vsi_numba.study.runner", "_run_pending", "main thread: CPU during the batches",
+         time.thread_time)
 wrap("vsi_numba.cli.sweep", "_written", "sweep: the study found by its record (or not)")
 wrap("vsi_numba.cli.sweep", "_print_governing", "governing lines")
 wrap("vsi_numba.cli.sweep", "_report", "report, whole")
@@ -138,6 +154,17 @@ if not kept and not fresh:  # (the warm command with records imports none of the
 code = sw.sweep_command(Path("study.toml"), None, None, None, True, fresh,
                         None if fresh else Path(sys.argv[1]))
 acc["total (in process)"] = T() - t0
+if fresh and per_thread:
+    main = time.thread_time() - m0
+    during = acc.get("main thread: CPU during the batches", 0.0)
+    acc["main thread: CPU outside the batches"] = main - during
+    acc["batch threads: CPU, all"] = sum(per_thread.values())
+    acc["batch threads: CPU, the busiest"] = max(per_thread.values())
+    # on 2 idle cores: the main thread alone before and after the batches; during them
+    # the busiest batch thread, or the batch threads and the main thread on 2 cores
+    acc["estimate: wall on 2 idle cores (critical path, without the interpreter's "
+        "start)"] = (main - during) + max(max(per_thread.values()),
+                                          (sum(per_thread.values()) + during) / 2)
 print(json.dumps(acc))
 """
 

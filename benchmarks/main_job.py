@@ -1,6 +1,7 @@
 """The README's main job, whole commands, against a baseline checkout in the same run.
 
-``python -m benchmarks.main_job [--baseline DIR] [--rounds N] [--cold] [--no-write]``
+``python -m benchmarks.main_job [--baseline DIR] [--rounds N] [--cold] [--no-write]
+[--fresh-runs N]``
 
 Each round runs, for this checkout and (with ``--baseline``) for another checkout of the
 package (e.g. ``git archive COMMIT | tar -x -C DIR``), interleaved so that both see the
@@ -27,7 +28,10 @@ records of kept outputs go to a temporary directory (``VSI_OUTPUT_CACHE``).  Aft
 rounds, each checkout's fresh sweep and its README command on the written study are
 profiled once each in one process (:data:`STAGES`: CPU seconds of the imports, the
 sweep's parts or its decision, the governing lines and the parts of the report; the
-sweep computed, the report made whole, then warm).  The section ``Main job`` of
+sweep computed, the report made whole, then warm; the fresh sweep ``--fresh-runs`` times,
+interleaved, medians, with the CPU of its batch threads and of its main thread, each on
+its own clock, and from them the wall on 2 idle cores, a machine shared with other work
+not having them).  The section ``Main job`` of
 ``reports/benchmarks.md`` is replaced (``--no-write``: printed only).
 """
 
@@ -183,6 +187,7 @@ class Result:
     date: str = ""
     rounds: int = 0
     errors: list = field(default_factory=list)
+    fresh_runs: int = 1  # profiles of the fresh sweep per checkout (medians)
 
     def add(self, label: str, key: str, wall: float, cpu: float) -> None:
         self.walls.setdefault((label, key), []).append(wall)
@@ -216,7 +221,7 @@ def _vsi(res: Result, label: str, key: str | None, args: list, cwd: Path, env: d
 
 
 def run_main_job_bench(baseline: Path | None = None, rounds: int = 3, cold: bool = False,
-                       study: Path = STUDY, echo=print) -> Result:
+                       study: Path = STUDY, echo=print, fresh_runs: int = 1) -> Result:
     """Measure the commands of the module docstring; returns the :class:`Result`."""
     trees = {"this checkout": REPO}
     if baseline is not None:
@@ -252,8 +257,10 @@ def run_main_job_bench(baseline: Path | None = None, rounds: int = 3, cold: bool
         # whole: records off, a new report directory; warm: the rounds' records and
         # report directory (rep2), as the README command finds them the next time
         # (fresh last: it writes the results file again, a new file for the records)
+        # (the fresh profile ``fresh_runs`` times, the checkouts interleaved: medians)
+        runs: dict = {}
         for mode, outputs, rep in (("whole", "off", "rep4"), ("warm", None, "rep2"),
-                                   ("fresh", "off", "-")):
+                                   *[("fresh", "off", "-")] * max(fresh_runs, 1)):
             for label, root in trees.items():
                 d = dirs[label]
                 env = _env(root, cache, tmp / "outputs")
@@ -264,11 +271,16 @@ def run_main_job_bench(baseline: Path | None = None, rounds: int = 3, cold: bool
                 done = subprocess.run([sys.executable, "-c", STAGES, rep, mode], cwd=d, env=env,
                                       capture_output=True, text=True, timeout=3600)
                 try:
-                    res.stages[f"{label}, {mode}"] = json.loads(
-                        done.stdout.strip().splitlines()[-1])
+                    runs.setdefault(f"{label}, {mode}", []).append(json.loads(
+                        done.stdout.strip().splitlines()[-1]))
                 except (ValueError, IndexError):
                     res.errors.append(f"{label} stages ({mode}): exit {done.returncode}\n"
                                       f"{done.stderr[-2000:]}")
+        for col, found in runs.items():
+            keys = dict.fromkeys(k for f in found for k in f)
+            res.stages[col] = {k: statistics.median(f[k] for f in found if k in f)
+                               for k in keys}
+        res.fresh_runs = max(fresh_runs, 1)
         if cold:
             for label, root in trees.items():
                 d = dirs[label]
@@ -328,7 +340,9 @@ def markdown(res: Result) -> str:
         lines += ["CPU seconds by stage, one run per checkout in one process (`STAGES` "
                   "of `benchmarks/main_job.py`; a stage nested in another counts in both; "
                   "'-': not reached): *fresh*, `vsi sweep study.toml --fresh -q` (the 627 "
-                  "runs computed and written, the governing lines, no report); and the "
+                  "runs computed and written, the governing lines, no report"
+                  + (f"; medians of {res.fresh_runs} runs per checkout, interleaved"
+                     if res.fresh_runs > 1 else "") + "); and the "
                   "README command on the written study: *whole*, "
                   "the report made whole (records of kept outputs off, a new directory); "
                   "*warm*, the study and its report as the rounds left them (a checkout "
@@ -368,9 +382,12 @@ def main(argv=None) -> int:
     ap.add_argument("--cold", action="store_true", help="also a run on an empty numba cache")
     ap.add_argument("--report", type=Path, default=REPORT)
     ap.add_argument("--no-write", action="store_true")
+    ap.add_argument("--fresh-runs", type=int, default=1,
+                    help="profiles of the fresh sweep per checkout (medians)")
     a = ap.parse_args(argv)
     t0 = time.perf_counter()
-    res = run_main_job_bench(a.baseline, max(a.rounds, 1), a.cold)
+    res = run_main_job_bench(a.baseline, max(a.rounds, 1), a.cold,
+                             fresh_runs=a.fresh_runs)
     section = markdown(res)
     print(section)
     print(f"({time.perf_counter() - t0:.0f} s)")

@@ -426,3 +426,10 @@ def test_main_job_stages__the_fresh_sweep_by_its_parts(tmp_path):
     assert not any(k.startswith("report") for k in stages), stages
     assert sum(stages[p] for p in parts[:5]) <= stages["total (in process)"]
     assert (tmp_path / "results.nc").is_file() and not (tmp_path / "-").exists()
+    # the critical path from the threads' own clocks
+    busiest, every = stages["batch threads: CPU, the busiest"], stages["batch threads: CPU, all"]
+    outside = stages["main thread: CPU outside the batches"]
+    during = stages["main thread: CPU during the batches"]
+    estimate = next(v for k, v in stages.items() if k.startswith("estimate: wall"))
+    assert 0.0 < busiest <= every and outside > 0.0 and during >= 0.0
+    assert max(outside + busiest, outside + (every + during) / 2) == pytest.approx(estimate)

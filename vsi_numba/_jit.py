@@ -45,17 +45,21 @@ JIT_OPTIONS = {"cache": True, "nogil": True, "fastmath": False, "error_model": "
                "_nrt": False, "no_cfunc_wrapper": True}
 
 
-def njit(func=None, *, kernel_only: bool = False, **overrides):
+def njit(func=None, *, kernel_only: bool = False, copied: bool = False, **overrides):
     """``numba.njit`` with the project's options.
 
     ``kernel_only``: a kernel that only other kernels call, compiled without the CPython
     wrapper (the code that unboxes the arguments of a call from Python: for the
     namedtuples of arrays the engine passes around it is large and slow to compile).
     Calling such a kernel from Python raises a TypeError (:class:`KernelOnly`);
-    without this guard numba's entry point would be a null pointer.
+    without this guard numba's entry point would be a null pointer.  Its code is linked
+    once (:class:`KernelOnly`), unless ``copied``: numba's own way, its code copied into
+    each caller, where LLVM may inline it - for the small kernels called in the inner
+    loops of a step (mode shapes at a wheel, the skyline solve), whose calls through the
+    bundles of arrays would cost more than their bodies.
     """
     if func is None:
-        return lambda f: njit(f, kernel_only=kernel_only, **overrides)
+        return lambda f: njit(f, kernel_only=kernel_only, copied=copied, **overrides)
     options = {**JIT_OPTIONS, **overrides}
     if options.get("cache"):
         _PACKAGES.add(_package_dir(func.__code__.co_filename))
@@ -64,7 +68,7 @@ def njit(func=None, *, kernel_only: bool = False, **overrides):
     if numba.config.DISABLE_JIT:  # as numba.njit: the Python function itself
         return func
     cache = options.pop("cache")
-    disp = KernelOnly(py_func=func, locals={},
+    disp = (KernelOnly if not copied else CopiedKernelOnly)(py_func=func, locals={},
                       targetoptions={**options, "nopython": True, "boundscheck": None,
                                      "no_cpython_wrapper": True})
     if cache:
@@ -103,6 +107,14 @@ class KernelOnly(CPUDispatcher):
                            tuple(cres.signature.args))
         impl = _call_unlinked(cres.fndesc, load)
         ctx._defns[cres.entry_point].append(impl, impl.signature)
+
+
+class CopiedKernelOnly(KernelOnly):
+    """A :class:`KernelOnly` kernel whose code numba copies into each caller
+    (``njit(kernel_only=True, copied=True)``)."""
+
+    def add_overload(self, cres):
+        CPUDispatcher.add_overload(self, cres)
 
 
 class _LoadCallee:

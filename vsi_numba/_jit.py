@@ -68,9 +68,10 @@ def njit(func=None, *, kernel_only: bool = False, copied: bool = False, **overri
     if numba.config.DISABLE_JIT:  # as numba.njit: the Python function itself
         return func
     cache = options.pop("cache")
-    disp = (KernelOnly if not copied else CopiedKernelOnly)(py_func=func, locals={},
-                      targetoptions={**options, "nopython": True, "boundscheck": None,
-                                     "no_cpython_wrapper": True})
+    cls = CopiedKernelOnly if copied else KernelOnly
+    disp = cls(py_func=func, locals={},
+               targetoptions={**options, "nopython": True, "boundscheck": None,
+                              "no_cpython_wrapper": True})
     if cache:
         disp.enable_caching()
     return disp

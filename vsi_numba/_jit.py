@@ -27,8 +27,8 @@ the package would load the caller with the old callee.  :func:`njit` registers t
 kernel's package directory; for those, :class:`PackageSourceLocator` (a locator added to
 numba's ``CacheImpl._locator_classes``, its extension point for where and under which
 stamp a kernel is cached) stamps the cache with a hash of every ``.py`` file of that
-directory (:func:`package_hash`), so an edit to any of them recompiles the package's
-kernels.
+directory and of this module (:func:`package_hash`: the options here decide how the
+kernels compile), so an edit to any of them recompiles the package's kernels.
 """
 
 from __future__ import annotations
@@ -45,21 +45,17 @@ JIT_OPTIONS = {"cache": True, "nogil": True, "fastmath": False, "error_model": "
                "_nrt": False, "no_cfunc_wrapper": True}
 
 
-def njit(func=None, *, kernel_only: bool = False, copied: bool = False, **overrides):
+def njit(func=None, *, kernel_only: bool = False, **overrides):
     """``numba.njit`` with the project's options.
 
     ``kernel_only``: a kernel that only other kernels call, compiled without the CPython
     wrapper (the code that unboxes the arguments of a call from Python: for the
     namedtuples of arrays the engine passes around it is large and slow to compile).
     Calling such a kernel from Python raises a TypeError (:class:`KernelOnly`);
-    without this guard numba's entry point would be a null pointer.  Its code is linked
-    once (:class:`KernelOnly`), unless ``copied``: numba's own way, its code copied into
-    each caller, where LLVM may inline it - for the small kernels called in the inner
-    loops of a step (mode shapes at a wheel, the skyline solve), whose calls through the
-    bundles of arrays would cost more than their bodies.
+    without this guard numba's entry point would be a null pointer.
     """
     if func is None:
-        return lambda f: njit(f, kernel_only=kernel_only, copied=copied, **overrides)
+        return lambda f: njit(f, kernel_only=kernel_only, **overrides)
     options = {**JIT_OPTIONS, **overrides}
     if options.get("cache"):
         _PACKAGES.add(_package_dir(func.__code__.co_filename))
@@ -68,10 +64,9 @@ def njit(func=None, *, kernel_only: bool = False, copied: bool = False, **overri
     if numba.config.DISABLE_JIT:  # as numba.njit: the Python function itself
         return func
     cache = options.pop("cache")
-    cls = CopiedKernelOnly if copied else KernelOnly
-    disp = cls(py_func=func, locals={},
-               targetoptions={**options, "nopython": True, "boundscheck": None,
-                              "no_cpython_wrapper": True})
+    disp = KernelOnly(py_func=func, locals={},
+                      targetoptions={**options, "nopython": True, "boundscheck": None,
+                                     "no_cpython_wrapper": True})
     if cache:
         disp.enable_caching()
     return disp
@@ -79,90 +74,12 @@ def njit(func=None, *, kernel_only: bool = False, copied: bool = False, **overri
 
 class KernelOnly(CPUDispatcher):
     """The dispatcher of a kernel compiled without a CPython wrapper (``njit(...,
-    kernel_only=True)``): kernels call it as any other; a call from Python raises.
-
-    Its code is linked once: numba would copy a callee's whole compiled module into the
-    module of each caller and have LLVM optimise and emit it again there (a kernel called
-    from a kernel that is itself called from another was emitted three times, the
-    skyline solve up to nine).  Here a caller's call is lowered to a call of the
-    callee's symbol, which the JIT resolves to the callee's one copy (every library of a
-    process is a module of one execution engine); a caller's cached code then needs its
-    callees loaded before it, which a :class:`_LoadCallee` in the caller's ``reload_init``
-    (run by numba before it loads a cached library) does."""
+    kernel_only=True)``): kernels call it as any other; a call from Python raises."""
 
     def __call__(self, *args, **kwargs):
         name = f"{self.py_func.__module__}.{self.py_func.__qualname__}"
         raise TypeError(f"{name} is compiled to be called from kernels only (no entry point "
                         "from Python): call it from a jitted function")
-
-    def add_overload(self, cres):
-        super().add_overload(cres)
-        if cres.objectmode:
-            return
-        # numba registered the overload's call as "link the library, call the function"
-        # (``insert_user_function(..., [library])``): call it without linking
-        ctx = self.targetctx
-        if cres.entry_point in ctx._defns:
-            ctx.remove_user_function(cres.entry_point)
-        load = _LoadCallee(self.py_func.__module__, self.py_func.__qualname__,
-                           tuple(cres.signature.args))
-        impl = _call_unlinked(cres.fndesc, load)
-        ctx._defns[cres.entry_point].append(impl, impl.signature)
-
-
-class CopiedKernelOnly(KernelOnly):
-    """A :class:`KernelOnly` kernel whose code numba copies into each caller
-    (``njit(kernel_only=True, copied=True)``)."""
-
-    def add_overload(self, cres):
-        CPUDispatcher.add_overload(self, cres)
-
-
-class _LoadCallee:
-    """Compile (or load from the cache) one overload of a :class:`KernelOnly` kernel: in
-    the ``reload_init`` of its callers' libraries, so that a cached caller finds its
-    callee's symbol in the process.  Picklable (numba stores it with the caller)."""
-
-    def __init__(self, module: str, qualname: str, args: tuple):
-        self.key = (module, qualname, args)
-
-    def __call__(self):
-        import importlib
-
-        module, qualname, args = self.key
-        obj = importlib.import_module(module)
-        for part in qualname.split("."):
-            obj = getattr(obj, part)
-        obj.compile(args)
-
-    def __hash__(self):
-        return hash(self.key)
-
-    def __eq__(self, other):
-        return isinstance(other, _LoadCallee) and self.key == other.key
-
-
-def _call_unlinked(fndesc, load):
-    """numba's lowering of a call to a compiled function
-    (``numba.core.imputils.user_function``) without linking its library into the
-    caller's: the caller declares the function's symbol, and its library loads the
-    callee first (``load`` in its ``reload_init``)."""
-    from numba.core import cgutils
-    from numba.core.imputils import fix_returning_optional, impl_ret_new_ref
-
-    def imp(context, builder, sig, args):
-        context.active_code_library._reload_init.add(load)
-        func = context.declare_function(builder.module, fndesc)
-        status, retval = context.call_conv.call_function(
-            builder, func, fndesc.restype, fndesc.argtypes, args)
-        with cgutils.if_unlikely(builder, status.is_error):
-            context.call_conv.return_status_propagate(builder, status)
-        retval = fix_returning_optional(context, builder, sig, status, retval)
-        return impl_ret_new_ref(context, builder, fndesc.restype, retval)
-
-    imp.signature = fndesc.argtypes
-    imp.libs = ()
-    return imp
 
 
 # ------------------------------------------------------------------ the cache's key

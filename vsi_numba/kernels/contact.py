@@ -83,7 +83,7 @@ def crosses_deck_end(br, veh, t0, t1, speed):
     return False
 
 
-@njit(kernel_only=True, copied=True)
+@njit(kernel_only=True)
 def next_deck_end(br, veh, t, t1, speed):
     """Earliest time in (t, t1] at which a wheel is on the other side of an end of the
     deck than at ``t`` (the first float time whose abscissa x0 + v t the on-bridge test

@@ -79,7 +79,7 @@ def block_matvec_nz(veh, A, m, x, y, scale):
             y[s + r] += scale * acc
 
 
-@njit(kernel_only=True, copied=True)
+@njit(kernel_only=True)
 def skyline_cholesky_solve(A, idx, m, first, Lw, b, x):
     """Solve A[idx, idx] x = b for the ``m`` indices in ``idx`` by Cholesky, within the
     envelope ``first`` (see contact_profile; ``first = 0`` is the dense factorisation).
@@ -116,7 +116,7 @@ def skyline_cholesky_solve(A, idx, m, first, Lw, b, x):
     return 0
 
 
-@njit(kernel_only=True, copied=True)
+@njit(kernel_only=True)
 def invert_small(A, n, out):
     """Inverse of ``A[:n, :n]`` into ``out[:n, :n]`` by Gauss-Jordan elimination with
     partial pivoting (``A`` is destroyed).  Returns 0, or 1 if ``A`` is singular."""

@@ -151,7 +151,7 @@ def close_separation(red, r, i):
     red.run_len[i] = 0
 
 
-@njit(kernel_only=True, copied=True)
+@njit(kernel_only=True)
 def le_list(red, wheel_x0, wheel_sf, X, load_x0, load_sf, load_p, t, speed):
     """The point loads on the deck at time ``t`` into ``red.le_lx``/``red.le_lp``,
     ascending: the contact forces ``X`` of the wheels in contact on the deck (at the deck

@@ -16,7 +16,7 @@ def off_modes(br, x):
     return br.kind == 0 or x < 0.0 or x > br.length or br.omega.shape[0] == 0
 
 
-@njit(kernel_only=True, copied=True)
+@njit(kernel_only=True)
 def eval_modes(br, x, out, dout, d2out, line):
     """Mode shapes and their first two x-derivatives at ``x`` (zero off the bridge) on
     track line ``line`` (the row block of a Hermite table; sine modes: every line).
@@ -88,7 +88,7 @@ def eval_hermite(nodes, values, slopes, x, out, dout, d2out, base):
         d2out[j] = e1 * w1 + e2 * t1 + e3 * w2 + e4 * t2
 
 
-@njit(kernel_only=True, copied=True)
+@njit(kernel_only=True)
 def eval_profile(pr, x, out, line):
     """Irregularity r, r', r'' at ``x`` of track line ``line`` (``pr.n_int`` > 0: the
     line's own profile) into ``out[0:3]`` (zero outside the profile)."""

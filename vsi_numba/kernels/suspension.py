@@ -134,7 +134,7 @@ def nl_residual(veh, wk, st, dt, alpha):
             wk.rv[s0 + c] += veh.nl_a[e, c] * g
 
 
-@njit(kernel_only=True, copied=True)
+@njit(kernel_only=True)
 def nl_update_branches(veh, wk, st, tol):
     """Newton update of the branches from the state just computed: an element whose
     assumed branch gives a force more than ``tol`` (N) off its law moves to the branch

@@ -282,6 +282,23 @@ def support_moments(static: StaticDeck, x) -> np.ndarray:
     return ms
 
 
+def beam_sections(static: StaticDeck, at):
+    """What :func:`_beam` needs of the sections ``at`` (m) for the moment and shear:
+    their span, abscissa ``X`` in it, ``X / L`` and whether they are on the deck."""
+    sup, L = static.supports, static.spans
+    at = np.atleast_1d(np.asarray(at, float))
+    inside = (at >= sup[0]) & (at <= sup[-1])
+    sa = _span_of(sup, at)
+    X = at - sup[sa]
+    return sa, X, X / L[sa], inside
+
+
+def beam_loads(static: StaticDeck, x):
+    """:func:`_beam_loads` of the unit forces at ``x`` (m): on the deck, span, a, b,
+    support moments (n_supports, len(x)), each C-contiguous."""
+    return tuple(np.ascontiguousarray(v) for v in _beam_loads(static, np.asarray(x, float)))
+
+
 def _beam_loads(static: StaticDeck, x):
     """What :func:`_beam` needs of the unit forces at ``x`` whatever the effect: on the
     deck, their span, a and b in it, the support moments."""

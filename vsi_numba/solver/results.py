@@ -374,10 +374,29 @@ def effect_series(e: LoadEffectTables, static, x: np.ndarray, force: np.ndarray,
             chan["bending_moment_whole_deck"]),
            ("shear_force_whole_deck", "shear", e.sections[e.grid_index],
             chan["shear_force_whole_deck"])) if whole else ())) if effect in e.channels]
-    lines = influences(static, [(effect, at) for _, effect, at, _ in wanted], xs)
-    for (name, _, at, cols), line in zip(wanted, lines, strict=True):
+    # the moment and shear of a beam deck at the sections, load by load and summed step
+    # by step in a kernel (the numpy formula's values, without its (section, pair)
+    # arrays); the rest by the influence lines
+    swept = static is not None and static.kind == "beam" and bool(step.size)
+    jit = [w for w in wanted if swept and w[1] in ("moment", "shear") and len(w[2])]
+    rest = [w for w in wanted if w not in jit]
+    if jit:
+        from vsi_numba.kernels.influence import MOMENT, SHEAR, beam_section_history
+        from vsi_numba.model.influence import beam_loads, beam_sections, check_effects
+
+        check_effects(static, {w[1] for w in jit})
+        on, sl, a, b, ms = beam_loads(static, xs)
+        fs64 = np.ascontiguousarray(fs, np.float64)
+        for name, effect, at, cols in jit:
+            sa, X, xi, inside = beam_sections(static, at)
+            total = beam_section_history(
+                MOMENT if effect == "moment" else SHEAR, static.spans, sa, X, xi, inside,
+                sl, on, a, b, ms, step, fs64, np.zeros((n, len(at))))
+            out[name] = total + c @ e.E[:, cols]
+    lines = influences(static, [(effect, at) for _, effect, at, _ in rest], xs)
+    for (name, _, at, cols), line in zip(rest, lines, strict=True):
         g = line * fs  # (len(at), pairs)
         total = np.stack([np.bincount(step, weights=row, minlength=n) for row in g],
                          axis=1) if len(at) else np.zeros((n, 0))
         out[name] = total + c @ e.E[:, cols]
-    return out
+    return {name: out[name] for name, *_ in wanted}

@@ -219,10 +219,11 @@ def influence(static: StaticDeck | None, effect: str, at, x_load) -> np.ndarray:
     return influences(static, ((effect, at),), x_load)[0]
 
 
-def influences(static: StaticDeck | None, requests, x_load) -> list[np.ndarray]:
+def influences(static: StaticDeck | None, requests, x_load, loads=None) -> list[np.ndarray]:
     """:func:`influence` of each ``(effect, at)`` of ``requests`` for the same unit
     forces at ``x_load``: the same values, the loads' spans and the support moments
-    found once for all of them."""
+    found once for all of them (``loads``: those of :func:`beam_loads` at ``x_load``,
+    already found)."""
     x = np.atleast_1d(np.asarray(x_load, float))
     checked = []
     for effect, at in requests:
@@ -237,7 +238,8 @@ def influences(static: StaticDeck | None, requests, x_load) -> list[np.ndarray]:
         checked.append((effect, at))
     if static.kind == "matrices":
         return [_matrices(static, effect, at, x) for effect, at in checked]
-    loads = _beam_loads(static, x) if checked else None
+    if loads is None:
+        loads = _beam_loads(static, x) if checked else None
     return [_beam(static, effect, at, x, loads) for effect, at in checked]
 
 

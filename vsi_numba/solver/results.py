@@ -208,7 +208,8 @@ class BatchResult:
         return data
 
     def effect_histories(self, r: int, mirror: float | None = None,
-                         static=None, whole: bool = False) -> dict[str, np.ndarray]:
+                         static=None, whole: bool = False,
+                         torque: bool = True) -> dict[str, np.ndarray]:
         """Load-effect histories of run ``r`` (which must have a slot), by the same
         mode-acceleration formula as the kernel but from the stored modal coordinates,
         modal forces and contact forces (:func:`effect_series`): ``bending_moment``,
@@ -218,7 +219,8 @@ class BatchResult:
         computed.  ``mirror``: the run went over the deck seen from its far end (a train
         in -x), its loads stand at ``mirror - x``; ``static``: the static deck (default
         the run's); ``whole``: also ``bending_moment_whole_deck`` and
-        ``shear_force_whole_deck`` (time, deck_x) on the whole-deck grid."""
+        ``shear_force_whole_deck`` (time, deck_x) on the whole-deck grid; ``torque``
+        False: without ``torsional_moment``."""
         e = self.effects
         h = int(self.slots[r])
         if e is None or h < 0:
@@ -238,7 +240,7 @@ class BatchResult:
         chan = self._effect_channels()
         out = effect_series(e, self.static_deck if static is None else static, x, force, c,
                             chan, whole)
-        sp = self.space
+        sp = None if not torque else self.space
         if sp is not None and sp.channels is not None and np.any(sp.channels.torque >= 0):
             if mirror is None:  # the run's own train (not offered for the others)
                 out["torsional_moment"] = self.space_series(r)[:, sp.channels.torque]
@@ -380,12 +382,13 @@ def effect_series(e: LoadEffectTables, static, x: np.ndarray, force: np.ndarray,
     swept = static is not None and static.kind == "beam" and bool(step.size)
     jit = [w for w in wanted if swept and w[1] in ("moment", "shear") and len(w[2])]
     rest = [w for w in wanted if w not in jit]
+    loads = None
     if jit:
         from vsi_numba.kernels.influence import MOMENT, SHEAR, beam_section_history
         from vsi_numba.model.influence import beam_loads, beam_sections, check_effects
 
         check_effects(static, {w[1] for w in jit})
-        on, sl, a, b, ms = beam_loads(static, xs)
+        loads = on, sl, a, b, ms = beam_loads(static, xs)
         fs64 = np.ascontiguousarray(fs, np.float64)
         for name, effect, at, cols in jit:
             sa, X, xi, inside = beam_sections(static, at)
@@ -393,7 +396,7 @@ def effect_series(e: LoadEffectTables, static, x: np.ndarray, force: np.ndarray,
                 MOMENT if effect == "moment" else SHEAR, static.spans, sa, X, xi, inside,
                 sl, on, a, b, ms, step, fs64, np.zeros((n, len(at))))
             out[name] = total + c @ e.E[:, cols]
-    lines = influences(static, [(effect, at) for _, effect, at, _ in rest], xs)
+    lines = influences(static, [(effect, at) for _, effect, at, _ in rest], xs, loads)
     for (name, _, at, cols), line in zip(rest, lines, strict=True):
         g = line * fs  # (len(at), pairs)
         total = np.stack([np.bincount(step, weights=row, minlength=n) for row in g],

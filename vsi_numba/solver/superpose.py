@@ -156,7 +156,8 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
             k = int(np.argmax(ga))
             gacc[r], gacc_t[r], gacc_x[r] = ga.flat[k], t[k // grid.size], grid[k % grid.size]
         if main.effects is not None:
-            series = main.effect_histories(r, whole=True)
+            # (the torque is the channels' below: not computed here)
+            series = main.effect_histories(r, whole=True, torque=False)
             series = {k: v for k, v in series.items() if k in names}
             for res, o in others:
                 more = res.effect_histories(r, mirror=o.length if o.reversed else None,

@@ -391,10 +391,15 @@ def effect_series(e: LoadEffectTables, static, x: np.ndarray, force: np.ndarray,
         loads = on, sl, a, b, ms = beam_loads(static, xs)
         fs64 = np.ascontiguousarray(fs, np.float64)
         for name, effect, at, cols in jit:
+            # the sections on the deck by span (a section off the deck stays 0)
             sa, X, xi, inside = beam_sections(static, at)
-            total = beam_section_history(
-                MOMENT if effect == "moment" else SHEAR, static.spans, sa, X, xi, inside,
-                sl, on, a, b, ms, step, fs64, np.zeros((n, len(at))))
+            order = np.flatnonzero(inside)
+            order = order[np.argsort(sa[order], kind="stable")]
+            span0 = np.searchsorted(sa[order], np.arange(static.spans.size + 1))
+            total = np.zeros((n, len(at)))
+            total[:, order] = beam_section_history(
+                MOMENT if effect == "moment" else SHEAR, static.spans, span0, X[order],
+                xi[order], sl, a, b, ms, step, fs64, np.zeros((n, order.size)))
             out[name] = total + c @ e.E[:, cols]
     lines = influences(static, [(effect, at) for _, effect, at, _ in rest], xs, loads)
     for (name, _, at, cols), line in zip(rest, lines, strict=True):

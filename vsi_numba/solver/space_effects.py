@@ -142,8 +142,18 @@ class SpaceChannels:
                     static = static + self.static_unit(x[:, sel], force[:, sel]) * y
         else:
             y = self.y_load if y_load is None else float(y_load)
-            static = self.static_unit(x, force) * y if y != 0.0 else 0.0
-        return d * (static - fq @ self.Ef) + q @ self.Eq
+            if y != 0.0:
+                static = self.static_unit(x, force)
+                static *= y
+            else:
+                static = 0.0
+        # d * (static - fq @ Ef) + q @ Eq, the same operations in place (no temporaries
+        # of the history's size)
+        out = fq @ self.Ef
+        np.subtract(static, out, out=out)
+        out *= d
+        out += q @ self.Eq
+        return out
 
     def modal_series(self, q) -> np.ndarray:
         """The channels' part of the modal coordinates ``q`` (n, n_m) alone (a train

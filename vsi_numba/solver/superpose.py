@@ -109,6 +109,16 @@ def _first_max(a: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return value, t[i]
 
 
+def _rows(a: np.ndarray, n: int) -> np.ndarray:
+    """``a`` (n_runs, k) widened to ``n`` columns with NaN (rows not computed, whose
+    values come from elsewhere)."""
+    if a.shape[1] == n:
+        return a
+    out = np.full((a.shape[0], n), np.nan)
+    out[:, :a.shape[1]] = a
+    return out
+
+
 def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, OtherTrain]],
                          deck: DeckOperators) -> dict[str, np.ndarray]:
     """Envelopes of the summed response of ``main`` and ``others`` (every run of each
@@ -127,6 +137,10 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
     n_r = main.speeds.size
     dt = main.packed.params.dt
     rows_d, rows_dt, rows_a, rows_at = [], [], [], []
+    # the displacement rows along the tracks and of the twist are the channels' when the
+    # deck has them (mode acceleration, below): only the deck's output points then
+    with_channels = space is not None and space.channels is not None
+    phi_dr = phi_d[:n_p] if with_channels else phi_d
     gacc, gacc_t, gacc_x = np.full(n_r, np.nan), np.full(n_r, np.nan), np.full(n_r, np.nan)
     effects: dict[str, list] = {}
     chan: list[tuple] = []  # the deck-in-space channels' |max| and its time, per run
@@ -145,7 +159,7 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
             g = int(res.slots[r])
             q += res.out.q[g, :n]
             qdd += res.out.qdd[g, :n]
-        d, dtime = _first_max(q @ phi_d.T, t)
+        d, dtime = _first_max(q @ phi_dr.T, t)
         a, atime = _first_max(qdd[:, keep_a] @ phi_a[:, keep_a].T, t)
         rows_d.append(d)
         rows_dt.append(dtime)
@@ -171,8 +185,8 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
             c = main.space_series(r)
             for res, o in others:
                 y = float(space.eccentricity[o.track])
-                c = c + res.space_series(r, mirror=o.length if o.reversed else None,
-                                         y_load=y)
+                c += res.space_series(r, mirror=o.length if o.reversed else None,
+                                      y_load=y)
             b, bt = _first_max(c, t)
             tq = np.concatenate([ch.torque[ch.torque >= 0], ch.torque_grid])
             hi, hi_i, lo, lo_i = first_max_min(c[:, tq]) if tq.size else (np.zeros(0),) * 4
@@ -186,8 +200,7 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
            "time_of_max_deck_acceleration_whole_deck": gacc_t,
            "position_of_max_deck_acceleration_whole_deck": gacc_x}
     if space is not None:
-        d = space.split(stack(rows_d))
-        dtime = space.split(stack(rows_dt))
+        d, dtime = (space.split(_rows(stack(v), phi_d.shape[0])) for v in (rows_d, rows_dt))
         a, atime = space.split(stack(rows_a)), space.split(stack(rows_at))
         out.update({"max_track_displacement": d["track"],
                     "time_of_max_track_displacement": dtime["track"],

@@ -397,10 +397,15 @@ def effect_series(e: LoadEffectTables, static, x: np.ndarray, force: np.ndarray,
             order = order[np.argsort(sa[order], kind="stable")]
             span0 = np.searchsorted(sa[order], np.arange(static.spans.size + 1))
             total = np.zeros((n, len(at)))
-            total[:, order] = beam_section_history(
+            ordered = order.size == len(at) and bool(np.all(order == np.arange(len(at))))
+            part = beam_section_history(
                 MOMENT if effect == "moment" else SHEAR, static.spans, span0, X[order],
-                xi[order], sl, a, b, ms, step, fs64, np.zeros((n, order.size)))
-            out[name] = total + c @ e.E[:, cols]
+                xi[order], sl, a, b, ms, step, fs64,
+                total if ordered else np.zeros((n, order.size)))
+            if not ordered:
+                total[:, order] = part
+            total += c @ e.E[:, cols]
+            out[name] = total
     lines = influences(static, [(effect, at) for _, effect, at, _ in rest], xs, loads)
     for (name, _, at, cols), line in zip(rest, lines, strict=True):
         g = line * fs  # (len(at), pairs)

@@ -176,7 +176,8 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
             for res, o in others:
                 more = res.effect_histories(r, mirror=o.length if o.reversed else None,
                                             static=main.static_deck, whole=True)
-                series = {k: v + more[k] for k, v in series.items()}
+                for k, v in series.items():
+                    v += more[k]
             for name, v in series.items():
                 hi, hi_i, lo, lo_i = first_max_min(v)
                 effects.setdefault(name, []).append((hi, t[hi_i], lo, t[lo_i]))

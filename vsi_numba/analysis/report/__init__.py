@@ -37,6 +37,7 @@ from vsi_numba.analysis.recompute import CaseRunner
 from vsi_numba.analysis.report import profile as code_profile
 from vsi_numba.analysis.report import tables as tbl
 from vsi_numba.analysis.report.atomic import atomic_directory, checkpoint
+from vsi_numba.analysis.report.background import Background
 from vsi_numba.analysis.report.compatibility import compatibility_section
 from vsi_numba.analysis.report.convergence import convergence_section
 from vsi_numba.analysis.report.deflection import deflection_section
@@ -51,7 +52,12 @@ from vsi_numba.analysis.report.document import (
 from vsi_numba.analysis.report.echo import input_echo, title_block
 from vsi_numba.analysis.report.fatigue import fatigue_section, has_fatigue
 from vsi_numba.analysis.report.fatigue import summary_rows as fatigue_rows
-from vsi_numba.analysis.report.figures import _figures
+from vsi_numba.analysis.report.figures import (
+    envelope_figures,
+    history_figures,
+    history_reruns,
+    rerun_cases,
+)
 from vsi_numba.analysis.report.load_effects import (
     consistent_deflection,
     load_effects_section,
@@ -209,6 +215,37 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
         results.get("dynamic_amplification"))
     le_all = (load_effect_checks(env, length=determinant_length, all_tracks=True)
               if any(str(v).endswith(ALL_TRACKS_SUFFIX) for v in env.variables) else None)
+    runner = (CaseRunner(env, base_dir=config_dir, source_path=source_path) if recompute
+              else None)
+    with _reruns(env, full, results, runner, q, le_checks, determinant_length) as reruns:
+        return _build(full, env, outdir, report_dir, results, records, le_checks, le_all,
+                      lphi, runner, reruns, q=q, comfort_level=comfort_level,
+                      source_path=source_path, determinant_length=determinant_length,
+                      config_dir=config_dir, sections=sections, variant_note=variant_note)
+
+
+def _reruns(env, full, results, runner, q, le_checks, length) -> Background:
+    """The re-runs of the governing cases (numba kernels): the time-history figures'
+    (job ``figures``: :func:`~.figures.rerun_cases`) and the convergence section (job
+    ``convergence``: the section and the checks it could not make), in a second process
+    while this one writes the figures, tables and text (:mod:`.background`)."""
+    keys = history_reruns(full, results) if runner is not None else []
+
+    def convergence():
+        missing: list[str] = []
+        section = convergence_section(env, results, runner, q=q, le_checks=le_checks,
+                                      not_made=missing, length=length)
+        return section, missing
+
+    return Background({"figures": lambda: rerun_cases(runner, keys) if keys else {},
+                       "convergence": convergence},
+                      fork=None if runner is not None else False)
+
+
+def _build(full, env, outdir, report_dir, results, records, le_checks, le_all, lphi,
+           runner, reruns: Background, *, q, comfort_level, source_path,
+           determinant_length, config_dir, sections, variant_note) -> Path:
+    """The rest of :func:`build_report`, the re-runs in ``reruns``."""
     table = mark_unreliable(summary_with_torque(summary_with_load_effects(
         chk.summary_table(results), le_checks, le_all), env), records)
     # EN 1990 A2.4.4.2.3(1) / A2.4.4.3.2: the static deflection under LM71
@@ -222,9 +259,7 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
     # last digits of a float may differ between machines and thread schedules)
     write_csv(table, outdir / "summary.csv", float_format=tbl.CSV_FLOAT_FORMAT)
     checkpoint()
-    runner = (CaseRunner(env, base_dir=config_dir, source_path=source_path) if recompute
-              else None)
-    figures, figure_notes = _figures(env, results, runner, histories=full)
+    figures = envelope_figures(env, results)
     wu = results.get("wheel_unloading")
     applicable = None if wu is None or isinstance(wu, str) else wu["applicable"]
     zones = tbl.wheel_unloading_by_zone(env)
@@ -240,6 +275,10 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
                                         checks_all=le_all)
     extra.update(load_effects.tables)
     tbl.write_tables(speed_tables, extra, outdir)
+    more, figure_notes = history_figures(results, runner, full, reruns.get("figures"))
+    figures += more
+    for fig in figures:  # the PNGs drawn while the convergence re-runs go on
+        fig.png()
 
     title = clean(env.attrs.get("title") or "vsi_numba results")
     generated = f"vsi_numba {_version()}"
@@ -267,8 +306,8 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
     # the sections whose checks may not be made, first: the summary lists what was not
     not_made: list[str] = []
     twist = twist_section(env, config_dir, source_path, not_made=not_made)
-    convergence = convergence_section(env, results, runner, q=q, le_checks=le_checks,
-                                      not_made=not_made, length=determinant_length)
+    convergence, missing = reruns.get("convergence")
+    not_made += missing
     checkpoint()
     summary = _summary(results, table, np.asarray(env["point"].values, float), not_made)
     at = len(summary) - 1 if summary and not summary[-1] else len(summary)

@@ -49,21 +49,42 @@ class _Histories:
         return bool(ds[name].sel(train=train, speed=speed, irregularity=irr, **where)
                     .notnull().any())
 
+    def all_stored(self, train, speed, irr, needs: dict) -> bool:
+        """Every history of ``needs`` (name -> selection) is in the file for the case."""
+        return all(self.stored(train, speed, irr, name, **where)
+                   for name, where in needs.items())
+
     def get(self, train, speed, irr, needs: dict):
-        if all(self.stored(train, speed, irr, name, **where) for name, where in needs.items()):
+        if self.all_stored(train, speed, irr, needs):
             return self.ds.sel(train=train, speed=speed, irregularity=irr), "stored"
         if self.runner is None:
             return None, "re-running cases is switched off"
-        key = (str(train), float(speed), int(irr))
+        key = _key(train, speed, irr)
         if key not in self.runs:
-            try:
-                self.runs[key] = (self.runner.run(train, speed, irr), "recomputed")
-            except RecomputeError as exc:
-                self.runs[key] = (None, str(exc))
-            except Exception as exc:  # noqa: BLE001 - a figure must not stop the report
-                first = str(exc).splitlines()[0] if str(exc) else ""
-                self.runs[key] = (None, f"the re-run raised {type(exc).__name__}: {first}")
+            self.runs[key] = _rerun(self.runner, *key)
         return self.runs[key]
+
+
+def _key(train, speed, irr) -> tuple:
+    """The key of a case among the re-runs: (train, speed m/s, realisation)."""
+    return (str(train), float(speed), int(irr))
+
+
+def _rerun(runner: CaseRunner, train: str, speed: float, irr: int) -> tuple:
+    """(case, "recomputed") of a re-run with time histories, or (None, why not)."""
+    try:
+        return runner.run(train, speed, irr), "recomputed"
+    except RecomputeError as exc:
+        return None, str(exc)
+    except Exception as exc:  # noqa: BLE001 - a figure must not stop the report
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        return None, f"the re-run raised {type(exc).__name__}: {first}"
+
+
+def rerun_cases(runner: CaseRunner, keys: list) -> dict:
+    """The re-runs of the cases ``keys`` (:func:`history_reruns`): key -> (case, how) as
+    the time-history figures take them."""
+    return {key: _rerun(runner, *key) for key in keys}
 
 
 def _recompute_note(case, ds, name, envelope, where: dict, train, speed, irr, units,
@@ -81,14 +102,13 @@ def _recompute_note(case, ds, name, envelope, where: dict, train, speed, irr, un
     return text + "."
 
 
-def _deck_history(ds, results, hist: _Histories, applicable):
-    """(figure, caption) of the governing deck acceleration case, or (None, reason)."""
-    from vsi_numba.analysis import plots  # matplotlib: imported when a figure is made
-
+def _deck_request(ds, results, applicable):
+    """((train, speed, realisation), histories needed, point, wheel) of the governing
+    deck acceleration case, or None."""
     acc = results.get("deck_acceleration")
     gov = governing_case(acc)
     if gov is None:
-        return None, ""
+        return None
     a = acc.attrs
     train, speed, irr = gov.train, gov.speed, gov.irregularity
     # histories are stored at the output points only: show the one with the largest peak
@@ -102,6 +122,52 @@ def _deck_history(ds, results, hist: _Histories, applicable):
     needs = {"deck_acceleration": {"point": point}}
     if wheel is not None:
         needs["contact_force"] = {"wheel": wheel}
+    return (train, speed, irr), needs, point, wheel
+
+
+def _wheel_request(results):
+    """((train, speed, realisation), histories needed, wheel) of the governing wheel
+    unloading case, or None."""
+    wu = results.get("wheel_unloading")
+    gov = governing_case(wu)
+    if gov is None:
+        return None
+    wheel = wu.attrs["governing_wheel"]
+    if wheel < 0:
+        return None
+    return ((gov.train, gov.speed, gov.irregularity), {"contact_force": {"wheel": wheel}},
+            wheel)
+
+
+def _applicable(results):
+    """The wheel unloading check's ``applicable`` (per train), or None."""
+    wu = results.get("wheel_unloading")
+    return None if wu is None or isinstance(wu, str) else wu["applicable"]
+
+
+def history_reruns(histories: xr.Dataset, results: dict) -> list:
+    """The cases the time-history figures re-run (their histories are not in the file),
+    as keys of :func:`rerun_cases`, in the order the figures ask for them."""
+    hist = _Histories(histories, None)
+    keys = []
+    for request in (_deck_request(histories, results, _applicable(results)),
+                    _wheel_request(results)):
+        if request is not None and not hist.all_stored(*request[0], request[1]):
+            key = _key(*request[0])
+            if key not in keys:
+                keys.append(key)
+    return keys
+
+
+def _deck_history(ds, results, hist: _Histories, applicable):
+    """(figure, caption) of the governing deck acceleration case, or (None, reason)."""
+    from vsi_numba.analysis import plots  # matplotlib: imported when a figure is made
+
+    request = _deck_request(ds, results, applicable)
+    if request is None:
+        return None, ""
+    (train, speed, irr), needs, point, wheel = request
+    a = results["deck_acceleration"].attrs
     case, how = hist.get(train, speed, irr, needs)
     note, fallback = "", case is None
     if case is None:
@@ -145,15 +211,11 @@ def _wheel_history(ds, results, hist: _Histories):
     """(figure, caption) of the governing wheel unloading case, or (None, reason)."""
     from vsi_numba.analysis import plots  # matplotlib: imported when a figure is made
 
-    wu = results.get("wheel_unloading")
-    gov = governing_case(wu)
-    if gov is None:
+    request = _wheel_request(results)
+    if request is None:
         return None, ""
-    train, speed, irr = gov.train, gov.speed, gov.irregularity
-    wheel = wu.attrs["governing_wheel"]
-    if wheel < 0:
-        return None, ""
-    case, how = hist.get(train, speed, irr, {"contact_force": {"wheel": wheel}})
+    (train, speed, irr), needs, wheel = request
+    case, how = hist.get(train, speed, irr, needs)
     kmh = float(ds["speed_kmh"].sel(speed=speed))
     if case is None:
         return None, (f"the governing case of the wheel unloading check ({md(train)}, "
@@ -194,10 +256,17 @@ def _figures(ds: xr.Dataset, results: dict, runner: CaseRunner | None = None,
     ``histories`` the whole prepared file, read lazily (default ``ds``): the time-history
     figures read one case from it.
     """
+    made = envelope_figures(ds, results)
+    more, notes = history_figures(results, runner, ds if histories is None else histories)
+    return made + more, notes
+
+
+def envelope_figures(ds: xr.Dataset, results: dict) -> list[Figure]:
+    """The figures of the envelopes against speed (those of :func:`_figures` before
+    the time histories)."""
     from vsi_numba.analysis import plots  # matplotlib: imported when the figures are made
 
-    made, notes = [], []
-    histories = ds if histories is None else histories
+    made = []
 
     def put(fig, name, caption):
         made.append(Figure(fig, name, caption))
@@ -214,9 +283,6 @@ def _figures(ds: xr.Dataset, results: dict, runner: CaseRunner | None = None,
             "Dynamic increment φ'dyn of the deck maximum displacement against speed; "
             "dotted: φ''/2 (EN 1991-2 Annex C).")
     wu = results.get("wheel_unloading")
-    applicable = None
-    if not isinstance(wu, str) and wu is not None:
-        applicable = wu["applicable"]
     if not isinstance(wu, str) and "note" not in wu.attrs:
         skipped = wu.attrs.get("not_applicable_trains", "")
         put(plots.plot_wheel_unloading(ds, wu, wheel_unloading_by_zone(ds)),
@@ -233,14 +299,25 @@ def _figures(ds: xr.Dataset, results: dict, runner: CaseRunner | None = None,
         put(plots.plot_comfort(ds, cf), "comfort.png",
             "Vertical car-body acceleration (max over vehicles) against speed with the "
             f"levels of comfort of the code profile ({md(cf.attrs['clause'])}).")
+    return made
+
+
+def history_figures(results: dict, runner: CaseRunner | None, histories: xr.Dataset,
+                    runs: dict | None = None) -> tuple[list[Figure], list[str]]:
+    """The time-history figures of the governing cases (those of :func:`_figures` after
+    the envelopes) and notes on those not drawn; ``runs``: re-runs made already
+    (:func:`rerun_cases` of :func:`history_reruns`)."""
+    made, notes = [], []
     hist = _Histories(histories, runner)
+    hist.runs.update(runs or {})
+    applicable = _applicable(results)
     for name, make in (("time_history.png", lambda: _deck_history(histories, results, hist,
                                                                   applicable)),
                        ("wheel_unloading_history.png", lambda: _wheel_history(
                            histories, results, hist))):
         fig, caption = make()
         if fig is not None:
-            put(fig, name, caption)
+            made.append(Figure(fig, name, caption))
         elif caption:
             notes.append(f"- Not drawn: {caption}.")
     return made, notes

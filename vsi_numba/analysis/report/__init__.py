@@ -22,6 +22,7 @@ figures and the re-run governing cases), :mod:`.variants` (parametric studies),
 
 from __future__ import annotations
 
+import functools
 import os
 from pathlib import Path
 
@@ -217,18 +218,24 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
               if any(str(v).endswith(ALL_TRACKS_SUFFIX) for v in env.variables) else None)
     runner = (CaseRunner(env, base_dir=config_dir, source_path=source_path) if recompute
               else None)
-    with _reruns(env, full, results, runner, q, le_checks, determinant_length) as reruns:
+    # EN 1990 A2.4.4.2.3(1) / A2.4.4.3.2: the static deflection under LM71
+    deflection = functools.partial(deflection_checks, env, length=determinant_length,
+                                   comfort_level=comfort_level, base_dir=config_dir,
+                                   source_path=source_path)
+    with _reruns(env, full, results, runner, q, le_checks, determinant_length,
+                 deflection) as reruns:
         return _build(full, env, outdir, report_dir, results, records, le_checks, le_all,
                       lphi, runner, reruns, q=q, comfort_level=comfort_level,
                       source_path=source_path, determinant_length=determinant_length,
                       config_dir=config_dir, sections=sections, variant_note=variant_note)
 
 
-def _reruns(env, full, results, runner, q, le_checks, length) -> Background:
+def _reruns(env, full, results, runner, q, le_checks, length, deflection) -> Background:
     """The re-runs of the governing cases (numba kernels): the time-history figures'
     (job ``figures``: :func:`~.figures.rerun_cases`) and the convergence section (job
     ``convergence``: the section and the checks it could not make), in a second process
-    while this one writes the figures, tables and text (:mod:`.background`)."""
+    while this one writes the figures, tables and text (:mod:`.background`); before them
+    the static deflection checks (job ``deflection``), which the summary needs first."""
     keys = history_reruns(full, results) if runner is not None else []
 
     def convergence():
@@ -237,7 +244,8 @@ def _reruns(env, full, results, runner, q, le_checks, length) -> Background:
                                       not_made=missing, length=length)
         return section, missing
 
-    return Background({"figures": lambda: rerun_cases(runner, keys) if keys else {},
+    return Background({"deflection": deflection,
+                       "figures": lambda: rerun_cases(runner, keys) if keys else {},
                        "convergence": convergence},
                       fork=None if runner is not None else False)
 
@@ -248,10 +256,8 @@ def _build(full, env, outdir, report_dir, results, records, le_checks, le_all, l
     """The rest of :func:`build_report`, the re-runs in ``reruns``."""
     table = mark_unreliable(summary_with_torque(summary_with_load_effects(
         chk.summary_table(results), le_checks, le_all), env), records)
-    # EN 1990 A2.4.4.2.3(1) / A2.4.4.3.2: the static deflection under LM71
-    deflection = deflection_checks(env, length=determinant_length,
-                                   comfort_level=comfort_level, base_dir=config_dir,
-                                   source_path=source_path)
+    figures = envelope_figures(env, results)  # while the deflection is checked
+    deflection = reruns.get("deflection")
     table = pd.concat([table, pd.DataFrame(deflection_rows(deflection))], ignore_index=True)
     if has_fatigue(full):  # Miner's damage per section (a [fatigue] study)
         table = pd.concat([table, pd.DataFrame(fatigue_rows(full))], ignore_index=True)
@@ -259,7 +265,6 @@ def _build(full, env, outdir, report_dir, results, records, le_checks, le_all, l
     # last digits of a float may differ between machines and thread schedules)
     write_csv(table, outdir / "summary.csv", float_format=tbl.CSV_FLOAT_FORMAT)
     checkpoint()
-    figures = envelope_figures(env, results)
     wu = results.get("wheel_unloading")
     applicable = None if wu is None or isinstance(wu, str) else wu["applicable"]
     zones = tbl.wheel_unloading_by_zone(env)

@@ -385,29 +385,65 @@ def write_tables(tables: dict[str, tuple[pd.DataFrame, str]], extra: dict[str, p
         checkpoint()
         written.append(path)
     xlsx = outdir / "tables.xlsx"
-    with pd.ExcelWriter(xlsx, engine="openpyxl") as writer:
-        index = pd.DataFrame({"sheet": list(extra) + list(tables),
-                              "content": [""] * len(extra)
-                              + [d for _, d in tables.values()]})
-        # text cells through the CSV/XLSX sanitiser: no formula, no control character
-        # and the numbers to SIGNIFICANT digits, as in the CSV files
-        sheet_frame(index).to_excel(writer, sheet_name="contents", index=False)
-        for name, frame in extra.items():
-            sheet_frame(significant(frame)).to_excel(writer, sheet_name=name[:31],
-                                                     index=False)
-        for name, (frame, _) in tables.items():
-            sheet_frame(significant(frame)).to_excel(writer, sheet_name=name[:31],
-                                                     index=False)
-        for sheet in writer.sheets.values():
-            for col in sheet.columns:
-                width = max(len(str(c.value)) if c.value is not None else 0 for c in col)
-                sheet.column_dimensions[col[0].column_letter].width = min(max(width, 8), 48)
-            sheet.freeze_panes = "B2"
-        fix_xlsx_dates(writer)
-    reproducible_zip(xlsx)
+    index = pd.DataFrame({"sheet": list(extra) + list(tables),
+                          "content": [""] * len(extra) + [d for _, d in tables.values()]})
+    # text cells through the CSV/XLSX sanitiser: no formula, no control character
+    # and the numbers to SIGNIFICANT digits, as in the CSV files
+    sheets = [("contents", sheet_frame(index))]
+    sheets += [(name[:31], sheet_frame(significant(frame))) for name, frame in extra.items()]
+    sheets += [(name[:31], sheet_frame(significant(frame)))
+               for name, (frame, _) in tables.items()]
+    write_xlsx(xlsx, sheets)
     checkpoint()
     written.append(xlsx)
     return written
+
+
+#: Longest text of a cell (Excel's limit; pandas cuts longer ones to it).
+MAX_CELL_TEXT = 32767
+
+
+def _xlsx_value(v):
+    """A cell's value as ``DataFrame.to_excel`` writes it through openpyxl: NaN and
+    None as an empty cell, +-inf as the text ``inf`` / ``-inf``, numpy numbers as
+    Python numbers, anything else as its text."""
+    if pd.api.types.is_scalar(v) and pd.isna(v):
+        return ""
+    if pd.api.types.is_bool(v):
+        return bool(v)
+    if pd.api.types.is_integer(v):
+        return int(v)
+    if pd.api.types.is_float(v):
+        v = float(v)
+        return "inf" if v == np.inf else "-inf" if v == -np.inf else v
+    return str(v)[:MAX_CELL_TEXT]
+
+
+def write_xlsx(path, sheets: list[tuple[str, pd.DataFrame]]) -> Path:
+    """Write ``sheets`` (name, frame: its columns the header row, no index) into the
+    workbook ``path``: the cells ``DataFrame.to_excel`` would write, each column as wide
+    as its longest text (8 to 48 characters), the first row and column frozen, fixed
+    dates (:data:`XLSX_DATE`).  openpyxl's write-only mode: the rows go to the file as
+    they come, no cell object is kept."""
+    from openpyxl import Workbook
+    from openpyxl.utils import get_column_letter
+
+    book = Workbook(write_only=True)
+    for name, frame in sheets:
+        sheet = book.create_sheet(name)
+        rows = [[_xlsx_value(c) for c in frame.columns]]
+        rows += [[_xlsx_value(v) for v in row]
+                 for row in frame.itertuples(index=False, name=None)]
+        for j in range(len(rows[0])):
+            width = max(len(str(r[j])) for r in rows)
+            sheet.column_dimensions[get_column_letter(j + 1)].width = min(max(width, 8), 48)
+        sheet.freeze_panes = "B2"
+        for row in rows:
+            sheet.append(row)
+    book.properties.created = book.properties.modified = XLSX_DATE
+    book.save(path)
+    reproducible_zip(path)
+    return Path(path)
 
 
 #: The date written into the spreadsheets' properties and zip entries: a report of the

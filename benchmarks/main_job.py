@@ -31,7 +31,9 @@ sweep's parts or its decision, the governing lines and the parts of the report; 
 sweep computed, the report made whole, then warm; the fresh sweep ``--fresh-runs`` times,
 interleaved, medians, with the CPU of its batch threads and of its main thread, each on
 its own clock, and from them the wall on 2 idle cores, a machine shared with other work
-not having them).  The section ``Main job`` of
+not having them; the CPU of child processes, e.g. the report's second process of
+re-runs, :mod:`vsi_numba.analysis.report.background`, on a line of its own: a stage run
+there counts in no row of the parent).  The section ``Main job`` of
 ``reports/benchmarks.md`` is replaced (``--no-write``: printed only).
 """
 
@@ -154,6 +156,9 @@ if not kept and not fresh:  # (the warm command with records imports none of the
                         ("load_effect_checks", "report: load-effect checks"),
                         ("write_markdown", "report: Markdown + PNG rendering")]:
         wrap("vsi_numba.analysis.report", name, label)
+    for name, label in [("envelope_figures", "report: figures of the envelopes"),
+                        ("history_figures", "report: time-history figures (re-runs made)")]:
+        wrap("vsi_numba.analysis.report", name, label)
     wrap("vsi_numba.analysis.checks", "run_checks", "report: checks")
 code = sw.sweep_command(Path("study.toml"), None, None, None, True, fresh,
                         None if fresh else Path(sys.argv[1]))
@@ -169,6 +174,13 @@ if fresh and per_thread:
     acc["estimate: wall on 2 idle cores (critical path, without the interpreter's "
         "start)"] = (main - during) + max(max(per_thread.values()),
                                           (sum(per_thread.values()) + during) / 2)
+import resource
+ch = resource.getrusage(resource.RUSAGE_CHILDREN)
+if ch.ru_utime + ch.ru_stime > 0:
+    acc["child processes (the report's second process: re-runs, deflection checks)"] = (
+        ch.ru_utime + ch.ru_stime)
+    acc["total, with the child processes"] = acc["total (in process)"] + (
+        ch.ru_utime + ch.ru_stime)
 print(json.dumps(acc))
 """
 

@@ -159,6 +159,8 @@ if not kept and not fresh:  # (the warm command with records imports none of the
     for name, label in [("envelope_figures", "report: figures of the envelopes"),
                         ("history_figures", "report: time-history figures (re-runs made)")]:
         wrap("vsi_numba.analysis.report", name, label)
+    wrap("vsi_numba.analysis.report.document", "savefig",
+         "report: the PNGs rendered (savefig, in the rows above or not)")
     wrap("vsi_numba.analysis.checks", "run_checks", "report: checks")
 code = sw.sweep_command(Path("study.toml"), None, None, None, True, fresh,
                         None if fresh else Path(sys.argv[1]))

@@ -16,7 +16,9 @@ writers), :mod:`.text` (the Markdown sections), :mod:`.echo` (input echo, title 
 :mod:`.tables` (maxima, deck / approach wheel unloading, CSV/XLSX), :mod:`.figures` (the
 figures and the re-run governing cases), :mod:`.variants` (parametric studies),
 :mod:`.safe` (text from configurations and results files shown literally), :mod:`.atomic`
-(the directory written whole or not at all);
+(the directory written whole or not at all), :mod:`.background` (the re-runs of the
+governing cases and the deflection checks in a second process, on two cores, while the
+figures, tables and text are written here);
 :func:`write_report` here puts them together.
 """
 

@@ -19,6 +19,7 @@ to this process.
 
 from __future__ import annotations
 
+import gc
 import os
 import pickle
 import threading
@@ -117,6 +118,10 @@ class Background:
         reader, writer = ctx.Pipe(duplex=False)
         proc = ctx.Process(target=_child, args=(self.jobs, writer, os.getpid()),
                            daemon=True, name="vsi-report-background")
+        # the objects made so far out of the collector's reach in the child: a collection
+        # there would write to every page holding one (copied from the parent, a page
+        # fault each)
+        gc.freeze()
         try:
             with warnings.catch_warnings():  # Python >= 3.12 warns of fork with threads
                 warnings.simplefilter("ignore", DeprecationWarning)
@@ -125,6 +130,8 @@ class Background:
             reader.close()
             writer.close()
             return
+        finally:
+            gc.unfreeze()
         writer.close()
         self.proc, self.conn = proc, reader
 

@@ -313,6 +313,16 @@ def _build(full, env, outdir, report_dir, results, records, le_checks, le_all, l
     # the sections whose checks may not be made, first: the summary lists what was not
     not_made: list[str] = []
     twist = twist_section(env, config_dir, source_path, not_made=not_made)
+    # the sections after the summary that do not need the convergence re-runs, made
+    # while they go on (the summary lists the checks they could not make)
+    middle = [input_echo(env, variant_note), code_profile.profile_section(env)]
+    middle += [Section.from_markdown(_bridge(env, lphi))]
+    middle += [_maxima_section(env, per_train, per_point, zone_table, zones, speed_tables)]
+    middle += [Section.from_markdown(lines) for lines in (
+        _trains(env, applicable), _cases(env), _statistics(results, env))]
+    middle += [load_effects.section, deflection_section(deflection), twist]
+    if has_fatigue(full):
+        middle.append(fatigue_section(full))
     convergence, missing = reruns.get("convergence")
     not_made += missing
     checkpoint()
@@ -320,19 +330,7 @@ def _build(full, env, outdir, report_dir, results, records, le_checks, le_all, l
     at = len(summary) - 1 if summary and not summary[-1] else len(summary)
     add(summary[:at] + _zone_lines(zone_table) + summary[at:] + _deck_end_note(env)
         + _one_step_losses(results))
-    body.append(input_echo(env, variant_note))
-    body.append(code_profile.profile_section(env))
-    add(_bridge(env, lphi))
-    body.append(_maxima_section(env, per_train, per_point, zone_table, zones, speed_tables))
-    add(_trains(env, applicable))
-    add(_cases(env))
-    add(_statistics(results, env))
-    body.append(load_effects.section)
-    body.append(deflection_section(deflection))
-    if twist is not None:
-        body.append(twist)
-    if has_fatigue(full):
-        body.append(fatigue_section(full))
+    body += [sec for sec in middle if sec is not None]
     body.append(convergence)
     for extra_section in sections or []:
         sec = extra_section(env, results) if callable(extra_section) else extra_section

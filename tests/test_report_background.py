@@ -126,3 +126,15 @@ def test_background__a_report_is_the_same_with_and_without_the_child(tmp_path,
     text = (tmp_path / "forked" / "report.md").read_text()
     assert "re-run from the file's configuration" in text  # the figures' re-runs
     assert "Re-run at dt/2" in text  # the convergence section's
+
+
+def test_background__a_large_result_does_not_hold_up_the_next_job():
+    import time
+
+    t0 = time.monotonic()
+    jobs = {"big": lambda: b"x" * 20_000_000, "when": time.monotonic}
+    with bg.Background(jobs) as b:
+        time.sleep(1.5)  # nothing read meanwhile: "big" fills the pipe
+        assert len(b.get("big")) == 20_000_000
+        # the second job ran while the first result waited in the pipe
+        assert b.get("when") - t0 < 1.4

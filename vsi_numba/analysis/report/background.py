@@ -78,22 +78,37 @@ def _close_directory_fds(keep: int) -> None:
 
 def _child(jobs: dict, conn, parent: int) -> None:
     """The child's work: each job in order, its result sent as ``(name, True, value)``
-    or ``(name, False, None)`` when it raised (this process then runs it itself)."""
+    or ``(name, False, None)`` when it raised (this process then runs it itself).  A
+    thread sends them: a result larger than the pipe's buffer waits there until the
+    parent asks for it, and the next job must not wait with it."""
+    import queue
+
     _die_with_parent(parent)
     _close_directory_fds(conn.fileno())
     os.environ.pop(KILL_ENV, None)  # the testing hook counts the report's own steps
-    for name, job in jobs.items():
-        try:
-            message = pickle.dumps((name, True, job()), protocol=pickle.HIGHEST_PROTOCOL)
-        except Exception:  # noqa: BLE001 - run again in the parent, where it raises
-            message = pickle.dumps((name, False, None))
-        except BaseException:  # an interrupt: nothing more
-            break
-        try:
-            conn.send_bytes(message)
-        except OSError:  # the parent stopped reading
-            break
-    conn.close()
+    outbox: queue.Queue = queue.Queue()
+
+    def send() -> None:
+        while (message := outbox.get()) is not None:
+            try:
+                conn.send_bytes(message)
+            except OSError:  # the parent stopped reading
+                return
+
+    sender = threading.Thread(target=send, daemon=True)
+    sender.start()
+    try:
+        for name, job in jobs.items():
+            try:
+                message = pickle.dumps((name, True, job()),
+                                       protocol=pickle.HIGHEST_PROTOCOL)
+            except Exception:  # noqa: BLE001 - run again in the parent, where it raises
+                message = pickle.dumps((name, False, None))
+            outbox.put(message)
+    finally:  # an interrupt too: what is done is sent, nothing more is made
+        outbox.put(None)
+        sender.join()
+        conn.close()
 
 
 class Background:

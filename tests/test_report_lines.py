@@ -152,22 +152,18 @@ def test_convergence__a_train_without_regular_length_says_the_check_was_not_made
 # ----------------------------------------------- 5, 6. the viaduct: modes, one quantity
 
 
-def viaduct(tmp_path, drop_max_frequency=False) -> tuple[str, Path]:
-    text = (ROOT / "configs" / "double_track_viaduct.toml").read_text()
-    text = text.replace('line_speed_kmh = 300.0', 'speeds_kmh = [300.0, 320.0]')
-    text = text.replace('"HSLM-A1", "HSLM-A2", "HSLM-A3", "HSLM-A4"', '"HSLM-A1"')
-    text = text.replace('results/double_track_viaduct.nc', 'viaduct.nc')
-    if drop_max_frequency:
-        text = re.sub(r"(?m)^max_frequency = .*$", "", text)
-    return sweep_report(tmp_path, text, "viaduct")
+def test_report__viaduct_no_missing_modes_note_and_one_acceleration(tmp_path_factory):
+    # configs/double_track_viaduct.toml at 300 and 320 km/h with HSLM-A1 through ``vsi
+    # sweep --report``, made once per run with test_space_config's test of it
+    from test_space_config import viaduct_sweep_and_report
 
-
-def test_report__viaduct_no_missing_modes_note_and_one_acceleration(tmp_path):
-    text, rep = viaduct(tmp_path)
+    tmp_path = viaduct_sweep_and_report(tmp_path_factory)
+    rep = tmp_path / "r"
+    text = (rep / "report.md").read_text()
     bridge = section(text, "Bridge")
     # every mode up to the 30 Hz cut-off is kept (bridge.max_frequency = 30): no note
     assert "left out" not in bridge and "missing" not in bridge, bridge
-    with xr.open_dataset(tmp_path / "viaduct.nc") as ds:
+    with xr.open_dataset(tmp_path / "out.nc") as ds:
         assert int(ds.attrs["modes_left_out_below_cutoff"]) == 0
         assert float(ds["frequency"].max()) < float(ds.attrs["acceleration_cutoff_hz"])
     # the convergence re-run checks the summary's quantity: along track 1, the same value
@@ -179,7 +175,7 @@ def test_report__viaduct_no_missing_modes_note_and_one_acceleration(tmp_path):
     assert "track 1" in acc[0] and re.search(r"x = [\d.]+ m", acc[0]), acc
     assert acc[2] == acc[3] == f"{value:.4g} m/s²", (acc, value)
     # the value is the one along track 1 in the file (the check's variable)
-    with xr.open_dataset(tmp_path / "viaduct.nc") as ds:
+    with xr.open_dataset(tmp_path / "out.nc") as ds:
         along = float(ds["max_track_acceleration_whole_deck"].sel(track=1).max())
         axis = float(ds["max_deck_acceleration_whole_deck"].max())
     # summary.csv keeps 7 significant digits

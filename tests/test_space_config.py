@@ -399,28 +399,40 @@ def test_report_twist_check_against_brute_force_lm71(tmp_path):
     assert acc.attrs["loaded_track"] == 2 and float(acc["value"].max()) >= loaded
 
 
-def test_double_track_viaduct_config_through_sweep_and_report(tmp_path):
+def _viaduct_build(root):
+    """configs/double_track_viaduct.toml at two speeds with one train through ``vsi
+    sweep --report``: ``root/v.toml``, its results ``root/out.nc``, its report ``root/r``."""
+    from pathlib import Path
+
+    src = Path(__file__).resolve().parents[1] / "configs" / "double_track_viaduct.toml"
+    text = src.read_text().replace('line_speed_kmh = 300.0', 'line_speed_kmh = 300.0\n'
+                                   'speeds_kmh = [300.0, 320.0]')
+    text = text.replace('preset = ["HSLM-A1", "HSLM-A2", "HSLM-A3", "HSLM-A4"]',
+                        'preset = ["HSLM-A1"]').replace(
+        'output = "results/double_track_viaduct.nc"', 'output = "out.nc"')
+    (root / "v.toml").write_text(text)
+    res = CliRunner().invoke(app, ["sweep", str(root / "v.toml"), "-q", "--report",
+                                   str(root / "r")])
+    assert res.exit_code == 0, res.output
+
+
+def viaduct_sweep_and_report(tmp_path_factory):
+    """The directory of :func:`_viaduct_build`, made once per test run and read by the
+    tests of the viaduct's results file and report (here and in test_report_lines)."""
+    from shared import shared_once
+
+    return shared_once(tmp_path_factory, "double-track-viaduct", _viaduct_build)[0]
+
+
+def test_double_track_viaduct_config_through_sweep_and_report(tmp_path_factory):
     """configs/double_track_viaduct.toml (two speeds, one train) through ``vsi sweep
     --report``: twist and accelerations along each track in the file, the report's twist
     section, and the static twist check against the test's own brute-force LM71
     placement on the closed-form St-Venant rotation of each span (torsion restrained at
     every support, so each span twists on its own)."""
-    import shutil
-    from pathlib import Path
-
     from vsi_numba.analysis.checks.twist import twist_checks
 
-    src = Path(__file__).resolve().parents[1] / "configs" / "double_track_viaduct.toml"
-    text = src.read_text().replace('line_speed_kmh = 300.0', 'line_speed_kmh = 300.0\n'
-                                   'speeds_kmh = [300.0, 360.0]')
-    text = text.replace('preset = ["HSLM-A1", "HSLM-A2", "HSLM-A3", "HSLM-A4"]',
-                        'preset = ["HSLM-A1"]').replace(
-        'output = "results/double_track_viaduct.nc"', 'output = "out.nc"')
-    (tmp_path / "v.toml").write_text(text)
-    shutil.rmtree(tmp_path / "r", ignore_errors=True)
-    res = CliRunner().invoke(app, ["sweep", str(tmp_path / "v.toml"), "-q", "--report",
-                                   str(tmp_path / "r")])
-    assert res.exit_code == 0, res.output
+    tmp_path = viaduct_sweep_and_report(tmp_path_factory)
     with xr.open_dataset(tmp_path / "out.nc") as ds:
         ds.load()
     for name in ("max_deck_twist", "max_deck_twist_whole_deck", "max_track_acceleration",

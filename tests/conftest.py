@@ -14,6 +14,7 @@ import subprocess
 import sys
 import threading
 
+import pytest
 from threadpoolctl import threadpool_limits
 
 # Tests interrupt sweeps with SIGINT, as a terminal's Ctrl-C does.  A test run started
@@ -52,3 +53,22 @@ def pytest_configure(config):
                           stdin=subprocess.DEVNULL, capture_output=True, text=True)
     if done.returncode != 0:
         raise RuntimeError(f"vsi compile failed (exit {done.returncode}):\n{done.stderr}")
+
+
+#: Test files with the longest single tests (~10-30 s each, the longest first; reports/benchmarks.md "Test
+#: command"), run first: pytest-xdist's worksteal gives each worker a contiguous part of
+#: the run and an idle worker takes the tail of the other's, so a long test left at the
+#: end runs alone on one core while the other waits.  Whole files move (their
+#: module-scoped fixtures stay shared); the order within a file is kept.
+LONG_FIRST = ("test_verify.py", "test_torque_resonance.py", "test_kept_outputs.py",
+              "test_space_config.py", "test_bounds.py", "test_track_damping.py",
+              "test_trains_meeting_space.py", "test_report_atomic.py",
+              "test_space_accuracy.py", "test_report_reproducible.py",
+              "test_fatigue_studs.py", "test_variants_edges.py")
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_collection_modifyitems(items):
+    rank = {name: i for i, name in enumerate(LONG_FIRST)}
+    # stable: the files of LONG_FIRST in its order, then the others as collected
+    items.sort(key=lambda item: rank.get(item.path.name, len(LONG_FIRST)))

@@ -55,11 +55,11 @@ def pytest_configure(config):
         raise RuntimeError(f"vsi compile failed (exit {done.returncode}):\n{done.stderr}")
 
 
-#: Test files with the longest single tests (~10-30 s each, the longest first; reports/benchmarks.md "Test
-#: command"), run first: pytest-xdist's worksteal gives each worker a contiguous part of
-#: the run and an idle worker takes the tail of the other's, so a long test left at the
-#: end runs alone on one core while the other waits.  Whole files move (their
-#: module-scoped fixtures stay shared); the order within a file is kept.
+#: Test files with the longest single tests (~10-30 s each; reports/benchmarks.md "Test
+#: command"), run first, the longest first: pytest-xdist's worksteal gives each worker a
+#: contiguous part of the run and an idle worker takes the tail of the other's, so a long
+#: test left at the end runs alone on one core while the other waits.  Whole files move
+#: (their module-scoped fixtures stay shared); the order within a file is kept.
 LONG_FIRST = ("test_verify.py", "test_torque_resonance.py", "test_kept_outputs.py",
               "test_space_config.py", "test_bounds.py", "test_track_damping.py",
               "test_trains_meeting_space.py", "test_report_atomic.py",

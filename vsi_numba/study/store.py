@@ -204,7 +204,7 @@ class CaseStore:
         # copies of the batches written by this process, read back by ``load`` instead of
         # their files at the final write (up to MEMORY_BUDGET bytes; the files stay the
         # record a resume reads)
-        self._memory: dict[str, tuple[dict, int]] = {}  # key -> (arrays, bytes)
+        self._memory: dict[str, tuple[dict, int, int]] = {}  # key -> (arrays, bytes, of histories)
         self._memory_bytes = 0
         self._memory_history_bytes = 0
 

@@ -248,22 +248,9 @@ def _wheel_history(ds, results, hist: _Histories):
     return fig, caption
 
 
-def _figures(ds: xr.Dataset, results: dict, runner: CaseRunner | None = None,
-             histories: xr.Dataset | None = None) -> tuple[list[Figure], list[str]]:
-    """The figures as report blocks, and notes on figures not drawn.
-
-    ``ds`` holds the envelopes (:func:`vsi_numba.analysis.dataset.envelopes`);
-    ``histories`` the whole prepared file, read lazily (default ``ds``): the time-history
-    figures read one case from it.
-    """
-    made = envelope_figures(ds, results)
-    more, notes = history_figures(results, runner, ds if histories is None else histories)
-    return made + more, notes
-
-
 def envelope_figures(ds: xr.Dataset, results: dict) -> list[Figure]:
-    """The figures of the envelopes against speed (those of :func:`_figures` before
-    the time histories)."""
+    """The figures of the envelopes against speed as report blocks (``ds``: the
+    envelopes, :func:`vsi_numba.analysis.dataset.envelopes`)."""
     from vsi_numba.analysis import plots  # matplotlib: imported when the figures are made
 
     made = []
@@ -304,9 +291,9 @@ def envelope_figures(ds: xr.Dataset, results: dict) -> list[Figure]:
 
 def history_figures(results: dict, runner: CaseRunner | None, histories: xr.Dataset,
                     runs: dict | None = None) -> tuple[list[Figure], list[str]]:
-    """The time-history figures of the governing cases (those of :func:`_figures` after
-    the envelopes) and notes on those not drawn; ``runs``: re-runs made already
-    (:func:`rerun_cases` of :func:`history_reruns`)."""
+    """The time-history figures of the governing cases and notes on those not drawn
+    (``histories``: the whole prepared file, read lazily: each figure reads one case;
+    ``runs``: re-runs made already, :func:`rerun_cases` of :func:`history_reruns`)."""
     made, notes = [], []
     hist = _Histories(histories, runner)
     hist.runs.update(runs or {})

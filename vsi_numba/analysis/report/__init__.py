@@ -213,11 +213,7 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
     results = chk.run_checks(env, q=q, comfort_level_required=comfort_level, n_boot=n_boot,
                              seed=seed, length=determinant_length)
     records = stored_warnings(env)
-    le_checks = consistent_deflection(
-        load_effect_checks(env, length=determinant_length), env,
-        results.get("dynamic_amplification"))
-    le_all = (load_effect_checks(env, length=determinant_length, all_tracks=True)
-              if any(str(v).endswith(ALL_TRACKS_SUFFIX) for v in env.variables) else None)
+    le_checks = _LoadEffects(env, determinant_length, results.get("dynamic_amplification"))
     runner = (CaseRunner(env, base_dir=config_dir, source_path=source_path) if recompute
               else None)
     # EN 1990 A2.4.4.2.3(1) / A2.4.4.3.2: the static deflection under LM71
@@ -226,27 +222,55 @@ def build_report(full: xr.Dataset, outdir: Path, *, report_dir: Path | str | Non
                                    source_path=source_path)
     with _reruns(env, full, results, runner, q, le_checks, determinant_length,
                  deflection) as reruns:
+        le_all = (load_effect_checks(env, length=determinant_length, all_tracks=True)
+                  if any(str(v).endswith(ALL_TRACKS_SUFFIX) for v in env.variables)
+                  else None)
         return _build(full, env, outdir, report_dir, results, records, le_checks, le_all,
                       lphi, runner, reruns, q=q, comfort_level=comfort_level,
                       source_path=source_path, determinant_length=determinant_length,
                       config_dir=config_dir, sections=sections, variant_note=variant_note)
 
 
-def _reruns(env, full, results, runner, q, le_checks, length, deflection) -> Background:
+class _LoadEffects:
+    """The load-effect checks of the summary (:func:`load_effect_checks` with the
+    deflection's phi'_dyn, :func:`consistent_deflection`), computed once in the process
+    that calls it first (the background process's first job, whose convergence section
+    uses them too), or given to it (:meth:`set`: the result the other process sent)."""
+
+    def __init__(self, env, length, dyn):
+        self.env, self.length, self.dyn = env, length, dyn
+        self.value, self.done = None, False
+
+    def __call__(self):
+        if not self.done:
+            self.set(consistent_deflection(load_effect_checks(self.env, length=self.length),
+                                           self.env, self.dyn))
+        return self.value
+
+    def set(self, value):
+        self.value, self.done = value, True
+        return value
+
+
+def _reruns(env, full, results, runner, q, le_checks: _LoadEffects, length,
+            deflection) -> Background:
     """The re-runs of the governing cases (numba kernels): the time-history figures'
     (job ``figures``: :func:`~.figures.rerun_cases`) and the convergence section (job
     ``convergence``: the section and the checks it could not make), in a second process
     while this one writes the figures, tables and text (:mod:`.background`); before them
-    the static deflection checks (job ``deflection``), which the summary needs first."""
+    the load-effect checks (job ``load_effects``) and the static deflection checks (job
+    ``deflection``), which the summary needs first: the envelope figures are drawn here
+    meanwhile."""
     keys = history_reruns(full, results) if runner is not None else []
 
     def convergence():
         missing: list[str] = []
-        section = convergence_section(env, results, runner, q=q, le_checks=le_checks,
+        section = convergence_section(env, results, runner, q=q, le_checks=le_checks(),
                                       not_made=missing, length=length)
         return section, missing
 
-    return Background({"deflection": deflection,
+    return Background({"load_effects": le_checks,
+                       "deflection": deflection,
                        "figures": lambda: rerun_cases(runner, keys) if keys else {},
                        "convergence": convergence},
                       fork=None if runner is not None else False)
@@ -256,9 +280,12 @@ def _build(full, env, outdir, report_dir, results, records, le_checks, le_all, l
            runner, reruns: Background, *, q, comfort_level, source_path,
            determinant_length, config_dir, sections, variant_note) -> Path:
     """The rest of :func:`build_report`, the re-runs in ``reruns``."""
+    figures = envelope_figures(env, results)  # while the load effects are checked
+    for fig in figures:
+        fig.png()
+    le_checks = le_checks.set(reruns.get("load_effects"))
     table = mark_unreliable(summary_with_torque(summary_with_load_effects(
         chk.summary_table(results), le_checks, le_all), env), records)
-    figures = envelope_figures(env, results)  # while the deflection is checked
     deflection = reruns.get("deflection")
     table = pd.concat([table, pd.DataFrame(deflection_rows(deflection))], ignore_index=True)
     if has_fatigue(full):  # Miner's damage per section (a [fatigue] study)
@@ -323,6 +350,7 @@ def _build(full, env, outdir, report_dir, results, records, le_checks, le_all, l
     middle += [load_effects.section, deflection_section(deflection), twist]
     if has_fatigue(full):
         middle.append(fatigue_section(full))
+    _render(middle)  # the PNGs of these sections too, before the wait
     convergence, missing = reruns.get("convergence")
     not_made += missing
     checkpoint()
@@ -349,6 +377,15 @@ def _build(full, env, outdir, report_dir, results, records, le_checks, le_all, l
     path = write_markdown(head + body, outdir / "report.md", title=title)
     write_html(body, outdir / "report.html", title=title, header=head)
     return path
+
+
+def _render(sections) -> None:
+    """The PNG of every figure of ``sections`` rendered now (:meth:`Figure.png`: once)."""
+    for sec in sections:
+        for block in getattr(sec, "blocks", ()):
+            for item in block if isinstance(block, list) else [block]:
+                if isinstance(item, Figure):
+                    item.png()
 
 
 def _zone_lines(zone_table) -> list[str]:

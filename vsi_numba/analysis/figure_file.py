@@ -15,6 +15,7 @@ than given another name.  Missing directories are created.  The file goes throug
 
 from __future__ import annotations
 
+import contextlib
 import os
 from pathlib import Path
 
@@ -47,9 +48,40 @@ def savefig(fig, target, *, format: str = "png", **options):
 
     for line in fig.findobj(Line2D):  # paths made before the rc context: not simplified
         line.get_path().should_simplify = False
-    with matplotlib.rc_context(RC):
+    with matplotlib.rc_context(RC), _layout_only_first(fig, options):
         fig.savefig(target, format=format, metadata=METADATA.get(format, {}), **options)
     return target
+
+
+@contextlib.contextmanager
+def _layout_only_first(fig, options):
+    """While ``fig`` is saved: the first draw of the figure, the one matplotlib makes
+    with drawing disabled before the file's draw when the figure has a layout engine
+    (``print_figure``: it places the axes), only executes the layout engine, as that
+    draw does first; the file's draw then draws every artist once, not twice (the
+    artists' dry draw is ~10 % of a report figure's time).  The file is the same.  Not
+    for a tight bounding box (``bbox_inches="tight"``), which measures the artists
+    after that draw."""
+    import matplotlib
+
+    bbox = options.get("bbox_inches", matplotlib.rcParams["savefig.bbox"])
+    if fig.get_layout_engine() is None or bbox is not None or "draw" in vars(fig):
+        yield
+        return
+
+    def layout_only(renderer):
+        del fig.draw  # the next draw, the file's, is the figure's own
+        if fig.axes and fig.get_layout_engine() is not None:
+            try:
+                fig.get_layout_engine().execute(fig)
+            except ValueError:  # as Figure.draw: a layout that cannot be made is left
+                pass
+
+    fig.draw = layout_only
+    try:
+        yield
+    finally:
+        vars(fig).pop("draw", None)
 
 
 #: Suffixes matplotlib writes (lower case, without the dot): its Agg canvas's list.

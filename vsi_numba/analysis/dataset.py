@@ -281,6 +281,7 @@ def prepare(ds: xr.Dataset) -> xr.Dataset:
             long_name="analysis status", flag_values=[0], flag_meanings="ok"
         )
     ok = out["status"] == 0
+    all_ok = bool(ok.all())  # once, not once per variable
     for name, da in out.data_vars.items():
         if name == "status" or not set(CASE_DIMS) <= set(da.dims):
             continue
@@ -289,7 +290,7 @@ def prepare(ds: xr.Dataset) -> xr.Dataset:
             # failed case's histories are NaN in the file already, and the report reads
             # them one case at a time
             continue
-        if np.issubdtype(da.dtype, np.number) and not bool(ok.all()):
+        if np.issubdtype(da.dtype, np.number) and not all_ok:
             out[name] = da.where(ok)
             out[name].attrs.update(da.attrs)
     out.attrs["_vsi_prepared"] = 1

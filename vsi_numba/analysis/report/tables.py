@@ -16,6 +16,7 @@ unloading on the deck except that it is not larger; the tables count those recor
 from __future__ import annotations
 
 import datetime
+import io
 import re
 import zipfile
 from pathlib import Path
@@ -423,10 +424,12 @@ def write_xlsx(path, sheets: list[tuple[str, pd.DataFrame]]) -> Path:
     """Write ``sheets`` (name, frame: its columns the header row, no index) into the
     workbook ``path``: the cells ``DataFrame.to_excel`` would write, each column as wide
     as its longest text (8 to 48 characters), the first row and column frozen, fixed
-    dates (:data:`XLSX_DATE`).  openpyxl's write-only mode: the rows go to the file as
-    they come, no cell object is kept."""
+    dates (:data:`XLSX_DATE`).  openpyxl's write-only mode: no cell object is kept; its
+    zip is made uncompressed in memory, the file compressed once
+    (:func:`reproducible_zip`: the same bytes as openpyxl's file re-packed)."""
     from openpyxl import Workbook
     from openpyxl.utils import get_column_letter
+    from openpyxl.writer.excel import ExcelWriter
 
     book = Workbook(write_only=True)
     for name, frame in sheets:
@@ -441,8 +444,11 @@ def write_xlsx(path, sheets: list[tuple[str, pd.DataFrame]]) -> Path:
         for row in rows:
             sheet.append(row)
     book.properties.created = book.properties.modified = XLSX_DATE
-    book.save(path)
-    reproducible_zip(path)
+    # what Workbook.save does (openpyxl.writer.excel.save_workbook) but into an
+    # uncompressed zip in memory: its entries are compressed once, into the file
+    raw = io.BytesIO()
+    ExcelWriter(book, zipfile.ZipFile(raw, "w", zipfile.ZIP_STORED, allowZip64=True)).save()
+    reproducible_zip(path, raw)
     return Path(path)
 
 
@@ -457,10 +463,11 @@ def fix_xlsx_dates(writer) -> None:
     props.created = props.modified = XLSX_DATE
 
 
-def reproducible_zip(path) -> None:
-    """Rewrite the zip file ``path`` (an XLSX) with fixed entry times, in place."""
+def reproducible_zip(path, source=None) -> None:
+    """Rewrite the zip file ``path`` (an XLSX) with fixed entry times, in place; or write
+    it so from the zip ``source`` (a binary file object)."""
     path = Path(path)
-    with zipfile.ZipFile(path) as src:
+    with zipfile.ZipFile(path if source is None else source) as src:
         entries = [(info, src.read(info)) for info in src.infolist()]
     tmp = path.with_name(path.name + ".tmp")
     with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as dst:

@@ -103,9 +103,10 @@ def _stored_config(results: Path) -> tuple[str, str]:
                      for k in ("config_json", "config_directory"))
 
 
-def _named_files(config_json: str, dirs: list[Path]) -> list[str]:
+def _named_files(config_json: str, dirs: list[Path], sha=file_sha256) -> list[str]:
     """``name -> sha256`` lines of the files the stored configuration names, tried
-    against ``dirs`` in order (the directories the report resolves against)."""
+    against ``dirs`` in order (the directories the report resolves against); ``sha``
+    gives a file's SHA-256."""
     try:
         data = json.loads(config_json) if config_json else {}
     except ValueError:
@@ -129,7 +130,7 @@ def _named_files(config_json: str, dirs: list[Path]) -> list[str]:
             try:
                 p = d / Path(s).expanduser()
                 if p.is_file():
-                    lines.append(f"{s} {d} {file_sha256(p)}")
+                    lines.append(f"{s} {d} {sha(p)}")
             except (OSError, ValueError, RuntimeError):
                 continue
     return lines
@@ -142,16 +143,26 @@ def signature(kind: str, results: Path, output: Path | None = None) -> str | Non
         return None
     from vsi_numba._sources import package_hash
 
+    hashes: dict[Path, str] = {}
+
+    def sha(path: Path) -> str:
+        # each file read once: the results file is also a file its configuration names
+        # (study.output), found in several of the directories tried
+        key = Path(path).resolve()
+        if key not in hashes:
+            hashes[key] = file_sha256(key)
+        return hashes[key]
+
     try:
         results = Path(results).resolve()
         config_json, stored_dir = _stored_config(results)
         here = results.parent
         dirs = [Path(stored_dir)] if stored_dir else []
         dirs += [here, *list(here.parents)[:3], Path.cwd()]
-        parts = [_FORMAT, kind, str(results), file_sha256(results),
+        parts = [_FORMAT, kind, str(results), sha(results),
                  str(Path(output).resolve()) if output is not None else "-",
                  str(Path.cwd()), package_hash(Path(__file__).resolve().parents[1]),
-                 *_versions(), *_named_files(config_json, dirs)]
+                 *_versions(), *_named_files(config_json, dirs, sha)]
     except Exception:  # noqa: BLE001 - an input that cannot be read: make the output
         return None
     return hashlib.sha256("\n".join(parts).encode("utf-8", "surrogateescape")).hexdigest()

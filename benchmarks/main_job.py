@@ -179,8 +179,8 @@ if fresh and per_thread:
 import resource
 ch = resource.getrusage(resource.RUSAGE_CHILDREN)
 if ch.ru_utime + ch.ru_stime > 0:
-    acc["child processes (the report's second process: re-runs, deflection checks)"] = (
-        ch.ru_utime + ch.ru_stime)
+    acc["child processes (the report's second process: load-effect and deflection "
+        "checks, re-runs)"] = ch.ru_utime + ch.ru_stime
     acc["total, with the child processes"] = acc["total (in process)"] + (
         ch.ru_utime + ch.ru_stime)
 print(json.dumps(acc))

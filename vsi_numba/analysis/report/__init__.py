@@ -350,7 +350,7 @@ def _build(full, env, outdir, report_dir, results, records, le_checks, le_all, l
     middle += [load_effects.section, deflection_section(deflection), twist]
     if has_fatigue(full):
         middle.append(fatigue_section(full))
-    _render(middle)  # the PNGs of these sections too, before the wait
+    _render([*body, *middle])  # the PNGs of these sections too, before the wait
     convergence, missing = reruns.get("convergence")
     not_made += missing
     checkpoint()

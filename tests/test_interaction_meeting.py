@@ -19,7 +19,7 @@ import json
 import re
 
 import numpy as np
-from test_other_trains_own_speed_torsion import GJ, Y, _config, _fe_torque, _run
+from test_other_trains_own_speed_torsion import GJ, Y, _config, _fe_torque, _run, fe_bar_stiffness
 from test_space_config import L
 from userpath import vsi
 
@@ -40,11 +40,8 @@ def _fe_theta(at, loads, gj=GJ):
     10 + 10 m bar restrained at every support (linear elements with a node at every
     support and load: theta is linear between them, so exact), zero off the deck."""
     nodes = np.unique(np.concatenate([SUP, [a for a, _ in loads]]))
-    h = np.diff(nodes)
     n = nodes.size
-    K = np.zeros((n, n))
-    for e in range(n - 1):
-        K[e:e + 2, e:e + 2] += gj / h[e] * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    K = fe_bar_stiffness(nodes, gj)
     f = np.zeros(n)
     for a, m in loads:
         f[np.searchsorted(nodes, a)] += m

@@ -174,6 +174,22 @@ def test_own_train_by_library_name_and_config_errors(tmp_path):
 # ------------------------------------------------------- torsion of a continuous deck
 
 
+def fe_bar_stiffness(nodes, gj):
+    """Stiffness matrix (n, n) of the bar of linear elements between ``nodes``: element e
+    adds GJ / h_e [[1, -1], [-1, 1]] at rows and columns (e, e + 1).  Assembled as
+    arrays, not element by element (the references call it ~10^4 times): node e's
+    diagonal is k_(e-1) + k_e, the same sum, in the same floating-point value, as the
+    element loop's."""
+    k = gj / np.diff(nodes)
+    i = np.arange(nodes.size - 1)
+    K = np.zeros((nodes.size, nodes.size))
+    K[i + 1, i + 1] = k
+    K[i, i] += k
+    K[i, i + 1] = -k
+    K[i + 1, i] = -k
+    return K
+
+
 def _fe_torque(sections, loads, supports, gj):
     """Static St-Venant torque T = GJ dtheta/dx at ``sections`` (the value just right of
     a section; just left at the deck's right end) of point torques ``loads`` [(a, M)] on
@@ -182,9 +198,7 @@ def _fe_torque(sections, loads, supports, gj):
     nodes = np.unique(np.concatenate([supports, sections, [a for a, _ in loads]]))
     h = np.diff(nodes)
     n = nodes.size
-    K = np.zeros((n, n))
-    for e in range(n - 1):
-        K[e:e + 2, e:e + 2] += gj / h[e] * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    K = fe_bar_stiffness(nodes, gj)
     f = np.zeros(n)
     for a, m in loads:
         f[np.searchsorted(nodes, a)] += m

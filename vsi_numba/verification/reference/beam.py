@@ -39,11 +39,12 @@ def ss_shapes(L: float, m: float, n_modes: int, x, derivative: int = 0) -> np.nd
     return out
 
 
-def _sdof_sine_from_rest(F, Om, om, zeta, t):
+def _sdof_sine_from_rest(F, Om, om, zeta, t, velocity=True):
     """``q'' + 2 zeta om q' + om^2 q = F sin(Om t)``, ``q(0) = q'(0) = 0``: (q, q').
 
     Arrays ``F, Om, om`` of shape (n,) (one per mode), ``t`` of shape (nt,); returns
     arrays (nt, n).  Exact, including the undamped resonance limit ``Om = om``.
+    ``velocity=False``: q' is not evaluated (None), for the callers that read q only.
     """
     t = np.asarray(t, float)[:, None]
     F, Om, om = (np.asarray(a, float)[None, :] for a in (F, Om, om))
@@ -52,9 +53,11 @@ def _sdof_sine_from_rest(F, Om, om, zeta, t):
         res = np.abs(den) <= 1e-12 * om**2
         den_s = np.where(res, 1.0, den)
         q = F * (np.sin(Om * t) - Om / om * np.sin(om * t)) / den_s
-        qd = F * Om * (np.cos(Om * t) - np.cos(om * t)) / den_s
         # resonance: q = F/(2 om^2) (sin om t - om t cos om t), q' = F t sin(om t) / 2
         q_r = F / (2 * om**2) * (np.sin(om * t) - om * t * np.cos(om * t))
+        if not velocity:
+            return np.where(res, q_r, q), None
+        qd = F * Om * (np.cos(Om * t) - np.cos(om * t)) / den_s
         qd_r = 0.5 * F * t * np.sin(om * t)
         return np.where(res, q_r, q), np.where(res, qd_r, qd)
     D = (om**2 - Om**2) ** 2 + (2 * zeta * om * Om) ** 2
@@ -66,6 +69,8 @@ def _sdof_sine_from_rest(F, Om, om, zeta, t):
     e = np.exp(-zeta * om * t)
     c, s = np.cos(wd * t), np.sin(wd * t)
     q = ap * np.sin(Om * t) + bp * np.cos(Om * t) + e * (a * c + b * s)
+    if not velocity:
+        return q, None
     qd = (
         ap * Om * np.cos(Om * t)
         - bp * Om * np.sin(Om * t)
@@ -74,14 +79,17 @@ def _sdof_sine_from_rest(F, Om, om, zeta, t):
     return q, qd
 
 
-def _sdof_free(q0, qd0, om, zeta, tau):
-    """Free vibration of ``q'' + 2 zeta om q' + om^2 q = 0`` from (q0, qd0): (q, q')."""
+def _sdof_free(q0, qd0, om, zeta, tau, velocity=True):
+    """Free vibration of ``q'' + 2 zeta om q' + om^2 q = 0`` from (q0, qd0): (q, q');
+    ``velocity=False``: q' is not evaluated (None)."""
     tau = np.asarray(tau, float)[:, None]
     wd = om * np.sqrt(1.0 - zeta**2)
     e = np.exp(-zeta * om * tau)
     b = (qd0 + zeta * om * q0) / wd
     c, s = np.cos(wd * tau), np.sin(wd * tau)
     q = e * (q0 * c + b * s)
+    if not velocity:
+        return q, None
     qd = e * ((-zeta * om * q0 + wd * b) * c + (-zeta * om * b - wd * q0) * s)
     return q, qd
 

@@ -189,11 +189,12 @@ def fork_torsion_moving_forces(offsets, P, y, L, GJ, Ip, zeta_t, v, t, n_modes=4
         on = (tau >= 0.0) & (tau <= T)
         after = tau > T
         if np.any(on):
-            q[on] += _sdof_sine_from_rest(F, Om, om, zeta_t, tau[on])[0]
+            q[on] += _sdof_sine_from_rest(F, Om, om, zeta_t, tau[on], velocity=False)[0]
             force[on] += F * np.sin(np.outer(tau[on], Om))
         if np.any(after):
             qT, qdT = _sdof_sine_from_rest(F, Om, om, zeta_t, [T])
-            q[after] += _sdof_free(qT[0], qdT[0], om, zeta_t, tau[after] - T)[0]
+            q[after] += _sdof_free(qT[0], qdT[0], om, zeta_t, tau[after] - T,
+                                   velocity=False)[0]
     return dict(t=t, q=q, force=force, k=k, omega=om, a=a, offsets=offsets, P=P, y=y, L=L,
                 GJ=GJ, v=v)
 

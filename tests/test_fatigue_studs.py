@@ -170,10 +170,11 @@ def test_fatigue_studs__crawl_gives_the_closed_form_shear_ranges_and_miner(tmp_p
     assert r.exit_code == 0, r.output
 
 
-def _modal_shear(positions, loads, v, x_out, t_end, n_modes, x0):
-    """Shear history at x_out of moving forces on the simply supported span: modal ODEs
-    by solve_ivp, the shear by the mode-acceleration method (static shear of the forces
-    minus the modal inertia and damping parts (q'' + 2 zeta w q') / w^2 V_j)."""
+def _modal_shear(positions, loads, v, x_outs, t_end, n_modes, x0):
+    """Shear histories at each of ``x_outs`` of moving forces on the simply supported
+    span: modal ODEs by solve_ivp (once for all the sections), the shear by the
+    mode-acceleration method (static shear of the forces minus the modal inertia and
+    damping parts (q'' + 2 zeta w q') / w^2 V_j)."""
     om = ref.ss_omega(L, EI, M, n_modes)
     j = np.arange(1, n_modes + 1)
 
@@ -203,14 +204,22 @@ def _modal_shear(positions, loads, v, x_out, t_end, n_modes, x0):
     t = np.concatenate(ts)
     Y = np.concatenate(ys, axis=1)
     q, qd = Y[:n_modes], Y[n_modes:]
-    qdd = np.array([force(tt) for tt in t]).T - 2 * ZETA * om[:, None] * qd \
-        - om[:, None] ** 2 * q
-    # modal shear per unit q: V = dM/dx with M_j = EI (j pi / L)^2 phi_j
-    vj = EI * (j * np.pi / L) ** 2 * ref.ss_shapes(L, M, n_modes, np.array([x_out]),
-                                                     derivative=1)[0]
-    stat = _static_shear(positions, loads, x0 + v * t, x_out)
-    corr = ((qdd + 2 * ZETA * om[:, None] * qd) / om[:, None] ** 2 * vj[:, None]).sum(axis=0)
-    return t, stat - corr
+    # the modal forces at every sample at once: (sample, force, mode) summed over the
+    # forces, as force(t) sums them
+    x = (x0 - positions[None, :] + v * t[:, None]).ravel()
+    forces = (loads[None, :, None] * phi(x).reshape(t.size, positions.size, n_modes)).sum(
+        axis=1)
+    qdd = forces.T - 2 * ZETA * om[:, None] * qd - om[:, None] ** 2 * q
+    shears = []
+    for x_out in x_outs:
+        # modal shear per unit q: V = dM/dx with M_j = EI (j pi / L)^2 phi_j
+        vj = EI * (j * np.pi / L) ** 2 * ref.ss_shapes(L, M, n_modes, np.array([x_out]),
+                                                         derivative=1)[0]
+        stat = _static_shear(positions, loads, x0 + v * t, x_out)
+        corr = ((qdd + 2 * ZETA * om[:, None] * qd) / om[:, None] ** 2
+                * vj[:, None]).sum(axis=0)
+        shears.append(stat - corr)
+    return t, shears
 
 
 def _rake(tmp_path, n=10, d=10.0):
@@ -228,9 +237,9 @@ def test_fatigue_studs__resonant_train_against_own_modal_shear_and_counting(tmp_
     ds = xr.open_dataset(tmp_path / "results" / "out.nc")
     fv = float(ds["fatigue_free_vibration"].values[0])
     t_end = (2.0 + L + positions[-1]) / v + fv
-    for k, s in enumerate(studs):
-        _, shear = _modal_shear(positions, np.full(positions.size, 200e3), v, s["x"],
-                                t_end, 3, -2.0)
+    _, shears = _modal_shear(positions, np.full(positions.size, 200e3), v,
+                             [s["x"] for s in studs], t_end, 3, -2.0)
+    for k, (s, shear) in enumerate(zip(studs, shears, strict=True)):
         tau = shear * _tau_per_shear(s) / 1e6
         cyc = ref.rainflow_astm(tau)
         rng = np.array([c[0] for c in cyc])

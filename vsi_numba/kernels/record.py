@@ -122,6 +122,8 @@ def record_modes(red, q, qdd, f, r, n, t, nl, out, h, iters):
                 red.gacc[r] = a
                 red.gacc_t[r] = t
                 red.gacc_i[r] = p
+    if red.tw_phi.shape[0] > 0:
+        tw_record(red, qdd, r, n, t)
     if red.le_E.shape[1] > 0:
         le_static(red.le_sup, red.le_L, red.le_Linv, red.le_c6, red.le_A, red.le_B,
                   red.le_X, red.le_xi, red.le_sec0, red.le_val, red.le_Ms, red.le_acc,
@@ -140,6 +142,46 @@ def record_modes(red, q, qdd, f, r, n, t, nl, out, h, iters):
             for j in range(n_m):
                 out.fq[h, n, j] = f[j]
         out.iters[h, n] = iters
+
+
+@njit(inline="always")
+def tw_record(red, qdd, r, n, t):
+    """The acceleration along each track line on the whole-deck grid (``Reduce.tw_*``)
+    folded into its one envelope per track of run ``r`` (step ``n``, time ``t``).
+
+    The envelope is that of a row per grid point followed by the first point of the
+    largest row maximum: a point replaces the current maximum when larger, or equal at
+    a smaller point (whose first time is then kept).  Each value sums the modes in
+    order from 0 (the row sum's operations), mode-outer over the grid; a track whose
+    bound sum_j tw_phimax[k, j] |qdd_j| does not exceed its envelope is skipped (no
+    point of it can raise or tie it).
+    """
+    n_m = qdd.shape[0]
+    g = red.tw_work
+    n_tg = g.shape[0]
+    phi = red.tw_phi
+    for k in range(phi.shape[0]):
+        bound = 0.0
+        for j in range(n_m):
+            bound += red.tw_phimax[k, j] * abs(qdd[j])
+        if n > 0 and not bound > red.tw_acc[r, k]:
+            continue
+        for p in range(n_tg):
+            g[p] = 0.0
+        for j in range(n_m):
+            aj = qdd[j]
+            for p in range(n_tg):
+                g[p] += phi[k, j, p] * aj
+        best = red.tw_acc[r, k]
+        bi = red.tw_acc_i[r, k]
+        for p in range(n_tg):
+            a = abs(g[p])
+            if (n == 0 and p == 0) or a > best or (a == best and p < bi):
+                best = a
+                bi = p
+                red.tw_acc[r, k] = a
+                red.tw_acc_t[r, k] = t
+                red.tw_acc_i[r, k] = p
 
 
 @njit(inline="always")
@@ -379,7 +421,10 @@ def cb_static(sup, Linv, X, sec0, ss, lx, lp, nl):
 @njit(inline="always")
 def cb_finish(red, q, f, r, t):
     """The deck-in-space channels of the step (see ``Reduce.cb_*``) from the static
-    values ``red.cb_ss``, folded into their envelopes of run ``r`` (time ``t``)."""
+    values ``red.cb_ss``, folded into their envelopes of run ``r`` (time ``t``).  The
+    modal sums run mode by mode over rows of the tables (loops that compile to vector
+    instructions), and a branch-free test first finds whether the step raises any
+    envelope (most steps raise none)."""
     val = red.cb_val
     Eq = red.cb_Eq
     Ef = red.cb_Ef
@@ -391,23 +436,31 @@ def cb_finish(red, q, f, r, t):
         val[c] = s
     for j in range(q.shape[0]):
         fj = f[j]
+        row = Ef[j]
         for c in range(n_cb):
-            val[c] -= Ef[j, c] * fj
+            val[c] -= row[c] * fj
+    d = red.cb_D[r]
     for c in range(n_cb):
-        val[c] *= red.cb_D[r, c]
+        val[c] *= d[c]
     for j in range(q.shape[0]):
         qj = q[j]
+        row = Eq[j]
         for c in range(n_cb):
-            val[c] += Eq[j, c] * qj
-    mx, mn = red.cb_max, red.cb_min
+            val[c] += row[c] * qj
+    mx = red.cb_max[r]
+    mn = red.cb_min[r]
+    hit = False
     for c in range(n_cb):
-        v = val[c]
-        if v > mx[r, c]:
-            mx[r, c] = v
-            red.cb_max_t[r, c] = t
-        if v < mn[r, c]:
-            mn[r, c] = v
-            red.cb_min_t[r, c] = t
+        hit |= (val[c] > mx[c]) | (val[c] < mn[c])
+    if hit:
+        for c in range(n_cb):
+            v = val[c]
+            if v > mx[c]:
+                mx[c] = v
+                red.cb_max_t[r, c] = t
+            if v < mn[c]:
+                mn[c] = v
+                red.cb_min_t[r, c] = t
 
 
 @njit

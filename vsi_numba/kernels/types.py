@@ -384,6 +384,17 @@ class Reduce(NamedTuple):
     cb_max_t: np.ndarray = np.zeros((0, 0))  # (n_runs, n_cb) s
     cb_min: np.ndarray = np.zeros((0, 0))  # (n_runs, n_cb) minimum over time (from +inf)
     cb_min_t: np.ndarray = np.zeros((0, 0))  # (n_runs, n_cb) s
+    # Band-limited acceleration along each of n_k track lines on the whole-deck grid of
+    # n_tg points (a deck in space whose track lines are not its axis), reduced as
+    # ``gacc`` to one maximum per track and run: the first point (then the first step)
+    # of the largest |a|, the steps whose bound sum_j tw_phimax[k, j] |qdd_j| <= the
+    # envelope skipped.  n_k = 0: off.
+    tw_phi: np.ndarray = np.zeros((0, 0, 0))  # (n_k, n_m, n_tg) shapes, mode-major
+    tw_phimax: np.ndarray = np.zeros((0, 0))  # (n_k, n_m) max_p |tw_phi| (1 + 1e-12)
+    tw_acc: np.ndarray = np.zeros((0, 0))  # (n_runs, n_k) max |a|, m/s2
+    tw_acc_t: np.ndarray = np.zeros((0, 0))  # (n_runs, n_k) s
+    tw_acc_i: np.ndarray = np.zeros((0, 0), np.int64)  # (n_runs, n_k) grid point
+    tw_work: np.ndarray = np.zeros(0)  # (n_tg,) scratch: accelerations on the grid
 
 
 class Initial(NamedTuple):

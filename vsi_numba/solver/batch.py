@@ -90,7 +90,8 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     veh = packed.kernel_vehicles
     n_m, n_v, n_w = packed.bridge.omega.size, packed.n_dof, veh.wheel_dof.size
     n_b = veh.body_dof.size
-    n_p = phi_d.shape[0]
+    kernel_d, kernel_a, tw = _track_whole(layout, phi_d, phi_a, n_r)
+    n_p = kernel_d.shape[0]
     slots = np.full(n_r, -1, np.int64)
     slots[keep] = np.arange(int(keep.sum()))
     n_t = int(n_steps[keep].max()) + 1 if keep.any() else 0
@@ -98,7 +99,7 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
                            eff is not None or modal_forces)
     z = np.zeros
     red = ek.Reduce(
-        phi_d=phi_d, phi_a=phi_a,
+        phi_d=kernel_d, phi_a=kernel_a,
         disp=z((n_r, n_p)), disp_t=z((n_r, n_p)), acc=z((n_r, n_p)), acc_t=z((n_r, n_p)),
         xmin=z((n_r, n_w)), xmin_x=z((n_r, n_w)), xmax=z((n_r, n_w)),
         body=z((n_r, n_b)), body_t=z((n_r, n_b)), body_x=z((n_r, n_b)),
@@ -112,6 +113,7 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
         gwork=z(grid_x.size),
         **_effect_fields(eff, packed, n_r),
         **_space_fields(deck, eff, speeds, n_r),
+        **tw,
     )
     init = initial_states(packed, profile, speeds)
     st = ek.State(*(np.empty_like(a[0]) for a in init))
@@ -141,6 +143,26 @@ def run_batch(packed: Packed, profile: Profile, speeds, points, settings: Solver
     return res
 
 
+def _track_whole(layout, phi_d, phi_a, n_r: int):
+    """The kernels' deck rows and ``Reduce.tw_*`` fields of a batch: the whole-deck
+    rows along the track lines of a deck in space (:attr:`SpaceLayout.n_whole`), whose
+    displacement rows are zero, go to one envelope per track (``tw_*``, their shapes
+    mode-major); the other rows stay per row.  Without those rows: the operators as
+    they are, no ``tw_*`` fields."""
+    n_g = 0 if layout is None else layout.n_whole
+    n_k = 0 if layout is None else layout.n_tracks
+    n_rows = 0 if layout is None else layout.n_rows
+    if n_g == 0 or phi_d.shape[0] != n_rows + n_k * n_g:
+        return phi_d, phi_a, {}
+    n_m = phi_a.shape[1]
+    tw_phi = np.ascontiguousarray(
+        phi_a[n_rows:].reshape(n_k, n_g, n_m).transpose(0, 2, 1), dtype=np.float64)
+    return (np.ascontiguousarray(phi_d[:n_rows]), np.ascontiguousarray(phi_a[:n_rows]),
+            dict(tw_phi=tw_phi, tw_phimax=np.abs(tw_phi).max(axis=2) * (1.0 + 1e-12),
+                 tw_acc=np.zeros((n_r, n_k)), tw_acc_t=np.zeros((n_r, n_k)),
+                 tw_acc_i=np.zeros((n_r, n_k), np.int64), tw_work=np.zeros(n_g)))
+
+
 #: Largest magnitude a result may have: histories are stored as float32.
 _STORABLE = float(np.finfo(np.float32).max)
 
@@ -150,7 +172,8 @@ def _flag_non_finite(status, reached, n_steps, slots, red, out) -> None:
     histories are not finite or beyond the float32 range of the results file (the
     kernel's check covers the state, not the outputs derived from it, e.g. the deck
     response to a 1e300 N force)."""
-    envelopes = (red.disp, red.acc, red.xmin, red.xmax, red.body)
+    envelopes = (red.disp, red.acc, red.xmin, red.xmax, red.body,
+                 *((red.tw_acc,) if red.tw_acc.shape[0] else ()))
     for r in np.flatnonzero(status == ek.OK):
         bad = any(not np.all(np.abs(a[r]) <= _STORABLE) for a in envelopes)
         step = int(n_steps[r])

@@ -133,15 +133,31 @@ class SpaceLayout:
         return self.torque_channel is not None or (
             self.channels is not None and bool(np.any(self.channels.torque >= 0)))
 
+    @property
+    def n_whole(self) -> int:
+        """Points of the whole-deck grid with a row along each track line (0: none, the
+        deck's own whole-deck envelope is each track's)."""
+        return 0 if self.whole_from_deck else int(self.grid_x.size)
+
+    @property
+    def n_rows(self) -> int:
+        """Rows before the whole-deck rows along the track lines (the kernels reduce
+        those to one envelope per track: ``Reduce.tw_*``)."""
+        n_p, n_k = self.n_points, self.n_tracks
+        n_t = n_p if self.has_twist and self.twist_rows else 0
+        n_w = self.twist_x.size if self.has_twist and self.twist_rows else 0
+        return n_p + n_k * (n_p + n_t + n_w)
+
     def split(self, a: np.ndarray) -> dict[str, np.ndarray]:
         """Columns of ``a`` (n_runs, n_rows): ``deck`` (n_runs, n_p), ``track`` and
         ``twist`` (n_runs, n_tracks, n_p), ``twist_whole`` (n_runs, n_tracks, n_twist),
         ``track_whole`` (n_runs, n_tracks, n_grid); the twist blocks are empty without
-        ``twist_rows``."""
+        ``twist_rows``, ``track_whole`` when ``a`` stops at :attr:`n_rows` (the kernels'
+        envelopes: ``Reduce.tw_*``)."""
         n_p, n_k = self.n_points, self.n_tracks
         n_t = n_p if self.has_twist and self.twist_rows else 0
         n_w = self.twist_x.size if self.has_twist and self.twist_rows else 0
-        n_g = 0 if self.whole_from_deck else self.grid_x.size
+        n_g = self.n_whole if a.shape[1] > self.n_rows else 0
         r = a.shape[0]
         o1 = n_p + n_k * n_p
         o2 = o1 + n_k * n_t

@@ -138,6 +138,11 @@ class BatchResult:
                     red.gacc_t[:, None], k, axis=1),
                 "position_of_max_track_acceleration_whole_deck": np.repeat(
                     sp.grid_x[red.gacc_i][:, None], k, axis=1)})
+        elif sp.grid_x.size and red.tw_acc.shape[1]:  # one envelope per track (tw_*)
+            out.update({"max_track_acceleration_whole_deck": red.tw_acc.copy(),
+                        "time_of_max_track_acceleration_whole_deck": red.tw_acc_t.copy(),
+                        "position_of_max_track_acceleration_whole_deck":
+                        sp.grid_x[red.tw_acc_i]})
         elif sp.grid_x.size:
             g, gt = a["track_whole"], at["track_whole"]
             i = np.argmax(g, axis=2)[..., None]
@@ -384,26 +389,41 @@ def effect_series(e: LoadEffectTables, static, x: np.ndarray, force: np.ndarray,
     rest = [w for w in wanted if w not in jit]
     loads = None
     if jit:
-        from vsi_numba.kernels.influence import MOMENT, SHEAR, beam_section_history
+        from vsi_numba.kernels.influence import beam_section_histories
         from vsi_numba.model.influence import beam_loads, beam_sections, check_effects
 
         check_effects(static, {w[1] for w in jit})
         loads = on, sl, a, b, ms = beam_loads(static, xs)
+        # the moment and the shear at each section set of ``jit`` in one pass over the
+        # pairs (each value the same sum as on its own), the sections on the deck by span
         fs64 = np.ascontiguousarray(fs, np.float64)
+        done: dict = {}
+        used: set = set()
         for name, effect, at, cols in jit:
-            # the sections on the deck by span (a section off the deck stays 0)
-            sa, X, xi, inside = beam_sections(static, at)
-            order = np.flatnonzero(inside)
-            order = order[np.argsort(sa[order], kind="stable")]
-            span0 = np.searchsorted(sa[order], np.arange(static.spans.size + 1))
-            total = np.zeros((n, len(at)))
-            ordered = order.size == len(at) and bool(np.all(order == np.arange(len(at))))
-            part = beam_section_history(
-                MOMENT if effect == "moment" else SHEAR, static.spans, span0, X[order],
-                xi[order], sl, a, b, ms, step, fs64,
-                total if ordered else np.zeros((n, order.size)))
-            if not ordered:
-                total[:, order] = part
+            key = np.asarray(at, float).tobytes()
+            if (key, effect) in used:  # the same effect at the same sections again
+                done.pop(key, None)
+                used -= {(key, "moment"), (key, "shear")}
+            used.add((key, effect))
+            if key not in done:
+                sa, X, xi, inside = beam_sections(static, at)
+                order = np.flatnonzero(inside)
+                order = order[np.argsort(sa[order], kind="stable")]
+                span0 = np.searchsorted(sa[order], np.arange(static.spans.size + 1))
+                ordered = order.size == len(at) and bool(np.all(order == np.arange(len(at))))
+                n_o = len(at) if ordered else order.size
+                moment, shear = np.zeros((n, n_o)), np.zeros((n, n_o))
+                xo = np.ascontiguousarray(xi[order])
+                beam_section_histories(static.spans, span0, np.ascontiguousarray(X[order]),
+                                       xo, 1.0 - xo, sl, a, b, ms, step, fs64, moment, shear)
+                if not ordered:  # a section off the deck stays 0
+                    for part in (moment, shear):
+                        full = np.zeros((n, len(at)))
+                        full[:, order] = part
+                        done.setdefault(key, []).append(full)
+                else:
+                    done[key] = [moment, shear]
+            total = done[key][0 if effect == "moment" else 1]
             total += c @ e.E[:, cols]
             out[name] = total
     lines = influences(static, [(effect, at) for _, effect, at, _ in rest], xs, loads)

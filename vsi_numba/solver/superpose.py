@@ -119,6 +119,53 @@ def _rows(a: np.ndarray, n: int) -> np.ndarray:
     return out
 
 
+def summed_channels(main: BatchResult, others: list[tuple[BatchResult, OtherTrain]],
+                    r: int) -> np.ndarray:
+    """The deck-in-space channels (time, channel) of run ``r`` with every train loaded:
+    ``main.space_series(r)`` plus each other train's ``space_series`` on its track
+    (mirrored for a train in -x), summed train by train in one pass each
+    (:func:`~vsi_numba.kernels.superposed.channel_sum`, the same operations)."""
+    from vsi_numba.kernels.superposed import channel_sum
+
+    space = main.space
+    ch = space.channels
+    if ch.per_line:  # each load on its own track line: the histories' formula
+        c = main.space_series(r)
+        for res, o in others:
+            c += res.space_series(r, mirror=o.length if o.reversed else None,
+                                  y_load=float(space.eccentricity[o.track]))
+        return c
+    f64 = np.float64
+    sup = np.ascontiguousarray(ch.supports, f64)
+    linv = 1.0 / np.diff(sup)
+    cx, coef = np.ascontiguousarray(ch.X, f64), np.ascontiguousarray(ch.coef, f64)
+    ss = np.zeros(2 * ch.sections.size)
+    acc = None
+    for res, o in [(main, None), *others]:
+        h = int(res.slots[r])
+        n = int(res.n_steps[r]) + 1
+        pk = res.packed
+        veh = pk.kernel_vehicles
+        speed = float(res.speeds[r])
+        x0 = np.ascontiguousarray(np.concatenate([veh.wheel_x0, veh.load_x0]), f64)
+        v = np.ascontiguousarray(np.concatenate([veh.wheel_sf, veh.load_sf]) * res.speeds[r],
+                                 f64)
+        q, fq = res.out.q[h, :n], res.out.fq[h, :n]
+        fq_ef = fq @ ch.Ef  # the products of SpaceChannels.series, as they are there
+        q_eq = q @ ch.Eq
+        y = ch.y_load if o is None else float(space.eccentricity[o.track])
+        mirror = o.length if o is not None and o.reversed else -1.0
+        d = float(ch.speed_factor([speed])[0][0])
+        lx, lp = np.zeros(x0.size), np.zeros(x0.size)
+        first = acc is None
+        acc = channel_sum(fq_ef if first else acc, first, fq_ef, q_eq, x0, v,
+                          np.ascontiguousarray(res.out.X[h, :n], f64),
+                          np.ascontiguousarray(veh.load_p, f64), float(mirror), float(y), d,
+                          float(pk.params.dt), sup, linv, cx, ch.sec0, ch.ptr, ch.idx, coef,
+                          lx, lp, ss)
+    return acc
+
+
 def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, OtherTrain]],
                          deck: DeckOperators) -> dict[str, np.ndarray]:
     """Envelopes of the summed response of ``main`` and ``others`` (every run of each
@@ -183,11 +230,7 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
                 effects.setdefault(name, []).append((hi, t[hi_i], lo, t[lo_i]))
         ch = space.channels if space is not None else None
         if ch is not None:  # twist and track displacement by mode acceleration, summed
-            c = main.space_series(r)
-            for res, o in others:
-                y = float(space.eccentricity[o.track])
-                c += res.space_series(r, mirror=o.length if o.reversed else None,
-                                      y_load=y)
+            c = summed_channels(main, others, r)
             b, bt = _first_max(c, t)
             tq = np.concatenate([ch.torque[ch.torque >= 0], ch.torque_grid])
             hi, hi_i, lo, lo_i = first_max_min(c[:, tq]) if tq.size else (np.zeros(0),) * 4

@@ -365,21 +365,24 @@ def le_finish(E, w2inv, val, q, f, mx, mxt, mn, mnt, r, n, t):
     n_c = E.shape[1]
     for j in range(q.shape[0]):
         cj = q[j] - f[j] * w2inv[j]
+        row = E[j]  # a row of the table: the loop over it compiles to vector instructions
         for c in range(n_c):
-            val[c] += E[j, c] * cj
+            val[c] += row[c] * cj
     # most steps raise no envelope: a branch-free test first (the envelopes start at
     # -inf / +inf, so step 0 sets both)
+    hi = mx[r]
+    lo = mn[r]
     hit = False
     for c in range(n_c):
-        hit |= (val[c] > mx[r, c]) | (val[c] < mn[r, c])
+        hit |= (val[c] > hi[c]) | (val[c] < lo[c])
     if hit:
         for c in range(n_c):
             v = val[c]
-            if v > mx[r, c]:
-                mx[r, c] = v
+            if v > hi[c]:
+                hi[c] = v
                 mxt[r, c] = t
-            if v < mn[r, c]:
-                mn[r, c] = v
+            if v < lo[c]:
+                lo[c] = v
                 mnt[r, c] = t
 
 

@@ -89,3 +89,85 @@ def first_max_min(a: np.ndarray) -> tuple[np.ndarray, ...]:
     hi_i, lo_i = np.empty(k, np.int64), np.empty(k, np.int64)
     _first_max_min(a, hi, hi_i, lo, lo_i, np.zeros(k, np.bool_), np.zeros(k, np.bool_))
     return hi, hi_i, lo, lo_i
+
+
+@njit
+def _first_max_min_sum(a, b, cols, hi, hi_i, lo, lo_i, done_hi, done_lo):
+    """:func:`_first_max_min` of ``a[:, cols] + b[:, cols]`` (``b`` may have no rows:
+    ``a`` alone), without the sum's array."""
+    n = a.shape[0]
+    k = cols.shape[0]
+    with_b = b.shape[0] > 0
+    for i in range(n):
+        for m in range(k):
+            c = cols[m]
+            x = a[i, c] + b[i, c] if with_b else a[i, c]
+            if i == 0:
+                done_hi[m] = False
+                done_lo[m] = False
+                hi[m] = x
+                lo[m] = x
+                hi_i[m] = 0
+                lo_i[m] = 0
+                if x != x:
+                    done_hi[m] = True
+                    done_lo[m] = True
+                continue
+            if x != x:
+                if not done_hi[m]:
+                    hi[m] = x
+                    hi_i[m] = i
+                    done_hi[m] = True
+                if not done_lo[m]:
+                    lo[m] = x
+                    lo_i[m] = i
+                    done_lo[m] = True
+                continue
+            if not done_hi[m] and x > hi[m]:
+                hi[m] = x
+                hi_i[m] = i
+            if not done_lo[m] and x < lo[m]:
+                lo[m] = x
+                lo_i[m] = i
+
+
+def first_max_min_of_sum(a: np.ndarray, b: np.ndarray | None = None,
+                         cols: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+    """:func:`first_max_min` of ``(a + b)[:, cols]`` (``b`` None: of ``a[:, cols]``;
+    ``cols`` None: every column), the sum taken value by value as numpy's ``a + b``."""
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    b = (np.zeros((0, a.shape[1])) if b is None
+         else np.ascontiguousarray(b, dtype=np.float64))
+    cols = (np.arange(a.shape[1]) if cols is None
+            else np.ascontiguousarray(cols, dtype=np.int64))
+    k = cols.size
+    hi, lo = np.empty(k), np.empty(k)
+    hi_i, lo_i = np.empty(k, np.int64), np.empty(k, np.int64)
+    _first_max_min_sum(a, b, cols, hi, hi_i, lo, lo_i, np.zeros(k, np.bool_),
+                       np.zeros(k, np.bool_))
+    return hi, hi_i, lo, lo_i
+
+
+@njit
+def _first_absargmax(a):
+    best = -1.0
+    k = 0
+    n, m = a.shape
+    for i in range(n):
+        for j in range(m):
+            x = abs(a[i, j])
+            if x != x:
+                return i * m + j
+            if x > best:
+                best = x
+                k = i * m + j
+    return k
+
+
+def first_absargmax(a: np.ndarray) -> tuple[float, int]:
+    """``(|a|.max(), |a|.argmax())`` of ``a`` (n, m) flattened in C order, without the
+    absolute values' array (a NaN, when there is one, is the maximum at its first
+    position, as numpy's)."""
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    k = int(_first_absargmax(a))
+    return float(abs(a.flat[k])), k

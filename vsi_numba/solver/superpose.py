@@ -28,7 +28,11 @@ from vsi_numba.io.schema import ALL_TRACKS_SUFFIX
 from vsi_numba.solver.batch import run_batch
 from vsi_numba.solver.operators import DeckOperators
 from vsi_numba.solver.pack import Packed
-from vsi_numba.solver.reductions import first_absmax, first_max_min
+from vsi_numba.solver.reductions import (
+    first_absargmax,
+    first_absmax,
+    first_max_min_of_sum,
+)
 from vsi_numba.solver.results import BatchResult
 
 
@@ -139,7 +143,7 @@ def summed_channels(main: BatchResult, others: list[tuple[BatchResult, OtherTrai
     sup = np.ascontiguousarray(ch.supports, f64)
     linv = 1.0 / np.diff(sup)
     cx, coef = np.ascontiguousarray(ch.X, f64), np.ascontiguousarray(ch.coef, f64)
-    ss = np.zeros(2 * ch.sections.size)
+    ss, st = np.zeros(2 * ch.sections.size), np.zeros(ch.n_channels)
     acc = None
     for res, o in [(main, None), *others]:
         h = int(res.slots[r])
@@ -162,7 +166,7 @@ def summed_channels(main: BatchResult, others: list[tuple[BatchResult, OtherTrai
                           np.ascontiguousarray(res.out.X[h, :n], f64),
                           np.ascontiguousarray(veh.load_p, f64), float(mirror), float(y), d,
                           float(pk.params.dt), sup, linv, cx, ch.sec0, ch.ptr, ch.idx, coef,
-                          lx, lp, ss)
+                          lx, lp, ss, st)
     return acc
 
 
@@ -213,27 +217,30 @@ def all_tracks_envelopes(main: BatchResult, others: list[tuple[BatchResult, Othe
         rows_a.append(a)
         rows_at.append(atime)
         if n_ka:
-            ga = np.abs(qdd[:, :n_ka] @ phi_g)  # (n, n_g)
-            k = int(np.argmax(ga))
-            gacc[r], gacc_t[r], gacc_x[r] = ga.flat[k], t[k // grid.size], grid[k % grid.size]
+            gmax, k = first_absargmax(qdd[:, :n_ka] @ phi_g)  # (n, n_g) flattened
+            gacc[r], gacc_t[r], gacc_x[r] = gmax, t[k // grid.size], grid[k % grid.size]
         if main.effects is not None:
             # (the torque is the channels' below: not computed here)
             series = main.effect_histories(r, whole=True, torque=False)
             series = {k: v for k, v in series.items() if k in names}
+            last = None  # the last train's histories, added in the reduction
             for res, o in others:
-                more = res.effect_histories(r, mirror=o.length if o.reversed else None,
+                if last is not None:
+                    for k, v in series.items():
+                        v += last[k]
+                last = res.effect_histories(r, mirror=o.length if o.reversed else None,
                                             static=main.static_deck, whole=True)
-                for k, v in series.items():
-                    v += more[k]
             for name, v in series.items():
-                hi, hi_i, lo, lo_i = first_max_min(v)
+                hi, hi_i, lo, lo_i = first_max_min_of_sum(
+                    v, None if last is None else last[name])
                 effects.setdefault(name, []).append((hi, t[hi_i], lo, t[lo_i]))
         ch = space.channels if space is not None else None
         if ch is not None:  # twist and track displacement by mode acceleration, summed
             c = summed_channels(main, others, r)
             b, bt = _first_max(c, t)
             tq = np.concatenate([ch.torque[ch.torque >= 0], ch.torque_grid])
-            hi, hi_i, lo, lo_i = first_max_min(c[:, tq]) if tq.size else (np.zeros(0),) * 4
+            hi, hi_i, lo, lo_i = (first_max_min_of_sum(c, None, tq) if tq.size
+                                  else (np.zeros(0),) * 4)
             chan.append((b, bt, (hi, t[hi_i], lo, t[lo_i]) if tq.size else None))
     stack = np.array
     out = {"max_deck_displacement": stack(rows_d)[:, :n_p],

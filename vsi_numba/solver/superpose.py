@@ -167,6 +167,7 @@ def summed_channels(main: BatchResult, others: list[tuple[BatchResult, OtherTrai
                           np.ascontiguousarray(veh.load_p, f64), float(mirror), float(y), d,
                           float(pk.params.dt), sup, linv, cx, ch.sec0, ch.ptr, ch.idx, coef,
                           lx, lp, ss, st)
+        del fq_ef, q_eq  # (the first train's fq_ef is acc) before the next's products
     return acc
 
 
